@@ -1,0 +1,60 @@
+"""The ``bayescal`` command line: a thin layer over the library.
+
+Each subcommand lives in its own module of this package and provides
+``add_parser(subparsers)``, which registers the subcommand with a ``run``
+default.  ``run(args)`` returns a :class:`~bayescal.cli._command.CommandOutput`;
+this module prints it as JSON (``--json``) or as text, and turns an
+:class:`~bayescal.errors.InputError` into a one-line message and exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+import warnings
+from collections.abc import Sequence
+
+from ..errors import InputError
+
+__all__ = ["main"]
+
+COMMANDS = ("geometry", "simulate", "calibrate")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="bayescal",
+        description="Probabilistic identification of geometric and elastostatic parameters of heavy industrial robots.",
+    )
+    subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name in COMMANDS:
+        importlib.import_module(f"{__name__}.{name}").add_parser(subparsers)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line and return the exit status (0 success, 2 bad input)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            output = args.run(args)
+        except InputError as error:
+            print(f"bayescal {args.command}: error: {error}", file=sys.stderr)
+            return 2
+    for warning in caught:
+        if issubclass(warning.category, UserWarning):
+            print(f"bayescal {args.command}: warning: {warning.message}", file=sys.stderr)
+    if args.json:
+        json.dump(output.payload, sys.stdout, indent=2, allow_nan=False)
+        sys.stdout.write("\n")
+    else:
+        print(output.text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

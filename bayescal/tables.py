@@ -1,0 +1,129 @@
+"""Reading the package's CSV files with errors that point at the offending cell.
+
+The files are plain comma-separated tables with a header row.  Lines that start
+with ``#`` carry provenance notes and are skipped, as are blank lines.  The
+returned frame is indexed by the 1-based line number in the file, so any later
+check can name the line a bad value came from.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Mapping
+from os import PathLike
+from pathlib import Path
+from typing import Literal
+
+import pandas as pd
+
+from .errors import InputError
+
+__all__ = ["read_table", "ColumnKind"]
+
+ColumnKind = Literal["number", "text", "integer"]
+
+
+def read_table(
+    path: str | PathLike[str],
+    columns: Mapping[str, ColumnKind],
+    *,
+    optional: Mapping[str, ColumnKind] | None = None,
+    units: Mapping[str, str] | None = None,
+) -> pd.DataFrame:
+    """Read a CSV file, checking that the required columns hold values of the right kind.
+
+    Parameters
+    ----------
+    path
+        The CSV file.
+    columns
+        Required column names and their kind: ``"number"`` (a finite float),
+        ``"integer"`` or ``"text"`` (a non-empty string).
+    optional
+        Columns that may be absent; when present they are checked like required ones.
+    units
+        Unit of a column, used only to make error messages say what was expected.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The checked columns (required first, then the optional ones present),
+        indexed by the 1-based line number in the file (the header is a line too).
+        ``frame.attrs["source"]`` holds the path.  Extra columns are ignored.
+
+    Raises
+    ------
+    InputError
+        When the file is missing or unreadable, a column is missing, a row has
+        the wrong number of fields, or a value is empty, not finite or of the
+        wrong kind.
+    """
+    source = str(path)
+    optional = dict(optional or {})
+    units = dict(units or {})
+    file = Path(path)
+    if not file.is_file():
+        raise InputError("file not found", source=source)
+    try:
+        text = file.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the file as UTF-8 text ({exc.__class__.__name__})", source=source) from None
+
+    numbered = [
+        (number, line)
+        for number, line in enumerate(text.splitlines(), start=1)
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
+    if not numbered:
+        raise InputError("the file is empty: expected a header row and data rows", source=source)
+    rows = list(csv.reader([line for _, line in numbered], skipinitialspace=True))
+    header_line = numbered[0][0]
+    header = [name.strip() for name in rows[0]]
+    duplicated = sorted({name for name in header if header.count(name) > 1})
+    if duplicated:
+        raise InputError(f"column '{duplicated[0]}' appears more than once in the header", source=source, line=header_line)
+    for name in columns:
+        if name not in header:
+            raise InputError(
+                f"missing column '{name}'; expected columns {', '.join(columns)}",
+                source=source,
+                line=header_line,
+            )
+    wanted = dict(columns) | {name: kind for name, kind in optional.items() if name in header}
+    if len(numbered) == 1:
+        raise InputError("no data rows after the header", source=source)
+
+    position = {name: header.index(name) for name in wanted}
+    values: dict[str, list] = {name: [] for name in wanted}
+    lines = []
+    for (number, _), fields in zip(numbered[1:], rows[1:]):
+        if len(fields) != len(header):
+            raise InputError(f"expected {len(header)} fields as in the header, got {len(fields)}", source=source, line=number)
+        for name, kind in wanted.items():
+            values[name].append(_parse(fields[position[name]].strip(), kind, name, units.get(name), source, number))
+        lines.append(number)
+    frame = pd.DataFrame(values, index=pd.Index(lines, name="line"))
+    frame.attrs["source"] = source
+    return frame
+
+
+def _parse(raw: str, kind: ColumnKind, column: str, unit: str | None, source: str, line: int):
+    expected = {"number": "a number", "integer": "a whole number", "text": "a non-empty text"}[kind]
+    if unit:
+        expected += f" in {unit}"
+    if raw == "":
+        raise InputError(f"missing value: expected {expected}", source=source, line=line, column=column)
+    if kind == "text":
+        return raw
+    try:
+        value = float(raw)
+    except ValueError:
+        raise InputError(f"expected {expected}, got '{raw}'", source=source, line=line, column=column) from None
+    if not math.isfinite(value):
+        raise InputError(f"expected {expected}, got '{raw}'", source=source, line=line, column=column)
+    if kind == "integer":
+        if not value.is_integer():
+            raise InputError(f"expected {expected}, got '{raw}'", source=source, line=line, column=column)
+        return int(value)
+    return value

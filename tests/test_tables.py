@@ -1,0 +1,61 @@
+import pytest
+
+from bayescal.errors import InputError
+from bayescal.tables import read_table
+
+COLUMNS = {"q2_deg": "number", "marker": "text", "x_mm": "number"}
+
+
+def write(tmp_path, text):
+    path = tmp_path / "points.csv"
+    path.write_text(text)
+    return path
+
+
+def test_reads_values_indexed_by_file_line(tmp_path):
+    path = write(tmp_path, "# source: a comment\nq2_deg,marker,x_mm,extra\n\n-30,P1,1.5,ignored\n-60,P01,-2,x\n")
+    frame = read_table(path, COLUMNS)
+    assert list(frame.index) == [4, 5]
+    assert list(frame.columns) == ["q2_deg", "marker", "x_mm"]
+    assert frame.loc[5, "x_mm"] == -2.0
+    assert frame.attrs["source"] == str(path)
+
+
+def test_optional_column_is_read_when_present(tmp_path):
+    path = write(tmp_path, "q2_deg,marker,x_mm,z_mm\n0,P1,1,2\n")
+    assert read_table(path, COLUMNS, optional={"z_mm": "number"}).loc[2, "z_mm"] == 2.0
+    path = write(tmp_path, "q2_deg,marker,x_mm\n0,P1,1\n")
+    assert "z_mm" not in read_table(path, COLUMNS, optional={"z_mm": "number"})
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("q2_deg,marker\n0,P1\n", "missing column 'x_mm'"),
+        ("q2_deg,marker,x_mm\n0,P1,abc\n", "points.csv:2, column 'x_mm': expected a number in mm, got 'abc'"),
+        ("q2_deg,marker,x_mm\n0,P1,nan\n", "points.csv:2, column 'x_mm': expected a number in mm, got 'nan'"),
+        ("q2_deg,marker,x_mm\n0,P1,\n", "points.csv:2, column 'x_mm': missing value"),
+        ("q2_deg,marker,x_mm\n0,P1\n", "points.csv:2: expected 3 fields"),
+        ("q2_deg,marker,x_mm\n", "no data rows"),
+        ("", "the file is empty"),
+        ("q2_deg,marker,x_mm,x_mm\n0,P1,1,1\n", "column 'x_mm' appears more than once"),
+    ],
+)
+def test_bad_files_give_one_line_errors_naming_the_place(tmp_path, text, expected):
+    path = write(tmp_path, text)
+    with pytest.raises(InputError) as raised:
+        read_table(path, COLUMNS, units={"x_mm": "mm"})
+    message = str(raised.value)
+    assert expected in message
+    assert "\n" not in message
+
+
+def test_integer_column_rejects_fractions(tmp_path):
+    path = write(tmp_path, "config\n1.5\n")
+    with pytest.raises(InputError, match="expected a whole number"):
+        read_table(path, {"config": "integer"})
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(InputError, match="file not found"):
+        read_table(tmp_path / "absent.csv", COLUMNS)
