@@ -26,12 +26,14 @@ is the conservative load the twin applies.
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from .compensator import Compensator
 from .robot import Robot
+
+if TYPE_CHECKING:
+    from .compensator import Compensator
 
 __all__ = [
     "COMPENSATED_JOINT",
