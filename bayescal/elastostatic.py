@@ -49,11 +49,13 @@ __all__ = [
     "deflection_equations",
     "closed_form",
     "config_geometry",
+    "posterior_geometry",
     "exact_deflections",
     "scale_masses",
     "MAX_DEFLECTION",
     "MAX_MARKER_DISTANCE",
     "PARAMETER_UNITS",
+    "TABLE_IV",
 ]
 
 MAX_DEFLECTION = 50 * MM
@@ -74,6 +76,18 @@ PARAMETER_UNITS = {
     "s0": "mm",
 }
 """The reported parameters and their units (k2 is ``1/K_theta2^0``, joint 2 without its compensator)."""
+
+TABLE_IV = {
+    "K_c": (144.0, 31.0),
+    "s0": (458.0, 27.0),
+    "k2": (0.302, 0.004),
+    "k3": (0.406, 0.008),
+    "k4": (3.002, 0.115),
+    "k5": (3.303, 0.162),
+    "k6": (2.365, 0.095),
+}
+"""Klimchik et al., Table IV: value and ±3σ half-width in the units of :data:`PARAMETER_UNITS`
+(its k_c = 0.144 read as 0.144 N/μm = 144 N/mm; k1 was not identified)."""
 
 
 # --------------------------------------------------------------------------- equations
@@ -314,6 +328,27 @@ TABLE_II_SD = np.array([0.06, 0.70, 0.69]) / 3 * MM
 PHI_SD = 0.05 * DEG
 """Standard deviation of the lever angle phi when no geometry posterior is given: an ESTIMATE
 (Table II gives none); the arc fits of the geometry step determine phi to a few hundredths of a degree."""
+
+
+def posterior_geometry(path) -> GeometryPrior:
+    """Geometry prior from a saved geometry posterior (NetCDF with L, a_x, a_y in mm and phi in deg).
+
+    The Gaussian with the draws' mean and covariance: the elastostatic data then
+    barely move it, and the same prior serves the Gibbs and the emcee paths.
+    """
+    from .posterior import load
+
+    try:
+        tree = load(path)
+        posterior = tree["posterior"]
+    except (OSError, KeyError, ValueError) as exc:
+        raise InputError(f"cannot read a geometry posterior ({type(exc).__name__})", source=str(path)) from None
+    columns = []
+    for name, factor in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG)):
+        if name not in posterior:
+            raise InputError(f"the geometry posterior has no variable '{name}'", source=str(path), column=name)
+        columns.append(np.asarray(posterior[name].values, dtype=float).reshape(-1) * factor)
+    return GeometryPrior.from_draws(np.column_stack(columns), source=f"geometry posterior {path}")
 
 
 def config_geometry(compensator: CompensatorGeometry, source: str = "") -> GeometryPrior:
@@ -738,16 +773,18 @@ class ElastostaticResults:
             }
         )
 
-    def compliance_draws(self, q2: float) -> np.ndarray | None:
+    def compliance_draws(self, q2: float, fill: np.ndarray | None = None) -> np.ndarray | None:
         """``(S, 6)`` posterior draws of the compliances (rad/(N·m)) acting at joint angle ``q2``.
 
         Joint 2's entry is its equivalent compliance at ``q2`` (with the
-        compensator); ``None`` when a compliance at ``q2`` cannot be given (the
-        compensator is not identified and ``q2`` is not a campaign angle, or a
-        joint is not identifiable).
+        compensator).  A joint the campaign cannot identify takes its value from
+        ``fill`` (no uncertainty), or makes the result ``None`` without it;
+        ``None`` too when the compensator is not identified and ``q2`` is not a
+        campaign angle.
         """
         d = self.draws
-        if any(f"k{j + 1}" not in d.compliances for j in range(6) if j != JOINT2):
+        missing = [j for j in range(6) if j != JOINT2 and f"k{j + 1}" not in d.compliances]
+        if missing and fill is None:
             return None
         if d.spring is not None:
             spring = d.spring.reshape(-1, 3)
@@ -760,7 +797,10 @@ class ElastostaticResults:
             if not match.size or np.all(np.isnan(d.k2[..., match[0]])):
                 return None
             k2 = d.k2[..., match[0]].reshape(-1)
-        columns = [d.compliances[f"k{j + 1}"].reshape(-1) if j != JOINT2 else k2 for j in range(6)]
+        columns = [
+            k2 if j == JOINT2 else np.full(k2.size, fill[j]) if j in missing else d.compliances[f"k{j + 1}"].reshape(-1)
+            for j in range(6)
+        ]
         return np.column_stack(columns)
 
     def point_estimate(self) -> tuple[np.ndarray, Compensator | None]:

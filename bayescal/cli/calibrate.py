@@ -1,0 +1,153 @@
+"""``bayescal calibrate``: joint compliances and compensator spring from a campaign CSV."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from ._command import CommandOutput, add_common_options
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "calibrate",
+        help="identify joint compliances and the compensator spring from a campaign, with ±3σ intervals",
+        description=(
+            "Identify the joint compliances k1..k6 and the compensator's K_c and s0 from a campaign CSV "
+            "(Klimchik et al., eqs 30-35), with posterior ±3σ intervals, the parameters the campaign cannot "
+            "identify, and the positioning error left at the config's test pose (eqs 38-39)."
+        ),
+    )
+    parser.add_argument("campaign", help="campaign CSV (bayescal simulate writes one)")
+    parser.add_argument("--config", required=True, help="cell TOML file: robot URDF, compensator, tool load point, tracker, test pose")
+    parser.add_argument("--model", choices=("exact", "linear"), default="exact", help="deflection model (default exact)")
+    parser.add_argument("--sampler", choices=("gibbs", "emcee"), default="gibbs", help="posterior sampler (default gibbs)")
+    parser.add_argument("--noise", choices=("axis", "marker"), default="axis", help="unknown noise level per axis or per marker")
+    parser.add_argument("--geometry", metavar="POSTERIOR.nc", help="geometry posterior from `bayescal geometry --posterior`")
+    parser.add_argument("--posterior", metavar="OUT.nc", help="write the posterior as a NetCDF DataTree")
+    parser.add_argument("--draws", type=int, default=1500, help="kept draws per chain (default 1500)")
+    add_common_options(parser)
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> CommandOutput:
+    import numpy as np
+
+    from ..campaign import read_campaign
+    from ..cell import load_cell
+    from ..elastostatic import ElastostaticModel, posterior_geometry
+    from ..errors import InputError
+    from ..posterior import save
+    from ..stiffness import EquilibriumError
+    from ..testpose import predict_test_pose
+
+    if args.draws < 100:
+        raise InputError(f"expected at least 100 draws, got {args.draws}", source="--draws")
+    cell = load_cell(args.config)
+    geometry = posterior_geometry(args.geometry) if args.geometry else None
+    campaign = read_campaign(args.campaign)
+    model = ElastostaticModel.from_cell(
+        cell, geometry, model=args.model, sampler=args.sampler, noise=args.noise, n_draws=args.draws
+    )
+    try:
+        results = model.fit(campaign, np.random.default_rng(args.seed))
+        test_pose = predict_test_pose(
+            results,
+            cell.robot,
+            cell.test_q,
+            cell.test_wrench,
+            cell.test_point,
+            nominal_compensator=cell.compensator,
+            nominal_compliances=cell.compliances,
+            load_point=cell.test_point,
+        )
+    except EquilibriumError as exc:
+        raise InputError(f"the exact model found no static equilibrium ({exc}); try --model linear", source=args.campaign) from None
+    if args.posterior:
+        try:
+            save(results.tree, args.posterior)
+        except OSError as exc:
+            raise InputError(f"cannot write the posterior ({exc.strerror or type(exc).__name__})", source=args.posterior) from None
+
+    comparison = results.linear_vs_exact()
+    payload = {
+        "campaign": args.campaign,
+        "parameters": results.parameters(),
+        "k2_per_angle": _k2_per_angle(results),
+        "diagnostics": results.diagnostics() | {"seed": args.seed, "geometry": results.geometry.source},
+        "identifiability": results.identifiability.to_json(),
+        "test_pose": test_pose.to_json(),
+    }
+    if comparison is not None:
+        payload["linear_vs_exact"] = {
+            str(name): {"shift_in_sd": row["shift_in_sd"], "sd_ratio": row["sd_ratio"]} for name, row in comparison.iterrows()
+        }
+    return CommandOutput(payload=_finite(payload), text=_text(results, test_pose, args))
+
+
+def _k2_per_angle(results) -> dict:
+    summary = results.summary()
+    rows = [name for name in summary.index if name.startswith("k2_q2[")]
+    return {
+        f"{name[6:-1]} deg": {key: float(summary.loc[name, key]) for key in ("mean", "sd", "lo3", "hi3")} | {"unit": "urad/(N m)"}
+        for name in rows
+    }
+
+
+def _finite(value):
+    """JSON has no NaN or infinity: they become null."""
+    if isinstance(value, dict):
+        return {key: _finite(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(item) for item in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if hasattr(value, "item") and not isinstance(value, str):
+        return _finite(value.item())
+    return value
+
+
+def _text(results, test_pose, args) -> str:
+    from ..elastostatic import TABLE_IV
+
+    lines = [
+        f"{args.campaign}: {results.n_equations} equations ({results.n_rows} rows x 3 coordinates), "
+        f"{results.model} model, {results.sampler_name} sampler, seed {args.seed}",
+        "",
+        f"{'parameter':<10}{'unit':<12}{'mean':>10}{'±3σ':>10}{'width':>8}   {'Table IV':>9}{'±3σ':>8}{'width':>8}",
+    ]
+    for name, entry in results.parameters().items():
+        reference = TABLE_IV.get(name)
+        paper = f"{reference[0]:>9.4g}{reference[1]:>8.3g}{100 * reference[1] / reference[0]:>7.1f}%" if reference else ""
+        if "mean" in entry:
+            width = 100 * 3 * entry["sd"] / abs(entry["mean"]) if entry["mean"] else math.inf
+            lines.append(f"{name:<10}{entry['unit']:<12}{entry['mean']:>10.4g}{3 * entry['sd']:>10.3g}{width:>7.1f}%   {paper}")
+        else:
+            lines.append(f"{name:<10}{'':<12}{'not identifiable':>28}   {paper}")
+    reasons = {k: v for k, v in results.identifiability.reasons.items() if not k.startswith("k2@")}
+    for name, reason in reasons.items():
+        lines.append(f"  {name}: {reason}")
+    d = results.diagnostics()
+    lines += [
+        "",
+        f"R-hat max {d['r_hat_max']:.3f}, ESS bulk min {d['ess_bulk_min']:.0f}, residual rms {d['residual_rms_mm'] * 1000:.1f} um"
+        + (f", chi2/dof {d['chi2_per_dof']:.2f}" if d["chi2_per_dof"] is not None else ""),
+        f"identifiability: rank {results.identifiability.rank} of {len(results.identifiability.names)}, "
+        f"condition number {results.identifiability.condition_number:.3g}",
+    ]
+    block = test_pose.to_json()
+    if block.get("available", True):
+        error = block["residual_error_mm"]
+        norm = block["deflection_norm_mm"]
+        lines += [
+            f"test pose: deflection {norm['mean']:.3f} mm (±3σ {3 * norm['sd']:.3f} mm); error left after compensation "
+            f"rms {error['rms']:.4f} mm, 95% {error['q95']:.4f} mm, 99.73% {error['q99.73']:.4f} mm "
+            f"(rho0 from covariance {error['rho0_from_covariance']:.4f} mm)",
+        ]
+        for name, entry in block["assumed"].items():
+            lines.append(f"  {name} held at {entry['value']:.4g} {entry['unit']} (config): {entry['note']}")
+    else:
+        lines.append(f"test pose: not predicted: {block['reason']}")
+    return "\n".join(lines)
