@@ -32,6 +32,9 @@ class TrackerNoise:
         Distance-proportional part, m per m (6 μm/m, AT901 datasheet).
     factor
         Standard deviation per coordinate as a fraction of the permissible error.
+        The default 0.8 is the KR-270 cell's (``data/kr270.toml``): between the
+        typical half and the datasheet bound, it gives the Table III campaign the
+        linear-model precision of Klimchik et al., Table IV (``reports/twin.md``).
     """
 
     position: np.ndarray = field(default_factory=lambda: np.zeros(3))
