@@ -346,8 +346,10 @@ def posterior_geometry(path) -> GeometryPrior:
     columns = []
     for name, factor in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG)):
         if name not in posterior:
+            tree.close()
             raise InputError(f"the geometry posterior has no variable '{name}'", source=str(path), column=name)
         columns.append(np.asarray(posterior[name].values, dtype=float).reshape(-1) * factor)
+    tree.close()
     return GeometryPrior.from_draws(np.column_stack(columns), source=f"geometry posterior {path}")
 
 

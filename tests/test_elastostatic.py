@@ -1,0 +1,132 @@
+import dataclasses
+import warnings
+
+import numpy as np
+import pytest
+
+from bayescal.cell import load_cell
+from bayescal.elastostatic import ElastostaticModel, posterior_geometry, scale_masses
+from bayescal.errors import InputError, NotIdentifiableWarning
+from bayescal.plan import read_plan
+from bayescal.posterior import posterior_tree, save
+from bayescal.tracker import TrackerNoise
+from bayescal.twin import DigitalTwin
+from bayescal.units import MM, N_PER_MM, URAD_PER_NM
+
+SMALL = dict(n_chains=4, n_tune=300, n_draws=400)
+
+
+@pytest.fixture(scope="module")
+def cell():
+    return load_cell("data/kr270.toml")
+
+
+@pytest.fixture(scope="module")
+def campaign(cell):
+    plan = read_plan("data/table3_plan.csv", cell.robot)
+    return DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(1))
+
+
+@pytest.fixture(scope="module")
+def results(cell, campaign):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return ElastostaticModel.from_cell(cell, **SMALL).fit(campaign, 1)
+
+
+def truth(cell):
+    values = {f"k{j + 1}": cell.compliances[j] / URAD_PER_NM for j in range(6)}
+    values["K_c"] = cell.compensator.K_c / N_PER_MM
+    values["s0"] = cell.compensator.s0 / MM
+    return values
+
+
+def test_table3_campaign_covers_every_identifiable_truth(cell, results):
+    assert results.n_equations == 405
+    parameters = results.parameters()
+    assert parameters["k1"]["identifiable"] is False
+    for name, value in truth(cell).items():
+        if name == "k1":
+            continue
+        entry = parameters[name]
+        assert entry["lo3"] <= value <= entry["hi3"], name
+    report = results.diagnostics()
+    assert report["r_hat_max"] < 1.05
+    assert 0.7 < report["chi2_per_dof"] < 1.3
+    assert report["relinearisations"] <= 5
+
+
+def test_exact_model_removes_the_linearisation_bias(cell, campaign):
+    quiet = dataclasses.replace(cell, tracker=TrackerNoise(cell.tracker.position, factor=1e-4))
+    plan = read_plan("data/table3_plan.csv", cell.robot)
+    data = DigitalTwin(quiet).simulate(plan, 1, np.random.default_rng(0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        exact = ElastostaticModel.from_cell(quiet, n_chains=2, n_tune=50, n_draws=50, compare_linear=False).fit(data, 0)
+        linear = ElastostaticModel.from_cell(quiet, model="linear", n_chains=2, n_tune=50, n_draws=50).fit(data, 0)
+    true = cell.compliances[2:]
+    assert exact.closed_form.compliances[2:] == pytest.approx(true, rel=1e-4)
+    assert exact.closed_form.spring[1] == pytest.approx(cell.compensator.K_c, rel=2e-3)
+    assert np.max(np.abs(linear.closed_form.compliances[2:] / true - 1)) > 1e-3
+    assert exact.nonlinearity > 5e-6
+
+
+def test_linear_vs_exact_table(results):
+    table = results.linear_vs_exact()
+    assert {"k2", "k3", "K_c", "s0"} <= set(table.index)
+    assert np.all(table["sd_ratio"] > 0.5) and np.all(table["sd_ratio"] < 2)
+
+
+def test_one_q2_angle_reports_the_compensator_not_identifiable(cell, campaign):
+    rows = np.flatnonzero(np.isclose(campaign.q[:, 1], campaign.q[0, 1]))
+    subset = dataclasses.replace(
+        campaign, **{name: getattr(campaign, name)[rows] for name in ("config", "repeat", "marker", "q", "wrench", "p0", "p1", "lines")}
+    )
+    with pytest.warns(NotIdentifiableWarning, match="K_c is not identifiable"):
+        results = ElastostaticModel.from_cell(cell, n_chains=2, n_tune=100, n_draws=200).fit(subset, 0)
+    parameters = results.parameters()
+    for name in ("k2", "K_c", "s0"):
+        assert parameters[name]["identifiable"] is False
+        assert "1 q2 angle(s)" in parameters[name]["reason"]
+    assert parameters["k3"]["lo3"] < 0.406 < parameters["k3"]["hi3"]
+    assert "k2_q2[-0.010]" in results.summary().index
+
+
+def test_implausible_deflections_are_rejected(cell, campaign):
+    huge = dataclasses.replace(campaign, p1=campaign.p0 + 20 * campaign.displacement)
+    with pytest.raises(InputError, match="plausibly deflect"):
+        ElastostaticModel.from_cell(cell, **SMALL).fit(huge)
+    metres = dataclasses.replace(campaign, p0=campaign.p0 / 1000, p1=campaign.p1 / 1000)
+    with pytest.raises(InputError, match="metres instead of mm"):
+        ElastostaticModel.from_cell(cell, **SMALL).fit(metres)
+
+
+def test_parallel_loads_are_warned(cell, campaign):
+    with pytest.warns(UserWarning, match="all loads are parallel"):
+        ElastostaticModel.from_cell(cell, model="linear", n_chains=2, n_tune=20, n_draws=20).fit(campaign)
+
+
+def test_scale_masses_scales_gravity(cell):
+    q = np.array([0.0, -0.5, 0.8, 0.0, -0.3, 0.0])
+    heavier = scale_masses(cell.robot, 1.2)
+    assert heavier.gravity_torque(q) == pytest.approx(1.2 * cell.robot.gravity_torque(q))
+
+
+def test_geometry_posterior_becomes_the_gaussian_prior(tmp_path):
+    rng = np.random.default_rng(0)
+    draws = {
+        "L": 184.72 + 0.02 * rng.standard_normal((2, 500)),
+        "a_x": 685.93 + 0.2 * rng.standard_normal((2, 500)),
+        "a_y": 120.30 + 0.2 * rng.standard_normal((2, 500)),
+        "phi": 99.8 + 0.05 * rng.standard_normal((2, 500)),
+    }
+    path = tmp_path / "geometry.nc"
+    save(posterior_tree(draws, units={"L": "mm", "a_x": "mm", "a_y": "mm", "phi": "deg"}), path)
+    prior = posterior_geometry(path)
+    assert prior.mean[0] == pytest.approx(0.18472, abs=5e-6)
+    assert np.sqrt(prior.cov[2, 2]) == pytest.approx(0.2e-3, rel=0.1)
+    del draws["phi"]
+    incomplete = tmp_path / "incomplete.nc"
+    save(posterior_tree(draws, units={"L": "mm", "a_x": "mm", "a_y": "mm"}), incomplete)
+    with pytest.raises(InputError, match="no variable 'phi'"):
+        posterior_geometry(incomplete)

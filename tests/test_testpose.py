@@ -1,0 +1,72 @@
+import warnings
+
+import numpy as np
+import pytest
+
+from bayescal.cell import load_cell
+from bayescal.elastostatic import ElastostaticModel, exact_deflections
+from bayescal.plan import read_plan
+from bayescal.testpose import predict_test_pose
+from bayescal.twin import DigitalTwin
+
+
+@pytest.fixture(scope="module")
+def setup():
+    cell = load_cell("data/kr270.toml")
+    plan = read_plan("data/table3_plan.csv", cell.robot)
+    campaign = DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        results = ElastostaticModel.from_cell(cell, n_chains=4, n_tune=300, n_draws=400, compare_linear=False).fit(campaign, 3)
+    return cell, results
+
+
+def predict(cell, results, **extra):
+    return predict_test_pose(
+        results,
+        cell.robot,
+        cell.test_q,
+        cell.test_wrench,
+        cell.test_point,
+        nominal_compensator=cell.compensator,
+        load_point=cell.test_point,
+        **extra,
+    )
+
+
+def test_rho0_from_covariance_agrees_with_the_draws(setup):
+    cell, results = setup
+    prediction = predict(cell, results, nominal_compliances=cell.compliances)
+    block = prediction.to_json()
+    error = block["residual_error_mm"]
+    assert error["rms"] == pytest.approx(error["rho0_from_covariance"], rel=0.05)
+    assert error["rms"] < error["q95"] < error["q99.73"]
+    assert block["assumed"]["k1"]["value"] == pytest.approx(0.30)
+
+
+def test_prediction_covers_the_true_deflection(setup):
+    cell, results = setup
+    prediction = predict(cell, results, nominal_compliances=cell.compliances)
+    true = exact_deflections(
+        cell.robot,
+        cell.test_q,
+        cell.test_wrench,
+        cell.compliances,
+        cell.compensator,
+        points_in_flange=np.atleast_2d(cell.test_point),
+        load_point=cell.test_point,
+    )[0]
+    block = prediction.to_json()["deflection_mm"]
+    for i, axis in enumerate("xyz"):
+        # k1 is held at its true value here, so the truth must lie inside ±3σ.
+        assert block[axis]["lo3"] <= true[i] * 1e3 <= block[axis]["hi3"], axis
+    against_truth = predict(cell, results, nominal_compliances=cell.compliances, truth=true)
+    assert np.sqrt(np.mean(against_truth.errors**2)) >= np.sqrt(np.mean(prediction.errors**2))
+
+
+def test_unidentified_joint_without_a_nominal_value_is_reported(setup):
+    cell, results = setup
+    prediction = predict(cell, results)
+    block = prediction.to_json()
+    assert block["available"] is False
+    assert "k1" in block["reason"]
