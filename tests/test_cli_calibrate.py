@@ -1,0 +1,112 @@
+import json
+
+import numpy as np
+import pytest
+
+from bayescal.campaign import read_campaign, write_campaign
+from bayescal.cell import load_cell
+from bayescal.cli import main
+from bayescal.plan import read_plan
+from bayescal.posterior import load
+from bayescal.twin import DigitalTwin
+
+CONFIG = "data/kr270.toml"
+
+
+@pytest.fixture(scope="module")
+def campaign_file(tmp_path_factory):
+    cell = load_cell(CONFIG)
+    plan = read_plan("data/table3_plan.csv", cell.robot)
+    campaign = DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(1))
+    path = tmp_path_factory.mktemp("cli") / "campaign.csv"
+    write_campaign(campaign, path, comments=["twin, Table III, seed 1"])
+    return path
+
+
+@pytest.fixture(scope="module")
+def json_run(campaign_file, tmp_path_factory):
+    posterior = tmp_path_factory.mktemp("post") / "posterior.nc"
+    return posterior, [str(campaign_file), "--config", CONFIG, "--json", "--draws", "100", "--posterior", str(posterior)]
+
+
+def run(capsys, argv):
+    status = main(["calibrate", *argv])
+    captured = capsys.readouterr()
+    return status, captured.out, captured.err
+
+
+def test_json_output_has_every_parameter_with_units(capsys, json_run):
+    posterior, argv = json_run
+    status, out, err = run(capsys, argv)
+    assert status == 0
+    payload = json.loads(out)
+    parameters = payload["parameters"]
+    assert list(parameters) == ["k1", "k2", "k3", "k4", "k5", "k6", "K_c", "s0"]
+    assert parameters["k1"]["identifiable"] is False and "joint 1" in parameters["k1"]["reason"]
+    assert parameters["k3"]["unit"] == "urad/(N m)" and parameters["K_c"]["unit"] == "N/mm" and parameters["s0"]["unit"] == "mm"
+    assert parameters["k3"]["lo3"] < parameters["k3"]["mean"] < parameters["k3"]["hi3"]
+    assert payload["diagnostics"]["n_equations"] == 405 and payload["diagnostics"]["model"] == "exact"
+    assert payload["identifiability"]["not_identifiable"].keys() == {"k1"}
+    assert payload["test_pose"]["residual_error_mm"]["rms"] > 0
+    assert "all loads are parallel" in err
+    tree = load(posterior)
+    assert tree["posterior"]["k3"].attrs["units"] == "urad/(N m)"
+
+
+def test_text_output_sets_the_estimates_beside_table_iv(capsys, campaign_file):
+    status, out, _ = run(capsys, [str(campaign_file), "--config", CONFIG, "--model", "linear", "--draws", "100"])
+    assert status == 0
+    assert "Table IV" in out and "not identifiable" in out and "linear model" in out
+    assert "test pose" in out
+
+
+def test_one_q2_angle_warns_and_still_reports_the_rest(capsys, campaign_file, tmp_path):
+    campaign = read_campaign(campaign_file)
+    rows = np.isclose(campaign.q[:, 1], campaign.q[0, 1])
+    lines = campaign_file.read_text().splitlines()
+    kept = [line for line in lines if line.startswith("#")] + [lines[[i for i, l in enumerate(lines) if not l.startswith("#")][0]]]
+    data = [line for line in lines if not line.startswith("#")][1:]
+    kept += [line for line, keep in zip(data, rows) if keep]
+    path = tmp_path / "one_angle.csv"
+    path.write_text("\n".join(kept) + "\n")
+    status, out, err = run(capsys, [str(path), "--config", CONFIG, "--json", "--draws", "100"])
+    assert status == 0
+    payload = json.loads(out)
+    assert payload["parameters"]["K_c"]["identifiable"] is False
+    assert "mean" in payload["parameters"]["k3"]
+    assert "K_c is not identifiable" in err
+
+
+def edit(campaign_file, tmp_path, change):
+    lines = campaign_file.read_text().splitlines()
+    first = next(i for i, line in enumerate(lines) if not line.startswith("#")) + 1
+    lines = change(lines, first)
+    path = tmp_path / "edited.csv"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_duplicated_row_is_an_error(capsys, campaign_file, tmp_path):
+    path = edit(campaign_file, tmp_path, lambda lines, first: lines + [lines[first]])
+    status, _, err = run(capsys, [str(path), "--config", CONFIG])
+    assert status == 2 and "already appears" in err
+
+
+def test_nan_is_an_error(capsys, campaign_file, tmp_path):
+    def nan(lines, first):
+        fields = lines[first].split(",")
+        fields[-1] = "nan"
+        return lines[:first] + [",".join(fields)] + lines[first + 1 :]
+
+    status, _, err = run(capsys, [str(edit(campaign_file, tmp_path, nan)), "--config", CONFIG])
+    assert status == 2 and "z1_mm" in err
+
+
+def test_implausible_deflection_is_an_error(capsys, campaign_file, tmp_path):
+    def metres(lines, first):
+        fields = lines[first].split(",")
+        fields[-3] = str(float(fields[-3]) + 1000.0)  # a loaded x a metre away
+        return lines[:first] + [",".join(fields)] + lines[first + 1 :]
+
+    status, _, err = run(capsys, [str(edit(campaign_file, tmp_path, metres)), "--config", CONFIG])
+    assert status == 2 and "plausibly deflect" in err and "edited.csv:3" in err
