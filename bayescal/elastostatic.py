@@ -429,11 +429,14 @@ class ElastostaticModel:
             **options,
         )
 
-    def fit(self, campaign: Campaign, rng: np.random.Generator | int = 0) -> ElastostaticResults:
-        """Identify the parameters from ``campaign``; ``rng`` seeds every random draw."""
+    def estimate(self, campaign: Campaign) -> tuple[ClosedForm, Identifiability]:
+        """Closed-form estimates (eqs 33-34, after the exact model's correction) without sampling."""
+        prepared = self._prepare(campaign, announce=False)
+        return prepared[4], prepared[1]
+
+    def _prepare(self, campaign: Campaign, *, announce: bool = True):
         if self.model not in ("exact", "linear"):
             raise ValueError(f"model must be 'exact' or 'linear', got {self.model!r}")
-        rng = np.random.default_rng(rng)
         equations, torque, points = deflection_equations(self.robot, campaign, noise=self.noise, tracker=self.tracker)
         check_campaign(self.robot, campaign, points)
         configs = np.unique(campaign.config, return_index=True)[1]
@@ -446,23 +449,29 @@ class ElastostaticModel:
         )
         if ident.compensator:
             ident = _check_regression(ident, equations.per_angle_columns(), equations.q2, self.geometry.mean)
-        for name, reason in ident.reasons.items():
-            if not name.startswith("k2@"):
-                warnings.warn(f"{name} is not identifiable: {reason}", NotIdentifiableWarning, stacklevel=2)
-        if ident.ill_conditioned:
-            warnings.warn(
-                f"the campaign is ill-conditioned (condition number {ident.condition_number:.3g} of the unit-column "
-                "design): the intervals are wide and sensitive to the noise model",
-                UserWarning,
-                stacklevel=2,
-            )
-
+        if announce:
+            for name, reason in ident.reasons.items():
+                if not name.startswith("k2@"):
+                    warnings.warn(f"{name} is not identifiable: {reason}", NotIdentifiableWarning, stacklevel=3)
+            if ident.ill_conditioned:
+                warnings.warn(
+                    f"the campaign is ill-conditioned (condition number {ident.condition_number:.3g} of the unit-column "
+                    "design): the intervals are wide and sensitive to the noise model",
+                    UserWarning,
+                    stacklevel=3,
+                )
         linear_cf = closed_form(equations.whitened(), ident, self.geometry.mean)
         offset = np.zeros(equations.n)
         iterations = 0
         cf = linear_cf
         if self.model == "exact":
             cf, offset, iterations = self._relinearise(campaign, equations, ident, linear_cf)
+        return equations, ident, linear_cf, offset, cf, iterations
+
+    def fit(self, campaign: Campaign, rng: np.random.Generator | int = 0) -> ElastostaticResults:
+        """Identify the parameters from ``campaign``; ``rng`` seeds every random draw."""
+        rng = np.random.default_rng(rng)
+        equations, ident, linear_cf, offset, cf, iterations = self._prepare(campaign)
         corrected = replace(equations, y=equations.y - offset)
         tree, draws = self._sample(corrected.whitened(), ident, cf, rng)
 
@@ -556,6 +565,14 @@ class ElastostaticModel:
             raise ValueError(f"sampler must be 'gibbs', 'emcee' or a sampler object, got {self.sampler!r}")
         return self.sampler
 
+    def _nominal_start(self, cf: ClosedForm, q2: np.ndarray) -> np.ndarray:
+        """``[K_theta2^0, K_c, s0]`` with the nominal spring and the K_theta2^0 that best fits the per-angle k2."""
+        Kc, s0 = self.nominal_spring
+        compensator = CompensatorGeometry(*self.geometry.mean).with_spring(Kc, s0)
+        known = np.isfinite(cf.k2) & (cf.k2 > 0)
+        K0 = float(np.mean(1.0 / cf.k2[known] - compensator.stiffness(q2[known])))
+        return np.array([K0, Kc, s0])
+
     def _sample(self, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm, rng):
         sampler = self._sampler()
         sd = np.sqrt(np.diag(cf.cov))
@@ -566,11 +583,14 @@ class ElastostaticModel:
             spring = cf.spring
             start = posterior.start(cf.compliances[list(joints)], spring, cf.sigma)
             if not np.isfinite(posterior.log_prob(start)):
+                # Eq 34 can return a negative K_c or s0 when the data determine the spring
+                # loosely; the chains then start from the nominal spring instead.
+                spring = self._nominal_start(cf, equations.q2)
+                start = posterior.start(cf.compliances[list(joints)], spring, cf.sigma)
+            if not np.isfinite(posterior.log_prob(start)):
                 raise InputError(
-                    "the closed-form compensator estimate (eq 34) is not physical "
-                    f"(K_theta2^0 = {spring[0]:.4g} N m/rad, K_c = {spring[1] / N_PER_MM:.4g} N/mm, s0 = {spring[2] / MM:.4g} mm): "
-                    "the campaign does not determine the compensator",
-                    source=None,
+                    "neither the closed-form compensator estimate (eq 34) nor the nominal spring fits the campaign "
+                    "with a positive joint-2 stiffness: the campaign does not determine the compensator"
                 )
             if isinstance(sampler, GibbsSampler):
                 raw = sampler.sample_compensated(posterior, start, rng)

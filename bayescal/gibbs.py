@@ -32,7 +32,7 @@ __all__ = ["GibbsSampler"]
 
 _T_DOF = 5.0
 """Degrees of freedom of the independence proposal: heavy enough tails to cover the posterior's."""
-_RANDOM_WALK_STEPS = 3
+_RANDOM_WALK_STEPS = 5
 """Random-walk Metropolis steps per sweep: cheap, since the collapsed target costs O(1) in the equations."""
 _T_INFLATION = 1.2
 """Scale of the independence proposal relative to the Laplace covariance."""
@@ -101,23 +101,33 @@ class GibbsSampler:
         sigma2_0 = np.exp(2.0 * log_sigma0)
         laplace = state.laplace(stiffness0, sigma2_0)
         refits = {self.n_tune * i // 4 for i in (1, 2, 3)} - {0}
+        geometry_prior = posterior.geometry
         chains = np.empty((self.n_chains, self.n_draws, posterior.ndim))
         for chain in range(self.n_chains):
             proposal = laplace
             sigma2 = sigma2_0 * np.exp(rng.normal(0.0, 0.3, sigma2_0.size))
-            z = proposal.draw(rng)
-            while not np.isfinite(state.collapsed(z, sigma2)):
-                z = proposal.draw(rng)
+            factor = state.precision_factor(sigma2)
+            spring = proposal.draw(rng)
+            geometry = geometry_prior.mean if state.n_geometry else np.empty(0)
+            while not np.isfinite(state.collapsed(np.concatenate([spring, geometry]), sigma2, factor)):
+                spring = proposal.draw(rng)
             k = k0
             history = []
             for step in range(self.n_tune + self.n_draws):
                 if step in refits:
                     proposal = proposal.refit(np.array(history[len(history) // 2 :]))
-                target = lambda x: state.collapsed(x, sigma2)  # noqa: E731 - the variances change every sweep
-                z = proposal.independence_step(z, target, rng)
+                factor = state.precision_factor(sigma2)
+
+                def target(x, geometry=geometry, sigma2=sigma2, factor=factor):
+                    return state.collapsed(np.concatenate([x, geometry]), sigma2, factor)
+
+                spring, current = proposal.independence_step(spring, target(spring), target, rng)
                 for _ in range(_RANDOM_WALK_STEPS):
-                    z = proposal.random_walk_step(z, target, rng)
-                history.append(z)
+                    spring, current = proposal.random_walk_step(spring, current, target, rng)
+                if state.n_geometry:
+                    geometry = state.geometry_step(spring, geometry, current, sigma2, factor, rng)
+                history.append(spring)
+                z = np.concatenate([spring, geometry])
                 k2 = state.joint2(z)
                 mean, chol = state.linear_conditional(k2, sigma2)
                 k = _positive_gaussian(mean, chol, k, rng) if k.size else k
@@ -193,7 +203,24 @@ class _CompensatedState:
         fit = -2.0 * Xtr @ k + np.einsum("i,gij,j->g", k, self.gram.XtX, k) if k.size else 0.0
         return np.maximum(self._rtr(k2) + fit, 0.0)
 
-    def collapsed(self, z: np.ndarray, sigma2: np.ndarray) -> float:
+    def precision_factor(self, sigma2: np.ndarray) -> np.ndarray | None:
+        """Lower Cholesky factor of the compliances' precision given the variances (None without compliances)."""
+        if not self.posterior.joints:
+            return None
+        return linalg.cholesky(np.tensordot(1.0 / sigma2, self.gram.XtX, axes=1), lower=True)
+
+    def geometry_step(self, spring, geometry, current, sigma2, factor, rng) -> np.ndarray:
+        """Independence Metropolis step for the geometry, proposed from its prior (so only the likelihood ratio counts).
+
+        ``current`` is the collapsed log-posterior at ``(spring, geometry)``.
+        """
+        prior = self.posterior.geometry
+        candidate = rng.multivariate_normal(prior.mean, prior.cov)
+        new = self.collapsed(np.concatenate([spring, candidate]), sigma2, factor) - prior.log_density(candidate)
+        old = current - prior.log_density(geometry)
+        return candidate if np.log(rng.uniform()) < new - old else geometry
+
+    def collapsed(self, z: np.ndarray, sigma2: np.ndarray, factor: np.ndarray | None = None) -> float:
         """Log-posterior of ``z = [K0, log K_c, s0, geometry]`` given the variances, compliances integrated out.
 
         K_c is moved on the log scale, where its posterior is far less skewed
@@ -209,8 +236,9 @@ class _CompensatedState:
         k2 = 1.0 / total
         value = -0.5 * float(self._rtr(k2) @ (1.0 / sigma2))
         if self.posterior.joints:
-            mean, chol = self.gram.conditional(sigma2, self._Xtr(k2))
-            value += 0.5 * float(np.sum((chol.T @ mean) ** 2))
+            factor = self.precision_factor(sigma2) if factor is None else factor
+            rhs = self._Xtr(k2).T @ (1.0 / sigma2)
+            value += 0.5 * float(rhs @ linalg.cho_solve((factor, True), rhs, check_finite=False))
         return value + float(z[1]) + self.posterior.geometry.log_density(geometry)
 
     def theta(self, k: np.ndarray, z: np.ndarray, sigma2: np.ndarray) -> np.ndarray:
@@ -238,7 +266,9 @@ class _CompensatedState:
             chol = np.linalg.cholesky(cov_x)
         except np.linalg.LinAlgError:
             chol = np.eye(z0.size)
-        return _Proposal(center=z0 + scale * mode, chol=scale[:, None] * chol)
+        center = z0 + scale * mode
+        cov = (scale[:, None] * chol) @ (scale[:, None] * chol).T
+        return _Proposal(center=center[:3], chol=np.linalg.cholesky(cov[:3, :3]))
 
 
 def _hessian(f, x: np.ndarray, step: float) -> np.ndarray:
@@ -274,15 +304,18 @@ class _Proposal:
         t = rng.standard_normal(self.center.size) / np.sqrt(rng.chisquare(_T_DOF) / _T_DOF)
         return self.center + _T_INFLATION * self.chol @ t
 
-    def independence_step(self, z: np.ndarray, log_target, rng: np.random.Generator) -> np.ndarray:
+    def independence_step(self, z: np.ndarray, current: float, log_target, rng: np.random.Generator) -> tuple[np.ndarray, float]:
+        """One independence Metropolis step from ``z`` (log-target ``current``): the new point and its log-target."""
         candidate = self.draw(rng)
-        log_ratio = log_target(candidate) - log_target(z) + self._log_q(z) - self._log_q(candidate)
-        return candidate if np.log(rng.uniform()) < log_ratio else z
+        value = log_target(candidate)
+        log_ratio = value - current + self._log_q(z) - self._log_q(candidate)
+        return (candidate, value) if np.log(rng.uniform()) < log_ratio else (z, current)
 
-    def random_walk_step(self, z: np.ndarray, log_target, rng: np.random.Generator) -> np.ndarray:
-        step = 2.38 / np.sqrt(z.size) * self.chol @ rng.standard_normal(z.size)
-        candidate = z + step
-        return candidate if np.log(rng.uniform()) < log_target(candidate) - log_target(z) else z
+    def random_walk_step(self, z: np.ndarray, current: float, log_target, rng: np.random.Generator) -> tuple[np.ndarray, float]:
+        """One random-walk Metropolis step, scaled by 2.38/sqrt(d) times the proposal's covariance factor."""
+        candidate = z + 2.38 / np.sqrt(z.size) * self.chol @ rng.standard_normal(z.size)
+        value = log_target(candidate)
+        return (candidate, value) if np.log(rng.uniform()) < value - current else (z, current)
 
 
 def _inverse_gamma(counts: np.ndarray, ssr: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -151,12 +152,16 @@ class GeometryPrior:
         draws = np.asarray(draws, dtype=float)
         return cls(mean=draws.mean(axis=0), cov=np.cov(draws, rowvar=False), source=source)
 
+    @cached_property
+    def _precision(self) -> np.ndarray:
+        return np.linalg.inv(self.cov)
+
     def log_density(self, geometry: np.ndarray) -> float:
         """Log-density up to a constant (0 when fixed)."""
         if self.fixed:
             return 0.0
         d = geometry - self.mean
-        return float(-0.5 * d @ np.linalg.solve(self.cov, d))
+        return float(-0.5 * d @ self._precision @ d)
 
 
 def _noise_log_likelihood(residual: np.ndarray, group: np.ndarray, log_sigma: np.ndarray) -> float:
