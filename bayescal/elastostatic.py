@@ -824,15 +824,3 @@ class ElastostaticResults:
             for j in range(6)
         ]
         return np.column_stack(columns)
-
-    def point_estimate(self) -> tuple[np.ndarray, Compensator | None]:
-        """Posterior-mean compliances (k2 without compensator) and compensator (SI)."""
-        d = self.draws
-        compliances = np.array([d.compliances[f"k{j + 1}"].mean() if f"k{j + 1}" in d.compliances else np.nan for j in range(6)])
-        if d.spring is None:
-            return compliances, None
-        geometry = d.geometry.reshape(-1, 4).mean(axis=0) if d.geometry is not None else self.geometry.mean
-        K0, Kc, s0 = d.spring.reshape(-1, 3).mean(axis=0)
-        compliances[JOINT2] = 1.0 / K0
-        return compliances, CompensatorGeometry(*geometry).with_spring(Kc, s0)
-
