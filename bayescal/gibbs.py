@@ -11,9 +11,10 @@ the compensator geometry enter nonlinearly.  They are updated by Metropolis
 steps on their posterior with the other compliances integrated out (a
 partially collapsed Gibbs sampler), which removes the strong correlation
 between joints 2 and 3 that would otherwise slow the chain; the compliances
-are then drawn from their conditional.  The Metropolis steps alternate an
-independence proposal (a Student t fitted at the posterior mode) with a
-random walk scaled by the same covariance.
+are then drawn from their conditional.  ``(K_theta2^0, log K_c, s0)`` move by
+an independence proposal (a Student t fitted at the posterior mode) followed
+by random-walk steps whose covariance is refitted during tuning; the geometry,
+which the deflections barely inform, by an independence proposal from its prior.
 
 All sums over equations are precomputed per noise group, so an iteration costs
 the same whatever the number of equations.
