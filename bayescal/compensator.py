@@ -1,0 +1,188 @@
+"""The spring gravity compensator of joint 2: its geometry and its mechanics (eqs 4-9, 35).
+
+Conventions (SI throughout: m, rad, N, N·m, N/m).  The compensator lives in a
+plane with coordinates (X, Y): X horizontal along the upper arm at q2 = 0,
+pointing away from the base, Y vertical up, as the laser-tracker frame of
+Klimchik et al., Table I.  P2 is on the joint-2 axis, P0 is the fixed pivot of
+the compensator on link 1 and P1 its pivot on link 2.
+
+* ``L = |P1 P2|``, the lever on link 2;
+* ``(a_x, a_y)`` the projections of ``p2 - p0`` on X and Y (the paper's
+  measured quantities, Table II), ``a = hypot(a_x, a_y)``;
+* ``phi`` the angle of the lever P2→P1 at q2 = 0, counter-clockwise from X.
+  Increasing q2 (the arm going down) turns the lever clockwise in (X, Y), so
+  at joint angle q2 the lever is at ``phi - q2``;
+* ``alpha = phi - atan2(a_y, a_x)``, so that the spring length is
+  ``s² = a² + L² + 2 a L cos(alpha - q2)`` exactly as eq 4.
+
+The paper writes ``a_x = a cos(alpha)``; with its own Table I and II numbers
+that holds only if ``phi = 0``, which Table I contradicts (phi is near 100°).
+This module keeps (a_x, a_y) as the measured projections and carries phi
+explicitly.  In the robot's joint space the compensator acts on joint 2 with
+the generalized force ``-M_c(q2)``: it opposes gravity, which pulls the arm
+toward increasing q2.  Its stiffness contribution ``dM_c/dq2 = K_c a L eta``
+adds to the joint's own stiffness (eq 8).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+__all__ = ["CompensatorGeometry", "Compensator"]
+
+
+def _out(value: np.ndarray) -> np.ndarray | float:
+    return float(value) if np.ndim(value) == 0 else value
+
+
+@dataclass(frozen=True)
+class CompensatorGeometry:
+    """Geometry of the compensator's planar linkage P0-P1-P2.
+
+    Parameters
+    ----------
+    L
+        Lever length ``|P1 P2|`` in m.
+    a_x, a_y
+        Projections of ``p2 - p0`` on the X and Y axes, in m.
+    phi
+        Angle of the lever P2→P1 at q2 = 0, counter-clockwise from X, in rad.
+    """
+
+    L: float
+    a_x: float
+    a_y: float
+    phi: float
+
+    def __post_init__(self) -> None:
+        for name in ("L", "a_x", "a_y", "phi"):
+            if not math.isfinite(getattr(self, name)):
+                raise ValueError(f"{name} must be finite, got {getattr(self, name)}")
+        if self.L <= 0:
+            raise ValueError(f"L must be positive, got {self.L}")
+        if self.a == 0:
+            raise ValueError("p0 and p2 coincide: a_x and a_y are both zero")
+        if math.isclose(self.a, self.L, rel_tol=1e-12):
+            # s vanishes at gamma = pi and the spring force has no direction there.
+            raise ValueError("a equals L: the spring length reaches zero")
+
+    @property
+    def a(self) -> float:
+        """Distance ``|P0 P2|`` in m."""
+        return math.hypot(self.a_x, self.a_y)
+
+    @property
+    def alpha(self) -> float:
+        """Angle of eq 4 in rad: ``phi - atan2(a_y, a_x)``."""
+        return self.phi - math.atan2(self.a_y, self.a_x)
+
+    def gamma(self, q2: ArrayLike) -> np.ndarray | float:
+        """Angle ``alpha - q2`` between the lever and P0→P2 (rad)."""
+        return _out(self.alpha - np.asarray(q2, dtype=float))
+
+    def s(self, q2: ArrayLike) -> np.ndarray | float:
+        """Spring length ``|P0 P1|`` in m at joint angle ``q2`` (rad), eq 4."""
+        gamma = self.alpha - np.asarray(q2, dtype=float)
+        return _out(np.sqrt(self.a**2 + self.L**2 + 2.0 * self.a * self.L * np.cos(gamma)))
+
+    def regressor(self, q2: ArrayLike) -> np.ndarray:
+        """Rows ``C`` of eq 35 with ``K_θ2(q2) = C @ [K_θ2^0, K_c, s0·K_c]``.
+
+        Parameters
+        ----------
+        q2
+            Joint angle(s) in rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``(3,)`` for a scalar ``q2``, ``(n, 3)`` for ``n`` angles; the
+            columns are in 1, m², m (so that the product is in N·m/rad when the
+            parameters are in N·m/rad, N/m and N).
+        """
+        gamma = self.alpha - np.asarray(q2, dtype=float)
+        s = np.sqrt(self.a**2 + self.L**2 + 2.0 * self.a * self.L * np.cos(gamma))
+        aL = self.a * self.L
+        rows = np.stack(
+            np.broadcast_arrays(
+                np.ones_like(gamma),
+                -aL * np.cos(gamma),
+                aL / s * (aL / s**2 * np.sin(gamma) ** 2 + np.cos(gamma)),
+            ),
+            axis=-1,
+        )
+        return rows
+
+    def with_spring(self, K_c: float, s0: float) -> Compensator:
+        """This geometry with a spring of stiffness ``K_c`` (N/m) and free length ``s0`` (m)."""
+        return Compensator(self.L, self.a_x, self.a_y, self.phi, K_c, s0)
+
+
+@dataclass(frozen=True)
+class Compensator(CompensatorGeometry):
+    """A spring compensator: the linkage geometry plus the spring (eqs 5-9).
+
+    Parameters
+    ----------
+    L, a_x, a_y, phi
+        Geometry, see :class:`CompensatorGeometry` (m, rad).
+    K_c
+        Spring stiffness in N/m.
+    s0
+        Free length of the spring in m (the length at which it exerts no force).
+    """
+
+    K_c: float
+    s0: float
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not (math.isfinite(self.K_c) and self.K_c >= 0):
+            raise ValueError(f"K_c must be finite and non-negative, got {self.K_c}")
+        if not (math.isfinite(self.s0) and self.s0 >= 0):
+            raise ValueError(f"s0 must be finite and non-negative, got {self.s0}")
+
+    @property
+    def geometry(self) -> CompensatorGeometry:
+        """The linkage geometry alone."""
+        return CompensatorGeometry(self.L, self.a_x, self.a_y, self.phi)
+
+    def spring_force(self, q2: ArrayLike) -> np.ndarray | float:
+        """Spring force ``F_s = K_c (s - s0)`` in N, eq 5 (positive when stretched)."""
+        return _out(self.K_c * (np.asarray(self.s(q2)) - self.s0))
+
+    def torque(self, q2: ArrayLike) -> np.ndarray | float:
+        """Compensator torque ``M_c`` about joint 2 in N·m, eq 7.
+
+        The generalized force on q2 in the robot's joint space is ``-M_c``.
+        """
+        gamma = self.alpha - np.asarray(q2, dtype=float)
+        s = np.asarray(self.s(q2))
+        return _out(self.K_c * (1.0 - self.s0 / s) * self.a * self.L * np.sin(gamma))
+
+    def eta(self, q2: ArrayLike) -> np.ndarray | float:
+        """Dimensionless coefficient ``eta(q2)`` of eq 9."""
+        gamma = self.alpha - np.asarray(q2, dtype=float)
+        s = np.asarray(self.s(q2))
+        aL = self.a * self.L
+        return _out(self.s0 / s * (aL / s**2 * np.sin(gamma) ** 2 + np.cos(gamma)) - np.cos(gamma))
+
+    def stiffness(self, q2: ArrayLike) -> np.ndarray | float:
+        """The compensator's contribution ``K_c a L eta = dM_c/dq2`` to joint 2, in N·m/rad."""
+        return _out(self.K_c * self.a * self.L * np.asarray(self.eta(q2)))
+
+    def joint_stiffness(self, q2: ArrayLike, K0: float) -> np.ndarray | float:
+        """Equivalent stiffness of joint 2, ``K_θ2 = K0 + K_c a L eta`` in N·m/rad, eq 8.
+
+        Parameters
+        ----------
+        q2
+            Joint angle(s) in rad.
+        K0
+            Stiffness of joint 2 without its compensator, ``K_θ2^0``, in N·m/rad.
+        """
+        return _out(K0 + np.asarray(self.stiffness(q2)))
