@@ -45,9 +45,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         except InputError as error:
             print(f"bayescal {args.command}: error: {error}", file=sys.stderr)
             return 2
-    for warning in caught:
-        if issubclass(warning.category, UserWarning):
-            print(f"bayescal {args.command}: warning: {warning.message}", file=sys.stderr)
+        except OSError as error:
+            # An output path that cannot be written is the user's to fix, not a bug.
+            print(f"bayescal {args.command}: error: {error.filename}: {error.strerror}", file=sys.stderr)
+            return 2
+    # Warnings go out before the result, so that a reader of a terminal sees them
+    # above the table and a JSON consumer still gets clean stdout.
+    messages = [str(warning.message) for warning in caught if issubclass(warning.category, UserWarning)]
+    for message in dict.fromkeys(messages):
+        print(f"bayescal {args.command}: warning: {message}", file=sys.stderr)
+    sys.stderr.flush()
     if args.json:
         json.dump(output.payload, sys.stdout, indent=2, allow_nan=False)
         sys.stdout.write("\n")
