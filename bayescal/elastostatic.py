@@ -17,6 +17,12 @@ estimate no longer moves.  The posterior is then the linear-Gaussian posterior
 of the corrected deflections; since the correction is a fraction of a percent
 of the deflection and varies with the parameters by a fraction of that, its
 dependence on the parameters within the posterior is neglected.
+
+After sampling, every reported parameter is also judged by what the data did
+determine (:func:`~bayescal.identifiability.practical_reasons`): one whose
+posterior is essentially its prior (for ``K_c``, an interval that reaches zero)
+is reported as not identifiable from these data, with the reason in numbers,
+while its posterior stays in the DataTree.
 """
 
 from __future__ import annotations
@@ -34,7 +40,7 @@ from .cell import Cell
 from .compensator import Compensator, CompensatorGeometry
 from .errors import InputError, NotIdentifiableWarning
 from .gibbs import GibbsSampler
-from .identifiability import Identifiability, analyse
+from .identifiability import Identifiability, analyse, practical_reasons
 from .likelihood import JOINT2, CompensatedPosterior, DeflectionEquations, GeometryPrior, PerAnglePosterior
 from .robot import Robot
 from .sampling import EnsembleSampler
@@ -479,15 +485,13 @@ class ElastostaticModel:
         if self.model == "exact" and self.compare_linear:
             linear_tree, _ = self._sample(equations.whitened(), ident, linear_cf, rng)
 
+        practical = self._practical(tree, equations, ident, cf)
+        for name, reason in practical.items():
+            warnings.warn(f"{name} is not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=2)
         residual = corrected.y - corrected.per_angle_design()[:, ident.identifiable] @ cf.per_angle
-        n_free = cf.per_angle.size
-        chi2 = None
-        if self.tracker is not None:
-            normalised = residual / np.repeat(_deflection_noise(self.tracker, campaign), 3)
-            chi2 = float(normalised @ normalised / (equations.n - n_free))
         return ElastostaticResults(
             tree=tree,
-            identifiability=ident,
+            identifiability=replace(ident, practical=practical),
             closed_form=cf,
             model=self.model,
             q2=equations.q2,
@@ -496,11 +500,61 @@ class ElastostaticModel:
             n_equations=equations.n,
             n_rows=len(campaign),
             residual_rms=float(np.sqrt(np.mean(residual**2))),
-            chi2_per_dof=chi2,
+            chi2_per_dof=self._chi2_per_dof(campaign, residual, cf.per_angle.size),
             nonlinearity=float(np.abs(offset).max(initial=0.0)),
             iterations=iterations,
             linear_tree=linear_tree,
             sampler_name=self.sampler if isinstance(self.sampler, str) else type(self.sampler).__name__,
+        )
+
+    def chi2_per_dof(self, campaign: Campaign) -> float | None:
+        """Chi-square per degree of freedom of the closed-form fit against the tracker's nominal noise.
+
+        The fit is this model's (with the exact model, after its relinearisation).
+        The sum runs over the campaign's scalar deflection equations (3 per row),
+        each with the variance of two independent tracker readings; the degrees of
+        freedom are the equations less the per-angle compliances fitted.  None
+        without a tracker noise model.
+        """
+        equations, ident, _, offset, cf, _ = self._prepare(campaign, announce=False)
+        corrected = replace(equations, y=equations.y - offset)
+        residual = corrected.y - corrected.per_angle_design()[:, ident.identifiable] @ cf.per_angle
+        return self._chi2_per_dof(campaign, residual, cf.per_angle.size)
+
+    def _chi2_per_dof(self, campaign: Campaign, residual: np.ndarray, n_free: int) -> float | None:
+        if self.tracker is None:
+            return None
+        normalised = residual / np.repeat(_deflection_noise(self.tracker, campaign), 3)
+        return float(normalised @ normalised / (residual.size - n_free))
+
+    def _practical(self, tree, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm) -> dict[str, str]:
+        """Practical identifiability of the sampled parameters (:func:`~bayescal.identifiability.practical_reasons`)."""
+        from .posterior import summarize
+
+        summary = summarize(tree)
+        L, a_x, a_y = self.geometry.mean[:3]
+        # s0's prior is flat on (0, a + L): its sd is the width over sqrt(12).
+        prior_sd: dict[str, float | None] = {name: None for name in PARAMETER_UNITS if name != "s0"}
+        prior_sd["s0"] = (math.hypot(a_x, a_y) + L) / math.sqrt(12.0) / MM
+        prior_sd |= {name: None for name in summary.index if name.startswith("k2_q2[")}
+        context = {}
+        if "K_c" in summary.index:
+            context["K_c"] = self._compensator_context(equations, ident, cf, summary.loc["k2", "mean"] * URAD_PER_NM)
+        return practical_reasons(summary, prior_sd, requires={"s0": "K_c"}, context=context)
+
+    def _compensator_context(self, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm, k2: float) -> str:
+        """How much the compensator changes the joint-2 stiffness, against how finely the per-angle compliances are known."""
+        Kc, s0 = self.nominal_spring
+        compensator = CompensatorGeometry(*self.geometry.mean).with_spring(Kc, s0)
+        share = 100.0 * np.abs(compensator.stiffness(equations.q2)) * k2
+        columns = [c for c, keep in zip(equations.per_angle_columns(), ident.identifiable) if keep]
+        sd = np.sqrt(np.diag(cf.cov))
+        resolution = [300.0 * sd[i] / cf.per_angle[i] for i, (joint, _) in enumerate(columns) if joint == JOINT2]
+        return (
+            f"the compensator changes the joint-2 stiffness by {share.min():.2f}–{share.max():.2f} % across the "
+            f"campaign's {equations.q2.size} q2 angles (at the config's K_c = {Kc / N_PER_MM:.4g} N/mm, "
+            f"s0 = {s0 / MM:.4g} mm), while the per-angle joint-2 compliances are resolved to "
+            f"±{np.median(resolution):.2f} % (3σ, median over the angles)"
         )
 
     # ----------------------------------------------------------------- exact model
@@ -704,6 +758,7 @@ class ElastostaticResults:
         equivalent joint-2 compliance at each campaign angle, ``sigma`` the noise
         per group in mm, and the geometry when it was sampled).
     identifiability : Identifiability
+        Structural reasons, and the practical ones found after sampling.
     closed_form : ClosedForm
         Estimates of eqs 33-34 (after the exact model's correction when used).
     model : str
@@ -747,18 +802,35 @@ class ElastostaticResults:
         return summarize(self.tree)
 
     def parameters(self) -> dict[str, dict]:
-        """The CLI's ``parameters`` block: k1..k6, K_c, s0, each an estimate or ``{"identifiable": false, "reason"}``."""
+        """The CLI's ``parameters`` block: k1..k6, K_c, s0, each an estimate or ``{"identifiable": false, "reason"}``.
+
+        A parameter is given as an estimate only when it is identifiable both
+        structurally and from these data (:attr:`Identifiability.not_identifiable`).
+        """
         from .posterior import parameters_json
 
         summary = self.summary()
+        reasons = self.identifiability.not_identifiable
         known = parameters_json(summary.loc[[name for name in PARAMETER_UNITS if name in summary.index]])
         out: dict[str, dict] = {}
         for name in PARAMETER_UNITS:
-            if name in known:
+            if name in known and name not in reasons:
                 out[name] = known[name]
             else:
-                out[name] = {"identifiable": False, "reason": self.identifiability.reasons.get(name, "not sampled")}
+                out[name] = {"identifiable": False, "reason": reasons.get(name, "not sampled")}
         return out
+
+    def weakly_determined(self) -> dict[str, dict]:
+        """Posterior summary (mean, sd, lo3, hi3, unit) of the sampled parameters that are not identifiable from these data.
+
+        They are kept for inspection, not as estimates: their intervals mostly
+        reflect the prior.
+        """
+        from .posterior import parameters_json
+
+        summary = self.summary()
+        names = [name for name in self.identifiability.practical if name in summary.index]
+        return parameters_json(summary.loc[names])
 
     def diagnostics(self) -> dict:
         """Convergence and fit diagnostics (the CLI's ``diagnostics`` block)."""

@@ -13,17 +13,40 @@ largest torque the loads exert about the joint, or the parameters it is
 confounded with.  The compensator's ``K_c`` and ``s0`` (and ``K_theta2^0``,
 hence k2) need at least three q2 angles with an identifiable joint-2
 compliance, the number of unknowns of eq 34.
+
+That structural check says what the campaign could determine with perfect
+data.  :func:`practical_reasons` judges, after sampling, what it did
+determine: a parameter is *not identifiable from these data* when its
+posterior is still essentially the prior.  For a parameter with a proper prior
+this is measured by the contraction of its standard deviation: not identifiable
+when the posterior sd exceeds :data:`CONTRACTION_LIMIT` (one half) of the prior
+sd, i.e. the data have removed less than three quarters of the prior variance.
+A flat prior on the positive half-line (joint compliances, ``K_c``) has no sd;
+there the data must at least exclude zero, the value at which the parameter has
+no effect: not identifiable when the ±3σ interval reaches zero (3 sd ≥ |mean|,
+a relative width of 100 % or more).  A parameter that enters the model only
+through another (``s0`` only through ``s0 K_c`` in eq 34) is not identifiable
+when that one is not.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 
-__all__ = ["Identifiability", "analyse", "RANK_TOLERANCE", "ILL_CONDITIONED"]
+__all__ = [
+    "Identifiability",
+    "analyse",
+    "practical_reasons",
+    "RANK_TOLERANCE",
+    "ILL_CONDITIONED",
+    "CONTRACTION_LIMIT",
+    "PRACTICAL_RULE",
+]
 
 RANK_TOLERANCE = 1e-8
 """Singular values of the unit-column information matrix's square root below this fraction of the largest count as zero."""
@@ -32,6 +55,13 @@ ILL_CONDITIONED = 1e4
 _NO_TORQUE = 1e-6
 """A joint whose largest torque is below this fraction of the largest torque on any joint is taken as unloaded."""
 _MIN_ANGLES = 3
+CONTRACTION_LIMIT = 0.5
+"""Posterior sd above this fraction of a proper prior's sd: the data have not determined the parameter."""
+PRACTICAL_RULE = (
+    "not identifiable from these data: posterior sd above 1/2 of a proper prior's sd, or, under a flat prior "
+    "on the positive half-line, a ±3σ interval that includes 0; s0 whenever K_c is not identifiable (eq 34)"
+)
+"""The practical-identifiability rule in one line (the CLI's ``identifiability.rule``)."""
 
 
 @dataclass(frozen=True)
@@ -52,9 +82,12 @@ class Identifiability:
         Variance inflation factor of each identifiable per-angle parameter.
     reasons : dict
         Reason, in words, for each parameter (per-angle names and ``k2``, ``K_c``,
-        ``s0``) that is not identifiable.
+        ``s0``) that the design cannot identify.
     compensator : bool
-        Whether ``K_theta2^0``, ``K_c`` and ``s0`` are identifiable.
+        Whether the design can identify ``K_theta2^0``, ``K_c`` and ``s0``.
+    practical : dict
+        Reason for each parameter that the design could identify but the
+        posterior does not determine (:func:`practical_reasons`); empty before sampling.
     """
 
     names: list[str]
@@ -64,6 +97,12 @@ class Identifiability:
     vif: dict[str, float]
     reasons: dict[str, str] = field(default_factory=dict)
     compensator: bool = True
+    practical: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def not_identifiable(self) -> dict[str, str]:
+        """Every parameter reported as not identifiable, structural reasons first."""
+        return dict(self.reasons) | dict(self.practical)
 
     @property
     def ill_conditioned(self) -> bool:
@@ -76,7 +115,9 @@ class Identifiability:
             "rank": self.rank,
             "n_parameters": len(self.names),
             "condition_number": self.condition_number,
-            "not_identifiable": dict(self.reasons),
+            "not_identifiable": self.not_identifiable,
+            "structural": sorted(self.reasons),
+            "rule": PRACTICAL_RULE,
         }
 
 
@@ -169,3 +210,64 @@ def _unloaded_reason(joint: int, angle: int | None, q2, torque, torque_angle, la
             f"(largest |tau{joint + 1}| = {biggest:.3g} N m against {largest:.3g} N m on other joints)"
         )
     return f"the markers do not move when joint {joint + 1} turns{where}: the design column is zero"
+
+
+def practical_reasons(
+    summary: pd.DataFrame,
+    prior_sd: Mapping[str, float | None],
+    *,
+    requires: Mapping[str, str] | None = None,
+    context: Mapping[str, str] | None = None,
+) -> dict[str, str]:
+    """The parameters a posterior leaves undetermined, each with its reason in numbers.
+
+    Parameters
+    ----------
+    summary
+        Posterior summary indexed by parameter with ``mean``, ``sd``, ``lo3``,
+        ``hi3`` and ``unit`` (:func:`bayescal.posterior.summarize`).
+    prior_sd
+        The parameters to judge: the sd of each one's proper prior (in the unit of
+        ``summary``), or None for a flat prior on the positive half-line.
+    requires
+        ``{name: other}``: ``name`` enters the model only through ``other`` and is
+        not identifiable whenever ``other`` is not.
+    context
+        Extra explanation (why the data are weak) prepended to a parameter's reason
+        when it fails.
+
+    Returns
+    -------
+    dict
+        ``{name: reason}`` for the parameters that fail, in the order of ``prior_sd``.
+    """
+    requires = dict(requires or {})
+    context = dict(context or {})
+    reasons: dict[str, str] = {}
+    for name, prior in prior_sd.items():
+        if name not in summary.index:
+            continue
+        row = summary.loc[name]
+        mean, sd, unit = float(row["mean"]), float(row["sd"]), str(row["unit"])
+        interval = f"[{row['lo3']:.4g}, {row['hi3']:.4g}] {unit}".rstrip()
+        if prior is None:
+            if 3.0 * sd < abs(mean):
+                continue
+            why = (
+                f"its ±3σ interval {interval} includes 0 (3 sd = {300.0 * sd / abs(mean):.0f} % of the mean)"
+                if mean
+                else f"its ±3σ interval {interval} is centred on 0"
+            )
+        else:
+            if sd <= CONTRACTION_LIMIT * prior:
+                continue
+            why = (
+                f"its posterior sd {sd:.4g} {unit} is {sd / prior:.2f} of its prior's {prior:.4g} {unit} "
+                f"(more than {CONTRACTION_LIMIT:g}): the posterior is mostly the prior"
+            )
+        reasons[name] = f"{context[name]}; {why}" if name in context else why
+    for name, other in requires.items():
+        if other in reasons and name in summary.index:
+            why = f"{name} enters the model only through the product {name}·{other}, and {other} is not identifiable from these data"
+            reasons[name] = why + (f"; besides, {reasons[name]}" if name in reasons else "")
+    return {name: reasons[name] for name in prior_sd if name in reasons}

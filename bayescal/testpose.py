@@ -71,7 +71,7 @@ class TestPosePrediction:
         if not self.available:
             return {"available": False, "reason": self.reason}
         assumed = {
-            name: {"value": value / URAD_PER_NM, "unit": "urad/(N m)", "note": "not identifiable: held at the config's value"}
+            name: {"value": value / URAD_PER_NM, "unit": "urad/(N m)", "note": "not identifiable from the campaign: held at the config's value"}
             for name, value in self.assumed.items()
         }
         mean = self.deflection.mean(axis=0)

@@ -43,20 +43,32 @@ def test_json_output_has_every_parameter_with_units(capsys, json_run):
     parameters = payload["parameters"]
     assert list(parameters) == ["k1", "k2", "k3", "k4", "k5", "k6", "K_c", "s0"]
     assert parameters["k1"]["identifiable"] is False and "joint 1" in parameters["k1"]["reason"]
-    assert parameters["k3"]["unit"] == "urad/(N m)" and parameters["K_c"]["unit"] == "N/mm" and parameters["s0"]["unit"] == "mm"
+    assert parameters["k3"]["unit"] == "urad/(N m)"
     assert parameters["k3"]["lo3"] < parameters["k3"]["mean"] < parameters["k3"]["hi3"]
     assert payload["diagnostics"]["n_equations"] == 405 and payload["diagnostics"]["model"] == "exact"
-    assert payload["identifiability"]["not_identifiable"].keys() == {"k1"}
+    assert payload["identifiability"]["not_identifiable"].keys() == {"k1", "K_c", "s0"}
+    assert payload["identifiability"]["structural"] == ["k1"]
+    assert parameters["K_c"]["identifiable"] is False and "includes 0" in parameters["K_c"]["reason"]
+    assert payload["weakly_determined"]["K_c"]["unit"] == "N/mm" and "mean" in payload["weakly_determined"]["s0"]
+    assert all("mean" in entry for entry in payload["k2_per_angle"].values())
     assert payload["test_pose"]["residual_error_mm"]["rms"] > 0
     assert "all loads are parallel" in err
     tree = load(posterior)
     assert tree["posterior"]["k3"].attrs["units"] == "urad/(N m)"
+    assert tree["posterior"]["K_c"].attrs["units"] == "N/mm"
 
 
 def test_text_output_sets_the_estimates_beside_table_iv(capsys, campaign_file):
     status, out, _ = run(capsys, [str(campaign_file), "--config", CONFIG, "--model", "linear", "--draws", "100"])
     assert status == 0
-    assert "Table IV" in out and "not identifiable" in out and "linear model" in out
+    assert "Table IV" in out and "linear model" in out
+    rows = {line.split()[0]: line for line in out.splitlines() if line[:3] in ("k1 ", "k3 ", "K_c", "s0 ")}
+    assert "not identifiable" in rows["k1"] and "not identifiable" in rows["K_c"] and "not identifiable" in rows["s0"]
+    assert "21.5%" in rows["K_c"] and "0.4064" not in rows["K_c"]
+    assert "not identifiable" not in rows["k3"]
+    below = out[out.index("Not identifiable:") :]
+    assert "  k1: no load" in below and "  K_c: the compensator changes" in below and "  s0: s0 enters" in below
+    assert out.count("not identifiable: held") == 0 and out.count("k1 is taken from the config") == 1
     assert "test pose" in out
 
 

@@ -92,12 +92,13 @@ def twin_coverage(sampler: str, campaigns: int, seed: int) -> np.ndarray:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             results = model.fit(campaign, rng)
-        parameters = results.parameters()
+        # The posterior summary, not parameters(): K_c and s0 are reported as not identifiable
+        # from these data, but their intervals must still be honest.
+        summary = results.summary()
         truth = {f"k{j + 1}": compliances[j] / URAD_PER_NM for j in range(1, 6)}
         truth |= {"K_c": spring[0] / N_PER_MM, "s0": spring[1] / MM}
         for name, value in truth.items():
-            entry = parameters[name]
-            hits.append(np.abs(value - entry["mean"]) <= LEVELS * entry["sd"])
+            hits.append(np.abs(value - summary.loc[name, "mean"]) <= LEVELS * summary.loc[name, "sd"])
     return np.array(hits)
 
 

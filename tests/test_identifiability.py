@@ -1,7 +1,10 @@
+import dataclasses
+
 import numpy as np
+import pandas as pd
 import pytest
 
-from bayescal.identifiability import analyse
+from bayescal.identifiability import analyse, practical_reasons
 
 DEG = np.pi / 180
 
@@ -63,3 +66,53 @@ def test_compensator_needs_three_angles(m):
     for name in ("k2", "K_c", "s0"):
         assert f"{m} q2 angle(s)" in result.reasons[name]
     assert result.identifiable.all()
+
+
+def summary(rows):
+    frame = pd.DataFrame.from_dict(
+        {name: {"mean": m, "sd": s, "lo3": m - 3 * s, "hi3": m + 3 * s, "unit": u} for name, (m, s, u) in rows.items()},
+        orient="index",
+    )
+    return frame
+
+
+def test_flat_prior_parameter_fails_when_its_interval_reaches_zero():
+    frame = summary({"K_c": (876.0, 518.0, "N/mm"), "k3": (0.406, 0.0027, "urad/(N m)"), "k6": (2.0, 0.67, "urad/(N m)")})
+    reasons = practical_reasons(frame, {"K_c": None, "k3": None, "k6": None})
+    assert set(reasons) == {"K_c", "k6"}
+    assert "[-678, 2430] N/mm includes 0" in reasons["K_c"]
+    assert "177 %" in reasons["K_c"]
+    # 3 sd = 100.5 % of the mean: just past the boundary.
+    assert "includes 0" in reasons["k6"]
+
+
+def test_proper_prior_parameter_fails_when_the_posterior_barely_contracts():
+    frame = summary({"a": (1.0, 0.6, "mm"), "b": (1.0, 0.4, "mm")})
+    reasons = practical_reasons(frame, {"a": 1.0, "b": 1.0})
+    assert list(reasons) == ["a"]
+    assert "0.60 of its prior's 1 mm" in reasons["a"]
+
+
+def test_dependent_parameter_follows_the_one_it_enters_through():
+    frame = summary({"K_c": (876.0, 518.0, "N/mm"), "s0": (482.0, 107.0, "mm")})
+    reasons = practical_reasons(
+        frame, {"K_c": None, "s0": 254.0}, requires={"s0": "K_c"}, context={"K_c": "the compensator is weak"}
+    )
+    assert reasons["K_c"].startswith("the compensator is weak; its ±3σ interval")
+    assert "only through the product s0·K_c" in reasons["s0"]
+    identified = summary({"K_c": (153.6, 5.1, "N/mm"), "s0": (460.0, 3.5, "mm")})
+    assert practical_reasons(identified, {"K_c": None, "s0": 254.0}, requires={"s0": "K_c"}) == {}
+
+
+def test_practical_reasons_join_the_structural_ones_in_the_report():
+    rng = np.random.default_rng(0)
+    X, _ = design_with(rng, 5)
+    X[:, 0] = 0.0
+    torque = np.ones((5, 6))
+    torque[:, 0] = 0.0
+    result = analyse(X, columns(5), np.linspace(-2, 0, 5), torque, np.arange(5))
+    result = dataclasses.replace(result, practical={"K_c": "weak"})
+    block = result.to_json()
+    assert list(block["not_identifiable"]) == ["k1", "K_c"]
+    assert block["structural"] == ["k1"]
+    assert "1/2" in block["rule"]

@@ -75,6 +75,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     payload = {
         "campaign": args.campaign,
         "parameters": results.parameters(),
+        "weakly_determined": results.weakly_determined(),
         "k2_per_angle": _k2_per_angle(results),
         "diagnostics": results.diagnostics() | {"seed": args.seed, "geometry": results.geometry.source},
         "identifiability": results.identifiability.to_json(),
@@ -89,11 +90,17 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
 def _k2_per_angle(results) -> dict:
     summary = results.summary()
-    rows = [name for name in summary.index if name.startswith("k2_q2[")]
-    return {
-        f"{name[6:-1]} deg": {key: float(summary.loc[name, key]) for key in ("mean", "sd", "lo3", "hi3")} | {"unit": "urad/(N m)"}
-        for name in rows
-    }
+    reasons = results.identifiability.not_identifiable
+    out = {}
+    for name in summary.index:
+        if not name.startswith("k2_q2["):
+            continue
+        key = f"{name[6:-1]} deg"
+        if name in reasons:
+            out[key] = {"identifiable": False, "reason": reasons[name]}
+        else:
+            out[key] = {field: float(summary.loc[name, field]) for field in ("mean", "sd", "lo3", "hi3")} | {"unit": "urad/(N m)"}
+    return out
 
 
 def _finite(value):
@@ -110,25 +117,35 @@ def _finite(value):
 
 
 def _text(results, test_pose, args) -> str:
+    import textwrap
+
     from ..elastostatic import TABLE_IV
 
+    reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in results.parameters()}
     lines = [
         f"{args.campaign}: {results.n_equations} equations ({results.n_rows} rows x 3 coordinates), "
         f"{results.model} model, {results.sampler_name} sampler, seed {args.seed}",
         "",
-        f"{'parameter':<10}{'unit':<12}{'mean':>10}{'±3σ':>10}{'width':>8}   {'Table IV':>9}{'±3σ':>8}{'width':>8}",
+        f"{'parameter':<10}{'unit':<12}{'mean':>10}{'±3σ':>10}{'width':>8}   | {'Table IV':>9}{'±3σ':>8}{'width':>8}",
     ]
     for name, entry in results.parameters().items():
         reference = TABLE_IV.get(name)
-        paper = f"{reference[0]:>9.4g}{reference[1]:>8.3g}{100 * reference[1] / reference[0]:>7.1f}%" if reference else ""
+        paper = f"{reference[0]:>9.4g}{reference[1]:>8.3g}{100 * reference[1] / reference[0]:>7.1f}%" if reference else f"{'–':>9}"
+        unit = entry.get("unit") or _unit(name)
         if "mean" in entry:
             width = 100 * 3 * entry["sd"] / abs(entry["mean"]) if entry["mean"] else math.inf
-            lines.append(f"{name:<10}{entry['unit']:<12}{entry['mean']:>10.4g}{3 * entry['sd']:>10.3g}{width:>7.1f}%   {paper}")
+            lines.append(f"{name:<10}{unit:<12}{entry['mean']:>10.4g}{3 * entry['sd']:>10.3g}{width:>7.1f}%   | {paper}")
         else:
-            lines.append(f"{name:<10}{'':<12}{'not identifiable':>28}   {paper}")
-    reasons = {k: v for k, v in results.identifiability.reasons.items() if not k.startswith("k2@")}
-    for name, reason in reasons.items():
-        lines.append(f"  {name}: {reason}")
+            lines.append(f"{name:<10}{unit:<12}{'not identifiable':>28}   | {paper}")
+    lines.append("Intervals are mean ± 3 sd, widths 3 sd / |mean| (Table IV: Klimchik et al.).")
+    if reasons:
+        lines += ["", "Not identifiable:"]
+        for name, reason in reasons.items():
+            lines += textwrap.wrap(f"{name}: {reason}.", width=100, initial_indent="  ", subsequent_indent="    ")
+        weak = results.weakly_determined()
+        if weak:
+            listed = ", ".join(weak)
+            lines.append(f"  The posterior of {listed} is kept in the DataTree and in the JSON's weakly_determined block.")
     d = results.diagnostics()
     lines += [
         "",
@@ -147,7 +164,16 @@ def _text(results, test_pose, args) -> str:
             f"(rho0 from covariance {error['rho0_from_covariance']:.4f} mm)",
         ]
         for name, entry in block["assumed"].items():
-            lines.append(f"  {name} held at {entry['value']:.4g} {entry['unit']} (config): {entry['note']}")
+            lines.append(
+                f"  {name} is taken from the config ({entry['value']:.4g} {entry['unit']}) because the campaign cannot "
+                "identify it; its uncertainty is not in these numbers"
+            )
     else:
         lines.append(f"test pose: not predicted: {block['reason']}")
     return "\n".join(lines)
+
+
+def _unit(name: str) -> str:
+    from ..elastostatic import PARAMETER_UNITS
+
+    return PARAMETER_UNITS[name]
