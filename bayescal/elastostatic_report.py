@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 
 from .cell import Cell, load_cell
 from .compensator import CompensatorGeometry
@@ -30,7 +31,7 @@ from .tracker import TrackerNoise
 from .twin import DigitalTwin
 from .units import DEG, MM, N_PER_MM, UM, URAD_PER_NM
 
-__all__ = ["build_report", "compensator_precision", "linearisation_misfit", "main"]
+__all__ = ["build_report", "compensator_precision", "linearisation_misfit", "weightless", "main"]
 
 NAMES = ["k1", "k2", "k3", "k4", "k5", "k6", "K_c", "s0"]
 
@@ -92,6 +93,12 @@ def linearisation_misfit(cell: Cell, plan: Plan, noise: float, *, load_scale: fl
         "load_scale": load_scale,
         "seed": seed,
     }
+
+
+def weightless(cell: Cell) -> Cell:
+    """The cell with massless links and a compensator spring of zero stiffness: the unloaded arm does not sag."""
+    spring = cell.compensator.geometry.with_spring(0.0, cell.compensator.s0)
+    return dataclasses.replace(cell, robot=scale_masses(cell.robot, 0.0), compensator=spring)
 
 
 def compensator_precision(results: ElastostaticResults, cell: Cell) -> dict:
@@ -305,8 +312,9 @@ def build_report(config: str = "data/kr270.toml", plan_path: str = "data/table3_
     ]
     if results.closed_form.spring is not None:
         lines += _compensator_section(results, cell, noise)
+    lines += _linearisation_section(cell, plan)
     lines += [
-        "## Linear against exact model",
+        "## Linear against exact model on this campaign",
         "",
         f"The exact model's prediction differs from the linear one by up to {d['nonlinearity_mm'] * 1000:.1f} μm "
         f"(deflections reach {np.linalg.norm(campaign.displacement, axis=1).max() / MM:.2f} mm). "
@@ -351,6 +359,76 @@ def build_report(config: str = "data/kr270.toml", plan_path: str = "data/table3_
         lines.append(f"Not predicted: {block['reason']}.")
     lines += ["", "## Warnings raised", ""] + [f"- {m}" for m in messages] + [""]
     return "\n".join(lines)
+
+
+LINEARISATION_SEEDS = range(5)
+"""Seeds of the twin campaigns of the linearisation study."""
+
+
+def _linearisation_section(cell: Cell, plan: Plan) -> list[str]:
+    cases = [
+        ("the twin", cell, 1.0, 8 * UM),
+        ("the twin", cell, 0.1, 0.8 * UM),
+        ("without link weight and compensator", weightless(cell), 1.0, 8 * UM),
+        ("without link weight and compensator", weightless(cell), 0.1, 0.8 * UM),
+    ]
+    rows, excess, beyond, gap = [], {}, {}, {}
+    for label, twin, scale, noise in cases:
+        runs = [linearisation_misfit(twin, plan, noise, load_scale=scale, seed=seed) for seed in LINEARISATION_SEEDS]
+        linear = np.array([run["linear"] for run in runs])
+        exact = np.array([run["exact"] for run in runs])
+        dof = runs[0]["dof"]
+        excess[(label, scale)] = float(np.mean(linear - exact) * dof)
+        beyond[(label, scale)] = int(np.sum(linear > stats.chi2.ppf(0.999, dof) / dof))
+        gap[(label, scale)] = (float(np.min(linear - exact)), float(np.max(linear - exact)))
+        rows.append(
+            f"| {label} | ×{scale:g} | {noise / UM:g} | {linear.mean():.3f} ({linear.min():.3f}–{linear.max():.3f}) "
+            f"| {exact.mean():.3f} ({exact.min():.3f}–{exact.max():.3f}) | {excess[(label, scale)]:.1f} |"
+        )
+    n = runs[0]["n_equations"]
+    upper = stats.chi2.ppf(0.999, dof) / dof
+    sag = np.array([equilibrium(cell.robot, q, cell.compliances, np.zeros(6), compensator=cell.compensator, load_point=cell.load_point) for q in plan.q])
+    full = excess[("the twin", 1.0)]
+    reduced = excess[("the twin", 0.1)]
+    bare = excess[("without link weight and compensator", 1.0)], excess[("without link weight and compensator", 0.1)]
+    return [
+        "## Linearisation misfit at 8 μm tracker noise",
+        "",
+        "Issue 4 reports that a linear fit of a nonlinear simulation with 8 μm tracker noise leaves χ²/dof ≈ 1.3–1.4 "
+        "over 810 equations, falling to 1.02 when loads and noise are both scaled down tenfold. Measured here on the "
+        "Table III plan with a tracker of 8 μm per coordinate at any distance (instead of the cell's "
+        "distance-dependent model), with the plan's loads, then with loads and noise ×0.1; each campaign "
+        f"(seeds {LINEARISATION_SEEDS.start}–{LINEARISATION_SEEDS.stop - 1}) is fitted in closed form by the linear and the exact model. "
+        "Mean (range) over the seeds; the last column is the mean excess of the linear χ² over the exact one, "
+        "(χ²/dof linear − exact) × dof, which estimates the noncentrality the linearisation adds:",
+        "",
+        "| twin | loads | noise per coordinate (μm) | linear χ²/dof | exact χ²/dof | linear − exact χ² |",
+        "|---|---|---|---|---|---|",
+        *rows,
+        "",
+        f"χ² is over the {n} deflection equations ({n // 3} rows × 3 coordinates); each is the difference of two "
+        "tracker readings and carries their summed variance 2σ², and the per-angle compliances are fitted, so "
+        f"dof = {dof}. The issue's 810 counts the unloaded and the loaded readings as separate equations; with the "
+        "unloaded positions as unknowns that adds as many unknowns as equations and leaves χ²/dof unchanged, so "
+        f"the count does not explain a difference. Noise alone exceeds χ²/dof = {upper:.3f} with probability 0.001.",
+        "",
+        f"At 8 μm the linear model's misfit is real (excess χ² ≈ {full:.0f}; {beyond[('the twin', 1.0)]} of "
+        f"{len(LINEARISATION_SEEDS)} seeds beyond χ²/dof = {upper:.3f}, and on every seed "
+        f"{gap[('the twin', 1.0)][0]:.2f}–{gap[('the twin', 1.0)][1]:.2f} above the exact model's χ²/dof on the same data) "
+        "and the exact model's χ²/dof is that of noise: the misfit is the linearisation. Our χ²/dof, about "
+        f"{1 + full / dof:.2f}, is lower than the issue's 1.3–1.4; the second-order effect depends on the loads' lever "
+        "arm on the tool, the joint compliances and the plan, which the issue's simulation does not state. With "
+        f"loads and noise ×0.1 the linear misfit does not fall to the 1.02 of the issue but keeps an excess χ² of "
+        f"about {reduced:.0f}: a part of it is proportional to the load, like the deflections and the noise, so "
+        "scaling both leaves it in place. That part comes from the arm's own weight: unloaded, the arm already sags "
+        f"under its links' weight and the compensator's imbalance (up to {1e3 * np.abs(sag[:, 1]).max():.2f} mrad at "
+        f"joint 2 and {1e3 * np.abs(sag[:, 2]).max():.2f} mrad at joint 3 on Table III), while the linear model takes the "
+        "arm at its commanded angles for its Jacobians, the load's moment arm and the markers' place on the tool. In a "
+        f"twin without link weight and compensator the excess falls from {bare[0]:.0f} to {bare[1]:.1f} when loads and "
+        "noise are scaled down tenfold — the hundredfold drop of a purely second-order effect — which may be the "
+        "issue's situation (its simulation is not described). The exact model removes both parts.",
+        "",
+    ]
 
 
 def _compensator_section(results: ElastostaticResults, cell: Cell, noise_um: np.ndarray) -> list[str]:
