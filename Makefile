@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup demo test test-slow bench clean
+.PHONY: setup demo reports test test-slow bench clean
 
 setup: $(STAMP)
 
@@ -15,8 +15,19 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	@touch $(STAMP)
 
+# The main job: the compensator geometry from the paper's Table I, then a Table III
+# campaign on the digital twin identified with that geometry posterior.
 demo: $(STAMP)
-	$(BIN)/bayescal geometry data/table1_geometry.csv --seed 1 --posterior reports/geometry_posterior.nc
+	@mkdir -p build
+	$(BIN)/bayescal geometry data/table1_geometry.csv --posterior build/geometry_posterior.nc
+	$(BIN)/bayescal simulate --plan data/table3_plan.csv --config data/kr270.toml --repeats 3 --seed 1 -o build/campaign.csv
+	$(BIN)/bayescal calibrate build/campaign.csv --config data/kr270.toml --geometry build/geometry_posterior.nc --posterior build/elastostatic_posterior.nc
+
+# Regenerate the committed reports from the code and the data.
+reports: $(STAMP)
+	$(BIN)/python -m bayescal.geometry_report
+	$(BIN)/python -m bayescal.twin_report --config data/kr270.toml --plan data/table3_plan.csv -o reports/twin.md
+	$(BIN)/python -m bayescal.elastostatic_report
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
@@ -28,4 +39,4 @@ bench: $(STAMP)
 	@for script in benchmarks/*.py; do echo "== $$script"; $(BIN)/python $$script || exit 1; done
 
 clean:
-	rm -rf $(VENV) .pytest_cache
+	rm -rf $(VENV) .pytest_cache build
