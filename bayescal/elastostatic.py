@@ -40,7 +40,7 @@ from .cell import Cell
 from .compensator import Compensator, CompensatorGeometry
 from .errors import InputError, NotIdentifiableWarning
 from .gibbs import GibbsSampler
-from .identifiability import Identifiability, analyse, practical_reasons
+from .identifiability import Identifiability, analyse, grouped, practical_reasons
 from .likelihood import JOINT2, CompensatedPosterior, DeflectionEquations, GeometryPrior, PerAnglePosterior
 from .robot import Robot
 from .sampling import EnsembleSampler
@@ -456,9 +456,8 @@ class ElastostaticModel:
         if ident.compensator:
             ident = _check_regression(ident, equations.per_angle_columns(), equations.q2, self.geometry.mean)
         if announce:
-            for name, reason in ident.reasons.items():
-                if not name.startswith("k2@"):
-                    warnings.warn(f"{name} is not identifiable: {reason}", NotIdentifiableWarning, stacklevel=3)
+            for names, reason in grouped({k: v for k, v in ident.reasons.items() if not k.startswith("k2@")}):
+                warnings.warn(f"{_listed(names)} not identifiable: {reason}", NotIdentifiableWarning, stacklevel=3)
             if ident.ill_conditioned:
                 warnings.warn(
                     f"the campaign is ill-conditioned (condition number {ident.condition_number:.3g} of the unit-column "
@@ -486,8 +485,8 @@ class ElastostaticModel:
             linear_tree, _ = self._sample(equations.whitened(), ident, linear_cf, rng)
 
         practical = self._practical(tree, equations, ident, cf)
-        for name, reason in practical.items():
-            warnings.warn(f"{name} is not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=2)
+        for names, reason in grouped(practical):
+            warnings.warn(f"{_listed(names)} not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=2)
         residual = corrected.y - corrected.per_angle_design()[:, ident.identifiable] @ cf.per_angle
         return ElastostaticResults(
             tree=tree,
@@ -664,6 +663,11 @@ class ElastostaticModel:
                 raw = sampler.sample(posterior.log_prob, start, np.concatenate([sd, log_sigma_scale]), rng)
             draws = _per_angle_draws(posterior, raw)
         return _tree(draws, equations), draws
+
+
+def _listed(names: list[str]) -> str:
+    """``"k1 is"`` or ``"k2, K_c, s0 are"``."""
+    return f"{', '.join(names)} {'is' if len(names) == 1 else 'are'}"
 
 
 def _check_regression(

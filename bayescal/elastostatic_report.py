@@ -23,6 +23,7 @@ from scipy import stats
 from .cell import Cell, load_cell
 from .compensator import CompensatorGeometry
 from .elastostatic import PARAMETER_UNITS, TABLE_IV, ElastostaticModel, ElastostaticResults, scale_masses
+from .identifiability import grouped
 from .likelihood import JOINT2
 from .plan import Plan, read_plan
 from .stiffness import equilibrium
@@ -287,9 +288,10 @@ def build_report(config: str = "data/kr270.toml", plan_path: str = "data/table3_
         _table(estimates),
         "",
     ]
-    for name, reason in reasons.items():
-        kind = "not identifiable from these data" if name in practical else "not identifiable"
-        lines.append(f"- **{name} is {kind}**: {reason}.")
+    for names, reason in grouped(reasons):
+        verb = "is" if len(names) == 1 else "are"
+        kind = "not identifiable from these data" if names[0] in practical else "not identifiable"
+        lines.append(f"- **{', '.join(names)} {verb} {kind}**: {reason}.")
     weak = results.weakly_determined()
     if weak:
         kept = "; ".join(

@@ -42,6 +42,7 @@ __all__ = [
     "Identifiability",
     "analyse",
     "practical_reasons",
+    "grouped",
     "RANK_TOLERANCE",
     "ILL_CONDITIONED",
     "CONTRACTION_LIMIT",
@@ -271,3 +272,11 @@ def practical_reasons(
             why = f"{name} enters the model only through the product {name}·{other}, and {other} is not identifiable from these data"
             reasons[name] = why + (f"; besides, {reasons[name]}" if name in reasons else "")
     return {name: reasons[name] for name in prior_sd if name in reasons}
+
+
+def grouped(reasons: Mapping[str, str]) -> list[tuple[list[str], str]]:
+    """``[(names, reason)]``: parameters that share a reason listed together, in first-seen order."""
+    groups: dict[str, list[str]] = {}
+    for name, reason in reasons.items():
+        groups.setdefault(reason, []).append(name)
+    return [(names, reason) for reason, names in groups.items()]

@@ -139,13 +139,12 @@ def predict_test_pose(
     q0 = np.asarray(q0, dtype=float)
     draws = results.compliance_draws(float(q0[1]), fill=nominal_compliances)
     if draws is None:
-        reasons = [f"{name}: {why}" for name, why in results.identifiability.reasons.items() if not name.startswith("k2@")]
         return TestPosePrediction(
             deflection=np.empty((0, 3)),
             reference=np.full(3, math.nan),
             rho0=math.nan,
             available=False,
-            reason="a compliance acting at the test pose is not identified (" + "; ".join(reasons) + ")",
+            reason=_unavailable(results, float(q0[1]), nominal_compliances is None),
         )
     A0 = compliance_design(robot, q0, point, wrench0)
     deflection = draws @ A0.T
@@ -164,3 +163,16 @@ def predict_test_pose(
         f"k{j + 1}": float(draws[0, j]) for j in range(6) if j != 1 and f"k{j + 1}" not in results.draws.compliances
     }
     return TestPosePrediction(deflection=deflection, reference=reference, rho0=rho0, assumed=assumed)
+
+
+def _unavailable(results: ElastostaticResults, q2: float, no_fill: bool) -> str:
+    """Why the campaign cannot predict the test pose, naming the compliance that is missing."""
+    reasons = results.identifiability.not_identifiable
+    missing = [f"k{j + 1}" for j in range(6) if j != 1 and f"k{j + 1}" not in results.draws.compliances]
+    if missing and no_fill:
+        names = ", ".join(missing)
+        return f"{names} not identified by the campaign ({reasons.get(missing[0], 'not sampled')}) and no nominal value given"
+    return (
+        f"joint 2's compliance at the test pose's q2 = {math.degrees(q2):.2f} deg needs the compensator model, "
+        f"and K_c is not identifiable: {reasons.get('K_c', 'not sampled')}"
+    )

@@ -69,6 +69,8 @@ def test_text_output_sets_the_estimates_beside_table_iv(capsys, campaign_file):
     below = out[out.index("Not identifiable:") :]
     assert "  k1: no load" in below and "  K_c: the compensator changes" in below and "  s0: s0 enters" in below
     assert out.count("not identifiable: held") == 0 and out.count("k1 is taken from the config") == 1
+    assert out.index("Not identifiable:") < out.index("Joint 2 with its compensator") < out.index("test pose")
+    assert out.count("q2 = ") == 5
     assert "test pose" in out
 
 
@@ -86,7 +88,8 @@ def test_one_q2_angle_warns_and_still_reports_the_rest(capsys, campaign_file, tm
     payload = json.loads(out)
     assert payload["parameters"]["K_c"]["identifiable"] is False
     assert "mean" in payload["parameters"]["k3"]
-    assert "K_c is not identifiable" in err
+    assert "k2, K_c, s0 are not identifiable: the campaign has 1 q2 angle(s)" in err
+    assert payload["test_pose"]["available"] is False and "q2 = -50.00 deg" in payload["test_pose"]["reason"]
 
 
 def edit(campaign_file, tmp_path, change):

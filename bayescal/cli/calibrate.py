@@ -119,19 +119,21 @@ def _finite(value):
 def _text(results, test_pose, args) -> str:
     import textwrap
 
-    from ..elastostatic import TABLE_IV
+    from ..elastostatic import PARAMETER_UNITS, TABLE_IV
+    from ..identifiability import grouped
 
-    reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in results.parameters()}
+    parameters = results.parameters()
+    reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in PARAMETER_UNITS}
     lines = [
         f"{args.campaign}: {results.n_equations} equations ({results.n_rows} rows x 3 coordinates), "
         f"{results.model} model, {results.sampler_name} sampler, seed {args.seed}",
         "",
         f"{'parameter':<10}{'unit':<12}{'mean':>10}{'±3σ':>10}{'width':>8}   | {'Table IV':>9}{'±3σ':>8}{'width':>8}",
     ]
-    for name, entry in results.parameters().items():
+    for name, entry in parameters.items():
         reference = TABLE_IV.get(name)
         paper = f"{reference[0]:>9.4g}{reference[1]:>8.3g}{100 * reference[1] / reference[0]:>7.1f}%" if reference else f"{'–':>9}"
-        unit = entry.get("unit") or _unit(name)
+        unit = PARAMETER_UNITS[name]
         if "mean" in entry:
             width = 100 * 3 * entry["sd"] / abs(entry["mean"]) if entry["mean"] else math.inf
             lines.append(f"{name:<10}{unit:<12}{entry['mean']:>10.4g}{3 * entry['sd']:>10.3g}{width:>7.1f}%   | {paper}")
@@ -140,12 +142,19 @@ def _text(results, test_pose, args) -> str:
     lines.append("Intervals are mean ± 3 sd, widths 3 sd / |mean| (Table IV: Klimchik et al.).")
     if reasons:
         lines += ["", "Not identifiable:"]
-        for name, reason in reasons.items():
-            lines += textwrap.wrap(f"{name}: {reason}.", width=100, initial_indent="  ", subsequent_indent="    ")
+        for names, reason in grouped(reasons):
+            lines += textwrap.wrap(f"{', '.join(names)}: {reason}.", width=100, initial_indent="  ", subsequent_indent="    ")
         weak = results.weakly_determined()
         if weak:
             listed = ", ".join(weak)
             lines.append(f"  The posterior of {listed} is kept in the DataTree and in the JSON's weakly_determined block.")
+    per_angle = [
+        f"  q2 = {float(angle.split()[0]):>8.2f} deg  {entry['mean']:.4g} ± {entry['hi3'] - entry['mean']:.2g} urad/(N m)"
+        for angle, entry in _k2_per_angle(results).items()
+        if "mean" in entry
+    ]
+    if per_angle:
+        lines += ["", "Joint 2 with its compensator at each campaign angle (±3σ; the paper's Fig. 7):", *per_angle]
     d = results.diagnostics()
     lines += [
         "",
@@ -172,8 +181,3 @@ def _text(results, test_pose, args) -> str:
         lines.append(f"test pose: not predicted: {block['reason']}")
     return "\n".join(lines)
 
-
-def _unit(name: str) -> str:
-    from ..elastostatic import PARAMETER_UNITS
-
-    return PARAMETER_UNITS[name]
