@@ -137,7 +137,7 @@ def default_sampler(n_chains: int = 4, n_tune: int = 1000, n_draws: int = 1000) 
     seeds a walker strayed 20 posterior sd away for hundreds of steps); an
     80/20 mixture keeps the speed and lets the scale-free stretch move bring
     strays back.  emcee's ``DESnookerMove`` is not used: on this posterior it
-    gave the lever marker's σ an sd of 0.009 mm where the exact posterior has 0.018 mm.
+    gave L an sd of 0.020 mm where the exact (Student t) posterior has 0.035 mm.
     """
     moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.StretchMove(), 0.2)]
     return EnsembleSampler(n_chains=n_chains, n_tune=n_tune, n_draws=n_draws, moves=moves)

@@ -116,7 +116,7 @@ def plot_arc_fit(
     lever_ax.set_title(f"P1, known-angle fit (rms {fit.residuals_rms[LEVER_MARKER] / 1e-6:.0f} μm)", fontsize=9)
     lever_ax.legend(fontsize=8)
 
-    models = {"concentric": {name: fit.cylinder.residuals[name] for name in points.cylinder_markers}}
+    models = {"concentric (radial)": {name: fit.cylinder.residuals[name] for name in points.cylinder_markers}}
     models |= {label: dict(res) for label, res in (cylinder_residuals or {}).items()}
     for style, (label, by_marker) in zip(("o-", "s--", "^:"), models.items()):
         for k, name in enumerate(points.cylinder_markers, start=1):
@@ -127,6 +127,6 @@ def plot_arc_fit(
     cylinder_ax.axhline(0.0, color="0.6", lw=0.8)
     cylinder_ax.set_xlabel("q2 [deg]")
     cylinder_ax.set_ylabel("residual [μm]")
-    cylinder_ax.set_title("Cylinder markers (concentric fit: radial residuals)", fontsize=9)
+    cylinder_ax.set_title("Cylinder markers", fontsize=9)
     cylinder_ax.legend(fontsize=7)
     return figure

@@ -38,5 +38,5 @@ def test_arc_fit_figure_shows_points_and_residuals(tmp_path):
     order = np.argsort(points.of("P1")[0])
     np.testing.assert_allclose(residual_x.get_ydata(), fit.lever.residuals[order, 0] / 1e-6)
     labels = {line.get_label() for line in cylinder.get_lines()}
-    assert {"P01 concentric", "P02 concentric", "P01 other", "P02 other"} <= labels
+    assert {"P01 concentric (radial)", "P02 concentric (radial)", "P01 other", "P02 other"} <= labels
     figure.savefig(tmp_path / "arcs.png")
