@@ -4,10 +4,33 @@ Geometric identification of a spring gravity compensator, elastostatic
 identification of joint and compensator stiffness with honest posteriors, a
 digital twin that simulates laser-tracker calibration campaigns, and the
 propagation of the identified parameters to the positioning error at a test pose.
+
+The names below are the entry points; each lives in the module named after what
+it computes and is imported on first use, so that ``import bayescal`` stays light.
 """
 
-from .errors import InputError
-
-__all__ = ["InputError", "__version__"]
+from importlib import import_module
 
 __version__ = "0.1.0"
+
+_ENTRY_POINTS = {
+    "InputError": "errors",
+    "Compensator": "compensator",
+    "read_arc_points": "geometry",
+    "CompensatorGeometryModel": "geometry",
+    "GeometryPosteriorModel": "geometry_posterior",
+    "load_cell": "cell",
+    "read_plan": "plan",
+    "DigitalTwin": "twin",
+    "read_campaign": "campaign",
+    "ElastostaticModel": "elastostatic",
+    "predict_test_pose": "testpose",
+}
+
+__all__ = [*_ENTRY_POINTS, "__version__"]
+
+
+def __getattr__(name: str):
+    if name in _ENTRY_POINTS:
+        return getattr(import_module(f".{_ENTRY_POINTS[name]}", __name__), name)
+    raise AttributeError(f"module 'bayescal' has no attribute '{name}'")
