@@ -25,6 +25,7 @@ _ENTRY_POINTS = {
     "read_campaign": "campaign",
     "ElastostaticModel": "elastostatic",
     "predict_test_pose": "testpose",
+    "predict_cell_test_pose": "testpose",
 }
 
 __all__ = [*_ENTRY_POINTS, "__version__"]

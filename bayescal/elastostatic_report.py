@@ -27,7 +27,7 @@ from .identifiability import grouped
 from .likelihood import JOINT2
 from .plan import Plan, read_plan
 from .stiffness import equilibrium
-from .testpose import predict_test_pose
+from .testpose import predict_cell_test_pose
 from .tracker import TrackerNoise
 from .twin import DigitalTwin
 from .units import DEG, MM, N_PER_MM, UM, URAD_PER_NM
@@ -242,16 +242,7 @@ def build_report(config: str = "data/kr270.toml", plan_path: str = "data/table3_
     sensitivity_frame = pd.DataFrame(sensitivity)
     sensitivity_frame.index.name = "parameter"
 
-    test_pose = predict_test_pose(
-        results,
-        cell.robot,
-        cell.test_q,
-        cell.test_wrench,
-        cell.test_point,
-        nominal_compensator=cell.compensator,
-        nominal_compliances=cell.compliances,
-        load_point=cell.test_point,
-    )
+    test_pose = predict_cell_test_pose(results, cell)
     loaded = cell.test_q + equilibrium(cell.robot, cell.test_q, cell.compliances, cell.test_wrench, compensator=cell.compensator, load_point=cell.test_point)
     unloaded = cell.test_q + equilibrium(cell.robot, cell.test_q, cell.compliances, np.zeros(6), compensator=cell.compensator, load_point=cell.test_point)
     true_deflection = cell.robot.point_position(loaded, cell.test_point) - cell.robot.point_position(unloaded, cell.test_point)

@@ -19,13 +19,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .cell import Cell
 from .compensator import Compensator
 from .elastostatic import ElastostaticResults, exact_deflections
 from .robot import Robot
 from .stiffness import compliance_design
 from .units import MM, URAD_PER_NM
 
-__all__ = ["TestPosePrediction", "predict_test_pose"]
+__all__ = ["TestPosePrediction", "predict_test_pose", "predict_cell_test_pose"]
 
 THREE_SIGMA = 0.9973
 """Two-sided probability of ±3σ of a normal distribution (the paper's interval)."""
@@ -163,6 +164,25 @@ def predict_test_pose(
         f"k{j + 1}": float(draws[0, j]) for j in range(6) if j != 1 and f"k{j + 1}" not in results.draws.compliances
     }
     return TestPosePrediction(deflection=deflection, reference=reference, rho0=rho0, assumed=assumed)
+
+
+def predict_cell_test_pose(results: ElastostaticResults, cell: Cell, *, truth: np.ndarray | None = None) -> TestPosePrediction:
+    """:func:`predict_test_pose` at the cell's test pose, its wrench and tool point.
+
+    Joints the campaign cannot identify take the cell's compliances (reported as
+    ``assumed``), and the exact model's correction uses the cell's compensator.
+    """
+    return predict_test_pose(
+        results,
+        cell.robot,
+        cell.test_q,
+        cell.test_wrench,
+        cell.test_point,
+        nominal_compensator=cell.compensator,
+        nominal_compliances=cell.compliances,
+        load_point=cell.test_point,
+        truth=truth,
+    )
 
 
 def _unavailable(results: ElastostaticResults, q2: float, no_fill: bool) -> str:

@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from ..errors import InputError
     from ..posterior import save
     from ..stiffness import EquilibriumError
-    from ..testpose import predict_test_pose
+    from ..testpose import predict_cell_test_pose
 
     if args.draws < 100:
         raise InputError(f"expected at least 100 draws, got {args.draws}", source="--draws")
@@ -53,16 +53,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     )
     try:
         results = model.fit(campaign, np.random.default_rng(args.seed))
-        test_pose = predict_test_pose(
-            results,
-            cell.robot,
-            cell.test_q,
-            cell.test_wrench,
-            cell.test_point,
-            nominal_compensator=cell.compensator,
-            nominal_compliances=cell.compliances,
-            load_point=cell.test_point,
-        )
+        test_pose = predict_cell_test_pose(results, cell)
     except EquilibriumError as exc:
         raise InputError(f"the exact model found no static equilibrium ({exc}); try --model linear", source=args.campaign) from None
     if args.posterior:
