@@ -60,6 +60,7 @@ __all__ = [
     "scale_masses",
     "MAX_DEFLECTION",
     "MAX_MARKER_DISTANCE",
+    "MARKER_TOLERANCE",
     "PARAMETER_UNITS",
     "TABLE_IV",
 ]
@@ -68,6 +69,9 @@ MAX_DEFLECTION = 50 * MM
 """Largest marker deflection accepted: far beyond what a loaded industrial robot shows."""
 MAX_MARKER_DISTANCE = 2.0
 """Largest distance (m) of a marker from the flange origin: a tool is smaller than this."""
+MARKER_TOLERANCE = 10 * MM
+"""How far a marker's position on the tool may scatter between rows (gravity sag and
+the exact model's correction move it by a few mm at most)."""
 ANGLE_DECIMALS = 3
 """q2 angles equal when rounded to this many decimals of a degree are one angle of eq 34."""
 
@@ -194,6 +198,7 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray) -> None
             line=int(campaign.lines[worst]) or None,
             column="x0_mm",
         )
+    _check_markers(campaign, points)
     forces = campaign.wrench[:, :3]
     loaded = forces[np.linalg.norm(forces, axis=1) > 0]
     if loaded.shape[0]:
@@ -205,6 +210,41 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray) -> None
                 "the paper warns this makes the identification singular — see the identifiability report",
                 UserWarning,
                 stacklevel=2,
+            )
+
+
+def _check_markers(campaign: Campaign, points: np.ndarray) -> None:
+    """Each marker label must name one point of the tool, measured in several configurations.
+
+    A marker is rigid on the tool, so its flange-frame position, recovered from
+    each row's unloaded reading, is the same in every row up to the arm's sag.
+    A label seen in a single configuration, or a row far from where its label
+    sits in the other rows, is a typo or a swapped label, which would silently
+    bias the compliances.
+    """
+    labels = sorted(set(campaign.marker))
+    for label in labels:
+        rows = np.flatnonzero(campaign.marker == label)
+        configs = np.unique(campaign.config[rows])
+        if configs.size < 2 and len(labels) > 1:
+            others = ", ".join(other for other in labels if other != label)
+            raise InputError(
+                f"unknown marker '{label}': it is measured in configuration {configs[0]} only, while {others} "
+                "are measured in several; a marker must be measured in at least two configurations",
+                source=campaign.source,
+                line=int(campaign.lines[rows[0]]) or None,
+                column="marker",
+            )
+        centre = np.median(points[rows], axis=0)
+        offset = np.linalg.norm(points[rows] - centre, axis=1)
+        worst = int(np.argmax(offset))
+        if offset[worst] > MARKER_TOLERANCE:
+            raise InputError(
+                f"marker '{label}' is {offset[worst] / MM:.1f} mm from where '{label}' sits on the tool in its other "
+                f"rows (more than {MARKER_TOLERANCE / MM:.0f} mm): a mislabelled marker?",
+                source=campaign.source,
+                line=int(campaign.lines[rows[worst]]) or None,
+                column="marker",
             )
 
 

@@ -125,3 +125,28 @@ def test_implausible_deflection_is_an_error(capsys, campaign_file, tmp_path):
 
     status, _, err = run(capsys, [str(edit(campaign_file, tmp_path, metres)), "--config", CONFIG])
     assert status == 2 and "plausibly deflect" in err and "edited.csv:3" in err
+
+
+def relabel(label):
+    def change(lines, first):
+        fields = lines[first].split(",")
+        fields[14] = label
+        return lines[:first] + [",".join(fields)] + lines[first + 1 :]
+
+    return change
+
+
+def test_unknown_marker_is_an_error(capsys, campaign_file, tmp_path):
+    status, _, err = run(capsys, [str(edit(campaign_file, tmp_path, relabel("M9"))), "--config", CONFIG])
+    assert status == 2 and "unknown marker 'M9'" in err and "edited.csv:3, column 'marker'" in err
+
+
+def test_swapped_marker_labels_are_an_error(capsys, campaign_file, tmp_path):
+    def swap(lines, first):
+        a, b = lines[first].split(","), lines[first + 1].split(",")
+        assert (a[14], b[14]) == ("M1", "M2")
+        a[14], b[14] = b[14], a[14]
+        return lines[:first] + [",".join(a), ",".join(b)] + lines[first + 2 :]
+
+    status, _, err = run(capsys, [str(edit(campaign_file, tmp_path, swap)), "--config", CONFIG])
+    assert status == 2 and "mislabelled marker" in err and "column 'marker'" in err
