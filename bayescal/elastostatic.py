@@ -62,7 +62,6 @@ __all__ = [
     "MAX_MARKER_DISTANCE",
     "MARKER_TOLERANCE",
     "PARAMETER_UNITS",
-    "TABLE_IV",
 ]
 
 MAX_DEFLECTION = 50 * MM
@@ -87,17 +86,6 @@ PARAMETER_UNITS = {
 }
 """The reported parameters and their units (k2 is ``1/K_theta2^0``, joint 2 without its compensator)."""
 
-TABLE_IV = {
-    "K_c": (144.0, 31.0),
-    "s0": (458.0, 27.0),
-    "k2": (0.302, 0.004),
-    "k3": (0.406, 0.008),
-    "k4": (3.002, 0.115),
-    "k5": (3.303, 0.162),
-    "k6": (2.365, 0.095),
-}
-"""Klimchik et al., Table IV: value and ±3σ half-width in the units of :data:`PARAMETER_UNITS`
-(its k_c = 0.144 read as 0.144 N/μm = 144 N/mm; k1 was not identified)."""
 
 
 # --------------------------------------------------------------------------- equations

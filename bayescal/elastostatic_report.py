@@ -22,11 +22,12 @@ from scipy import stats
 
 from .cell import Cell, load_cell
 from .compensator import CompensatorGeometry
-from .elastostatic import PARAMETER_UNITS, TABLE_IV, ElastostaticModel, ElastostaticResults, scale_masses
+from .elastostatic import PARAMETER_UNITS, ElastostaticModel, ElastostaticResults, scale_masses
 from .identifiability import grouped
 from .likelihood import JOINT2
 from .plan import Plan, read_plan
 from .stiffness import equilibrium
+from .reference import published
 from .testpose import predict_cell_test_pose
 from .tracker import TrackerNoise
 from .twin import DigitalTwin
@@ -140,7 +141,8 @@ def compensator_precision(results: ElastostaticResults, cell: Cell) -> dict:
         "K_c": 300.0 * np.sqrt(cov_w[1, 1]) / Kc,
         "s0": 300.0 * np.sqrt(gradient_s0 @ cov_w @ gradient_s0) / s0,
     }
-    factor = {name: width[name] / TABLE_IV[name][1] * TABLE_IV[name][0] / 100.0 for name in width}
+    table_iv = published("IV")
+    factor = {name: width[name] / table_iv[name][1] * table_iv[name][0] / 100.0 for name in width}
     per_angle = float(np.median(300.0 * np.sqrt(np.diag(cov_k)) / k2))
     share = 100.0 * np.abs(compensator.stiffness(results.q2[angles])) * cell.compliances[JOINT2]
     return {
@@ -204,7 +206,7 @@ def build_report(config: str = "data/kr270.toml", plan_path: str = "data/table3_
     rows = {}
     for name in NAMES:
         entry = parameters[name]
-        paper = TABLE_IV.get(name)
+        paper = published("IV").get(name)
         paper_cells = [paper[0], paper[1], f"{100 * paper[1] / paper[0]:.1f}%"] if paper else ["–", "–", "–"]
         if "mean" not in entry:
             rows[name] = [PARAMETER_UNITS[name], "not identifiable", "", "", truth[name], "", *paper_cells]

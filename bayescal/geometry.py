@@ -47,7 +47,6 @@ __all__ = [
     "GeometryFit",
     "CompensatorGeometryModel",
     "MarkerLayout",
-    "read_paper_reference",
 ]
 
 LEVER_MARKER = "P1"
@@ -527,20 +526,3 @@ class MarkerLayout:
             angles.append(q2)
             xyz.append(exact + sigma * rng.standard_normal(exact.shape))
         return MarkerPoints.from_arrays(np.array(names), np.concatenate(angles), np.vstack(xyz))
-
-
-def read_paper_reference(path: str | PathLike[str]) -> pd.DataFrame:
-    """Read published values and ±3σ half-widths (``data/paper_reference.csv``).
-
-    Returns
-    -------
-    pandas.DataFrame
-        Indexed by parameter, with columns ``table, unit, value, ci3``
-        (``ci3`` the half-width of the published ±3σ interval, in ``unit``).
-    """
-    frame = read_table(path, {"table": "text", "parameter": "text", "unit": "text", "value": "number", "ci3": "number"})
-    duplicated = frame["parameter"].duplicated()
-    if duplicated.any():
-        line = int(frame.index[duplicated.to_numpy()][0])
-        raise InputError("parameter listed twice", source=str(path), line=line, column="parameter")
-    return frame.set_index("parameter")

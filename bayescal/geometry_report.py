@@ -29,11 +29,11 @@ from .geometry import (
     concentric_fit,
     known_angle_fit,
     read_arc_points,
-    read_paper_reference,
 )
 from .geometry_posterior import GeometryPosteriorModel, default_sampler
 from .sampling import Sampler
 from .plots import plot_arc_fit, plot_eta_curves
+from .reference import REFERENCE_FILE, read_paper_reference
 from .units import DEG, MM
 
 __all__ = ["arc_fit_study", "coverage_study", "write_geometry_report"]
@@ -468,7 +468,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description="Write the compensator geometry report.")
     parser.add_argument("points")
     parser.add_argument("out_dir")
-    parser.add_argument("--reference", default="data/paper_reference.csv")
+    parser.add_argument("--reference", default=str(REFERENCE_FILE))
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--coverage-rep", type=int, default=200)
     args = parser.parse_args(argv)

@@ -27,12 +27,12 @@ from .cell import Cell
 from .effects import EFFECTS, Effect
 from .errors import InputError
 from .plan import Plan
+from .reference import published
 from .stiffness import COMPENSATED_JOINT, LinearJoints, compliance_design, equilibrium
 from .units import MM, N_PER_MM, URAD_PER_NM
 
-__all__ = ["DigitalTwin", "design_precision", "effect_detectability", "TABLE_IV_WIDTH_PERCENT"]
+__all__ = ["DigitalTwin", "design_precision", "effect_detectability"]
 
-TABLE_IV_WIDTH_PERCENT = {"k2": 1.3, "k3": 2.0, "k4": 3.8, "k5": 4.9, "k6": 4.0, "K_c": 21.5, "s0": 5.9}
 """Relative ±3σ half-widths (%) of the identified parameters, Klimchik et al., Table IV."""
 
 
@@ -213,7 +213,7 @@ def design_precision(cell: Cell, plan: Plan, repeats: int = 3) -> pd.DataFrame:
             "value": truth * factors,
             "sd": sd * factors,
             "width_3sd_pct": 300.0 * sd / np.abs(truth),
-            "table_iv_pct": [TABLE_IV_WIDTH_PERCENT.get(name, np.nan) for name in names],
+            "table_iv_pct": [_table_iv_width_percent(name) for name in names],
             "unit": [units[name] for name in names],
         },
         index=pd.Index(names, name="parameter"),
@@ -265,3 +265,8 @@ def effect_detectability(cell: Cell, plan: Plan, effect: Effect | None, *, repea
         "n_equations": int(len(difference)),
         "parameter_shift_pct": {name: float(100.0 * value) for name, value in zip(names, solution)},
     }
+
+
+def _table_iv_width_percent(name: str) -> float:
+    value, half_width = published("IV").get(name, (np.nan, np.nan))
+    return 100.0 * half_width / value

@@ -131,7 +131,7 @@ def render_report(cell: Cell, plan: Plan, *, repeats: int = 3, seed: int = 1) ->
 
 
 def _fmt(value: float) -> str:
-    return "—" if math.isnan(value) else f"{value:g}"
+    return "—" if math.isnan(value) else f"{value:.1f}"
 
 
 def _effect_row(label: str, result: dict, threshold: float) -> list[str]:

@@ -5,7 +5,8 @@ import pytest
 from scipy import stats
 
 from bayescal.cell import load_cell
-from bayescal.elastostatic import TABLE_IV, ElastostaticModel
+from bayescal.elastostatic import ElastostaticModel
+from bayescal.reference import published
 from bayescal.elastostatic_report import compensator_precision, linearisation_misfit, weightless
 from bayescal.plan import read_plan
 from bayescal.twin import DigitalTwin, design_precision
@@ -60,7 +61,7 @@ def test_compensator_precision_agrees_with_eq_37_and_names_the_gap_to_table_iv(c
     for name in ("K_c", "s0"):
         assert precision["width_pct"][name] == pytest.approx(eq37.loc[name, "width_3sd_pct"], rel=0.25), name
     for name in ("K_c", "s0"):
-        value, half_width = TABLE_IV[name]
+        value, half_width = published("IV")[name]
         assert precision["needed_factor"][name] == pytest.approx(precision["width_pct"][name] / (100 * half_width / value))
     low, high = precision["share_pct"]
     assert 0.03 < low < high < 0.3

@@ -6,6 +6,7 @@ import pytest
 from scipy.optimize import least_squares
 
 from bayescal.errors import InputError
+from bayescal.reference import read_paper_reference
 from bayescal.geometry import (
     CompensatorGeometryModel,
     MarkerLayout,
@@ -13,7 +14,6 @@ from bayescal.geometry import (
     concentric_fit,
     known_angle_fit,
     read_arc_points,
-    read_paper_reference,
 )
 from bayescal.units import DEG, MM
 

@@ -7,7 +7,8 @@ from scipy.special import gammaln
 
 from bayescal import posterior
 from bayescal.circle import known_angle_crb
-from bayescal.geometry import CompensatorGeometryModel, MarkerLayout, MarkerPoints, read_arc_points, read_paper_reference
+from bayescal.reference import read_paper_reference
+from bayescal.geometry import CompensatorGeometryModel, MarkerLayout, MarkerPoints, read_arc_points
 from bayescal.geometry_posterior import GeometryPosteriorModel, default_sampler
 from bayescal.geometry_report import STUDY_SIGMA, coverage_study
 from bayescal.units import DEG, MM

@@ -110,7 +110,8 @@ def _finite(value):
 def _text(results, test_pose, args) -> str:
     import textwrap
 
-    from ..elastostatic import PARAMETER_UNITS, TABLE_IV
+    from ..elastostatic import PARAMETER_UNITS
+    from ..reference import published
     from ..identifiability import grouped
 
     parameters = results.parameters()
@@ -122,7 +123,7 @@ def _text(results, test_pose, args) -> str:
         f"{'parameter':<10}{'unit':<12}{'mean':>10}{'±3σ':>10}{'width':>8}   | {'Table IV':>9}{'±3σ':>8}{'width':>8}",
     ]
     for name, entry in parameters.items():
-        reference = TABLE_IV.get(name)
+        reference = published("IV").get(name)
         paper = f"{reference[0]:>9.4g}{reference[1]:>8.3g}{100 * reference[1] / reference[0]:>7.1f}%" if reference else f"{'–':>9}"
         unit = PARAMETER_UNITS[name]
         if "mean" in entry:

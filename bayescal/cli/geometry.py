@@ -8,7 +8,6 @@ from pathlib import Path
 from ._command import CommandOutput, add_common_options
 
 # The repository's copy of the paper's Tables II and IV, used when --reference is not given.
-_DEFAULT_REFERENCE = Path(__file__).resolve().parents[2] / "data" / "paper_reference.csv"
 _PAPER_ROWS = ("L", "a_x", "a_y")
 
 
@@ -55,13 +54,14 @@ def run(args: argparse.Namespace) -> CommandOutput:
     """Fit the geometry and return the JSON payload and a readable table."""
     from .. import posterior
     from ..errors import InputError
-    from ..geometry import read_arc_points, read_paper_reference
+    from ..geometry import read_arc_points
+    from ..reference import REFERENCE_FILE, read_paper_reference
     from ..geometry_posterior import GeometryPosteriorModel, default_sampler
 
     if args.chains < 2:
         raise InputError("R-hat needs at least 2 chains", source="--chains")
     points = read_arc_points(args.points)
-    reference_path = Path(args.reference) if args.reference else _DEFAULT_REFERENCE
+    reference_path = Path(args.reference) if args.reference else REFERENCE_FILE
     reference = None
     if args.reference or reference_path.is_file():
         reference = read_paper_reference(reference_path)
