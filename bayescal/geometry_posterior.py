@@ -40,6 +40,7 @@ remaining geometry, and each σ is then drawn from its exact conditional
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from os import PathLike
 from typing import Literal
@@ -179,6 +180,14 @@ class GeometryPosteriorModel:
             Generator or seed; the same seed gives the same draws.
         """
         rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        if points.xyz.shape[1] == 3:
+            tilt = CompensatorGeometryModel().fit(points).axis_tilt
+            warnings.warn(
+                f"{points.source or 'points'}: the posterior uses x and y only (the paper's planar model, tracker Z "
+                f"along the joint-2 axis); the 3D closed-form fit puts the cylinder's axis {tilt / DEG:.2f} deg from Z",
+                UserWarning,
+                stacklevel=2,
+            )
         planar = MarkerPoints(points.marker, points.q2, points.xyz[:, :2], points.line, points.source)
         closed_form = CompensatorGeometryModel().fit(planar)
         density = _Density(planar, closed_form, self.cylinder_model, self.priors)

@@ -6,7 +6,6 @@ import pytest
 from scipy.optimize import least_squares
 
 from bayescal.errors import InputError
-from bayescal.reference import read_paper_reference
 from bayescal.geometry import (
     CompensatorGeometryModel,
     MarkerLayout,
@@ -15,6 +14,7 @@ from bayescal.geometry import (
     known_angle_fit,
     read_arc_points,
 )
+from bayescal.reference import read_paper_reference
 from bayescal.units import DEG, MM
 
 DATA = Path(__file__).resolve().parents[1] / "data"

@@ -7,10 +7,10 @@ from scipy.special import gammaln
 
 from bayescal import posterior
 from bayescal.circle import known_angle_crb
-from bayescal.reference import read_paper_reference
 from bayescal.geometry import CompensatorGeometryModel, MarkerLayout, MarkerPoints, read_arc_points
 from bayescal.geometry_posterior import GeometryPosteriorModel, default_sampler
 from bayescal.geometry_report import STUDY_SIGMA, coverage_study
+from bayescal.reference import read_paper_reference
 from bayescal.units import DEG, MM
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -161,3 +161,13 @@ def test_intervals_cover_at_their_posterior_content(table1):
             rate = study.loc[name, f"content_{k}"]
             error = math.sqrt(rate * (1 - rate) / n_rep)
             assert abs(study.loc[name, f"covered_{k}"] - rate) < max(3.5 * error, 1.5 / n_rep), (name, k)
+
+
+def test_z_coordinates_are_announced_as_unused_by_the_planar_posterior(table1):
+    with_z = MarkerPoints(
+        table1.marker, table1.q2, np.column_stack([table1.xyz, np.full(len(table1.q2), 0.05)]), table1.line, "z.csv"
+    )
+    model = GeometryPosteriorModel(sampler=default_sampler(n_chains=2, n_tune=50, n_draws=50))
+    with pytest.warns(UserWarning, match=r"z.csv: the posterior uses x and y only .* 0.00 deg from Z"):
+        fit = model.fit(with_z, rng=0)
+    assert fit.summary().loc["L", "mean"] == pytest.approx(184.72, abs=0.1)
