@@ -42,6 +42,7 @@ from .errors import InputError, NotIdentifiableWarning
 from .gibbs import GibbsSampler
 from .identifiability import Identifiability, analyse, grouped, practical_reasons
 from .likelihood import JOINT2, CompensatedPosterior, DeflectionEquations, GeometryPrior, PerAnglePosterior
+from .posterior import diagnostics, warn_if_unconverged
 from .robot import Robot
 from .sampling import EnsembleSampler
 from .stiffness import compliance_design, equilibrium
@@ -516,6 +517,7 @@ class ElastostaticModel:
         for names, reason in grouped(practical):
             warnings.warn(f"{_listed(names)} not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=2)
         residual = corrected.y - corrected.per_angle_design()[:, ident.identifiable] @ cf.per_angle
+        warn_if_unconverged(diagnostics(tree), what="the elastostatic posterior")
         return ElastostaticResults(
             tree=tree,
             identifiability=replace(ident, practical=practical),
@@ -866,8 +868,6 @@ class ElastostaticResults:
 
     def diagnostics(self) -> dict:
         """Convergence and fit diagnostics (the CLI's ``diagnostics`` block)."""
-        from .posterior import diagnostics
-
         report = diagnostics(self.tree)
         report |= {
             "model": self.model,

@@ -242,13 +242,15 @@ class GeometryPosteriorModel:
         geometry = CompensatorGeometry(
             summary_mean["L"] * MM, summary_mean["a_x"] * MM, summary_mean["a_y"] * MM, summary_mean["phi"] * DEG
         )
+        diagnostics = posterior.diagnostics(tree)
+        posterior.warn_if_unconverged(diagnostics, what="the geometry posterior")
         return GeometryPosterior(
             tree=tree,
             closed_form=closed_form,
             geometry=geometry,
             residuals=residuals,
             residuals_rms={name: _rms(r) for name, r in residuals.items()},
-            diagnostics=posterior.diagnostics(tree),
+            diagnostics=diagnostics,
             cylinder_model=self.cylinder_model,
         )
 

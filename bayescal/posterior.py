@@ -9,6 +9,7 @@ self-describing.  Intervals follow the paper: ``lo3``/``hi3`` are the mean
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from os import PathLike
 from typing import Any
@@ -18,7 +19,16 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-__all__ = ["posterior_tree", "summarize", "diagnostics", "parameters_json", "save", "load"]
+__all__ = ["posterior_tree", "summarize", "diagnostics", "warn_if_unconverged", "ConvergenceWarning", "parameters_json", "save", "load"]
+
+R_HAT_LIMIT = 1.01
+"""Largest rank-normalised split R-hat accepted as converged (Vehtari et al. 2021)."""
+ESS_LIMIT = 400
+"""Smallest bulk and tail ESS for stable intervals (Vehtari et al. 2021 recommend 100 per chain for 4 chains)."""
+
+
+class ConvergenceWarning(UserWarning):
+    """The sampler has not converged well enough for its intervals to be trusted."""
 
 SUMMARY_COLUMNS = ["mean", "sd", "lo3", "hi3", "r_hat", "ess_bulk", "ess_tail", "unit"]
 
@@ -120,6 +130,30 @@ def diagnostics(tree: xr.DataTree) -> dict[str, float | int]:
         "n_chains": int(posterior.sizes["chain"]),
         "n_draws": int(posterior.sizes["draw"]),
     }
+
+
+def warn_if_unconverged(report: dict[str, float | int], *, what: str) -> None:
+    """Warn when the diagnostics of :func:`diagnostics` fall short of the usual thresholds.
+
+    Parameters
+    ----------
+    report
+        The output of :func:`diagnostics`.
+    what
+        The posterior, as the user knows it (e.g. ``"the geometry posterior"``).
+    """
+    problems = []
+    if not report["r_hat_max"] <= R_HAT_LIMIT:
+        problems.append(f"R-hat {report['r_hat_max']:.3f} > {R_HAT_LIMIT}")
+    for key, label in (("ess_bulk_min", "bulk"), ("ess_tail_min", "tail")):
+        if not report[key] >= ESS_LIMIT:
+            problems.append(f"{label} ESS {report[key]:.0f} < {ESS_LIMIT}")
+    if problems:
+        warnings.warn(
+            f"{what} may not have converged ({', '.join(problems)}): draw more (e.g. --draws) before trusting its intervals",
+            ConvergenceWarning,
+            stacklevel=3,
+        )
 
 
 def parameters_json(summary: pd.DataFrame) -> dict[str, dict[str, float | str]]:

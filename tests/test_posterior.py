@@ -91,3 +91,12 @@ def test_same_seed_same_draws():
     first = sampler.sample(log_prob, np.zeros(3), np.ones(3), np.random.default_rng(7))
     second = sampler.sample(log_prob, np.zeros(3), np.ones(3), np.random.default_rng(7))
     np.testing.assert_array_equal(first, second)
+
+
+def test_unconverged_posteriors_are_warned_about():
+    from bayescal.posterior import ConvergenceWarning, warn_if_unconverged
+
+    good = {"r_hat_max": 1.002, "ess_bulk_min": 2000.0, "ess_tail_min": 1500.0}
+    warn_if_unconverged(good, what="x")  # silent
+    with pytest.warns(ConvergenceWarning, match=r"the test posterior may not have converged \(R-hat 1.050 > 1.01, tail ESS 90 < 400\)"):
+        warn_if_unconverged(good | {"r_hat_max": 1.05, "ess_tail_min": 90.0}, what="the test posterior")
