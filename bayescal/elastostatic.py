@@ -196,7 +196,7 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray) -> None
             direction = loaded[0] / np.linalg.norm(loaded[0])
             warnings.warn(
                 f"{campaign.source}: all loads are parallel (force direction {np.array2string(direction, precision=3)}); "
-                "the paper warns this makes the identification singular — see the identifiability report",
+                "Klimchik et al. advise varying the load direction: parameters such loads cannot excite are reported as not identifiable",
                 UserWarning,
                 stacklevel=2,
             )
