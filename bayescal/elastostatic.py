@@ -258,6 +258,8 @@ class ClosedForm:
         ``[K_theta2^0, K_c, s0]`` from eq 34 (None when not identifiable).
     k2 : numpy.ndarray
         Equivalent joint-2 compliance at each q2 angle (``nan`` where not identifiable).
+    k2_sd : numpy.ndarray
+        Its standard deviation from ``cov``.
     """
 
     per_angle: np.ndarray
@@ -266,6 +268,7 @@ class ClosedForm:
     compliances: np.ndarray
     spring: np.ndarray | None
     k2: np.ndarray
+    k2_sd: np.ndarray
 
 
 def closed_form(
@@ -286,11 +289,13 @@ def closed_form(
     columns = [c for c, keep in zip(equations.per_angle_columns(), identifiability.identifiable) if keep]
     compliances = np.full(6, np.nan)
     k2 = np.full(equations.q2.size, np.nan)
-    for value, (joint, angle) in zip(k, columns):
+    k2_sd = np.full(equations.q2.size, np.nan)
+    for index, (value, (joint, angle)) in enumerate(zip(k, columns)):
         if angle is None:
             compliances[joint] = value
         else:
             k2[angle] = value
+            k2_sd[angle] = np.sqrt(cov[index, index])
     spring = None
     if identifiability.compensator:
         known = np.isfinite(k2) & (k2 > 0)
@@ -298,7 +303,7 @@ def closed_form(
         w = np.linalg.lstsq(C, 1.0 / k2[known], rcond=None)[0]
         spring = np.array([w[0], w[1], w[2] / w[1] if w[1] != 0 else np.nan])
         compliances[JOINT2] = 1.0 / w[0]
-    return ClosedForm(per_angle=k, cov=cov, sigma=sigma, compliances=compliances, spring=spring, k2=k2)
+    return ClosedForm(per_angle=k, cov=cov, sigma=sigma, compliances=compliances, spring=spring, k2=k2, k2_sd=k2_sd)
 
 
 # --------------------------------------------------------------------------- exact model
@@ -880,6 +885,24 @@ class ElastostaticResults:
         }
         return report
 
+    def equivalent_compliance(self, q2: np.ndarray) -> np.ndarray:
+        """``(S, n)`` posterior draws of joint 2's equivalent compliance (rad/(N·m)) at angles ``q2`` (rad).
+
+        ``1 / (K_theta2^0 + K_c·a·L·η(q2))`` of eq 8 with every draw of the
+        spring and, when it was propagated, of the compensator geometry: the
+        paper's Fig. 7 with its uncertainty.  Needs the compensated model (at
+        least three q2 angles).
+        """
+        d = self.draws
+        if d.spring is None:
+            raise ValueError("the campaign does not identify the compensator model (fewer than three q2 angles)")
+        spring = d.spring.reshape(-1, 3)
+        geometry = d.geometry.reshape(-1, 4) if d.geometry is not None else np.broadcast_to(self.geometry.mean, (spring.shape[0], 4))
+        q2 = np.asarray(q2, dtype=float)
+        return np.array([
+            1.0 / CompensatorGeometry(*g).with_spring(s[1], s[2]).joint_stiffness(q2, s[0]) for s, g in zip(spring, geometry)
+        ])
+
     def linear_vs_exact(self) -> pd.DataFrame | None:
         """Shift of each linear-model estimate in exact-model sd, and the ratio of their sds."""
         if self.linear_tree is None:
@@ -913,11 +936,7 @@ class ElastostaticResults:
         if missing and fill is None:
             return None
         if d.spring is not None:
-            spring = d.spring.reshape(-1, 3)
-            geometry = d.geometry.reshape(-1, 4) if d.geometry is not None else np.broadcast_to(self.geometry.mean, (spring.shape[0], 4))
-            k2 = np.array([
-                1.0 / CompensatorGeometry(*g).with_spring(s[1], s[2]).joint_stiffness(q2, s[0]) for s, g in zip(spring, geometry)
-            ])
+            k2 = self.equivalent_compliance(np.array([q2]))[:, 0]
         else:
             match = np.flatnonzero(np.abs(self.q2 - q2) < 0.5 * 10.0**-ANGLE_DECIMALS * DEG)
             if not match.size or np.all(np.isnan(d.k2[..., match[0]])):

@@ -17,7 +17,7 @@ from .compensator import Compensator, CompensatorGeometry
 from .geometry import LEVER_MARKER, GeometryFit, MarkerPoints
 from .units import DEG, MM
 
-__all__ = ["plot_eta_curves", "plot_arc_fit"]
+__all__ = ["plot_eta_curves", "plot_arc_fit", "plot_joint2_compliance"]
 
 
 def plot_eta_curves(
@@ -130,3 +130,58 @@ def plot_arc_fit(
     cylinder_ax.set_title("Cylinder markers", fontsize=9)
     cylinder_ax.legend(fontsize=7)
     return figure
+
+
+def plot_joint2_compliance(
+    q2: ArrayLike,
+    draws: ArrayLike,
+    angles: ArrayLike,
+    per_angle_mean: ArrayLike,
+    per_angle_sd: ArrayLike,
+    own: float | None = None,
+    truth: ArrayLike | None = None,
+) -> Figure:
+    """Joint 2's equivalent compliance against q2 with its posterior band (the paper's Fig. 7).
+
+    Parameters
+    ----------
+    q2
+        ``(n,)`` joint angles in rad.
+    draws
+        ``(S, n)`` posterior draws of the equivalent compliance at ``q2``, rad/(N·m).
+    angles, per_angle_mean, per_angle_sd
+        The campaign's q2 angles (rad) and the per-angle estimates (rad/(N·m)) of eq 33,
+        drawn with ±3 sd bars.
+    own
+        The compliance of joint 2 without its compensator (1/K_theta2^0), drawn dashed.
+    truth
+        ``(n,)`` the true curve, for simulations.
+    """
+    scale = 1e6  # rad/(N·m) to μrad/(N·m)
+    q2_deg = np.asarray(q2, dtype=float) / DEG
+    draws = np.asarray(draws, dtype=float) * scale
+    low, mid, high = np.quantile(draws, [0.00135, 0.5, 0.99865], axis=0)
+    figure = Figure(figsize=(6.4, 4.2), layout="constrained")
+    ax = figure.add_subplot()
+    ax.fill_between(q2_deg, low, high, color="C0", alpha=0.25, lw=0, label="posterior 99.73 % band")
+    ax.plot(q2_deg, mid, color="C0", lw=1.6, label="posterior median")
+    ax.errorbar(
+        np.asarray(angles, dtype=float) / DEG,
+        np.asarray(per_angle_mean, dtype=float) * scale,
+        yerr=3 * np.asarray(per_angle_sd, dtype=float) * scale,
+        fmt="o",
+        color="C1",
+        capsize=3,
+        label="per-angle estimate ±3σ (eq 33)",
+    )
+    if truth is not None:
+        ax.plot(q2_deg, np.asarray(truth, dtype=float) * scale, color="k", lw=1.0, ls=":", label="truth")
+    if own is not None:
+        ax.axhline(own * scale, color="0.4", lw=1.0, ls="--", label="without compensator (1/K_θ2^0)")
+    ax.set_xlabel("q2 [deg]")
+    ax.set_ylabel("equivalent joint-2 compliance [μrad/(N·m)]")
+    ax.set_title("Joint 2 with its gravity compensator (eq 8)", fontsize=9)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return figure
+

@@ -169,3 +169,16 @@ def test_geometry_posterior_becomes_the_gaussian_prior(tmp_path):
     save(posterior_tree(draws, units={"L": "mm", "a_x": "mm", "a_y": "mm"}), incomplete)
     with pytest.raises(InputError, match="no variable 'phi'"):
         posterior_geometry(incomplete)
+
+
+def test_equivalent_compliance_curve_covers_the_truth_and_matches_the_per_angle_draws(cell, results):
+    q2 = np.linspace(-140, 0, 8) * np.pi / 180
+    draws = results.equivalent_compliance(q2)
+    assert draws.shape[1] == q2.size
+    truth = 1.0 / cell.compensator.joint_stiffness(q2, 1.0 / cell.compliances[1])
+    low, high = np.quantile(draws, [0.00135, 0.99865], axis=0)
+    assert np.all((low < truth) & (truth < high))
+    at_campaign_angle = results.compliance_draws(results.q2[0], fill=cell.compliances)[:, 1]
+    np.testing.assert_allclose(at_campaign_angle, results.equivalent_compliance(results.q2[:1])[:, 0])
+    closed = results.closed_form
+    assert np.all(np.isfinite(closed.k2_sd)) and np.all(closed.k2_sd < 0.01 * closed.k2)

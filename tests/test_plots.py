@@ -40,3 +40,21 @@ def test_arc_fit_figure_shows_points_and_residuals(tmp_path):
     labels = {line.get_label() for line in cylinder.get_lines()}
     assert {"P01 concentric (radial)", "P02 concentric (radial)", "P01 other", "P02 other"} <= labels
     figure.savefig(tmp_path / "arcs.png")
+
+
+def test_joint2_compliance_figure_has_band_points_and_lines(tmp_path):
+    from bayescal.plots import plot_joint2_compliance
+
+    q2 = np.linspace(-140, 0, 30) * DEG
+    rng = np.random.default_rng(0)
+    draws = 0.3e-6 * (1 + 0.01 * rng.standard_normal((500, 1))) * np.ones((1, q2.size))
+    angles = np.array([-140.0, -60.0, 0.0]) * DEG
+    figure = plot_joint2_compliance(q2, draws, angles, np.full(3, 0.3e-6), np.full(3, 1e-9), own=0.302e-6, truth=np.full(q2.size, 0.3e-6))
+    ax = figure.axes[0]
+    assert len(ax.collections) >= 2  # the band and the error bars
+    low, high = ax.get_ylim()
+    assert low < 0.295 < 0.305 < high  # μrad/(N·m): the data are drawn in the paper's unit
+    labels = [text.get_text() for text in ax.get_legend().get_texts()]
+    assert "truth" in labels and any("without compensator" in label for label in labels)
+    figure.savefig(tmp_path / "joint2.png")
+    assert (tmp_path / "joint2.png").stat().st_size > 1000
