@@ -6,7 +6,7 @@ import pytest
 from bayescal.cell import load_cell
 from bayescal.elastostatic import ElastostaticModel, exact_deflections
 from bayescal.plan import read_plan
-from bayescal.testpose import predict_test_pose
+from bayescal.testpose import predict_cell_test_pose, predict_test_pose
 from bayescal.twin import DigitalTwin
 
 
@@ -21,22 +21,9 @@ def setup():
     return cell, results
 
 
-def predict(cell, results, **extra):
-    return predict_test_pose(
-        results,
-        cell.robot,
-        cell.test_q,
-        cell.test_wrench,
-        cell.test_point,
-        nominal_compensator=cell.compensator,
-        load_point=cell.test_point,
-        **extra,
-    )
-
-
 def test_rho0_from_covariance_agrees_with_the_draws(setup):
     cell, results = setup
-    prediction = predict(cell, results, nominal_compliances=cell.compliances)
+    prediction = predict_cell_test_pose(results, cell)
     block = prediction.to_json()
     error = block["residual_error_mm"]
     assert error["rms"] == pytest.approx(error["rho0_from_covariance"], rel=0.05)
@@ -46,7 +33,7 @@ def test_rho0_from_covariance_agrees_with_the_draws(setup):
 
 def test_prediction_covers_the_true_deflection(setup):
     cell, results = setup
-    prediction = predict(cell, results, nominal_compliances=cell.compliances)
+    prediction = predict_cell_test_pose(results, cell)
     true = exact_deflections(
         cell.robot,
         cell.test_q,
@@ -60,13 +47,15 @@ def test_prediction_covers_the_true_deflection(setup):
     for i, axis in enumerate("xyz"):
         # k1 is held at its true value here, so the truth must lie inside ±3σ.
         assert block[axis]["lo3"] <= true[i] * 1e3 <= block[axis]["hi3"], axis
-    against_truth = predict(cell, results, nominal_compliances=cell.compliances, truth=true)
+    against_truth = predict_cell_test_pose(results, cell, truth=true)
     assert np.sqrt(np.mean(against_truth.errors**2)) >= np.sqrt(np.mean(prediction.errors**2))
 
 
 def test_unidentified_joint_without_a_nominal_value_is_reported(setup):
     cell, results = setup
-    prediction = predict(cell, results)
+    prediction = predict_test_pose(
+        results, cell.robot, cell.test_q, cell.test_wrench, cell.test_point, nominal_compensator=cell.compensator
+    )
     block = prediction.to_json()
     assert block["available"] is False
     assert "k1" in block["reason"]
