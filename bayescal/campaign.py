@@ -23,6 +23,7 @@ provenance notes.
 from __future__ import annotations
 
 import csv
+import io
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from os import PathLike
@@ -131,19 +132,18 @@ def write_campaign(campaign: Campaign, path: str | PathLike[str], *, comments: S
     decimals = {name: 6 for name in frame.columns if name.endswith("_deg")}
     decimals |= {name: 4 for name in WRENCH_COLUMNS}
     decimals |= {name: 5 for name in POSITION_COLUMNS}
-    text = [f"# {line}" for comment in comments for line in str(comment).splitlines()]
-    text.append(",".join(frame.columns))
+    out = io.StringIO()
+    out.writelines(f"# {line}\n" for comment in comments for line in str(comment).splitlines())
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(frame.columns)
     columns = list(frame.columns)
     for row in frame.itertuples(index=False):
-        fields = []
-        for name, value in zip(columns, row):
-            if name in decimals:
-                # "+ 0.0" turns a rounded -0.0 into 0.0 so the file does not depend on rounding sign.
-                fields.append(f"{round(float(value), decimals[name]) + 0.0:.{decimals[name]}f}")
-            else:
-                fields.append(str(value))
-        text.append(",".join(fields))
-    Path(path).write_text("\n".join(text) + "\n", encoding="utf-8")
+        # "+ 0.0" turns a rounded -0.0 into 0.0 so the file does not depend on rounding sign.
+        writer.writerow(
+            f"{round(float(value), decimals[name]) + 0.0:.{decimals[name]}f}" if name in decimals else value
+            for name, value in zip(columns, row)
+        )
+    Path(path).write_text(out.getvalue(), encoding="utf-8")
 
 
 def _count_joint_columns(path: Path) -> int:

@@ -166,10 +166,12 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     reader = _Reader(data, text, source)
 
     urdf = file.parent / reader.text("robot", "urdf")
+    flange = reader.text("robot", "flange", default="flange")
     try:
-        robot = Robot.from_urdf(urdf, flange=reader.text("robot", "flange", default="flange"))
+        robot = Robot.from_urdf(urdf, flange=flange)
     except InputError as error:
-        reader.fail(f"{error.what} ({urdf})", "robot", "urdf")
+        key = "flange" if error.what.startswith("the model has no frame") else "urdf"
+        reader.fail(f"{error.what} ({urdf})", "robot", key)
 
     compliances = reader.vector("joints", "k_urad_per_Nm", robot.nq, unit="μrad/(N·m)") * URAD_PER_NM
     if np.any(compliances <= 0):

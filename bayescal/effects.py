@@ -118,11 +118,6 @@ def _rigid_motion(twist: np.ndarray, centre: np.ndarray, points: np.ndarray) -> 
     return twist[:3] + np.cross(twist[3:], points - centre)
 
 
-def _load_points(robot: Robot, q, points, load_point):
-    rotation, origin = robot.flange_pose(q)
-    return np.asarray(points) @ rotation.T + origin, rotation @ np.asarray(load_point) + origin
-
-
 @dataclass(frozen=True)
 class LinkCompliance(Effect):
     """Bending, stretch and torsion of the upper arm (joint 2 to 3) and the forearm (joint 4 to 5).
@@ -149,7 +144,7 @@ class LinkCompliance(Effect):
             return np.zeros((len(points), 3))
         data = robot.model.createData()
         pin.forwardKinematics(robot.model, data, np.asarray(q, dtype=float))
-        base_points, load = _load_points(robot, q, points, load_point)
+        base_points, load = robot.point_position(q, points), robot.point_position(q, load_point)
         total = np.zeros((len(points), 3))
         for root, tip, EI, GJ, EA in self.SECTIONS:
             start = data.oMi[root + 1].translation
@@ -188,7 +183,8 @@ class ToolCompliance(Effect):
 
     def displacement(self, robot, q, points, force, couple, load_point) -> np.ndarray:
         rotation, origin = robot.flange_pose(q)
-        base_points, load = _load_points(robot, q, points, load_point)
+        base_points = np.asarray(points) @ rotation.T + origin
+        load = rotation @ np.asarray(load_point) + origin
         moment = rotation.T @ (np.cross(load - origin, force) + couple)
         moment[0] = 0.0
         tilt = rotation @ (self.magnitude * URAD_PER_NM * moment)

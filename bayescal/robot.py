@@ -4,7 +4,8 @@ Everything is computed by Pinocchio; this module only fixes the conventions the
 rest of the package relies on:
 
 * joint angles ``q`` are the controller's, in rad, one per joint (every joint
-  must be a one-degree-of-freedom revolute or prismatic joint);
+  must be a one-degree-of-freedom revolute joint: angles are read in deg and
+  compliances are in rad/(N·m));
 * points on the tool are given in the ``flange`` frame, in m;
 * velocities and Jacobians are expressed in the base axes at the point they
   describe (Pinocchio's ``LOCAL_WORLD_ALIGNED``), rows ordered ``[v; ω]``;
@@ -56,10 +57,13 @@ class Robot:
     def __init__(self, model: pin.Model, *, flange: str = "flange", source: str | None = None) -> None:
         if model.nq != model.nv:
             raise InputError(
-                "every joint must be a single revolute or prismatic joint (found a joint with more coordinates "
+                "every joint must be a single revolute joint (found a joint with more coordinates "
                 "than velocities, e.g. a 'continuous' joint)",
                 source=source,
             )
+        prismatic = [name for name, joint in zip(list(model.names)[1:], list(model.joints)[1:]) if joint.shortname().startswith("JointModelP")]
+        if prismatic:
+            raise InputError(f"joint '{prismatic[0]}' is prismatic; every joint must be revolute", source=source)
         if not model.existFrame(flange):
             raise InputError(f"the model has no frame named '{flange}'", source=source)
         self.model = model

@@ -243,7 +243,8 @@ def _solve(robot, q, compliances, wrench, compensator, gravity, load_point, join
             size *= 0.5
         theta = theta + size * step
         value, torque, derivative = candidate
-        if np.max(np.abs(size * step)) < tol or np.max(np.abs(value)) < tol:
+        # The full Newton step, not the backtracked one, says whether the solve has settled.
+        if np.max(np.abs(step)) < tol or np.max(np.abs(value)) < tol:
             return theta, torque, derivative, law
     raise EquilibriumError(
         f"Newton's method did not converge in {max_iter} iterations (last residual {np.max(np.abs(value)):.3g} rad)"

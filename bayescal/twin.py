@@ -28,12 +28,10 @@ from .effects import EFFECTS, Effect
 from .errors import InputError
 from .plan import Plan
 from .reference import published
-from .stiffness import COMPENSATED_JOINT, LinearJoints, compliance_design, equilibrium
+from .stiffness import COMPENSATED_JOINT, EquilibriumError, LinearJoints, compliance_design, equilibrium
 from .units import MM, N_PER_MM, URAD_PER_NM
 
 __all__ = ["DigitalTwin", "design_precision", "effect_detectability"]
-
-"""Relative ±3σ half-widths (%) of the identified parameters, Klimchik et al., Table IV."""
 
 
 class DigitalTwin:
@@ -80,9 +78,11 @@ class DigitalTwin:
 
     def positions(self, q, mass: float) -> tuple[np.ndarray, np.ndarray]:
         """Exact marker positions (m, base frame, in :attr:`marker_names` order) unloaded and loaded with ``mass`` kg."""
-        robot = self.cell.robot
         q = np.asarray(q, dtype=float)
-        wrench = self.cell.load_wrench(q, mass)
+        return self._positions(q, self.cell.load_wrench(q, mass))
+
+    def _positions(self, q: np.ndarray, wrench: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        robot = self.cell.robot
         unloaded = robot.point_position(q + self._deflections(q, np.zeros(6)), self._points)
         theta = self._deflections(q, wrench)
         loaded = robot.point_position(q + theta, self._points)
@@ -104,9 +104,12 @@ class DigitalTwin:
         masses = plan.masses(self.cell.load_mass)
         n_markers = len(self.marker_names)
         rows = {"config": [], "repeat": [], "marker": [], "q": [], "wrench": [], "p0": [], "p1": []}
-        for number, (q, mass) in enumerate(zip(plan.q, masses), start=1):
-            unloaded, loaded = self.positions(q, mass)
+        for number, (q, mass, line) in enumerate(zip(plan.q, masses, plan.lines), start=1):
             wrench = self.cell.load_wrench(q, mass)
+            try:
+                unloaded, loaded = self._positions(q, wrench)
+            except EquilibriumError as exc:
+                raise InputError(f"the twin finds no static equilibrium under {mass:g} kg ({exc})", source=plan.source, line=int(line) or None) from None
             for repeat in range(1, repeats + 1):
                 readings = []
                 for exact in (unloaded, loaded):
@@ -158,12 +161,11 @@ def _linear_model(cell: Cell, plan: Plan, repeats: int):
         chain = np.eye(robot.nq, len(names))
         if compensator is not None:
             effective[j2] = 1.0 / (1.0 / k[j2] + compensator.stiffness(q[j2]))
-            aL = compensator.a * compensator.L
-            gamma, s = compensator.gamma(q[j2]), compensator.s(q[j2])
-            deta_ds0 = (aL / s**2 * np.sin(gamma) ** 2 + np.cos(gamma)) / s
+            # K_c·a·L·η = C1·K_c + C2·s0·K_c (eq 35), so its derivatives in K_c and s0 are C1 + s0·C2 and K_c·C2.
+            _, c1, c2 = compensator.regressor(q[j2])
             chain[j2, j2] = effective[j2] ** 2 / k[j2] ** 2
-            chain[j2, -2] = -effective[j2] ** 2 * aL * compensator.eta(q[j2])
-            chain[j2, -1] = -effective[j2] ** 2 * compensator.K_c * aL * deta_ds0
+            chain[j2, -2] = -effective[j2] ** 2 * (c1 + compensator.s0 * c2)
+            chain[j2, -1] = -effective[j2] ** 2 * compensator.K_c * c2
         designs = [compliance_design(robot, q, point, wrench) for point in cell.markers.values()]
         noise = [np.sqrt(2.0) * cell.tracker.sigma(robot.point_position(q, point)) for point in cell.markers.values()]
         # the campaign's row order: repeat, then marker

@@ -81,3 +81,11 @@ def test_plan_outside_limits_exit_2(main, tmp_path, capsys):
 def test_missing_output_directory_exit_2(main, tmp_path, capsys):
     assert main(["simulate", "--plan", PLAN, "--config", CONFIG, "-o", str(tmp_path / "no" / "x.csv")]) == 2
     assert "output directory does not exist" in capsys.readouterr().err
+
+
+def test_a_load_the_arm_cannot_hold_exits_2_naming_the_plan_line(main, tmp_path, capsys):
+    plan = tmp_path / "plan.csv"
+    plan.write_text("q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,load_kg\n0,-45,30,0,20,0,250\n0,-45,30,0,20,0,1e6\n")
+    assert main(["simulate", "--plan", str(plan), "--config", CONFIG, "-o", str(tmp_path / "x.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "plan.csv:3" in err and "no static equilibrium under 1e+06 kg" in err and len(err.splitlines()) == 1

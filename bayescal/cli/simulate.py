@@ -12,7 +12,7 @@ __all__ = ["add_parser", "run"]
 def add_parser(subparsers) -> None:
     from ..effects import EFFECTS
 
-    effects = "; ".join(f"{name} (default {cls.default:g} {cls.unit})" for name, cls in EFFECTS.items())
+    effects = "; ".join(f"{name}: {cls.summary} (default {cls.default:g} {cls.unit})" for name, cls in EFFECTS.items())
     parser = subparsers.add_parser(
         "simulate",
         help="simulate an elastostatic calibration campaign on the digital twin",
