@@ -41,7 +41,7 @@ from .compensator import Compensator, CompensatorGeometry
 from .errors import InputError, NotIdentifiableWarning
 from .gibbs import GibbsSampler
 from .identifiability import Identifiability, analyse, grouped, practical_reasons
-from .likelihood import JOINT2, CompensatedPosterior, DeflectionEquations, GeometryPrior, PerAnglePosterior
+from .likelihood import JOINT2, CompensatedPosterior, DeflectionEquations, GeometryPrior, PerAnglePosterior, compensator_regressor
 from .posterior import diagnostics, warn_if_unconverged
 from .robot import Robot
 from .sampling import EnsembleSampler
@@ -175,7 +175,7 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray) -> None
             f"{MAX_DEFLECTION / MM:.0f} mm a loaded robot can plausibly deflect: are x1_mm..z1_mm in another unit?",
             source=campaign.source,
             line=int(campaign.lines[worst]) or None,
-            column="x1_mm",
+            column="xyz"[int(np.argmax(np.abs(campaign.displacement[worst])))] + "1_mm",
         )
     distance = np.linalg.norm(points, axis=1)
     worst = int(np.argmax(distance))
@@ -185,7 +185,7 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray) -> None
             f"({MAX_MARKER_DISTANCE:g} m): are x0_mm..z0_mm in metres instead of mm?",
             source=campaign.source,
             line=int(campaign.lines[worst]) or None,
-            column="x0_mm",
+            column="xyz"[int(np.argmax(np.abs(campaign.p0[worst])))] + "0_mm",
         )
     _check_markers(campaign, points)
     forces = campaign.wrench[:, :3]
@@ -212,14 +212,15 @@ def _check_markers(campaign: Campaign, points: np.ndarray) -> None:
     bias the compliances.
     """
     labels = sorted(set(campaign.marker))
+    configurations = {label: np.unique(campaign.config[campaign.marker == label]) for label in labels}
+    repeated = [label for label in labels if configurations[label].size >= 2]
     for label in labels:
         rows = np.flatnonzero(campaign.marker == label)
-        configs = np.unique(campaign.config[rows])
-        if configs.size < 2 and len(labels) > 1:
-            others = ", ".join(other for other in labels if other != label)
+        # A label seen once is only suspicious beside labels that are measured in several configurations.
+        if configurations[label].size < 2 and repeated:
             raise InputError(
-                f"unknown marker '{label}': it is measured in configuration {configs[0]} only, while {others} "
-                "are measured in several; a marker must be measured in at least two configurations",
+                f"unknown marker '{label}': it is measured in configuration {configurations[label][0]} only, while "
+                f"{', '.join(repeated)} are measured in several; a marker must be measured in at least two configurations",
                 source=campaign.source,
                 line=int(campaign.lines[rows[0]]) or None,
                 column="marker",
@@ -390,7 +391,14 @@ def posterior_geometry(path) -> GeometryPrior:
             raise InputError(f"the geometry posterior has no variable '{name}'", source=str(path), column=name)
         columns.append(np.asarray(posterior[name].values, dtype=float).reshape(-1) * factor)
     tree.close()
-    return GeometryPrior.from_draws(np.column_stack(columns), source=f"geometry posterior {path}")
+    draws = np.column_stack(columns)
+    spread = draws.std(axis=0)
+    if np.any(spread <= 1e-9 * np.abs(draws.mean(axis=0))) or np.linalg.matrix_rank(np.corrcoef(draws, rowvar=False)) < 4:
+        raise InputError(
+            "the geometry posterior's draws of L, a_x, a_y, phi have a singular covariance (a constant or duplicated variable)",
+            source=str(path),
+        )
+    return GeometryPrior.from_draws(draws, source=f"geometry posterior {path}")
 
 
 def config_geometry(compensator: CompensatorGeometry, source: str = "") -> GeometryPrior:
@@ -490,7 +498,7 @@ class ElastostaticModel:
         if ident.compensator:
             ident = _check_regression(ident, equations.per_angle_columns(), equations.q2, self.geometry.mean)
         if announce:
-            for names, reason in grouped({k: v for k, v in ident.reasons.items() if not k.startswith("k2@")}):
+            for names, reason in grouped({k: v for k, v in ident.reasons.items() if not k.startswith("k2_q2[")}):
                 warnings.warn(f"{_listed(names)} not identifiable: {reason}", NotIdentifiableWarning, stacklevel=3)
             if ident.ill_conditioned:
                 warnings.warn(
@@ -899,9 +907,7 @@ class ElastostaticResults:
         spring = d.spring.reshape(-1, 3)
         geometry = d.geometry.reshape(-1, 4) if d.geometry is not None else np.broadcast_to(self.geometry.mean, (spring.shape[0], 4))
         q2 = np.asarray(q2, dtype=float)
-        return np.array([
-            1.0 / CompensatorGeometry(*g).with_spring(s[1], s[2]).joint_stiffness(q2, s[0]) for s, g in zip(spring, geometry)
-        ])
+        return np.array([1.0 / (compensator_regressor(g, q2) @ [K0, Kc, s0 * Kc]) for (K0, Kc, s0), g in zip(spring, geometry)])
 
     def linear_vs_exact(self) -> pd.DataFrame | None:
         """Shift of each linear-model estimate in exact-model sd, and the ratio of their sds."""

@@ -123,7 +123,7 @@ def compensator_precision(results: ElastostaticResults, cell: Cell) -> dict:
     cf = results.closed_form
     ident = results.identifiability
     kept = [name for name, keep in zip(ident.names, ident.identifiable) if keep]
-    joint2 = [name for name in ident.names if name.startswith("k2@")]
+    joint2 = [name for name in ident.names if name.startswith("k2_q2[")]
     index = [i for i, name in enumerate(kept) if name in joint2]
     angles = [joint2.index(kept[i]) for i in index]
     k2 = cf.per_angle[index]
@@ -459,7 +459,8 @@ def _linearisation_section(cell: Cell, plan: Plan) -> list[str]:
         f"joint 2 and {1e3 * np.abs(sag[:, 2]).max():.2f} mrad at joint 3 on Table III), while the linear model takes the "
         "arm at its commanded angles for its Jacobians, the load's moment arm and the markers' place on the tool. In a "
         f"twin without link weight and compensator the excess falls from {bare[0]:.0f} to {bare[1]:.1f} when loads and "
-        "noise are scaled down tenfold — the hundredfold drop of a purely second-order effect — which may be the "
+        f"noise are scaled down tenfold, a {bare[0] / bare[1]:.0f}-fold drop, near the hundredfold of a purely "
+        "second-order effect (its excess χ² grows as the load squared when the noise grows with the load) — which may be the "
         "issue's situation (its simulation is not described). The exact model removes both parts.",
         "",
     ]

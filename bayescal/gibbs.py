@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, optimize, stats
 
-from .likelihood import JOINT2, CompensatedPosterior, PerAnglePosterior, in_support
+from .likelihood import JOINT2, CompensatedPosterior, PerAnglePosterior, compensator_regressor, in_support
 
 __all__ = ["GibbsSampler"]
 
@@ -186,7 +186,7 @@ class _CompensatedState:
 
     def joint2(self, z: np.ndarray) -> np.ndarray:
         w, geometry = self.split(z)
-        return 1.0 / (self.posterior.regressor(geometry, self.posterior.equations.q2) @ w)
+        return 1.0 / (compensator_regressor(geometry, self.posterior.equations.q2) @ w)
 
     def _Xtr(self, k2: np.ndarray) -> np.ndarray:
         return self.gram.Xty - self.XtB @ k2
@@ -231,7 +231,7 @@ class _CompensatedState:
         w, geometry = self.split(z)
         if not in_support(np.array([w[0], w[1], z[2]]), geometry):
             return -np.inf
-        total = self.posterior.regressor(geometry, self.posterior.equations.q2) @ w
+        total = compensator_regressor(geometry, self.posterior.equations.q2) @ w
         if np.any(total <= 0):
             return -np.inf
         k2 = 1.0 / total

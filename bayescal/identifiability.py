@@ -72,7 +72,7 @@ class Identifiability:
     Attributes
     ----------
     names : list of str
-        Per-angle parameter names (``k1``, ``k2@<q2>deg`` …, ``k6``).
+        Per-angle parameter names (``k1``, ``k2_q2[<q2 in deg>]`` …, ``k6``).
     identifiable : numpy.ndarray of bool
         For each per-angle parameter.
     rank : int
@@ -123,8 +123,8 @@ class Identifiability:
 
 
 def angle_label(q2: float) -> str:
-    """Name of the joint-2 compliance at ``q2`` (rad): ``k2@-25.24deg``."""
-    return f"k2@{math.degrees(q2):.2f}deg"
+    """Name of the joint-2 compliance at ``q2`` (rad), as in the posterior summary: ``k2_q2[-25.240]`` (deg)."""
+    return f"k2_q2[{math.degrees(q2):.3f}]"
 
 
 def analyse(
@@ -167,8 +167,11 @@ def analyse(
         null = vt[rank:].T
         weight = np.linalg.norm(null, axis=1)
         confounded = kept[weight > 1e-6]
+        # Columns i and j are confounded together when the null space links them.
+        link = np.abs(null @ null.T)
         for i in confounded:
-            partners = [names[j] for j in confounded if j != i]
+            row = np.flatnonzero(kept == i)[0]
+            partners = [names[kept[col]] for col in np.flatnonzero(link[row] > 1e-6) if kept[col] != i]
             reasons[names[i]] = (
                 f"the campaign determines only a combination of {names[i]} with {', '.join(partners)}: "
                 "their columns of the design are linearly dependent"

@@ -26,11 +26,12 @@ has no effect); each noise variance Jeffreys
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
+
+from .compensator import CompensatorGeometry
 
 __all__ = [
     "DeflectionEquations",
@@ -41,9 +42,6 @@ __all__ = [
     "in_support",
 ]
 
-Regressor = Callable[[np.ndarray, np.ndarray], np.ndarray]
-"""``regressor(geometry, q2) -> (m, 3)``: rows C of eq 35 for geometry ``[L, a_x, a_y, phi]``."""
-
 JOINT2 = 1
 
 
@@ -52,8 +50,6 @@ def compensator_regressor(geometry: np.ndarray, q2: np.ndarray) -> np.ndarray:
 
     ``C(q2) @ [K_theta2^0, K_c, s0 * K_c]`` is the joint-2 stiffness (N·m/rad).
     """
-    from .compensator import CompensatorGeometry
-
     L, a_x, a_y, phi = (float(v) for v in geometry)
     return CompensatorGeometry(L=L, a_x=a_x, a_y=a_y, phi=phi).regressor(np.asarray(q2, dtype=float))
 
@@ -219,7 +215,6 @@ class CompensatedPosterior:
     equations: DeflectionEquations
     joints: tuple[int, ...]
     geometry: GeometryPrior
-    regressor: Regressor = compensator_regressor
 
     def __post_init__(self) -> None:
         if JOINT2 in self.joints:
@@ -258,14 +253,13 @@ class CompensatedPosterior:
         geometry = theta[p + 3 : p + 3 + self.n_geometry] if self.n_geometry else self.geometry.mean
         return k, stiffness, geometry, theta[p + 3 + self.n_geometry :]
 
-    def joint2_compliance(self, stiffness: np.ndarray, geometry: np.ndarray, q2: np.ndarray | None = None) -> np.ndarray:
+    def joint2_compliance(self, stiffness: np.ndarray, geometry: np.ndarray) -> np.ndarray:
         """Equivalent joint-2 compliance ``1 / (K_theta2^0 + K_c a L eta)`` at each angle (rad/(N·m)).
 
         ``nan`` where the equivalent stiffness is not positive.
         """
         K0, Kc, s0 = stiffness
-        angles = self.equations.q2 if q2 is None else q2
-        total = self.regressor(geometry, angles) @ np.array([K0, Kc, s0 * Kc])
+        total = compensator_regressor(geometry, self.equations.q2) @ np.array([K0, Kc, s0 * Kc])
         with np.errstate(divide="ignore"):
             return np.where(total > 0, 1.0 / total, np.nan)
 

@@ -169,6 +169,11 @@ def test_geometry_posterior_becomes_the_gaussian_prior(tmp_path):
     save(posterior_tree(draws, units={"L": "mm", "a_x": "mm", "a_y": "mm"}), incomplete)
     with pytest.raises(InputError, match="no variable 'phi'"):
         posterior_geometry(incomplete)
+    draws["phi"] = np.full((2, 500), 99.8)
+    constant = tmp_path / "constant.nc"
+    save(posterior_tree(draws, units={"L": "mm", "a_x": "mm", "a_y": "mm", "phi": "deg"}), constant)
+    with pytest.raises(InputError, match="singular covariance"):
+        posterior_geometry(constant)
 
 
 def test_equivalent_compliance_curve_covers_the_truth_and_matches_the_per_angle_draws(cell, results):
@@ -182,3 +187,23 @@ def test_equivalent_compliance_curve_covers_the_truth_and_matches_the_per_angle_
     np.testing.assert_allclose(at_campaign_angle, results.equivalent_compliance(results.q2[:1])[:, 0])
     closed = results.closed_form
     assert np.all(np.isfinite(closed.k2_sd)) and np.all(closed.k2_sd < 0.01 * closed.k2)
+
+
+def test_markers_of_a_single_configuration_are_not_called_unknown(cell, campaign):
+    from bayescal.elastostatic import check_campaign
+
+    rows = np.flatnonzero(campaign.config == campaign.config[0])
+    single = dataclasses.replace(
+        campaign, **{name: getattr(campaign, name)[rows] for name in ("config", "repeat", "marker", "q", "wrench", "p0", "p1", "lines")}
+    )
+    points = np.array([cell.robot.point_in_flange(q, p) for q, p in zip(single.q, single.p0)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        check_campaign(cell.robot, single, points)  # must not raise
+
+
+def test_implausible_deflection_names_the_coordinate_that_jumped(cell, campaign):
+    p1 = campaign.p1.copy()
+    p1[4, 2] += 0.5  # half a metre in z on the fifth row
+    with pytest.raises(InputError, match="column 'z1_mm'"):
+        ElastostaticModel.from_cell(cell, **SMALL).fit(dataclasses.replace(campaign, p1=p1))

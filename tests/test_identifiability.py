@@ -115,4 +115,14 @@ def test_practical_reasons_join_the_structural_ones_in_the_report():
     block = result.to_json()
     assert list(block["not_identifiable"]) == ["k1", "K_c"]
     assert block["structural"] == ["k1"]
-    assert "1/2" in block["rule"]
+
+
+def test_each_confounded_parameter_names_only_its_own_partners():
+    rng = np.random.default_rng(4)
+    X, _ = design_with(rng, 5)
+    X[:, 6] = X[:, 7]  # k3 and k4 move together
+    X[:, 8] = 2.0 * X[:, 9]  # and, separately, k5 and k6
+    result = analyse(X, columns(5), np.linspace(-2, 0, 5), np.ones((5, 6)), np.arange(5))
+    assert "combination of k3 with k4:" in result.reasons["k3"]
+    assert "combination of k5 with k6:" in result.reasons["k5"]
+    assert result.identifiable[:6].all()

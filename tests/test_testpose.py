@@ -48,7 +48,8 @@ def test_prediction_covers_the_true_deflection(setup):
         # k1 is held at its true value here, so the truth must lie inside ±3σ.
         assert block[axis]["lo3"] <= true[i] * 1e3 <= block[axis]["hi3"], axis
     against_truth = predict_cell_test_pose(results, cell, truth=true)
-    assert np.sqrt(np.mean(against_truth.errors**2)) >= np.sqrt(np.mean(prediction.errors**2))
+    # An honest posterior misses the truth by about its own spread, not by several times it.
+    assert np.sqrt(np.mean(against_truth.errors**2)) < 3 * np.sqrt(np.mean(prediction.errors**2))
 
 
 def test_unidentified_joint_without_a_nominal_value_is_reported(setup):

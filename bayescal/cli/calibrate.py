@@ -83,11 +83,11 @@ def _k2_per_angle(results) -> dict:
     summary = results.summary()
     reasons = results.identifiability.not_identifiable
     out = {}
-    for name in summary.index:
+    for name in results.identifiability.names:
         if not name.startswith("k2_q2["):
             continue
         key = f"{name[6:-1]} deg"
-        if name in reasons:
+        if name in reasons or name not in summary.index:
             out[key] = {"identifiable": False, "reason": reasons[name]}
         else:
             out[key] = {field: float(summary.loc[name, field]) for field in ("mean", "sd", "lo3", "hi3")} | {"unit": "urad/(N m)"}
