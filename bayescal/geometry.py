@@ -343,8 +343,10 @@ def concentric_fit(point_sets: Mapping[str, ArrayLike]) -> ConcentricFit:
         # Eq 28 restricted to the plane orthogonal to the axis, where the system is regular.
         in_plane = vectors[:, 1:]
         p_c = in_plane @ ((in_plane.T @ rhs) / values[1:])
-        everything = np.vstack(list(sets.values()))
-        centre = (np.eye(3) - np.outer(axis, axis)) @ p_c + np.outer(axis, axis) @ everything.mean(axis=0)
+        # Eq 27: minimising the sum of the squared radii puts the centre at the mean of the arcs' own
+        # centroids along the axis, which is the mean of all points only when every arc has as many points.
+        centroid = np.mean([p.mean(axis=0) for p in sets.values()], axis=0)
+        centre = (np.eye(3) - np.outer(axis, axis)) @ p_c + np.outer(axis, axis) @ centroid
     radii = {name: float(np.sqrt(np.mean(np.sum((p - centre) ** 2, axis=1)))) for name, p in sets.items()}
     residuals = {name: np.linalg.norm(p - centre, axis=1) - radii[name] for name, p in sets.items()}
     return ConcentricFit(centre, radii, residuals, axis)

@@ -53,6 +53,7 @@ from scipy.special import gammainc, gammaincinv
 
 from . import posterior
 from .compensator import CompensatorGeometry
+from .errors import InputError
 from .geometry import LEVER_MARKER, CompensatorGeometryModel, GeometryFit, MarkerPoints
 from .sampling import EnsembleSampler, Sampler
 from .units import DEG, MM
@@ -188,10 +189,24 @@ class GeometryPosteriorModel:
                 UserWarning,
                 stacklevel=2,
             )
-        planar = MarkerPoints(points.marker, points.q2, points.xyz[:, :2], points.line, points.source)
+        planar = MarkerPoints.from_arrays(points.marker, points.q2, points.xyz[:, :2], line=points.line, source=points.source)
         closed_form = CompensatorGeometryModel().fit(planar)
         density = _Density(planar, closed_form, self.cylinder_model, self.priors)
+        unknowns = 2 + density.n_offset
+        if density.counts[1] <= unknowns:
+            raise InputError(
+                f"the cylinder markers give {density.counts[1]:.0f} informative coordinates for {unknowns} unknowns "
+                "(p0 and each marker's offset), so their noise cannot be estimated: measure more angles or markers",
+                source=points.source,
+            )
         start = density.start()
+        if not np.isfinite(density(start)):
+            worst = max(closed_form.residuals_rms.values())
+            raise InputError(
+                f"the closed-form fit leaves a residual rms of {worst / MM:.3g} mm, outside the noise prior's "
+                f"{self.priors.sigma_min / MM:g} to {self.priors.sigma_max / MM:g} mm: are q2 in deg and x, y in mm?",
+                source=points.source,
+            )
         draws = self.sampler.sample(density, start, density.scale(start), rng)
         sigma = density.draw_sigma(draws, rng)
         return self._result(density, draws, sigma, closed_form, points)

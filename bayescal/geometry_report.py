@@ -346,7 +346,8 @@ def _a_y_discussion(points, closed, summary, rigid_summary, reference) -> list[s
     singles = {}
     for name in points.cylinder_markers:
         single = concentric_fit({name: points.of(name)[1][:, :2]})
-        singles[name] = (closed.p2[1] - single.centre[1]) / MM
+        # a_y follows the frame of the combined fit, which flips y when the arc turns the other way.
+        singles[name] = (-1.0 if closed.mirrored else 1.0) * (closed.p2[1] - single.centre[1]) / MM
     residuals = {name: closed.cylinder.residuals[name] / MM for name in points.cylinder_markers}
     pattern = "; ".join(
         f"{name}: {', '.join(f'{r:+.2f}' for r in residuals[name][np.argsort(points.of(name)[0])])}" for name in residuals

@@ -66,7 +66,6 @@ def test_summary_is_in_mm_and_deg(table1_fit):
     summary = table1_fit.summary()
     assert summary.loc["L", "unit"] == "mm"
     assert summary.loc["phi", "unit"] == "deg"
-    assert summary.loc["L", "value"] == pytest.approx(table1_fit.geometry.L / MM)
     assert {"R[P01]", "R[P02]", "rms[P1]", "rms[P01]", "rms[P02]"} <= set(summary.index)
 
 
@@ -184,14 +183,6 @@ def test_layout_reproduces_table1_and_simulates(table1, table1_fit):
     np.testing.assert_allclose(exact.p0, layout.p0, atol=1e-9)
 
 
-def test_paper_reference_holds_tables_2_and_4():
-    reference = read_paper_reference(REFERENCE)
-    assert reference.loc["L", "value"] == 184.72
-    assert reference.loc["a_y", "ci3"] == 0.69
-    assert reference.loc["K_c", "unit"] == "N/mm"
-    assert reference.loc["s0", "value"] == 458
-
-
 HEADER = "q2_deg,marker,x_mm,y_mm"
 GOOD_ROWS = [
     "-0.01,P1,-31.84,183.86",
@@ -253,3 +244,15 @@ def test_bad_input_gives_one_line_errors(tmp_path, rows, header, message):
 def test_missing_file(tmp_path):
     with pytest.raises(InputError, match="file not found"):
         read_arc_points(tmp_path / "absent.csv")
+
+
+def test_concentric_centre_along_the_axis_minimises_the_sum_of_squared_radii_with_unequal_arcs():
+    # Eqs 26-27: sum_j R_j^2 is least halfway between the arcs' planes, whatever their point counts.
+    a = np.linspace(0.0, 1.2, 8)
+    b = np.linspace(0.3, 1.1, 3)
+    arcs = {
+        "P01": np.column_stack([np.cos(a), np.sin(a), np.full(a.size, 0.1)]),
+        "P02": np.column_stack([2 * np.cos(b), 2 * np.sin(b), np.full(b.size, -0.1)]),
+    }
+    fit = concentric_fit(arcs)
+    np.testing.assert_allclose(fit.centre, [0.0, 0.0, 0.0], atol=1e-9)
