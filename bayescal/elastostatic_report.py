@@ -32,6 +32,7 @@ from .reference import published
 from .testpose import predict_cell_test_pose
 from .tracker import TrackerNoise
 from .twin import DigitalTwin
+from .tables import markdown_table
 from .units import DEG, MM, N_PER_MM, UM, URAD_PER_NM
 
 __all__ = ["build_report", "compensator_precision", "linearisation_misfit", "weightless", "main"]
@@ -47,13 +48,10 @@ def _truth(cell: Cell) -> dict[str, float]:
 
 
 def _table(frame: pd.DataFrame, digits: int = 4) -> str:
-    header = "| " + " | ".join([frame.index.name or ""] + list(frame.columns)) + " |"
-    rule = "|" + "---|" * (len(frame.columns) + 1)
-    rows = []
-    for name, row in frame.iterrows():
-        cells = [f"{v:.{digits}g}" if isinstance(v, float | np.floating) else str(v) for v in row]
-        rows.append("| " + " | ".join([str(name)] + cells) + " |")
-    return "\n".join([header, rule, *rows])
+    rows = [
+        [name, *(f"{v:.{digits}g}" if isinstance(v, float | np.floating) else v for v in row)] for name, row in frame.iterrows()
+    ]
+    return markdown_table([frame.index.name or "", *frame.columns], rows)
 
 
 def _closed_form_shift(model: ElastostaticModel, campaign, reference, sd) -> dict[str, float]:

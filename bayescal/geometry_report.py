@@ -36,6 +36,7 @@ from .sampling import Sampler
 from .plots import plot_arc_fit, plot_eta_curves
 from .posterior import ConvergenceWarning
 from .reference import REFERENCE_FILE, read_paper_reference
+from .tables import markdown_table
 from .units import DEG, MM
 
 __all__ = ["arc_fit_study", "coverage_study", "write_geometry_report"]
@@ -168,10 +169,8 @@ def _markdown(frame: pd.DataFrame, digits: int = 3) -> str:
             return f"{value:.{digits}f}"
         return str(value)
 
-    header = "| " + " | ".join([frame.index.name or "", *map(str, frame.columns)]) + " |"
-    rule = "|" + "---|" * (len(frame.columns) + 1)
-    body = ["| " + " | ".join([str(index), *map(cell, row)]) + " |" for index, row in zip(frame.index, frame.to_numpy())]
-    return "\n".join([header, rule, *body])
+    rows = [[index, *map(cell, row)] for index, row in zip(frame.index, frame.to_numpy())]
+    return markdown_table([frame.index.name or "", *frame.columns], rows)
 
 
 def _along_arc(points, fit_p0: np.ndarray, name: str, residual: np.ndarray) -> np.ndarray:

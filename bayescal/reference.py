@@ -8,6 +8,7 @@ is the one place that reads it.
 from __future__ import annotations
 
 from functools import cache
+from types import MappingProxyType
 from os import PathLike
 from pathlib import Path
 
@@ -40,10 +41,11 @@ def read_paper_reference(path: str | PathLike[str] = REFERENCE_FILE) -> pd.DataF
 
 
 @cache
-def published(table: str) -> dict[str, tuple[float, float]]:
+def published(table: str) -> MappingProxyType[str, tuple[float, float]]:
     """``{parameter: (value, ±3σ half-width)}`` of the paper's Table ``"II"`` or ``"IV"``, in the file's units."""
     reference = read_paper_reference()
     rows = reference[reference["table"] == table]
     if rows.empty:
         raise ValueError(f"no Table {table} in {REFERENCE_FILE.name}")
-    return {str(name): (float(row["value"]), float(row["ci3"])) for name, row in rows.iterrows()}
+    # Read-only, since the cache hands every caller the same mapping.
+    return MappingProxyType({str(name): (float(row["value"]), float(row["ci3"])) for name, row in rows.iterrows()})

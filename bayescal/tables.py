@@ -1,4 +1,5 @@
-"""Reading the package's CSV files with errors that point at the offending cell.
+"""Tables in and out: the package's CSV files, read with errors that point at the
+offending cell, and the Markdown tables of its reports.
 
 The files are plain comma-separated tables with a header row.  Lines that start
 with ``#`` carry provenance notes and are skipped, as are blank lines.  The
@@ -10,7 +11,7 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from os import PathLike
 from pathlib import Path
 from typing import Literal
@@ -19,7 +20,7 @@ import pandas as pd
 
 from .errors import InputError
 
-__all__ = ["read_table", "ColumnKind"]
+__all__ = ["read_table", "markdown_table", "ColumnKind"]
 
 ColumnKind = Literal["number", "text", "integer"]
 
@@ -127,3 +128,10 @@ def _parse(raw: str, kind: ColumnKind, column: str, unit: str | None, source: st
             raise InputError(f"expected {expected}, got '{raw}'", source=source, line=line, column=column)
         return int(value)
     return value
+
+
+def markdown_table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
+    """A Markdown table of already formatted cells."""
+    lines = ["| " + " | ".join(map(str, header)) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(map(str, row)) + " |" for row in rows]
+    return "\n".join(lines)

@@ -16,15 +16,10 @@ from .cell import Cell, load_cell
 from .effects import EFFECTS
 from .plan import Plan, read_plan
 from .stiffness import COMPENSATED_JOINT
+from .tables import markdown_table
 from .twin import DigitalTwin, design_precision, effect_detectability
 
 __all__ = ["render_report", "main"]
-
-
-def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    lines += ["| " + " | ".join(row) + " |" for row in rows]
-    return "\n".join(lines)
 
 
 def _balance(cell: Cell) -> str:
@@ -40,7 +35,7 @@ def _balance(cell: Cell) -> str:
         rows.append(
             [f"{q2_deg:g}", f"{gravity:.0f}", f"{spring:.0f}", f"{gravity - spring:.0f}", f"{1000 * compensator.s(q[1]):.1f}", f"{100 * ratio:.3f}"]
         )
-    return _table(
+    return markdown_table(
         ["q2 (deg)", "g2: drive torque without compensator (N·m)", "-M_c (N·m)", "residual drive torque (N·m)", "s (mm)", "K_c·a·L·η / K_θ2^0 (%)"],
         rows,
     )
@@ -96,7 +91,7 @@ def render_report(cell: Cell, plan: Plan, *, repeats: int = 3, seed: int = 1) ->
         "deflection coordinate (two tracker readings), parameters k1..k6 (k2 without the compensator), "
         "K_c and s0 through eq 8. Widths are ±3 sd in % of the value; Table IV: Klimchik et al.",
         "",
-        _table(["parameter", "value", "sd", "±3 sd (%)", "Table IV ±3σ (%)"], rows),
+        markdown_table(["parameter", "value", "sd", "±3 sd (%)", "Table IV ±3σ (%)"], rows),
         "",
         f"Geometric mean of the width ratios twin/Table IV over {', '.join(ks)}: {ratio:.2f}.",
         "",
@@ -121,7 +116,7 @@ def render_report(cell: Cell, plan: Plan, *, repeats: int = 3, seed: int = 1) ->
         f"is sqrt(2n) = {threshold:.1f}. Parameter shifts are the biases the refit absorbs (linearised; "
         "meaningless for K_c and s0, which the data cannot determine). `compensator=0` removes the compensator.",
         "",
-        _table(
+        markdown_table(
             ["effect", "RMS change (μm)", "RMS unexplained (μm)", "noise sd of a deflection coordinate (μm)", "noncentrality", "verdict", "largest shifts of k (%)"],
             effect_rows,
         ),

@@ -59,3 +59,9 @@ def test_integer_column_rejects_fractions(tmp_path):
 def test_missing_file(tmp_path):
     with pytest.raises(InputError, match="file not found"):
         read_table(tmp_path / "absent.csv", COLUMNS)
+
+
+def test_markdown_table():
+    from bayescal.tables import markdown_table
+
+    assert markdown_table(["a", "b"], [[1, "x"], [2.5, ""]]) == "| a | b |\n|---|---|\n| 1 | x |\n| 2.5 |  |"

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ._command import CommandOutput, add_common_options
 
-# The repository's copy of the paper's Tables II and IV, used when --reference is not given.
+# Table II's parameters, set beside ours in the text output.
 _PAPER_ROWS = ("L", "a_x", "a_y")
 
 
