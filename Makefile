@@ -25,9 +25,9 @@ demo: $(STAMP)
 
 # Regenerate the committed reports from the code and the data.
 reports: $(STAMP)
-	$(BIN)/python -m bayescal.geometry_report data/table1_geometry.csv reports
-	$(BIN)/python -m bayescal.twin_report --config data/kr270.toml --plan data/table3_plan.csv -o reports/twin.md
-	$(BIN)/python -m bayescal.elastostatic_report
+	$(BIN)/python -m bayescal.reports.geometry data/table1_geometry.csv reports
+	$(BIN)/python -m bayescal.reports.twin --config data/kr270.toml --plan data/table3_plan.csv -o reports/twin.md
+	$(BIN)/python -m bayescal.reports.elastostatic
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

@@ -5,8 +5,9 @@ identification of joint and compensator stiffness with honest posteriors, a
 digital twin that simulates laser-tracker calibration campaigns, and the
 propagation of the identified parameters to the positioning error at a test pose.
 
-The names below are the entry points; each lives in the module named after what
-it computes and is imported on first use, so that ``import bayescal`` stays light.
+The names below are the entry points; each lives in the subpackage of its concern
+(see the README's architecture section) and is imported on first use, so that
+``import bayescal`` stays light.
 """
 
 from importlib import import_module
@@ -15,17 +16,17 @@ __version__ = "0.1.0"
 
 _ENTRY_POINTS = {
     "InputError": "errors",
-    "Compensator": "compensator",
-    "read_arc_points": "geometry",
-    "CompensatorGeometryModel": "geometry",
-    "GeometryPosteriorModel": "geometry_posterior",
-    "load_cell": "cell",
-    "read_plan": "plan",
-    "DigitalTwin": "twin",
-    "read_campaign": "campaign",
-    "ElastostaticModel": "elastostatic",
-    "predict_test_pose": "testpose",
-    "predict_cell_test_pose": "testpose",
+    "Compensator": "robot.compensator",
+    "read_arc_points": "geometry.arcs",
+    "CompensatorGeometryModel": "geometry.arcs",
+    "GeometryPosteriorModel": "geometry.posterior",
+    "load_cell": "cell.config",
+    "read_plan": "cell.plan",
+    "DigitalTwin": "twin.simulator",
+    "read_campaign": "cell.campaign",
+    "ElastostaticModel": "inference.elastostatic",
+    "predict_test_pose": "inference.testpose",
+    "predict_cell_test_pose": "inference.testpose",
 }
 
 __all__ = [*_ENTRY_POINTS, "__version__"]

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from .errors import InputError
-from .tables import read_table
+from bayescal.errors import InputError
+from bayescal.tables import read_table
 
 __all__ = ["REFERENCE_FILE", "read_paper_reference", "published"]
 

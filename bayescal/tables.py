@@ -18,7 +18,7 @@ from typing import Literal
 
 import pandas as pd
 
-from .errors import InputError
+from bayescal.errors import InputError
 
 __all__ = ["read_table", "markdown_table", "ColumnKind"]
 

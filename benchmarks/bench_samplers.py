@@ -16,14 +16,14 @@ import warnings
 import arviz as az
 import numpy as np
 
-from bayescal.cell import load_cell
-from bayescal.elastostatic import closed_form, config_geometry, deflection_equations
-from bayescal.gibbs import GibbsSampler
-from bayescal.identifiability import analyse
-from bayescal.likelihood import JOINT2, CompensatedPosterior
-from bayescal.plan import read_plan
-from bayescal.sampling import EnsembleSampler
-from bayescal.twin import DigitalTwin
+from bayescal.cell.config import load_cell
+from bayescal.inference.elastostatic import closed_form, config_geometry, deflection_equations
+from bayescal.sampling.gibbs import GibbsSampler
+from bayescal.inference.identifiability import analyse
+from bayescal.inference.likelihood import JOINT2, CompensatedPosterior
+from bayescal.cell.plan import read_plan
+from bayescal.sampling.ensemble import EnsembleSampler
+from bayescal.twin.simulator import DigitalTwin
 
 
 def build_posterior():

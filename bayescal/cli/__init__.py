@@ -16,7 +16,7 @@ import sys
 import warnings
 from collections.abc import Sequence
 
-from ..errors import InputError
+from bayescal.errors import InputError
 
 __all__ = ["main"]
 

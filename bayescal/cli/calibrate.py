@@ -35,13 +35,13 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> CommandOutput:
     import numpy as np
 
-    from ..campaign import read_campaign
-    from ..cell import load_cell
-    from ..elastostatic import ElastostaticModel, posterior_geometry
-    from ..errors import InputError
-    from ..posterior import save
-    from ..stiffness import EquilibriumError
-    from ..testpose import predict_cell_test_pose
+    from bayescal.cell.campaign import read_campaign
+    from bayescal.cell.config import load_cell
+    from bayescal.inference.elastostatic import ElastostaticModel, posterior_geometry
+    from bayescal.errors import InputError
+    from bayescal.sampling.summary import save
+    from bayescal.robot.stiffness import EquilibriumError
+    from bayescal.inference.testpose import predict_cell_test_pose
 
     if args.draws < 100:
         raise InputError(f"expected at least 100 draws, got {args.draws}", source="--draws")
@@ -110,9 +110,9 @@ def _finite(value):
 def _text(results, test_pose, args) -> str:
     import textwrap
 
-    from ..elastostatic import PARAMETER_UNITS
-    from ..reference import published
-    from ..identifiability import grouped
+    from bayescal.inference.elastostatic import PARAMETER_UNITS
+    from bayescal.reference import published
+    from bayescal.inference.identifiability import grouped
 
     parameters = results.parameters()
     reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in PARAMETER_UNITS}

@@ -55,11 +55,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> CommandOutput:
     """Fit the geometry and return the JSON payload and a readable table."""
-    from .. import posterior
-    from ..errors import InputError
-    from ..geometry import read_arc_points
-    from ..reference import REFERENCE_FILE, read_paper_reference
-    from ..geometry_posterior import GeometryPosteriorModel, default_sampler
+    from bayescal.sampling import summary as posterior
+    from bayescal.errors import InputError
+    from bayescal.geometry.arcs import read_arc_points
+    from bayescal.reference import REFERENCE_FILE, read_paper_reference
+    from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler
 
     if args.chains < 2:
         raise InputError("R-hat needs at least 2 chains", source="--chains")

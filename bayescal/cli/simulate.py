@@ -10,7 +10,7 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers) -> None:
-    from ..effects import EFFECTS
+    from bayescal.twin.effects import EFFECTS
 
     effects = "; ".join(f"{name}: {cls.summary} (default {cls.default:g} {cls.unit})" for name, cls in EFFECTS.items())
     parser = subparsers.add_parser(
@@ -41,13 +41,13 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
     import numpy as np
 
-    from ..campaign import write_campaign
-    from ..cell import load_cell
-    from ..effects import parse_effect
-    from ..errors import InputError
-    from ..plan import read_plan
-    from ..twin import DigitalTwin
-    from ..units import MM, UM
+    from bayescal.cell.campaign import write_campaign
+    from bayescal.cell.config import load_cell
+    from bayescal.twin.effects import parse_effect
+    from bayescal.errors import InputError
+    from bayescal.cell.plan import read_plan
+    from bayescal.twin.simulator import DigitalTwin
+    from bayescal.units import MM, UM
 
     cell = load_cell(args.config)
     plan = read_plan(args.plan, cell.robot)

@@ -1,0 +1,272 @@
+"""The campaign CSV: laser-tracker positions of tool markers before and after loading.
+
+This is the exchange format for measured (or simulated) elastostatic calibration
+data, one row per marker per repeat per configuration::
+
+    config, repeat, q1_deg, ..., q6_deg, fx_N, fy_N, fz_N, mx_Nm, my_Nm, mz_Nm,
+    marker, x0_mm, y0_mm, z0_mm, x1_mm, y1_mm, z1_mm
+
+* ``config`` numbers the robot configurations, ``repeat`` the repetitions of the
+  unloaded/loaded measurement in that configuration (both whole numbers);
+* ``q<j>_deg`` are the controller's joint angles; a robot with another number of
+  joints has columns ``q1_deg`` … ``q<n>_deg``;
+* the wrench is the one applied to the robot, referred to the origin of the
+  ``flange`` frame and expressed in the base axes (N, N·m);
+* positions are in the robot base frame in mm, ``0`` unloaded and ``1`` loaded.
+
+Rows pair up when every row holds both its unloaded and its loaded position,
+no (config, repeat, marker) appears twice, and all rows of a configuration
+carry the same joint angles and the same wrench.  Lines starting with ``#`` are
+provenance notes.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Collection, Sequence
+from dataclasses import dataclass
+from os import PathLike
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from bayescal.errors import InputError
+from bayescal.tables import read_table
+from bayescal.units import DEG, MM
+
+__all__ = ["Campaign", "read_campaign", "write_campaign", "WRENCH_COLUMNS", "POSITION_COLUMNS"]
+
+WRENCH_COLUMNS = ("fx_N", "fy_N", "fz_N", "mx_Nm", "my_Nm", "mz_Nm")
+POSITION_COLUMNS = ("x0_mm", "y0_mm", "z0_mm", "x1_mm", "y1_mm", "z1_mm")
+_SAME_CONFIG_TOLERANCE = 1e-6
+"""Largest difference (deg, N or N·m) between rows of one configuration still read as equal."""
+
+
+def _joint_columns(n: int) -> list[str]:
+    return [f"q{j}_deg" for j in range(1, n + 1)]
+
+
+@dataclass(frozen=True, eq=False)
+class Campaign:
+    """Marker positions measured before and after loading, one entry per CSV row, in SI units.
+
+    Attributes
+    ----------
+    config, repeat : numpy.ndarray of int, shape (N,)
+    marker : numpy.ndarray of str, shape (N,)
+    q : numpy.ndarray, shape (N, nq)
+        Joint angles, rad.
+    wrench : numpy.ndarray, shape (N, 6)
+        ``[f (N); m (N·m)]`` at the flange origin, base axes.
+    p0, p1 : numpy.ndarray, shape (N, 3)
+        Unloaded and loaded marker positions in the base frame, m.
+    lines : numpy.ndarray of int, shape (N,)
+        Line numbers in the source file (0 for a campaign not read from a file).
+    source : str
+        The file the campaign was read from, or a description.
+    """
+
+    config: np.ndarray
+    repeat: np.ndarray
+    marker: np.ndarray
+    q: np.ndarray
+    wrench: np.ndarray
+    p0: np.ndarray
+    p1: np.ndarray
+    lines: np.ndarray
+    source: str = "<memory>"
+
+    def __post_init__(self) -> None:
+        n = len(self.config)
+        shapes = {
+            "repeat": (n,),
+            "marker": (n,),
+            "wrench": (n, 6),
+            "p0": (n, 3),
+            "p1": (n, 3),
+            "lines": (n,),
+        }
+        for name, shape in shapes.items():
+            if np.shape(getattr(self, name)) != shape:
+                raise ValueError(f"Campaign.{name} has shape {np.shape(getattr(self, name))}, expected {shape}")
+        if np.ndim(self.q) != 2 or len(self.q) != n:
+            raise ValueError(f"Campaign.q has shape {np.shape(self.q)}, expected ({n}, nq)")
+
+    def __len__(self) -> int:
+        return len(self.config)
+
+    @property
+    def displacement(self) -> np.ndarray:
+        """(N, 3) measured deflections ``p1 - p0`` of the markers, m."""
+        return self.p1 - self.p0
+
+    @property
+    def n_equations(self) -> int:
+        """Number of scalar equations (three coordinates per row), as counted by Klimchik et al."""
+        return 3 * len(self)
+
+    def to_frame(self) -> pd.DataFrame:
+        """The campaign as the CSV's columns, in mm, deg, N and N·m."""
+        frame = pd.DataFrame({"config": self.config.astype(int), "repeat": self.repeat.astype(int)})
+        for name, values in zip(_joint_columns(self.q.shape[1]), (self.q / DEG).T):
+            frame[name] = values
+        for name, values in zip(WRENCH_COLUMNS, self.wrench.T):
+            frame[name] = values
+        frame["marker"] = self.marker.astype(str)
+        for name, values in zip(POSITION_COLUMNS, np.hstack([self.p0, self.p1]).T / MM):
+            frame[name] = values
+        return frame
+
+
+def write_campaign(campaign: Campaign, path: str | PathLike[str], *, comments: Sequence[str] = ()) -> None:
+    """Write a campaign CSV; ``comments`` become leading ``#`` provenance lines.
+
+    Joint angles are written with 6 decimals in deg, the wrench with 4 decimals
+    in N and N·m, positions with 5 decimals in mm (10 nm), so that writing
+    is deterministic and reading back reproduces the campaign to well below
+    tracker resolution.
+    """
+    frame = campaign.to_frame()
+    decimals = {name: 6 for name in frame.columns if name.endswith("_deg")}
+    decimals |= {name: 4 for name in WRENCH_COLUMNS}
+    decimals |= {name: 5 for name in POSITION_COLUMNS}
+    out = io.StringIO()
+    out.writelines(f"# {line}\n" for comment in comments for line in str(comment).splitlines())
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(frame.columns)
+    columns = list(frame.columns)
+    for row in frame.itertuples(index=False):
+        # "+ 0.0" turns a rounded -0.0 into 0.0 so the file does not depend on rounding sign.
+        writer.writerow(
+            f"{round(float(value), decimals[name]) + 0.0:.{decimals[name]}f}" if name in decimals else value
+            for name, value in zip(columns, row)
+        )
+    Path(path).write_text(out.getvalue(), encoding="utf-8")
+
+
+def _count_joint_columns(path: Path) -> int:
+    """Number of consecutive ``q<j>_deg`` columns in the header (0 when unreadable; read_table reports why)."""
+    try:
+        with path.open(encoding="utf-8-sig", newline="") as handle:
+            for line in handle:
+                if line.strip() and not line.lstrip().startswith("#"):
+                    header = [name.strip() for name in next(csv.reader([line], skipinitialspace=True))]
+                    break
+            else:
+                return 0
+    except (OSError, UnicodeDecodeError):
+        return 0
+    n = 0
+    while f"q{n + 1}_deg" in header:
+        n += 1
+    return n
+
+
+def read_campaign(path: str | PathLike[str], *, markers: Collection[str] | None = None) -> Campaign:
+    """Read and validate a campaign CSV.
+
+    Parameters
+    ----------
+    path
+        The CSV file (format in the module documentation).
+    markers
+        The marker names the tool carries; when given, any other name is an error.
+
+    Returns
+    -------
+    Campaign
+        The rows in file order, converted to SI.
+
+    Raises
+    ------
+    InputError
+        Naming the line and column of the first problem: a missing column, a
+        value that is not a number, a row whose unloaded and loaded positions do
+        not pair up, a duplicated (config, repeat, marker), rows of a
+        configuration that disagree on the joint angles or the wrench, a
+        repeat or config number below 1, or an unknown marker.
+    """
+    source = str(path)
+    n_joints = max(_count_joint_columns(Path(path)), 1)
+    columns: dict[str, str] = {"config": "integer", "repeat": "integer"}
+    columns |= {name: "number" for name in _joint_columns(n_joints)}
+    columns |= {name: "number" for name in WRENCH_COLUMNS}
+    columns["marker"] = "text"
+    columns |= {name: "number" for name in POSITION_COLUMNS}
+    units = {name: "deg" for name in _joint_columns(n_joints)}
+    units |= {name: "N" for name in WRENCH_COLUMNS[:3]} | {name: "N·m" for name in WRENCH_COLUMNS[3:]}
+    units |= {name: "mm" for name in POSITION_COLUMNS}
+    try:
+        frame = read_table(path, columns, units=units)
+    except InputError as error:
+        if error.column in POSITION_COLUMNS and error.what.startswith("missing value"):
+            state = "unloaded" if error.column[1] == "0" else "loaded"
+            raise InputError(
+                f"the row has no {state} position ({error.what}): every row must pair an unloaded "
+                "(x0_mm, y0_mm, z0_mm) and a loaded (x1_mm, y1_mm, z1_mm) position",
+                source=error.source,
+                line=error.line,
+                column=error.column,
+            ) from None
+        raise
+
+    for name in ("config", "repeat"):
+        bad = frame.index[frame[name] < 1]
+        if len(bad):
+            raise InputError(f"expected a whole number >= 1, got {frame.at[bad[0], name]}", source=source, line=int(bad[0]), column=name)
+
+    if markers is not None:
+        known = set(markers)
+        for line, name in frame["marker"].items():
+            if name not in known:
+                raise InputError(
+                    f"unknown marker '{name}'; the tool carries {', '.join(sorted(known))}",
+                    source=source,
+                    line=int(line),
+                    column="marker",
+                )
+
+    first_seen: dict[tuple, int] = {}
+    for line, key in zip(frame.index, zip(frame["config"], frame["repeat"], frame["marker"])):
+        if key in first_seen:
+            raise InputError(
+                f"config {key[0]}, repeat {key[1]}, marker '{key[2]}' already appears on line {first_seen[key]}: "
+                "each marker is measured once per repeat",
+                source=source,
+                line=int(line),
+                column="marker",
+            )
+        first_seen[key] = int(line)
+
+    shared = _joint_columns(n_joints) + list(WRENCH_COLUMNS)
+    values = frame[shared].to_numpy(dtype=float)
+    config = frame["config"].to_numpy(dtype=int)
+    reference_row: dict[int, int] = {}
+    for row, number in enumerate(config):
+        first = reference_row.setdefault(int(number), row)
+        difference = np.abs(values[row] - values[first])
+        if np.any(difference > _SAME_CONFIG_TOLERANCE):
+            column = shared[int(np.argmax(difference))]
+            raise InputError(
+                f"config {number} has {column} = {values[row, shared.index(column)]:g} here but "
+                f"{values[first, shared.index(column)]:g} on line {int(frame.index[first])}: all rows of a configuration "
+                "share its joint angles and wrench",
+                source=source,
+                line=int(frame.index[row]),
+                column=column,
+            )
+
+    positions = frame[list(POSITION_COLUMNS)].to_numpy(dtype=float) * MM
+    return Campaign(
+        config=config,
+        repeat=frame["repeat"].to_numpy(dtype=int),
+        marker=frame["marker"].to_numpy(dtype=str),
+        q=frame[_joint_columns(n_joints)].to_numpy(dtype=float) * DEG,
+        wrench=frame[list(WRENCH_COLUMNS)].to_numpy(dtype=float),
+        p0=positions[:, :3],
+        p1=positions[:, 3:],
+        lines=frame.index.to_numpy(dtype=int),
+        source=source,
+    )

@@ -1,0 +1,235 @@
+"""The calibration cell: a robot, its joint and compensator stiffness, the tool, the tracker.
+
+A cell is described by a TOML file whose keys carry their units (schema in
+``docs/twin.md``); :func:`load_cell` reads it and converts everything to SI.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from os import PathLike
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bayescal.robot.compensator import Compensator
+from bayescal.errors import InputError
+from bayescal.robot.kinematics import Robot
+from bayescal.cell.tracker import TrackerNoise
+from bayescal.units import DEG, MM, N_PER_MM, UM, URAD_PER_NM
+
+__all__ = ["Cell", "load_cell"]
+
+
+@dataclass(frozen=True, eq=False)
+class Cell:
+    """Everything the digital twin and the identification need to know about a cell, in SI.
+
+    Attributes
+    ----------
+    robot : Robot
+    compliances : numpy.ndarray
+        (nq,) joint compliances, rad/(N·m); joint 2's excludes the compensator.
+    compensator : Compensator or None
+        The spring compensator on joint 2.
+    load_point : numpy.ndarray
+        (3,) where loads hang on the tool, flange frame, m.
+    markers : dict of str to numpy.ndarray
+        Tracker markers on the tool, flange frame, m.
+    tracker : TrackerNoise
+    load_mass : float
+        Load (kg) for plans without a ``load_kg`` column.
+    gravity : float
+        Gravitational acceleration (m/s²) that turns load masses into forces.
+    test_q : numpy.ndarray
+        (nq,) test pose, rad.
+    test_wrench : numpy.ndarray
+        (6,) wrench at the test pose, ``[f (N); m (N·m)]`` at the flange origin, base axes.
+    test_point : numpy.ndarray
+        (3,) the tool point whose accuracy matters at the test pose, flange frame, m.
+    source : str
+        The TOML file.
+    """
+
+    robot: Robot
+    compliances: np.ndarray
+    compensator: Compensator | None
+    load_point: np.ndarray
+    markers: dict[str, np.ndarray]
+    tracker: TrackerNoise
+    load_mass: float
+    gravity: float
+    test_q: np.ndarray
+    test_wrench: np.ndarray
+    test_point: np.ndarray
+    source: str
+
+    def load_wrench(self, q, mass: float) -> np.ndarray:
+        """(6,) wrench at the flange origin (base axes) of ``mass`` kg hanging at the load point with the arm at ``q``."""
+        force = np.array([0.0, 0.0, -mass * self.gravity])
+        rotation, _ = self.robot.flange_pose(q)
+        return np.concatenate([force, np.cross(rotation @ self.load_point, force)])
+
+
+class _Reader:
+    """Typed access to the TOML tables with errors naming the file, the line and the key."""
+
+    def __init__(self, data: Mapping[str, Any], text: str, source: str) -> None:
+        self.data = data
+        self.lines = text.splitlines()
+        self.source = source
+
+    def line(self, table: str, key: str | None = None) -> int | None:
+        current = ""
+        for number, raw in enumerate(self.lines, start=1):
+            stripped = raw.strip()
+            if stripped.startswith("["):
+                current = stripped.strip("[]").strip()
+                if key is None and current == table:
+                    return number
+            elif key is not None and current == table and stripped.split("=")[0].strip() == key:
+                return number
+        return None
+
+    def fail(self, what: str, table: str, key: str | None = None):
+        column = table if key is None else f"{table}.{key}"
+        raise InputError(what, source=self.source, line=self.line(table, key), column=column)
+
+    def table(self, name: str, *, required: bool = True) -> Mapping[str, Any] | None:
+        node: Any = self.data
+        for part in name.split("."):
+            if not isinstance(node, Mapping) or part not in node:
+                if required:
+                    raise InputError(f"missing table [{name}]", source=self.source)
+                return None
+            node = node[part]
+        if not isinstance(node, Mapping):
+            self.fail(f"expected a table [{name}]", name)
+        return node
+
+    def number(self, table: str, key: str, *, unit: str, positive: bool = False, default: float | None = None) -> float:
+        values = self.table(table)
+        if key not in values:
+            if default is not None:
+                return default
+            self.fail(f"missing key '{key}' (a number in {unit})", table)
+        value = values[key]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            self.fail(f"expected a number in {unit}, got {value!r}", table, key)
+        if positive and value <= 0:
+            self.fail(f"expected a positive number in {unit}, got {value!r}", table, key)
+        return float(value)
+
+    def vector(self, table: str, key: str, size: int, *, unit: str) -> np.ndarray:
+        values = self.table(table)
+        if key not in values:
+            self.fail(f"missing key '{key}' (a list of {size} numbers in {unit})", table)
+        return self.vector_value(values[key], size, unit, table, key)
+
+    def vector_value(self, value: Any, size: int, unit: str, table: str, key: str) -> np.ndarray:
+        ok = isinstance(value, list) and len(value) == size
+        ok = ok and all(not isinstance(x, bool) and isinstance(x, (int, float)) and math.isfinite(x) for x in value)
+        if not ok:
+            self.fail(f"expected a list of {size} numbers in {unit}, got {value!r}", table, key)
+        return np.array(value, dtype=float)
+
+    def text(self, table: str, key: str, default: str | None = None) -> str:
+        values = self.table(table)
+        value = values.get(key, default)
+        if not isinstance(value, str) or not value:
+            self.fail(f"expected a non-empty text, got {value!r}", table, key)
+        return value
+
+
+def load_cell(path: str | PathLike[str]) -> Cell:
+    """Read a cell TOML file (schema in ``docs/twin.md``) and convert it to SI.
+
+    Raises
+    ------
+    InputError
+        Naming the file, the line and the key of a missing or malformed entry,
+        an unreadable URDF, or joint compliances that do not match the robot.
+    """
+    source = str(path)
+    file = Path(path)
+    if not file.is_file():
+        raise InputError("cell file not found", source=source)
+    text = file.read_text(encoding="utf-8")
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"not a valid TOML file ({exc})", source=source) from None
+    reader = _Reader(data, text, source)
+
+    urdf = file.parent / reader.text("robot", "urdf")
+    flange = reader.text("robot", "flange", default="flange")
+    try:
+        robot = Robot.from_urdf(urdf, flange=flange)
+    except InputError as error:
+        key = "flange" if error.what.startswith("the model has no frame") else "urdf"
+        reader.fail(f"{error.what} ({urdf})", "robot", key)
+
+    compliances = reader.vector("joints", "k_urad_per_Nm", robot.nq, unit="μrad/(N·m)") * URAD_PER_NM
+    if np.any(compliances <= 0):
+        reader.fail("expected positive joint compliances in μrad/(N·m)", "joints", "k_urad_per_Nm")
+
+    compensator = None
+    if reader.table("compensator", required=False) is not None:
+        values = {
+            "L": reader.number("compensator", "L_mm", unit="mm", positive=True) * MM,
+            "a_x": reader.number("compensator", "a_x_mm", unit="mm") * MM,
+            "a_y": reader.number("compensator", "a_y_mm", unit="mm") * MM,
+            "phi": reader.number("compensator", "phi_deg", unit="deg") * DEG,
+            "K_c": reader.number("compensator", "K_c_N_per_mm", unit="N/mm") * N_PER_MM,
+            "s0": reader.number("compensator", "s0_mm", unit="mm") * MM,
+        }
+        try:
+            compensator = Compensator(**values)
+        except ValueError as exc:
+            reader.fail(str(exc), "compensator")
+
+    load_point = reader.vector("tool", "load_point_mm", 3, unit="mm") * MM
+    marker_table = reader.table("tool.markers_mm")
+    if not marker_table:
+        reader.fail("expected at least one marker, e.g. M1 = [x, y, z]", "tool.markers_mm")
+    markers = {
+        str(name): reader.vector_value(value, 3, "mm", "tool.markers_mm", str(name)) * MM
+        for name, value in marker_table.items()
+    }
+
+    noise = {
+        "U0": reader.number("tracker", "U0_um", unit="μm", default=15.0) * UM,
+        "U1": reader.number("tracker", "U1_um_per_m", unit="μm/m", default=6.0) * UM,
+        "factor": reader.number("tracker", "factor", unit="a fraction", default=0.8),
+    }
+    if min(noise.values()) < 0:
+        reader.fail("the noise parameters U0_um, U1_um_per_m and factor must not be negative", "tracker")
+    tracker = TrackerNoise(position=reader.vector("tracker", "position_mm", 3, unit="mm") * MM, **noise)
+
+    load_mass = reader.number("load", "mass_kg", unit="kg", positive=True)
+    gravity = reader.number("load", "gravity_m_per_s2", unit="m/s²", positive=True, default=9.80665)
+
+    test_q = reader.vector("test_pose", "q_deg", robot.nq, unit="deg") * DEG
+    try:
+        robot.check_limits(test_q)
+    except InputError as error:
+        reader.fail(error.what, "test_pose", "q_deg")
+
+    return Cell(
+        robot=robot,
+        compliances=compliances,
+        compensator=compensator,
+        load_point=load_point,
+        markers=markers,
+        tracker=tracker,
+        load_mass=load_mass,
+        gravity=gravity,
+        test_q=test_q,
+        test_wrench=reader.vector("test_pose", "wrench_N_Nm", 6, unit="N and N·m"),
+        test_point=reader.vector("test_pose", "point_mm", 3, unit="mm") * MM,
+        source=source,
+    )

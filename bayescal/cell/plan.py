@@ -1,0 +1,83 @@
+"""Calibration plans: the robot configurations of an elastostatic campaign and their loads.
+
+A plan CSV has one row per configuration with the controller's joint angles
+``q1_deg`` … ``q<n>_deg`` and, optionally, the mass ``load_kg`` hung at the tool's
+load point in that configuration.  Configurations are numbered 1, 2, … in file
+order; lines starting with ``#`` are provenance notes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from os import PathLike
+
+import numpy as np
+
+from bayescal.errors import InputError
+from bayescal.robot.kinematics import Robot
+from bayescal.tables import read_table
+from bayescal.units import DEG
+
+__all__ = ["Plan", "read_plan"]
+
+
+@dataclass(frozen=True, eq=False)
+class Plan:
+    """Measurement configurations, SI.
+
+    Attributes
+    ----------
+    q : numpy.ndarray
+        (M, nq) joint angles, rad.
+    load_kg : numpy.ndarray or None
+        (M,) load masses, kg; ``None`` when the plan leaves them to the cell.
+    lines : numpy.ndarray
+        (M,) line numbers in the source file.
+    source : str
+    """
+
+    q: np.ndarray
+    load_kg: np.ndarray | None
+    lines: np.ndarray
+    source: str = "<memory>"
+
+    def __len__(self) -> int:
+        return len(self.q)
+
+    def masses(self, default: float) -> np.ndarray:
+        """(M,) the load of each configuration, kg: the plan's own, or ``default`` everywhere."""
+        return np.full(len(self), float(default)) if self.load_kg is None else self.load_kg.copy()
+
+
+def read_plan(path: str | PathLike[str], robot: Robot) -> Plan:
+    """Read a plan CSV for ``robot``, checking every row against the joint limits.
+
+    Raises
+    ------
+    InputError
+        Naming the line and column of a missing column, a value that is not a
+        number, a joint angle outside its limits, or a load that is not positive.
+    """
+    source = str(path)
+    joints = [f"q{j}_deg" for j in range(1, robot.nq + 1)]
+    frame = read_table(
+        path,
+        {name: "number" for name in joints},
+        optional={"load_kg": "number"},
+        units={name: "deg" for name in joints} | {"load_kg": "kg"},
+    )
+    q = frame[joints].to_numpy(dtype=float) * DEG
+    for line, row in zip(frame.index, q):
+        robot.check_limits(row, source=source, line=int(line))
+    load = None
+    if "load_kg" in frame:
+        bad = frame.index[frame["load_kg"] <= 0]
+        if len(bad):
+            raise InputError(
+                f"expected a positive mass in kg, got {frame.at[bad[0], 'load_kg']:g}",
+                source=source,
+                line=int(bad[0]),
+                column="load_kg",
+            )
+        load = frame["load_kg"].to_numpy(dtype=float)
+    return Plan(q=q, load_kg=load, lines=frame.index.to_numpy(dtype=int), source=source)

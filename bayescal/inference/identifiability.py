@@ -1,0 +1,285 @@
+"""Which elastostatic parameters a calibration campaign can determine, and how well.
+
+The analysis works on the per-angle design of eq 30 (Klimchik et al.): one
+column per joint compliance, joint 2 split by distinct q2 angle.  Columns are
+scaled to unit length so that the information matrix ``X'X`` measures
+collinearity rather than units; its rank, its condition number and each
+parameter's variance inflation factor (the diagonal of its inverse: 1 for a
+column orthogonal to the others) follow.  A parameter is not identifiable when
+its column vanishes (no load in the campaign moves it) or when it has a
+component in the null space of the information matrix (the data determine only
+a combination of it with others).  The reason is worded from the data: the
+largest torque the loads exert about the joint, or the parameters it is
+confounded with.  The compensator's ``K_c`` and ``s0`` (and ``K_theta2^0``,
+hence k2) need at least three q2 angles with an identifiable joint-2
+compliance, the number of unknowns of eq 34.
+
+That structural check says what the campaign could determine with perfect
+data.  :func:`practical_reasons` judges, after sampling, what it did
+determine: a parameter is *not identifiable from these data* when its
+posterior is still essentially the prior.  For a parameter with a proper prior
+this is measured by the contraction of its standard deviation: not identifiable
+when the posterior sd exceeds :data:`CONTRACTION_LIMIT` (one half) of the prior
+sd, i.e. the data have removed less than three quarters of the prior variance.
+A flat prior on the positive half-line (joint compliances, ``K_c``) has no sd;
+there the data must at least exclude zero, the value at which the parameter has
+no effect: not identifiable when the ±3σ interval reaches zero (3 sd ≥ |mean|,
+a relative width of 100 % or more).  A parameter that enters the model only
+through another (``s0`` only through ``s0 K_c`` in eq 34) is not identifiable
+when that one is not.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+__all__ = [
+    "Identifiability",
+    "analyse",
+    "practical_reasons",
+    "grouped",
+    "RANK_TOLERANCE",
+    "ILL_CONDITIONED",
+    "CONTRACTION_LIMIT",
+    "PRACTICAL_RULE",
+]
+
+RANK_TOLERANCE = 1e-8
+"""Singular values of the unit-column information matrix's square root below this fraction of the largest count as zero."""
+ILL_CONDITIONED = 1e4
+"""Condition number of the unit-column design above which the estimates are flagged as fragile."""
+_NO_TORQUE = 1e-6
+"""A joint whose largest torque is below this fraction of the largest torque on any joint is taken as unloaded."""
+_MIN_ANGLES = 3
+CONTRACTION_LIMIT = 0.5
+"""Posterior sd above this fraction of a proper prior's sd: the data have not determined the parameter."""
+PRACTICAL_RULE = (
+    "not identifiable from these data: posterior sd above 1/2 of a proper prior's sd, or, under a flat prior "
+    "on the positive half-line, a ±3σ interval that includes 0; s0 whenever K_c is not identifiable (eq 34)"
+)
+"""The practical-identifiability rule in one line (the CLI's ``identifiability.rule``)."""
+
+
+@dataclass(frozen=True)
+class Identifiability:
+    """Result of :func:`analyse`.
+
+    Attributes
+    ----------
+    names : list of str
+        Per-angle parameter names (``k1``, ``k2_q2[<q2 in deg>]`` …, ``k6``).
+    identifiable : numpy.ndarray of bool
+        For each per-angle parameter.
+    rank : int
+        Rank of the per-angle design.
+    condition_number : float
+        Of the unit-column design restricted to the identifiable parameters.
+    vif : dict
+        Variance inflation factor of each identifiable per-angle parameter.
+    reasons : dict
+        Reason, in words, for each parameter (per-angle names and ``k2``, ``K_c``,
+        ``s0``) that the design cannot identify.
+    compensator : bool
+        Whether the design can identify ``K_theta2^0``, ``K_c`` and ``s0``.
+    practical : dict
+        Reason for each parameter that the design could identify but the
+        posterior does not determine (:func:`practical_reasons`); empty before sampling.
+    """
+
+    names: list[str]
+    identifiable: np.ndarray
+    rank: int
+    condition_number: float
+    vif: dict[str, float]
+    reasons: dict[str, str] = field(default_factory=dict)
+    compensator: bool = True
+    practical: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def not_identifiable(self) -> dict[str, str]:
+        """Every parameter reported as not identifiable, structural reasons first."""
+        return dict(self.reasons) | dict(self.practical)
+
+    @property
+    def ill_conditioned(self) -> bool:
+        """True when the condition number exceeds :data:`ILL_CONDITIONED`."""
+        return self.condition_number > ILL_CONDITIONED
+
+    def to_json(self) -> dict:
+        """The ``identifiability`` block of the CLI output."""
+        return {
+            "rank": self.rank,
+            "n_parameters": len(self.names),
+            "condition_number": self.condition_number,
+            "not_identifiable": self.not_identifiable,
+            "structural": sorted(self.reasons),
+            "rule": PRACTICAL_RULE,
+        }
+
+
+def angle_label(q2: float) -> str:
+    """Name of the joint-2 compliance at ``q2`` (rad), as in the posterior summary: ``k2_q2[-25.240]`` (deg)."""
+    return f"k2_q2[{math.degrees(q2):.3f}]"
+
+
+def analyse(
+    design: np.ndarray,
+    columns: Sequence[tuple[int, int | None]],
+    q2: np.ndarray,
+    torque: np.ndarray,
+    torque_angle: np.ndarray,
+) -> Identifiability:
+    """Rank, conditioning and identifiability of the per-angle design.
+
+    Parameters
+    ----------
+    design
+        ``(n, p)`` per-angle design of eq 30 (m per rad/(N·m)).
+    columns
+        ``(joint, angle index or None)`` of each column (0-based joints).
+    q2
+        Distinct joint-2 angles (rad) the angle indices refer to.
+    torque
+        ``(r, 6)`` joint torques (N·m) the loads exert, one row per loaded configuration.
+    torque_angle
+        ``(r,)`` angle index of each row of ``torque``.
+    """
+    names = [angle_label(q2[a]) if a is not None else f"k{j + 1}" for j, a in columns]
+    norms = np.linalg.norm(design, axis=0)
+    largest_torque = float(np.abs(torque).max(initial=0.0))
+    reasons: dict[str, str] = {}
+    identifiable = norms > RANK_TOLERANCE * max(norms.max(initial=0.0), np.finfo(float).tiny)
+    for i, (joint, angle) in enumerate(columns):
+        if not identifiable[i]:
+            reasons[names[i]] = _unloaded_reason(joint, angle, q2, torque, torque_angle, largest_torque)
+
+    kept = np.flatnonzero(identifiable)
+    scaled = design[:, kept] / norms[kept]
+    singular = np.linalg.svd(scaled, compute_uv=False) if kept.size else np.empty(0)
+    rank = int(np.sum(singular > RANK_TOLERANCE * singular.max(initial=0.0))) if kept.size else 0
+    if kept.size and rank < kept.size:
+        _, _, vt = np.linalg.svd(scaled)
+        null = vt[rank:].T
+        weight = np.linalg.norm(null, axis=1)
+        confounded = kept[weight > 1e-6]
+        # Columns i and j are confounded together when the null space links them.
+        link = np.abs(null @ null.T)
+        for i in confounded:
+            row = np.flatnonzero(kept == i)[0]
+            partners = [names[kept[col]] for col in np.flatnonzero(link[row] > 1e-6) if kept[col] != i]
+            reasons[names[i]] = (
+                f"the campaign determines only a combination of {names[i]} with {', '.join(partners)}: "
+                "their columns of the design are linearly dependent"
+            )
+            identifiable[i] = False
+        kept = np.flatnonzero(identifiable)
+        scaled = design[:, kept] / norms[kept]
+        singular = np.linalg.svd(scaled, compute_uv=False)
+    condition = float(singular.max() / singular.min()) if singular.size else math.inf
+    vif = dict(zip([names[i] for i in kept], np.diag(np.linalg.inv(scaled.T @ scaled)))) if kept.size else {}
+
+    joint2_angles = sorted({columns[i][1] for i in kept if columns[i][0] == 1})
+    compensator = len(joint2_angles) >= _MIN_ANGLES
+    if not compensator:
+        listed = ", ".join(f"{math.degrees(q2[a]):.2f}" for a in joint2_angles) or "none"
+        why = (
+            f"the campaign has {len(joint2_angles)} q2 angle(s) with an identifiable joint-2 compliance "
+            f"({listed} deg); K_theta2^0, K_c and s0*K_c of eq 34 need at least {_MIN_ANGLES}"
+        )
+        for name in ("k2", "K_c", "s0"):
+            reasons[name] = why
+    return Identifiability(
+        names=names,
+        identifiable=identifiable,
+        rank=rank,
+        condition_number=condition,
+        vif={k: float(v) for k, v in vif.items()},
+        reasons=reasons,
+        compensator=compensator,
+    )
+
+
+def _unloaded_reason(joint: int, angle: int | None, q2, torque, torque_angle, largest: float) -> str:
+    rows = torque[:, joint] if angle is None else torque[torque_angle == angle, joint]
+    biggest = float(np.abs(rows).max(initial=0.0))
+    where = "" if angle is None else f" at q2 = {math.degrees(q2[angle]):.2f} deg"
+    if biggest <= _NO_TORQUE * largest:
+        return (
+            f"no load of the campaign{where} exerts a torque about the axis of joint {joint + 1} "
+            f"(largest |tau{joint + 1}| = {biggest:.3g} N m against {largest:.3g} N m on other joints)"
+        )
+    return f"the markers do not move when joint {joint + 1} turns{where}: the design column is zero"
+
+
+def practical_reasons(
+    summary: pd.DataFrame,
+    prior_sd: Mapping[str, float | None],
+    *,
+    requires: Mapping[str, str] | None = None,
+    context: Mapping[str, str] | None = None,
+) -> dict[str, str]:
+    """The parameters a posterior leaves undetermined, each with its reason in numbers.
+
+    Parameters
+    ----------
+    summary
+        Posterior summary indexed by parameter with ``mean``, ``sd``, ``lo3``,
+        ``hi3`` and ``unit`` (:func:`bayescal.sampling.summary.summarize`).
+    prior_sd
+        The parameters to judge: the sd of each one's proper prior (in the unit of
+        ``summary``), or None for a flat prior on the positive half-line.
+    requires
+        ``{name: other}``: ``name`` enters the model only through ``other`` and is
+        not identifiable whenever ``other`` is not.
+    context
+        Extra explanation (why the data are weak) prepended to a parameter's reason
+        when it fails.
+
+    Returns
+    -------
+    dict
+        ``{name: reason}`` for the parameters that fail, in the order of ``prior_sd``.
+    """
+    requires = dict(requires or {})
+    context = dict(context or {})
+    reasons: dict[str, str] = {}
+    for name, prior in prior_sd.items():
+        if name not in summary.index:
+            continue
+        row = summary.loc[name]
+        mean, sd, unit = float(row["mean"]), float(row["sd"]), str(row["unit"])
+        interval = f"[{row['lo3']:.4g}, {row['hi3']:.4g}] {unit}".rstrip()
+        if prior is None:
+            if 3.0 * sd < abs(mean):
+                continue
+            why = (
+                f"its ±3σ interval {interval} includes 0 (3 sd = {300.0 * sd / abs(mean):.0f} % of the mean)"
+                if mean
+                else f"its ±3σ interval {interval} is centred on 0"
+            )
+        else:
+            if sd <= CONTRACTION_LIMIT * prior:
+                continue
+            why = (
+                f"its posterior sd {sd:.4g} {unit} is {sd / prior:.2f} of its prior's {prior:.4g} {unit} "
+                f"(more than {CONTRACTION_LIMIT:g}): the posterior is mostly the prior"
+            )
+        reasons[name] = f"{context[name]}; {why}" if name in context else why
+    for name, other in requires.items():
+        if other in reasons and name in summary.index:
+            why = f"{name} enters the model only through the product {name}·{other}, and {other} is not identifiable from these data"
+            reasons[name] = why + (f"; besides, {reasons[name]}" if name in reasons else "")
+    return {name: reasons[name] for name in prior_sd if name in reasons}
+
+
+def grouped(reasons: Mapping[str, str]) -> list[tuple[list[str], str]]:
+    """``[(names, reason)]``: parameters that share a reason listed together, in first-seen order."""
+    groups: dict[str, list[str]] = {}
+    for name, reason in reasons.items():
+        groups.setdefault(reason, []).append(name)
+    return [(names, reason) for reason, names in groups.items()]

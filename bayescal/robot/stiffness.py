@@ -1,0 +1,302 @@
+"""Virtual-joint (VJM) elastostatics of a serial robot with a gravity compensator on joint 2.
+
+Klimchik et al., sections II-III.  Each joint is a rigid actuator held at the
+controller's angle ``q`` followed by a virtual spring of compliance ``k_j``
+(rad/(N·m)); the links sit at ``q + θ``.  Joint 2 additionally carries the
+spring compensator, a link-side generalized force ``-M_c(q2 + θ2)`` whose
+derivative adds ``K_c a L η`` to the joint's stiffness (eq 8).
+
+The loaded static equilibrium (eq 1) is written in joint space::
+
+    θ = D(τ(θ)),   τ(θ) = -g(q+θ) - M_c(q2+θ2) e2 + τ_ext(q+θ)
+
+where ``D`` is the joint deflection law (``θ_j = k_j τ_j`` for linear joints),
+``g`` the gravity torque of :meth:`Robot.gravity_torque` and ``τ_ext`` the
+generalized force of the external load.  It is solved by Newton's method; the
+Jacobian of the residual carries the Hessian terms of eq 3, which gives the
+Cartesian stiffness at the loaded equilibrium.
+
+External loads are wrenches ``[f (N); m (N·m)]`` referred to the flange origin
+and expressed in the base axes.  By default the wrench is a dead load: it keeps
+its value in the base axes while the arm deflects.  When ``load_point`` is
+given, its force acts at that material point of the tool (a hanging mass, as
+in the paper's experiments) and only the remaining couple stays fixed, which
+is the conservative load the twin applies.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+
+from bayescal.robot.kinematics import Robot
+
+if TYPE_CHECKING:
+    from bayescal.robot.compensator import Compensator
+
+__all__ = [
+    "COMPENSATED_JOINT",
+    "EquilibriumError",
+    "JointLaw",
+    "LinearJoints",
+    "compliance_design",
+    "joint_stiffness",
+    "equilibrium",
+    "equilibrium_stiffness",
+    "cartesian_stiffness",
+]
+
+COMPENSATED_JOINT = 1
+"""Index (0-based) of the joint that carries the compensator: joint 2, as in the paper."""
+
+
+class EquilibriumError(RuntimeError):
+    """Newton's method did not find the loaded static equilibrium."""
+
+
+class JointLaw(Protocol):
+    """How the joint springs deflect: ``θ = deflection(τ)`` joint by joint."""
+
+    def deflection(self, torque: np.ndarray) -> np.ndarray:
+        """(nq,) joint deflections (rad) under the joint torques ``torque`` (N·m)."""
+
+    def slope(self, torque: np.ndarray) -> np.ndarray:
+        """(nq,) derivatives ``dθ_j/dτ_j`` (rad/(N·m)) of :meth:`deflection`."""
+
+
+class LinearJoints:
+    """Linear virtual springs ``θ_j = k_j τ_j`` with compliances ``k`` in rad/(N·m)."""
+
+    def __init__(self, compliances) -> None:
+        self.compliances = _compliances(compliances)
+
+    def deflection(self, torque: np.ndarray) -> np.ndarray:
+        return self.compliances * torque
+
+    def slope(self, torque: np.ndarray) -> np.ndarray:
+        return self.compliances.copy()
+
+
+def _compliances(compliances) -> np.ndarray:
+    k = np.asarray(compliances, dtype=float)
+    if k.ndim != 1 or not np.all(np.isfinite(k)) or np.any(k <= 0):
+        raise ValueError(f"joint compliances must be a vector of positive finite numbers in rad/(N·m), got {k}")
+    return k
+
+
+def compliance_design(robot: Robot, q, point_in_flange, wrench) -> np.ndarray:
+    """Matrix ``A`` of eq 31 for one marker: ``Δp ≈ A @ k`` for joint compliances ``k`` (rad/(N·m)).
+
+    Parameters
+    ----------
+    robot
+        The robot.
+    q
+        (nq,) joint angles, rad.
+    point_in_flange
+        (3,) the marker in the flange frame, m.
+    wrench
+        (6,) ``[f; m]`` at the flange origin in base axes, N and N·m.
+
+    Returns
+    -------
+    numpy.ndarray
+        (3, nq); column ``j`` is ``J_p[:, j] (J_F[:, j] · wrench)`` where ``J_p`` is the
+        marker's position Jacobian and ``J_F`` the flange Jacobian, so that
+        ``A[:, j] k_j`` is the marker's displacement due to joint ``j``'s spring.
+    """
+    wrench = np.asarray(wrench, dtype=float).reshape(6)
+    torques = robot.flange_jacobian(q).T @ wrench
+    return robot.point_jacobian(q, point_in_flange) * torques[np.newaxis, :]
+
+
+def joint_stiffness(q, compliances, compensator: Compensator | None = None) -> np.ndarray:
+    """(nq, nq) joint stiffness ``K_θ(q)`` in N·m/rad: ``diag(1/k)`` plus the compensator on joint 2 (eq 8).
+
+    ``compliances[1]`` is the compliance of joint 2 without its compensator, ``1/K_θ2^0``.
+    """
+    k = _compliances(compliances)
+    stiffness = np.diag(1.0 / k)
+    if compensator is not None:
+        stiffness[COMPENSATED_JOINT, COMPENSATED_JOINT] += compensator.stiffness(float(np.asarray(q)[COMPENSATED_JOINT]))
+    return stiffness
+
+
+class _Load:
+    """The external load as a force at a material point of the tool plus a dead couple."""
+
+    def __init__(self, robot: Robot, q: np.ndarray, wrench, load_point) -> None:
+        wrench = np.asarray(wrench, dtype=float).reshape(6)
+        if not np.all(np.isfinite(wrench)):
+            raise ValueError(f"the wrench must be finite, got {wrench}")
+        self.point = np.zeros(3) if load_point is None else np.asarray(load_point, dtype=float).reshape(3)
+        force = wrench[:3]
+        rotation, _ = robot.flange_pose(q)
+        couple = wrench[3:] - np.cross(rotation @ self.point, force)
+        self.generalized = np.concatenate([force, couple])
+        self.robot = robot
+
+    def torque(self, q: np.ndarray) -> np.ndarray:
+        """Generalized force of the load with the arm at ``q``."""
+        jacobian = np.vstack([self.robot.point_jacobian(q, self.point), self.robot.flange_jacobian(q)[3:]])
+        return jacobian.T @ self.generalized
+
+    def torque_derivative(self, q: np.ndarray) -> np.ndarray:
+        """``∂τ_ext/∂q`` (nq, nq): the load's Hessian term of eq 3."""
+        hessian = self.robot.point_hessian(q, self.point)
+        return np.einsum("r,rij->ij", self.generalized, hessian)
+
+
+def _joint_load(robot, q, theta, load, compensator, gravity):
+    """Torque carried by the joint springs and its derivative with respect to θ (the negated Hessian terms)."""
+    linked = q + theta
+    torque = load.torque(linked)
+    derivative = load.torque_derivative(linked)
+    if gravity:
+        torque = torque - robot.gravity_torque(linked)
+        derivative = derivative - robot.gravity_torque_derivative(linked)
+    if compensator is not None:
+        angle = float(linked[COMPENSATED_JOINT])
+        torque[COMPENSATED_JOINT] -= compensator.torque(angle)
+        derivative[COMPENSATED_JOINT, COMPENSATED_JOINT] -= compensator.stiffness(angle)
+    return torque, derivative
+
+
+def equilibrium(
+    robot: Robot,
+    q,
+    compliances,
+    wrench,
+    *,
+    compensator: Compensator | None = None,
+    gravity: bool = True,
+    load_point=None,
+    joints: JointLaw | None = None,
+    tol: float = 1e-13,
+    max_iter: int = 30,
+) -> np.ndarray:
+    """Joint deflections ``θ`` (rad) of the loaded static equilibrium (eq 1), by Newton's method.
+
+    Parameters
+    ----------
+    robot
+        The robot.
+    q
+        (nq,) commanded joint angles, rad.
+    compliances
+        (nq,) joint compliances ``k`` in rad/(N·m); ``compliances[1]`` excludes the compensator.
+    wrench
+        (6,) external wrench ``[f; m]`` at the flange origin, base axes, N and N·m, as
+        applied with the arm at ``q``.
+    compensator
+        The gravity compensator acting on joint 2, if any.
+    gravity
+        Include the links' weights.
+    load_point
+        (3,) flange-frame point (m) where the wrench's force acts and moves with the
+        tool; ``None`` keeps the whole wrench fixed at the flange origin.
+    joints
+        Deflection law of the joint springs; default linear with ``compliances``.
+    tol
+        Convergence threshold on the Newton step, rad.
+    max_iter
+        Largest number of Newton iterations.
+
+    Returns
+    -------
+    numpy.ndarray
+        (nq,) deflections; the links are at ``q + θ``.
+
+    Raises
+    ------
+    EquilibriumError
+        When Newton's method does not converge (e.g. a load beyond the arm's buckling
+        limit or a non-physical stiffness).
+    """
+    return _solve(robot, q, compliances, wrench, compensator, gravity, load_point, joints, tol, max_iter)[0]
+
+
+def _solve(robot, q, compliances, wrench, compensator, gravity, load_point, joints, tol, max_iter):
+    q = np.asarray(q, dtype=float).reshape(robot.nq)
+    law = LinearJoints(compliances) if joints is None else joints
+    load = _Load(robot, q, wrench, load_point)
+    theta = np.zeros(robot.nq)
+
+    def residual(theta):
+        torque, derivative = _joint_load(robot, q, theta, load, compensator, gravity)
+        return theta - law.deflection(torque), torque, derivative
+
+    value, torque, derivative = residual(theta)
+    for _ in range(max_iter):
+        jacobian = np.eye(robot.nq) - law.slope(torque)[:, np.newaxis] * derivative
+        try:
+            step = -np.linalg.solve(jacobian, value)
+        except np.linalg.LinAlgError:
+            raise EquilibriumError("the linearised equilibrium is singular (the arm buckles under this load)") from None
+        # Backtracking keeps Newton stable on steep deflection laws such as a backlash dead band.
+        size = 1.0
+        while True:
+            candidate = residual(theta + size * step)
+            if np.linalg.norm(candidate[0]) < np.linalg.norm(value) or size < 1e-4:
+                break
+            size *= 0.5
+        theta = theta + size * step
+        value, torque, derivative = candidate
+        # The full Newton step, not the backtracked one, says whether the solve has settled.
+        if np.max(np.abs(step)) < tol or np.max(np.abs(value)) < tol:
+            return theta, torque, derivative, law
+    raise EquilibriumError(
+        f"Newton's method did not converge in {max_iter} iterations (last residual {np.max(np.abs(value)):.3g} rad)"
+    )
+
+
+def equilibrium_stiffness(
+    robot: Robot,
+    q,
+    compliances,
+    wrench,
+    *,
+    compensator: Compensator | None = None,
+    gravity: bool = True,
+    load_point=None,
+    joints: JointLaw | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Deflections ``θ`` and the joint-space stiffness ``K_θ - H_θθ`` (eq 3) at the loaded equilibrium.
+
+    Arguments as for :func:`equilibrium`.  The stiffness is the derivative of the
+    spring torques minus the load and gravity torques with respect to the link
+    angles: the joint springs (with the compensator, eq 8) plus the Hessian terms
+    of the links' weights and of the external load.
+    """
+    theta, torque, derivative, law = _solve(
+        robot, q, compliances, wrench, compensator, gravity, load_point, joints, tol=1e-13, max_iter=30
+    )
+    return theta, np.diag(1.0 / law.slope(torque)) - derivative
+
+
+def cartesian_stiffness(
+    robot: Robot,
+    q,
+    compliances,
+    wrench,
+    *,
+    compensator: Compensator | None = None,
+    gravity: bool = True,
+    load_point=None,
+    joints: JointLaw | None = None,
+) -> np.ndarray:
+    """(6, 6) Cartesian stiffness ``K_C`` of eq 3 at the loaded equilibrium.
+
+    ``K_C`` maps a small displacement ``[δp; δφ]`` of the flange (m, rad, base axes)
+    to the increment of a dead wrench ``[δf; δm]`` at the flange origin that causes it.
+    Arguments as for :func:`equilibrium`.  For a robot with fewer than six joints the
+    inverse does not exist; use the compliance ``J (K_θ - H)⁻¹ Jᵀ`` instead.
+    """
+    q = np.asarray(q, dtype=float)
+    theta, stiffness = equilibrium_stiffness(
+        robot, q, compliances, wrench, compensator=compensator, gravity=gravity, load_point=load_point, joints=joints
+    )
+    jacobian = robot.flange_jacobian(q + theta)
+    compliance = jacobian @ np.linalg.solve(stiffness, jacobian.T)
+    return np.linalg.inv(compliance)

@@ -1,0 +1,5 @@
+"""The digital twin: simulated calibration campaigns with known truth.
+
+Owns the simulator (``simulator``) and the effects it can plant in a campaign that
+the identification model does not contain (``effects``).
+"""

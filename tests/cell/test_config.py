@@ -1,0 +1,107 @@
+"""Tests of bayescal.cell.config: the KR-270 cell file and the TOML validation."""
+
+from __future__ import annotations
+
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bayescal.cell.config import load_cell
+from bayescal.errors import InputError
+
+DATA = Path(__file__).resolve().parents[2] / "data"
+
+
+
+def test_kr270_cell_in_si(cell):
+    np.testing.assert_allclose(cell.compliances, np.array([0.30, 0.302, 0.406, 3.002, 3.303, 2.365]) * 1e-6)
+    compensator = cell.compensator
+    assert compensator.K_c == pytest.approx(144e3)
+    assert compensator.s0 == pytest.approx(0.458)
+    assert (compensator.L, compensator.a_x, compensator.a_y) == pytest.approx((0.18472, 0.68593, 0.12030))
+    assert 99 < math.degrees(compensator.phi) < 101  # Table I: the lever points almost straight up at q2 = 0
+    assert set(cell.markers) == {"M1", "M2", "M3"}
+    assert cell.tracker.U0 == pytest.approx(15e-6) and cell.tracker.U1 == pytest.approx(6e-6)
+    assert cell.test_wrench.shape == (6,) and cell.test_q.shape == (6,)
+
+
+def test_markers_and_load_are_off_the_a6_axis(cell):
+    for point in [*cell.markers.values(), cell.load_point]:
+        assert np.hypot(point[1], point[2]) > 0.1
+    spacing = [np.linalg.norm(a - b) for a in cell.markers.values() for b in cell.markers.values() if a is not b]
+    assert min(spacing) == pytest.approx(0.2, abs=1e-4)
+
+
+def test_load_wrench_is_a_hanging_mass(cell):
+    q = np.radians([10, -30, 20, 40, -50, 60])
+    wrench = cell.load_wrench(q, 265.0)
+    np.testing.assert_allclose(wrench[:3], [0, 0, -265.0 * 9.80665])
+    rotation, origin = cell.robot.flange_pose(q)
+    np.testing.assert_allclose(wrench[3:], np.cross(rotation @ cell.load_point, wrench[:3]))
+
+
+def test_test_pose_wrench_is_the_tip_force(cell):
+    rotation, _ = cell.robot.flange_pose(cell.test_q)
+    force = cell.test_wrench[:3]
+    np.testing.assert_allclose(cell.test_wrench[3:], np.cross(rotation @ cell.test_point, force), atol=1e-6)
+
+
+def _edited(tmp_path, old, new):
+    shutil.copytree(DATA / "robots", tmp_path / "robots")
+    text = (DATA / "kr270.toml").read_text()
+    assert old in text
+    path = tmp_path / "cell.toml"
+    path.write_text(text.replace(old, new))
+    return path
+
+
+def _line_of(path, needle):
+    return next(i for i, line in enumerate(path.read_text().splitlines(), start=1) if line.startswith(needle))
+
+
+def test_bad_values_name_the_line_and_key(tmp_path):
+    path = _edited(tmp_path, "K_c_N_per_mm = 144.0", 'K_c_N_per_mm = "stiff"')
+    with pytest.raises(InputError) as caught:
+        load_cell(path)
+    assert f"cell.toml:{_line_of(path, 'K_c_N_per_mm')}" in str(caught.value)
+    assert "compensator.K_c_N_per_mm" in str(caught.value) and "N/mm" in str(caught.value)
+
+
+def test_wrong_number_of_compliances(tmp_path):
+    path = _edited(tmp_path, "k_urad_per_Nm = [0.30, ", "k_urad_per_Nm = [")
+    with pytest.raises(InputError, match=r"joints.k_urad_per_Nm.*list of 6 numbers"):
+        load_cell(path)
+
+
+def test_missing_urdf_and_test_pose_outside_limits(tmp_path):
+    path = _edited(tmp_path, 'urdf = "robots/kr270.urdf"', 'urdf = "robots/none.urdf"')
+    with pytest.raises(InputError, match="robot.urdf"):
+        load_cell(path)
+    path = _edited(tmp_path / "b", "q_deg = [0.0, -50.0", "q_deg = [0.0, 50.0")
+    with pytest.raises(InputError, match=r"test_pose.q_deg.*A2"):
+        load_cell(path)
+
+
+def test_cell_without_compensator(tmp_path):
+    text = (DATA / "kr270.toml").read_text()
+    start, end = text.index("[compensator]"), text.index("[tool]")
+    shutil.copytree(DATA / "robots", tmp_path / "robots")
+    path = tmp_path / "plain.toml"
+    path.write_text(text[:start] + text[end:])
+    assert load_cell(path).compensator is None
+
+
+def test_not_toml(tmp_path):
+    path = tmp_path / "x.toml"
+    path.write_text("[robot\n")
+    with pytest.raises(InputError, match="not a valid TOML"):
+        load_cell(path)
+
+
+def test_unknown_flange_frame_names_the_flange_key(tmp_path):
+    path = _edited(tmp_path, 'flange = "flange"', 'flange = "tool0"')
+    with pytest.raises(InputError, match=r"cell.toml:\d+, column 'robot.flange': the model has no frame named 'tool0'"):
+        load_cell(path)

@@ -1,0 +1,51 @@
+"""Tests of bayescal.cell.plan: Table III and plan validation."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bayescal.errors import InputError
+from bayescal.cell.plan import read_plan
+
+DATA = Path(__file__).resolve().parents[2] / "data"
+
+
+
+def test_table_iii(robot):
+    plan = read_plan(DATA / "table3_plan.csv", robot)
+    assert len(plan) == 15
+    q2 = np.degrees(plan.q[:, 1]).reshape(5, 3)
+    np.testing.assert_allclose(q2, np.repeat([[-0.01], [-25.24], [-56.9], [-99.85], [-140.0]], 3, axis=1))
+    assert np.degrees(plan.q[7, 4]) == pytest.approx(-98.26)  # row 8 as printed
+    assert np.all((plan.load_kg >= 250) & (plan.load_kg <= 280))
+    assert plan.lines[0] == 8  # after six comment lines and the header
+
+
+def test_masses_default_when_the_plan_has_none(tmp_path, robot):
+    path = tmp_path / "p.csv"
+    path.write_text("q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n0,-45,30,0,20,0\n")
+    plan = read_plan(path, robot)
+    assert plan.load_kg is None
+    np.testing.assert_array_equal(plan.masses(265.0), [265.0])
+
+
+def test_row_outside_the_joint_limits(tmp_path, robot):
+    path = tmp_path / "p.csv"
+    path.write_text("# note\nq1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,load_kg\n0,-45,30,0,20,0,250\n0,-45,30,0,130,0,250\n")
+    with pytest.raises(InputError) as caught:
+        read_plan(path, robot)
+    message = str(caught.value)
+    assert "p.csv:4" in message and "q5_deg" in message and "A5" in message and "\n" not in message
+
+
+def test_bad_load(tmp_path, robot):
+    path = tmp_path / "p.csv"
+    path.write_text("q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,load_kg\n0,-45,30,0,20,0,-5\n")
+    with pytest.raises(InputError, match=r"p.csv:2.*load_kg.*positive mass"):
+        read_plan(path, robot)
+    path.write_text("q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,load_kg\n0,-45,30,0,20,0,nan\n")
+    with pytest.raises(InputError, match=r"p.csv:2.*load_kg"):
+        read_plan(path, robot)

@@ -1,0 +1,31 @@
+"""Tests of bayescal.reports.twin: the generated report carries the computed numbers."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from bayescal.cell.config import load_cell
+from bayescal.cell.plan import read_plan
+from bayescal.twin.simulator import design_precision
+from bayescal.reports.twin import main, render_report
+
+DATA = Path(__file__).resolve().parents[2] / "data"
+
+
+
+def test_report_tables(tmp_path):
+    cell = load_cell(DATA / "kr270.toml")
+    plan = read_plan(DATA / "table3_plan.csv", cell.robot)
+    text = render_report(cell, plan)
+    assert "405 equations" in text
+    precision = design_precision(cell, plan)
+    assert f"| k2 | 0.302 urad/(N m) | {precision.loc['k2', 'sd']:.3g} | {precision.loc['k2', 'width_3sd_pct']:.2f} | 1.3 |" in text
+    assert "| k1 | 0.3 urad/(N m) | not excited |" in text
+    for name in ("link_compliance", "tool_compliance", "nonlinear_stiffness", "backlash", "outliers", "compensator=0"):
+        assert name in text
+    gravity = cell.robot.gravity_torque([0.0] * 6)[1]
+    spring = -cell.compensator.torque(0.0)
+    assert f"| 0 | {gravity:.0f} | {spring:.0f} | {gravity - spring:.0f} |" in text
+    out = tmp_path / "twin.md"
+    main(["--config", str(DATA / "kr270.toml"), "--plan", str(DATA / "table3_plan.csv"), "-o", str(out)])
+    assert out.read_text() == text

@@ -1,0 +1,140 @@
+"""Tests of bayescal.robot.kinematics: the KR-270 URDF through Pinocchio."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bayescal.errors import InputError
+from bayescal.robot.kinematics import Robot
+
+URDF = Path(__file__).resolve().parents[2] / "data" / "robots" / "kr270.urdf"
+
+
+def test_flange_at_zero_matches_the_series_geometry(robot):
+    assert robot.nq == 6
+    assert robot.joint_names == ("A1", "A2", "A3", "A4", "A5", "A6")
+    np.testing.assert_allclose(robot.point_position(np.zeros(6), [0, 0, 0]), [2.930, 0.0, 0.695], atol=1e-12)
+
+
+def test_joint_limits_are_the_datasheet_values(robot):
+    np.testing.assert_allclose(np.degrees(robot.lower), [-185, -146, -119, -350, -125, -350], atol=1e-9)
+    np.testing.assert_allclose(np.degrees(robot.upper), [185, 0, 155, 350, 125, 350], atol=1e-9)
+
+
+def test_total_mass_is_the_documented_estimate(robot):
+    assert sum(inertia.mass for inertia in robot.model.inertias) == pytest.approx(1250.0)
+
+
+def test_increasing_a2_lowers_the_arm_and_a1_turns_clockwise(robot):
+    flange = robot.point_position(np.radians([0, 10, 0, 0, 0, 0]), [0, 0, 0])
+    assert flange[2] < 0.695
+    flange = robot.point_position(np.radians([10, 0, 0, 0, 0, 0]), [0, 0, 0])
+    assert flange[1] < 0  # A1 axis points down: positive A1 is clockwise seen from above
+
+
+def test_point_round_trip_and_batch(robot):
+    rng = np.random.default_rng(3)
+    q = rng.uniform(robot.lower, robot.upper) * 0.5
+    points = rng.normal(size=(4, 3)) * 0.2
+    base = robot.point_position(q, points)
+    assert base.shape == (4, 3)
+    np.testing.assert_allclose(robot.point_in_flange(q, base), points, atol=1e-12)
+    np.testing.assert_allclose(base[1], robot.point_position(q, points[1]), atol=1e-15)
+
+
+def test_point_jacobian_is_the_derivative_of_the_position(robot):
+    rng = np.random.default_rng(4)
+    q = rng.uniform(robot.lower, robot.upper) * 0.5
+    point = np.array([0.25, -0.05, 0.2])
+    h = 1e-6
+    numeric = np.column_stack(
+        [(robot.point_position(q + h * e, point) - robot.point_position(q - h * e, point)) / (2 * h) for e in np.eye(6)]
+    )
+    np.testing.assert_allclose(robot.point_jacobian(q, point), numeric, atol=1e-8)
+    np.testing.assert_allclose(robot.point_jacobian(q, np.zeros(3)), robot.flange_jacobian(q)[:3], atol=1e-14)
+
+
+def test_flange_jacobian_angular_rows_are_the_joint_axes(robot):
+    q = np.radians([30, -40, 50, 20, -30, 10])
+    jacobian = robot.flange_jacobian(q)
+    # the A1 axis points down in the base frame whatever the pose
+    np.testing.assert_allclose(jacobian[3:, 0], [0, 0, -1], atol=1e-14)
+
+
+def test_point_hessian_is_the_derivative_of_the_jacobian(robot):
+    q = np.radians([20, -60, 40, 30, -50, 70])
+    point = np.array([0.25, 0.0, 0.2])
+
+    def full(q):
+        return np.vstack([robot.point_jacobian(q, point), robot.flange_jacobian(q)[3:]])
+
+    h = 1e-6
+    numeric = np.stack([(full(q + h * e) - full(q - h * e)) / (2 * h) for e in np.eye(6)], axis=2)
+    np.testing.assert_allclose(robot.point_hessian(q, point), numeric, atol=1e-8)
+
+
+def test_gravity_torque_holds_the_horizontal_arm_up(robot):
+    torque = robot.gravity_torque(np.zeros(6))
+    # the arm's weight pulls toward +A2 (down), so the drive holds it with a negative torque
+    assert torque[1] < -3000
+    assert torque[0] == pytest.approx(0.0, abs=1e-9)
+    h = 1e-6
+    q = np.radians([0, -30, 45, 10, 20, 0])
+    numeric = np.column_stack([(robot.gravity_torque(q + h * e) - robot.gravity_torque(q - h * e)) / (2 * h) for e in np.eye(6)])
+    np.testing.assert_allclose(robot.gravity_torque_derivative(q), numeric, atol=1e-4)
+
+
+def test_check_limits_names_the_joint(robot):
+    robot.check_limits(np.radians([0, -146, 155, 0, 0, 0]))
+    with pytest.raises(InputError) as caught:
+        robot.check_limits(np.radians([0, 5.0, 0, 0, 0, 0]), source="plan.csv", line=7)
+    message = str(caught.value)
+    assert "plan.csv:7" in message and "q2_deg" in message and "A2" in message and "5.000 deg" in message
+    assert "\n" not in message
+
+
+def test_bad_urdf_and_missing_flange(tmp_path):
+    with pytest.raises(InputError, match="not found"):
+        Robot.from_urdf(tmp_path / "none.urdf")
+    with pytest.raises(InputError, match="no frame named 'tool0'"):
+        Robot.from_urdf(URDF, flange="tool0")
+    broken = tmp_path / "broken.urdf"
+    broken.write_text("<robot name='x'><link name='a'>")
+    with pytest.raises(InputError, match="cannot read the URDF"):
+        Robot.from_urdf(broken)
+
+
+def test_another_urdf_works_the_same_way(tmp_path):
+    urdf = tmp_path / "two.urdf"
+    urdf.write_text(
+        """<robot name="two">
+  <link name="base"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><origin xyz="0 0 1"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <link name="l1"><inertial><origin xyz="0.5 0 0"/><mass value="10"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="1 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
+  <link name="l2"><inertial><origin xyz="0.5 0 0"/><mass value="5"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+  <joint name="tip" type="fixed"><parent link="l2"/><child link="flange"/><origin xyz="1 0 0"/></joint>
+  <link name="flange"/>
+</robot>"""
+    )
+    robot = Robot.from_urdf(urdf)
+    assert robot.nq == 2 and robot.joint_names == ("j1", "j2")
+    np.testing.assert_allclose(robot.point_position([0, 0], [0, 0, 0]), [2, 0, 1], atol=1e-12)
+    # weights 10 kg at 0.5 m and 5 kg at 1.5 m from j1
+    assert robot.gravity_torque([0, 0])[0] == pytest.approx(-9.81 * (10 * 0.5 + 5 * 1.5), rel=1e-3)
+    with pytest.raises(InputError, match="j2"):
+        robot.check_limits([0, math.radians(150)])
+
+
+def test_prismatic_joints_are_rejected(tmp_path):
+    urdf = (Path(__file__).resolve().parents[2] / "data" / "robots" / "kr270.urdf").read_text()
+    first = urdf.index('type="revolute"')
+    (tmp_path / "slide.urdf").write_text(urdf[:first] + 'type="prismatic"' + urdf[first + len('type="revolute"'):])
+    with pytest.raises(InputError, match="is prismatic; every joint must be revolute"):
+        Robot.from_urdf(tmp_path / "slide.urdf")

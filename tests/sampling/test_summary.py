@@ -1,0 +1,102 @@
+import numpy as np
+import pytest
+
+from bayescal.sampling.summary import diagnostics, load, parameters_json, posterior_tree, save, summarize
+from bayescal.sampling.ensemble import EnsembleSampler
+
+
+@pytest.fixture(scope="module")
+def gaussian_tree():
+    cov = np.array([[1.0, 0.6], [0.6, 4.0]])
+    precision = np.linalg.inv(cov)
+    mean = np.array([10.0, -2.0])
+
+    def log_prob(x):
+        d = x - mean
+        return -0.5 * d @ precision @ d
+
+    draws = EnsembleSampler(n_chains=4, n_tune=300, n_draws=1500).sample(
+        log_prob, mean + 1.0, np.ones(2), np.random.default_rng(3)
+    )
+    tree = posterior_tree(
+        {"a": draws[..., 0], "b": draws[..., 1], "both": draws},
+        units={"a": "mm", "b": "deg", "both": "mm"},
+        attrs={"seed": 3},
+        dims={"both": ["axis"]},
+        coords={"axis": ["x", "y"]},
+    )
+    return tree, mean, cov
+
+
+def test_ensemble_sampler_recovers_a_correlated_gaussian(gaussian_tree):
+    tree, mean, cov = gaussian_tree
+    summary = summarize(tree, ["a", "b"])
+    ess = summary["ess_bulk"].min()
+    for i, name in enumerate(["a", "b"]):
+        assert abs(summary.loc[name, "mean"] - mean[i]) < 5 * np.sqrt(cov[i, i] / ess)
+        assert summary.loc[name, "sd"] == pytest.approx(np.sqrt(cov[i, i]), rel=0.1)
+    assert summary.loc["a", "lo3"] == pytest.approx(summary.loc["a", "mean"] - 3 * summary.loc["a", "sd"])
+    assert list(summary["unit"]) == ["mm", "deg"]
+
+
+def test_diagnostics_over_independent_ensembles(gaussian_tree):
+    tree, _, _ = gaussian_tree
+    report = diagnostics(tree)
+    assert report["n_chains"] == 4
+    assert report["r_hat_max"] <= 1.01
+    assert report["ess_bulk_min"] > 400
+
+
+def test_vector_variables_get_one_row_per_labelled_element(gaussian_tree):
+    tree, _, _ = gaussian_tree
+    summary = summarize(tree, ["both"])
+    assert list(summary.index) == ["both[x]", "both[y]"]
+    assert summary.loc["both[x]", "mean"] == pytest.approx(summarize(tree, ["a"]).loc["a", "mean"])
+
+
+def test_rhat_flags_ensembles_stuck_in_different_places():
+    rng = np.random.default_rng(0)
+    draws = rng.standard_normal((4, 500)) + np.array([0.0, 0.0, 0.0, 3.0])[:, None]
+    tree = posterior_tree({"x": draws}, units={"x": "mm"})
+    assert diagnostics(tree)["r_hat_max"] > 1.1
+
+
+def test_parameters_json_and_netcdf_round_trip(gaussian_tree, tmp_path):
+    tree, _, _ = gaussian_tree
+    block = parameters_json(summarize(tree, ["a"]))
+    assert set(block["a"]) == {"mean", "sd", "lo3", "hi3", "unit"}
+    assert block["a"]["unit"] == "mm"
+    path = tmp_path / "posterior.nc"
+    save(tree, path)
+    again = load(path)
+    assert again.attrs["seed"] == 3
+    assert again["posterior"]["b"].attrs["units"] == "deg"
+    assert summarize(again).equals(summarize(tree))
+
+
+def test_every_variable_needs_a_unit():
+    with pytest.raises(ValueError, match="no unit given for x"):
+        posterior_tree({"x": np.zeros((2, 10))}, units={})
+
+
+def test_sampler_rejects_a_start_outside_the_support():
+    sampler = EnsembleSampler(n_chains=1, n_tune=1, n_draws=1)
+    with pytest.raises(ValueError, match="not finite at the starting point"):
+        sampler.sample(lambda x: -np.inf, np.zeros(1), np.ones(1), np.random.default_rng(0))
+
+
+def test_same_seed_same_draws():
+    sampler = EnsembleSampler(n_chains=2, n_tune=10, n_draws=20)
+    log_prob = lambda x: -0.5 * float(x @ x)  # noqa: E731
+    first = sampler.sample(log_prob, np.zeros(3), np.ones(3), np.random.default_rng(7))
+    second = sampler.sample(log_prob, np.zeros(3), np.ones(3), np.random.default_rng(7))
+    np.testing.assert_array_equal(first, second)
+
+
+def test_unconverged_posteriors_are_warned_about():
+    from bayescal.sampling.summary import ConvergenceWarning, warn_if_unconverged
+
+    good = {"r_hat_max": 1.002, "ess_bulk_min": 2000.0, "ess_tail_min": 1500.0}
+    warn_if_unconverged(good, what="x")  # silent
+    with pytest.warns(ConvergenceWarning, match=r"the test posterior may not have converged \(R-hat 1.050 > 1.01, tail ESS 90 < 400\)"):
+        warn_if_unconverged(good | {"r_hat_max": 1.05, "ess_tail_min": 90.0}, what="the test posterior")

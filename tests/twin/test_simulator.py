@@ -1,0 +1,119 @@
+"""Tests of bayescal.twin.simulator: simulated campaigns, their noise and the eq-37 precision."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bayescal.twin.effects import parse_effect
+from bayescal.errors import InputError
+from bayescal.robot.stiffness import compliance_design, equilibrium
+from bayescal.reference import published
+from bayescal.twin.simulator import DigitalTwin, design_precision, effect_detectability
+
+DATA = Path(__file__).resolve().parents[2] / "data"
+
+
+
+@pytest.fixture(scope="module")
+def silent(cell):
+    return replace(cell, tracker=replace(cell.tracker, factor=0.0))
+
+
+def test_table_iii_campaign_has_405_equations(cell, plan):
+    campaign = DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(1))
+    assert len(campaign) == 135 and campaign.n_equations == 405
+    assert list(campaign.config[:9]) == [1] * 9 and list(campaign.repeat[:9]) == [1, 1, 1, 2, 2, 2, 3, 3, 3]
+    assert list(campaign.marker[:3]) == ["M1", "M2", "M3"]
+    np.testing.assert_allclose(campaign.q[::9], plan.q)
+    np.testing.assert_allclose(campaign.wrench[0], cell.load_wrench(plan.q[0], 250.0))
+    again = DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(1))
+    np.testing.assert_array_equal(campaign.p1, again.p1)
+    other = DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(2))
+    assert not np.array_equal(campaign.p1, other.p1)
+
+
+def test_positions_come_from_the_nonlinear_equilibrium(cell, plan):
+    twin = DigitalTwin(cell)
+    q, mass = plan.q[4], 265.0
+    unloaded, loaded = twin.positions(q, mass)
+    points = np.array(list(cell.markers.values()))
+    theta0 = equilibrium(cell.robot, q, cell.compliances, np.zeros(6), compensator=cell.compensator, load_point=cell.load_point)
+    np.testing.assert_allclose(unloaded, cell.robot.point_position(q + theta0, points), atol=1e-12)
+    # gravity sags the unloaded arm: it is not at the nominal pose
+    assert np.abs(unloaded - cell.robot.point_position(q, points)).max() > 1e-4
+    # and the loaded deflection is the linear model's to within a few per cent
+    wrench = cell.load_wrench(q, mass)
+    k = cell.compliances.copy()
+    k[1] = 1 / (1 / k[1] + cell.compensator.stiffness(q[1]))
+    linear = np.array([compliance_design(cell.robot, q, p, wrench) @ k for p in points])
+    deflection = loaded - unloaded
+    assert np.linalg.norm(deflection - linear) < 0.03 * np.linalg.norm(linear)
+    assert np.linalg.norm(deflection - linear) > 1e-7
+
+
+def test_noise_between_repeats_matches_the_tracker_model(cell, plan):
+    repeats = 12
+    campaign = DigitalTwin(cell).simulate(plan, repeats, np.random.default_rng(3))
+    shape = (len(plan), repeats, len(cell.markers), 3)
+    displacement = campaign.displacement.reshape(shape)
+    spread = displacement - displacement.mean(axis=1, keepdims=True)
+    sigma = np.sqrt(2) * cell.tracker.sigma(campaign.p0).reshape(shape[:3])
+    normalised = spread / sigma[..., np.newaxis] * np.sqrt(repeats / (repeats - 1))
+    assert normalised.std() == pytest.approx(1.0, abs=0.05)
+
+
+def test_effects_change_the_deflections_as_documented(silent, plan):
+    rng = np.random.default_rng(0)
+    base = DigitalTwin(silent).simulate(plan, 1, rng).displacement
+    def with_effect(text):
+        return DigitalTwin(silent, [parse_effect(text)]).simulate(plan, 1, np.random.default_rng(0)).displacement
+    # a stiffening joint deflects less, a compliant link more
+    assert np.linalg.norm(with_effect("nonlinear_stiffness")) < 0.97 * np.linalg.norm(base)
+    assert np.linalg.norm(with_effect("link_compliance")) > 1.01 * np.linalg.norm(base)
+    # removing the compensator changes the deflections by micrometres only (K_c a L η ≪ K_θ2^0)
+    change = np.abs(with_effect("compensator=0") - base).max()
+    assert 1e-7 < change < 3e-5
+    np.testing.assert_array_equal(with_effect("compensator=1"), base)
+    np.testing.assert_array_equal(with_effect("link_compliance=0"), base)
+    outliers = np.linalg.norm(with_effect("outliers=0.05") - base, axis=1)
+    assert 0 < np.mean(outliers > 4e-4) < 0.2
+
+
+def test_repeated_or_impossible_requests(cell, plan):
+    with pytest.raises(InputError, match="more than once"):
+        DigitalTwin(cell, [parse_effect("backlash"), parse_effect("backlash=0.01")])
+    with pytest.raises(InputError, match="at least 1 repeat"):
+        DigitalTwin(cell).simulate(plan, 0, np.random.default_rng(0))
+
+
+def test_design_precision_is_of_the_order_of_table_iv(cell, plan):
+    precision = design_precision(cell, plan, repeats=3)
+    assert math.isnan(precision.loc["k1", "sd"])  # no torque on the vertical A1 under vertical loads
+    widths = precision["width_3sd_pct"]
+    table_iv_width = {name: 100 * half / value for name, (value, half) in published("IV").items()}
+    for name in ("k2", "k3", "k4", "k5", "k6"):
+        assert table_iv_width[name] / 3 < widths[name] < 3 * table_iv_width[name]
+    ratio = np.exp(np.mean(np.log([widths[n] / table_iv_width[n] for n in ("k2", "k3", "k4", "k5", "k6")])))
+    assert ratio == pytest.approx(1.0, abs=0.1)
+    # the compensator spring is out of reach of the deflections (see docs/twin.md)
+    assert widths["K_c"] > 100 and widths["s0"] > 50
+    # widths scale with the tracker noise
+    quiet = replace(cell, tracker=replace(cell.tracker, factor=cell.tracker.factor / 2))
+    np.testing.assert_allclose(design_precision(quiet, plan)["width_3sd_pct"]["k2":"k6"], widths["k2":"k6"] / 2, rtol=1e-9)
+
+
+def test_detectability_separates_strong_and_weak_effects(cell, plan):
+    threshold = np.sqrt(2 * 405)  # the spread of a χ² with 405 degrees of freedom
+    linear = effect_detectability(cell, plan, None)
+    assert linear["n_equations"] == 405 and linear["noncentrality"] < threshold
+    assert effect_detectability(cell, plan, parse_effect("compensator=0"))["noncentrality"] < threshold
+    assert effect_detectability(cell, plan, parse_effect("tool_compliance"))["noncentrality"] < threshold
+    for name in ("backlash", "nonlinear_stiffness", "link_compliance"):
+        result = effect_detectability(cell, plan, parse_effect(name))
+        assert result["noncentrality"] > 2 * threshold, name
+        assert result["rms_unexplained_um"] < result["rms_difference_um"]
