@@ -20,7 +20,8 @@ from bayescal.cell.config import load_cell
 from bayescal.inference.elastostatic import closed_form, config_geometry, deflection_equations
 from bayescal.sampling.gibbs import GibbsSampler
 from bayescal.inference.identifiability import analyse
-from bayescal.inference.likelihood import JOINT2, CompensatedPosterior
+from bayescal.inference.likelihood import CompensatedPosterior
+from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.cell.plan import read_plan
 from bayescal.sampling.ensemble import EnsembleSampler
 from bayescal.twin.simulator import DigitalTwin
@@ -36,11 +37,11 @@ def build_posterior():
     ident = analyse(equations.per_angle_design(), equations.per_angle_columns(), equations.q2, torque[configs], equations.angle[3 * configs])
     geometry = config_geometry(cell.compensator)
     cf = closed_form(equations, ident, geometry.mean)
-    joints = tuple(j for j in range(6) if j != JOINT2 and f"k{j + 1}" not in ident.reasons)
+    joints = tuple(j for j in range(6) if j != COMPENSATED_JOINT and f"k{j + 1}" not in ident.reasons)
     posterior = CompensatedPosterior(equations, joints, geometry)
     spring = cf.spring
     if not np.isfinite(posterior.log_prob(posterior.start(cf.compliances[list(joints)], spring, cf.sigma))):
-        spring = np.array([1.0 / cell.compliances[JOINT2], cell.compensator.K_c, cell.compensator.s0])
+        spring = np.array([1.0 / cell.compliances[COMPENSATED_JOINT], cell.compensator.K_c, cell.compensator.s0])
     start = posterior.start(cf.compliances[list(joints)], spring, cf.sigma)
     sd = np.sqrt(np.diag(cf.cov))
     columns = [c for c, keep in zip(equations.per_angle_columns(), ident.identifiable) if keep]

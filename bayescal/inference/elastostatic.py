@@ -28,6 +28,7 @@ while its posterior stays in the DataTree.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 import warnings
 from dataclasses import dataclass, field, replace
 
@@ -35,13 +36,14 @@ import numpy as np
 import pandas as pd
 import pinocchio as pin
 
+from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.robot.compensator import Compensator, CompensatorGeometry
 from bayescal.errors import InputError, NotIdentifiableWarning
 from bayescal.sampling.gibbs import GibbsSampler
 from bayescal.inference.identifiability import Identifiability, analyse, grouped, practical_reasons
-from bayescal.inference.likelihood import JOINT2, CompensatedPosterior, DeflectionEquations, GeometryPrior, PerAnglePosterior, compensator_regressor
+from bayescal.inference.likelihood import CompensatedPosterior, DeflectionEquations, GeometryPrior, PerAnglePosterior, compensator_regressor
 from bayescal.sampling.summary import diagnostics, warn_if_unconverged
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.ensemble import EnsembleSampler
@@ -52,6 +54,7 @@ from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
 __all__ = [
     "ElastostaticModel",
     "ElastostaticResults",
+    "ElastostaticDraws",
     "ClosedForm",
     "deflection_equations",
     "closed_form",
@@ -127,7 +130,7 @@ def deflection_equations(
         points[i] = robot.point_in_flange(campaign.q[i], campaign.p0[i])
         design[i] = compliance_design(robot, campaign.q[i], points[i], campaign.wrench[i])
         torque[i] = robot.flange_jacobian(campaign.q[i]).T @ campaign.wrench[i]
-    q2_deg = np.round(campaign.q[:, JOINT2] / DEG, ANGLE_DECIMALS)
+    q2_deg = np.round(campaign.q[:, COMPENSATED_JOINT] / DEG, ANGLE_DECIMALS)
     values, angle = np.unique(q2_deg, return_inverse=True)
     if noise == "axis":
         group, names = np.tile(np.arange(3), n), ("x", "y", "z")
@@ -303,7 +306,7 @@ def closed_form(
         C = CompensatorGeometry(*geometry).regressor(equations.q2[known])
         w = np.linalg.lstsq(C, 1.0 / k2[known], rcond=None)[0]
         spring = np.array([w[0], w[1], w[2] / w[1] if w[1] != 0 else np.nan])
-        compliances[JOINT2] = 1.0 / w[0]
+        compliances[COMPENSATED_JOINT] = 1.0 / w[0]
     return ClosedForm(per_angle=k, cov=cov, sigma=sigma, compliances=compliances, spring=spring, k2=k2, k2_sd=k2_sd)
 
 
@@ -408,6 +411,18 @@ def config_geometry(compensator: CompensatorGeometry, source: str = "") -> Geome
     return GeometryPrior(mean=mean, cov=np.diag(sd**2), source=f"{source} with Klimchik et al. Table II ±3σ/3".strip())
 
 
+class _Prepared(NamedTuple):
+    """A campaign made ready for sampling: its equations, what they identify and the closed forms."""
+
+    equations: DeflectionEquations
+    identifiability: Identifiability
+    linear_closed_form: ClosedForm
+    offset: np.ndarray
+    """Exact minus linear prediction of every equation (m); zeros for the linear model."""
+    closed_form: ClosedForm
+    iterations: int
+
+
 @dataclass
 class ElastostaticModel:
     """Identification of the joint compliances and the compensator spring.
@@ -480,9 +495,9 @@ class ElastostaticModel:
     def estimate(self, campaign: Campaign) -> tuple[ClosedForm, Identifiability]:
         """Closed-form estimates (eqs 33-34, after the exact model's correction) without sampling."""
         prepared = self._prepare(campaign, announce=False)
-        return prepared[4], prepared[1]
+        return prepared.closed_form, prepared.identifiability
 
-    def _prepare(self, campaign: Campaign, *, announce: bool = True):
+    def _prepare(self, campaign: Campaign, *, announce: bool = True) -> _Prepared:
         if self.model not in ("exact", "linear"):
             raise ValueError(f"model must be 'exact' or 'linear', got {self.model!r}")
         equations, torque, points = deflection_equations(self.robot, campaign, noise=self.noise, tracker=self.tracker)
@@ -513,7 +528,7 @@ class ElastostaticModel:
         cf = linear_cf
         if self.model == "exact":
             cf, offset, iterations = self._relinearise(campaign, equations, ident, linear_cf)
-        return equations, ident, linear_cf, offset, cf, iterations
+        return _Prepared(equations, ident, linear_cf, offset, cf, iterations)
 
     def fit(self, campaign: Campaign, rng: np.random.Generator | int = 0) -> ElastostaticResults:
         """Identify the parameters from ``campaign``; ``rng`` seeds every random draw."""
@@ -591,7 +606,7 @@ class ElastostaticModel:
         share = 100.0 * np.abs(compensator.stiffness(equations.q2)) * k2
         columns = [c for c, keep in zip(equations.per_angle_columns(), ident.identifiable) if keep]
         sd = np.sqrt(np.diag(cf.cov))
-        resolution = [300.0 * sd[i] / cf.per_angle[i] for i, (joint, _) in enumerate(columns) if joint == JOINT2]
+        resolution = [300.0 * sd[i] / cf.per_angle[i] for i, (joint, _) in enumerate(columns) if joint == COMPENSATED_JOINT]
         return (
             f"the compensator changes the joint-2 stiffness by {share.min():.2f}–{share.max():.2f} % across the "
             f"campaign's {equations.q2.size} q2 angles (at the config's K_c = {Kc / N_PER_MM:.4g} N/mm, "
@@ -610,7 +625,7 @@ class ElastostaticModel:
         """
         compliances = np.where(np.isfinite(cf.compliances) & (cf.compliances > 0), cf.compliances, self.nominal_compliances)
         compensator = CompensatorGeometry(*self.geometry.mean).with_spring(*self.nominal_spring)
-        nominal_k2 = 1.0 / compensator.joint_stiffness(equations.q2, 1.0 / self.nominal_compliances[JOINT2])
+        nominal_k2 = 1.0 / compensator.joint_stiffness(equations.q2, 1.0 / self.nominal_compliances[COMPENSATED_JOINT])
         k2 = np.where(np.isfinite(cf.k2) & (cf.k2 > 0), cf.k2, nominal_k2)
         exact = np.empty((len(campaign), 3))
         row_angle = equations.angle[::3]
@@ -618,7 +633,7 @@ class ElastostaticModel:
             rows = np.flatnonzero(campaign.config == config)
             k = compliances.copy()
             # The joint's own stiffness that, with the compensator, gives this angle's equivalent compliance.
-            k[JOINT2] = 1.0 / (1.0 / k2[row_angle[rows[0]]] - compensator.stiffness(campaign.q[rows[0], JOINT2]))
+            k[COMPENSATED_JOINT] = 1.0 / (1.0 / k2[row_angle[rows[0]]] - compensator.stiffness(campaign.q[rows[0], COMPENSATED_JOINT]))
             exact[rows] = exact_deflections(
                 self.robot,
                 campaign.q[rows[0]],
@@ -629,7 +644,7 @@ class ElastostaticModel:
                 load_point=self.load_point,
             )
         per_row = np.repeat(compliances[None, :], equations.n, axis=0)
-        per_row[:, JOINT2] = k2[equations.angle]
+        per_row[:, COMPENSATED_JOINT] = k2[equations.angle]
         linear = np.einsum("ij,ij->i", equations.design, per_row)
         return exact.reshape(-1) - linear
 
@@ -674,7 +689,7 @@ class ElastostaticModel:
         sd = np.sqrt(np.diag(cf.cov))
         log_sigma_scale = np.full(cf.sigma.size, 0.05)
         if ident.compensator:
-            joints = tuple(j for j in range(6) if j != JOINT2 and f"k{j + 1}" not in ident.reasons)
+            joints = tuple(j for j in range(6) if j != COMPENSATED_JOINT and f"k{j + 1}" not in ident.reasons)
             posterior = CompensatedPosterior(equations, joints, self.geometry)
             spring = cf.spring
             start = posterior.start(cf.compliances[list(joints)], spring, cf.sigma)
@@ -732,17 +747,32 @@ def _check_regression(
 
 
 @dataclass(frozen=True)
-class _Draws:
-    """Posterior draws in SI, shape (chain, draw[, ...])."""
+class ElastostaticDraws:
+    """Posterior draws in SI, each of shape ``(chain, draw[, ...])``.
+
+    Attributes
+    ----------
+    compliances : dict
+        ``{"k1": ..., "k2": ..., ...}`` joint compliances (rad/(N·m)) of the sampled joints;
+        ``k2`` is ``1/K_theta2^0`` (joint 2 without its compensator) in the compensated model.
+    spring : numpy.ndarray or None
+        ``(chain, draw, 3)``: ``K_theta2^0`` (N·m/rad), ``K_c`` (N/m), ``s0`` (m); None in the per-angle model.
+    k2 : numpy.ndarray
+        ``(chain, draw, m)`` equivalent joint-2 compliance (rad/(N·m)) at each campaign angle.
+    sigma : numpy.ndarray
+        ``(chain, draw, groups)`` noise sd per group (m).
+    geometry : numpy.ndarray or None
+        ``(chain, draw, 4)``: ``L, a_x, a_y`` (m), ``phi`` (rad) when the geometry was sampled.
+    """
 
     compliances: dict[str, np.ndarray]
-    spring: np.ndarray | None  # (chain, draw, 3): K0, K_c, s0
-    k2: np.ndarray  # (chain, draw, m) equivalent joint-2 compliance per campaign angle
-    sigma: np.ndarray  # (chain, draw, groups)
-    geometry: np.ndarray | None  # (chain, draw, 4)
+    spring: np.ndarray | None
+    k2: np.ndarray
+    sigma: np.ndarray
+    geometry: np.ndarray | None
 
 
-def _compensated_draws(posterior: CompensatedPosterior, raw: np.ndarray) -> _Draws:
+def _compensated_draws(posterior: CompensatedPosterior, raw: np.ndarray) -> ElastostaticDraws:
     p = posterior.n_linear
     spring = raw[..., p : p + 3]
     geometry = raw[..., p + 3 : p + 3 + posterior.n_geometry] if posterior.n_geometry else None
@@ -751,7 +781,7 @@ def _compensated_draws(posterior: CompensatedPosterior, raw: np.ndarray) -> _Dra
     k2 = np.array([posterior.joint2_compliance(s, g) for s, g in zip(flat_spring, flat_geometry)]).reshape(*raw.shape[:2], -1)
     compliances = {f"k{j + 1}": raw[..., i] for i, j in enumerate(posterior.joints)}
     compliances["k2"] = 1.0 / spring[..., 0]
-    return _Draws(
+    return ElastostaticDraws(
         compliances=compliances,
         spring=spring,
         k2=k2,
@@ -760,7 +790,7 @@ def _compensated_draws(posterior: CompensatedPosterior, raw: np.ndarray) -> _Dra
     )
 
 
-def _per_angle_draws(posterior: PerAnglePosterior, raw: np.ndarray) -> _Draws:
+def _per_angle_draws(posterior: PerAnglePosterior, raw: np.ndarray) -> ElastostaticDraws:
     columns = [c for c, keep in zip(posterior.equations.per_angle_columns(), posterior.free) if keep]
     compliances: dict[str, np.ndarray] = {}
     k2 = np.full((*raw.shape[:2], posterior.equations.q2.size), np.nan)
@@ -769,10 +799,10 @@ def _per_angle_draws(posterior: PerAnglePosterior, raw: np.ndarray) -> _Draws:
             compliances[f"k{joint + 1}"] = raw[..., i]
         else:
             k2[..., angle] = raw[..., i]
-    return _Draws(compliances=compliances, spring=None, k2=k2, sigma=np.exp(raw[..., posterior.n_linear :]), geometry=None)
+    return ElastostaticDraws(compliances=compliances, spring=None, k2=k2, sigma=np.exp(raw[..., posterior.n_linear :]), geometry=None)
 
 
-def _tree(draws: _Draws, equations: DeflectionEquations):
+def _tree(draws: ElastostaticDraws, equations: DeflectionEquations):
     from bayescal.sampling.summary import posterior_tree
 
     values: dict[str, np.ndarray] = {name: value / URAD_PER_NM for name, value in sorted(draws.compliances.items())}
@@ -831,7 +861,7 @@ class ElastostaticResults:
     closed_form: ClosedForm
     model: str
     q2: np.ndarray
-    draws: _Draws = field(repr=False)
+    draws: ElastostaticDraws = field(repr=False)
     geometry: GeometryPrior = field(repr=False)
     n_equations: int = 0
     n_rows: int = 0
@@ -938,7 +968,7 @@ class ElastostaticResults:
         campaign angle.
         """
         d = self.draws
-        missing = [j for j in range(6) if j != JOINT2 and f"k{j + 1}" not in d.compliances]
+        missing = [j for j in range(6) if j != COMPENSATED_JOINT and f"k{j + 1}" not in d.compliances]
         if missing and fill is None:
             return None
         if d.spring is not None:
@@ -949,7 +979,7 @@ class ElastostaticResults:
                 return None
             k2 = d.k2[..., match[0]].reshape(-1)
         columns = [
-            k2 if j == JOINT2 else np.full(k2.size, fill[j]) if j in missing else d.compliances[f"k{j + 1}"].reshape(-1)
+            k2 if j == COMPENSATED_JOINT else np.full(k2.size, fill[j]) if j in missing else d.compliances[f"k{j + 1}"].reshape(-1)
             for j in range(6)
         ]
         return np.column_stack(columns)

@@ -31,6 +31,7 @@ from functools import cached_property
 
 import numpy as np
 
+from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.robot.compensator import CompensatorGeometry
 
 __all__ = [
@@ -42,7 +43,6 @@ __all__ = [
     "in_support",
 ]
 
-JOINT2 = 1
 
 
 def compensator_regressor(geometry: np.ndarray, q2: np.ndarray) -> np.ndarray:
@@ -109,8 +109,8 @@ class DeflectionEquations:
         """``(joint, angle)`` of each per-angle column: joint 2 once per angle, the others once."""
         columns: list[tuple[int, int | None]] = []
         for joint in range(6):
-            if joint == JOINT2:
-                columns.extend((JOINT2, a) for a in range(self.q2.size))
+            if joint == COMPENSATED_JOINT:
+                columns.extend((COMPENSATED_JOINT, a) for a in range(self.q2.size))
             else:
                 columns.append((joint, None))
         return columns
@@ -217,7 +217,7 @@ class CompensatedPosterior:
     geometry: GeometryPrior
 
     def __post_init__(self) -> None:
-        if JOINT2 in self.joints:
+        if COMPENSATED_JOINT in self.joints:
             raise ValueError("joint 2 is described by the compensator parameters, not by a free compliance")
 
     @property
@@ -268,7 +268,7 @@ class CompensatedPosterior:
         k2 = self.joint2_compliance(stiffness, geometry)
         if not np.all(np.isfinite(k2)):
             return None
-        return self.equations.design[:, JOINT2] * k2[self.equations.angle]
+        return self.equations.design[:, COMPENSATED_JOINT] * k2[self.equations.angle]
 
     def log_prob(self, theta: np.ndarray) -> float:
         """Log-posterior density up to a constant; ``-inf`` outside the support."""

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.cell.config import Cell
 from bayescal.robot.compensator import Compensator
 from bayescal.inference.elastostatic import ElastostaticResults, exact_deflections
@@ -138,21 +139,21 @@ def predict_test_pose(
         ``(3,)`` true deflection (simulations): the error is then measured from it.
     """
     q0 = np.asarray(q0, dtype=float)
-    draws = results.compliance_draws(float(q0[1]), fill=nominal_compliances)
+    draws = results.compliance_draws(float(q0[COMPENSATED_JOINT]), fill=nominal_compliances)
     if draws is None:
         return TestPosePrediction(
             deflection=np.empty((0, 3)),
             reference=np.full(3, math.nan),
             rho0=math.nan,
             available=False,
-            reason=_unavailable(results, float(q0[1]), nominal_compliances is None),
+            reason=_unavailable(results, float(q0[COMPENSATED_JOINT]), nominal_compliances is None),
         )
     A0 = compliance_design(robot, q0, point, wrench0)
     deflection = draws @ A0.T
     mean_k = draws.mean(axis=0)
     if results.model == "exact" and nominal_compensator is not None:
         own = mean_k.copy()
-        own[1] = 1.0 / (1.0 / mean_k[1] - nominal_compensator.stiffness(float(q0[1])))
+        own[COMPENSATED_JOINT] = 1.0 / (1.0 / mean_k[COMPENSATED_JOINT] - nominal_compensator.stiffness(float(q0[COMPENSATED_JOINT])))
         exact = exact_deflections(
             robot, q0, wrench0, own, nominal_compensator, points_in_flange=np.atleast_2d(point), load_point=load_point
         )[0]
@@ -161,7 +162,7 @@ def predict_test_pose(
     rho0 = float(np.sqrt(np.trace(A0 @ cov @ A0.T)))
     reference = deflection.mean(axis=0) if truth is None else np.asarray(truth, dtype=float)
     assumed = {
-        f"k{j + 1}": float(draws[0, j]) for j in range(6) if j != 1 and f"k{j + 1}" not in results.draws.compliances
+        f"k{j + 1}": float(draws[0, j]) for j in range(6) if j != COMPENSATED_JOINT and f"k{j + 1}" not in results.draws.compliances
     }
     return TestPosePrediction(deflection=deflection, reference=reference, rho0=rho0, assumed=assumed)
 
@@ -188,7 +189,7 @@ def predict_cell_test_pose(results: ElastostaticResults, cell: Cell, *, truth: n
 def _unavailable(results: ElastostaticResults, q2: float, no_fill: bool) -> str:
     """Why the campaign cannot predict the test pose, naming the compliance that is missing."""
     reasons = results.identifiability.not_identifiable
-    missing = [f"k{j + 1}" for j in range(6) if j != 1 and f"k{j + 1}" not in results.draws.compliances]
+    missing = [f"k{j + 1}" for j in range(6) if j != COMPENSATED_JOINT and f"k{j + 1}" not in results.draws.compliances]
     if missing and no_fill:
         names = ", ".join(missing)
         return f"{names} not identified by the campaign ({reasons.get(missing[0], 'not sampled')}) and no nominal value given"

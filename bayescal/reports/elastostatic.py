@@ -20,11 +20,11 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.cell.config import Cell, load_cell
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.inference.elastostatic import PARAMETER_UNITS, ElastostaticModel, ElastostaticResults, scale_masses
 from bayescal.inference.identifiability import grouped
-from bayescal.inference.likelihood import JOINT2
 from bayescal.cell.plan import Plan, read_plan
 from bayescal.reports.plots import plot_joint2_compliance
 from bayescal.robot.stiffness import equilibrium
@@ -134,7 +134,7 @@ def compensator_precision(results: ElastostaticResults, cell: Cell) -> dict:
     projection = np.linalg.pinv(C)
     cov_w = projection @ cov_K @ projection.T
     Kc, s0 = compensator.K_c, compensator.s0
-    w = np.array([1.0 / cell.compliances[JOINT2], Kc, s0 * Kc])
+    w = np.array([1.0 / cell.compliances[COMPENSATED_JOINT], Kc, s0 * Kc])
     gradient_s0 = np.array([0.0, -w[2] / w[1] ** 2, 1.0 / w[1]])
     width = {
         "K_c": 300.0 * np.sqrt(cov_w[1, 1]) / Kc,
@@ -143,7 +143,7 @@ def compensator_precision(results: ElastostaticResults, cell: Cell) -> dict:
     table_iv = published("IV")
     factor = {name: width[name] / table_iv[name][1] * table_iv[name][0] / 100.0 for name in width}
     per_angle = float(np.median(300.0 * np.sqrt(np.diag(cov_k)) / k2))
-    share = 100.0 * np.abs(compensator.stiffness(results.q2[angles])) * cell.compliances[JOINT2]
+    share = 100.0 * np.abs(compensator.stiffness(results.q2[angles])) * cell.compliances[COMPENSATED_JOINT]
     return {
         "share_pct": (float(share.min()), float(share.max())),
         "per_angle_3sd_pct": per_angle,
@@ -368,8 +368,8 @@ def build_report(
 
 def _joint2_figure(results: ElastostaticResults, cell: Cell, path: Path) -> list[str]:
     """Draw joint 2's equivalent compliance against q2 with its posterior band; the report's lines for it."""
-    q2 = np.linspace(cell.robot.lower[JOINT2], cell.robot.upper[JOINT2], 60)
-    truth = 1.0 / cell.compensator.joint_stiffness(q2, 1.0 / cell.compliances[JOINT2])
+    q2 = np.linspace(cell.robot.lower[COMPENSATED_JOINT], cell.robot.upper[COMPENSATED_JOINT], 60)
+    truth = 1.0 / cell.compensator.joint_stiffness(q2, 1.0 / cell.compliances[COMPENSATED_JOINT])
     draws = results.equivalent_compliance(q2)
     closed = results.closed_form
     own = float(np.mean(1.0 / results.draws.spring[..., 0]))

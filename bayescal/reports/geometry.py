@@ -367,7 +367,7 @@ def _a_y_discussion(points, closed, summary, rigid_summary, reference) -> list[s
         f"(algebraic, eqs 20-24) fit gives {closed.geometry.a_y / MM:.2f} mm, so the difference is not a sampling "
         "effect. Its likely cause is how weakly Table I fixes p0:",
         "",
-        f"- p0 from one cylinder marker alone: a_y = "
+        "- p0 from one cylinder marker alone: a_y = "
         + ", ".join(f"{v:.2f} mm ({k})" for k, v in singles.items())
         + ". Each arc spans only the cylinder's swing, so its centre is poorly fixed along the arc's mean radius, "
         "and the two markers' centres disagree by several mm; the shared centre is their compromise and moves "

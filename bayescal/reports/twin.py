@@ -15,7 +15,7 @@ import numpy as np
 from bayescal.cell.config import Cell, load_cell
 from bayescal.twin.effects import EFFECTS
 from bayescal.cell.plan import Plan, read_plan
-from bayescal.robot.stiffness import COMPENSATED_JOINT
+from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.tables import markdown_table
 from bayescal.twin.simulator import DigitalTwin, design_precision, effect_detectability
 

@@ -32,7 +32,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["CompensatorGeometry", "Compensator"]
+__all__ = ["COMPENSATED_JOINT", "CompensatorGeometry", "Compensator"]
+
+COMPENSATED_JOINT = 1
+"""Index (0-based) of the joint the compensator acts on: joint 2, as in the paper."""
 
 
 def _out(value: np.ndarray) -> np.ndarray | float:

@@ -30,13 +30,13 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
+from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.robot.kinematics import Robot
 
 if TYPE_CHECKING:
     from bayescal.robot.compensator import Compensator
 
 __all__ = [
-    "COMPENSATED_JOINT",
     "EquilibriumError",
     "JointLaw",
     "LinearJoints",
@@ -46,10 +46,6 @@ __all__ = [
     "equilibrium_stiffness",
     "cartesian_stiffness",
 ]
-
-COMPENSATED_JOINT = 1
-"""Index (0-based) of the joint that carries the compensator: joint 2, as in the paper."""
-
 
 class EquilibriumError(RuntimeError):
     """Newton's method did not find the loaded static equilibrium."""

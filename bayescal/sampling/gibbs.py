@@ -27,7 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, optimize, stats
 
-from bayescal.inference.likelihood import JOINT2, CompensatedPosterior, PerAnglePosterior, compensator_regressor, in_support
+from bayescal.robot.compensator import COMPENSATED_JOINT
+from bayescal.inference.likelihood import CompensatedPosterior, PerAnglePosterior, compensator_regressor, in_support
 
 __all__ = ["GibbsSampler"]
 
@@ -167,7 +168,7 @@ class _CompensatedState:
         self.posterior = posterior
         eq = posterior.equations
         X = eq.design[:, list(posterior.joints)]
-        b = eq.design[:, JOINT2]
+        b = eq.design[:, COMPENSATED_JOINT]
         G, m = len(eq.group_names), eq.q2.size
         self.gram = _GroupedGram(X, eq.y, eq.group, G)
         # Joint 2's column spread over the angles: rows of E pick the equation's angle.

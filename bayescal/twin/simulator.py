@@ -28,7 +28,8 @@ from bayescal.twin.effects import EFFECTS, Effect
 from bayescal.errors import InputError
 from bayescal.cell.plan import Plan
 from bayescal.reference import published
-from bayescal.robot.stiffness import COMPENSATED_JOINT, EquilibriumError, LinearJoints, compliance_design, equilibrium
+from bayescal.robot.compensator import COMPENSATED_JOINT
+from bayescal.robot.stiffness import EquilibriumError, LinearJoints, compliance_design, equilibrium
 from bayescal.units import MM, N_PER_MM, URAD_PER_NM
 
 __all__ = ["DigitalTwin", "design_precision", "effect_detectability"]
