@@ -17,7 +17,8 @@ from bayescal.twin.effects import EFFECTS
 from bayescal.cell.plan import Plan, read_plan
 from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.tables import markdown_table
-from bayescal.twin.simulator import DigitalTwin, design_precision, effect_detectability
+from bayescal.studies.precision import design_precision, effect_detectability
+from bayescal.twin.simulator import DigitalTwin
 
 __all__ = ["render_report", "main"]
 

@@ -6,7 +6,8 @@ from scipy import stats
 
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.reports.elastostatic import compensator_precision, linearisation_misfit, weightless
-from bayescal.twin.simulator import DigitalTwin, design_precision
+from bayescal.studies.precision import design_precision
+from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import UM
 
 

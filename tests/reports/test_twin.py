@@ -6,7 +6,7 @@ from pathlib import Path
 
 from bayescal.cell.config import load_cell
 from bayescal.cell.plan import read_plan
-from bayescal.twin.simulator import design_precision
+from bayescal.studies.precision import design_precision
 from bayescal.reports.twin import main, render_report
 
 DATA = Path(__file__).resolve().parents[2] / "data"
