@@ -1,9 +1,8 @@
-from pathlib import Path
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
-
 
 from bayescal.cell.campaign import read_campaign, write_campaign
 from bayescal.cell.config import load_cell

@@ -1,11 +1,10 @@
-from pathlib import Path
 import dataclasses
 import re
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
-
 
 from bayescal.inference.elastostatic import ElastostaticModel, posterior_geometry, scale_masses
 from bayescal.errors import InputError, NotIdentifiableWarning
@@ -21,8 +20,7 @@ SMALL = dict(n_chains=4, n_tune=300, n_draws=400)
 
 
 @pytest.fixture(scope="module")
-def campaign(cell):
-    plan = read_plan(DATA / "table3_plan.csv", cell.robot)
+def campaign(cell, plan):
     return DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(1))
 
 

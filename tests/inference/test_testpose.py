@@ -1,9 +1,8 @@
-from pathlib import Path
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
-
 
 from bayescal.cell.config import load_cell
 from bayescal.inference.elastostatic import ElastostaticModel, exact_deflections
