@@ -37,9 +37,9 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
     from bayescal.cell.campaign import read_campaign
     from bayescal.cell.config import load_cell
-    from bayescal.inference.elastostatic import ElastostaticModel, posterior_geometry
+    from bayescal.inference.elastostatic import ElastostaticModel, default_sampler
+    from bayescal.inference.priors import posterior_geometry
     from bayescal.errors import InputError
-    from bayescal.sampling.summary import save
     from bayescal.robot.stiffness import EquilibriumError
     from bayescal.inference.testpose import predict_cell_test_pose
 
@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     geometry = posterior_geometry(args.geometry) if args.geometry else None
     campaign = read_campaign(args.campaign)
     model = ElastostaticModel.from_cell(
-        cell, geometry, model=args.model, sampler=args.sampler, noise=args.noise, n_draws=args.draws
+        cell, geometry, model=args.model, sampler=default_sampler(args.sampler, args.draws), noise=args.noise
     )
     try:
         results = model.fit(campaign, np.random.default_rng(args.seed))
@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         raise InputError(f"the exact model found no static equilibrium ({exc}); try --model linear", source=args.campaign) from None
     if args.posterior:
         try:
-            save(results.tree, args.posterior)
+            results.save(args.posterior)
         except OSError as exc:
             raise InputError(f"cannot write the posterior ({exc.strerror or type(exc).__name__})", source=args.posterior) from None
 
@@ -110,7 +110,7 @@ def _finite(value):
 def _text(results, test_pose, args) -> str:
     import textwrap
 
-    from bayescal.inference.elastostatic import PARAMETER_UNITS
+    from bayescal.inference.results import PARAMETER_UNITS
     from bayescal.reference import published
     from bayescal.inference.identifiability import grouped
 
@@ -118,7 +118,7 @@ def _text(results, test_pose, args) -> str:
     reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in PARAMETER_UNITS}
     lines = [
         f"{args.campaign}: {results.n_equations} equations ({results.n_rows} rows x 3 coordinates), "
-        f"{results.model} model, {results.sampler_name} sampler, seed {args.seed}",
+        f"{results.model} model, {results.sampler_name}, seed {args.seed}",
         "",
         f"{'parameter':<10}{'unit':<12}{'mean':>10}{'±3σ':>10}{'width':>8}   | {'Table IV':>9}{'±3σ':>8}{'width':>8}",
     ]

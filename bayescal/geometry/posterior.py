@@ -55,7 +55,8 @@ from bayescal.sampling import summary as posterior
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.errors import InputError
 from bayescal.geometry.arcs import LEVER_MARKER, CompensatorGeometryModel, GeometryFit, MarkerPoints
-from bayescal.sampling.ensemble import EnsembleSampler, Sampler
+from bayescal.sampling.ensemble import EnsembleSampler
+from bayescal.sampling.protocol import Sampler
 from bayescal.units import DEG, MM
 
 __all__ = ["GeometryPriors", "GeometryPosteriorModel", "GeometryPosterior", "default_sampler"]

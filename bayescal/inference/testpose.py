@@ -22,7 +22,8 @@ import numpy as np
 from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.cell.config import Cell
 from bayescal.robot.compensator import Compensator
-from bayescal.inference.elastostatic import ElastostaticResults, exact_deflections
+from bayescal.inference.exact import exact_deflections
+from bayescal.inference.results import ElastostaticResults
 from bayescal.robot.kinematics import Robot
 from bayescal.robot.stiffness import compliance_design
 from bayescal.units import MM, URAD_PER_NM

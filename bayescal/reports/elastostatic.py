@@ -23,7 +23,9 @@ from scipy import stats
 from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.cell.config import Cell, load_cell
 from bayescal.robot.compensator import CompensatorGeometry
-from bayescal.inference.elastostatic import PARAMETER_UNITS, ElastostaticModel, ElastostaticResults, scale_masses
+from bayescal.inference.elastostatic import ElastostaticModel
+from bayescal.inference.exact import scale_masses
+from bayescal.inference.results import PARAMETER_UNITS, ElastostaticResults
 from bayescal.inference.identifiability import grouped
 from bayescal.cell.plan import Plan, read_plan
 from bayescal.reports.plots import plot_joint2_compliance
@@ -279,7 +281,7 @@ def build_report(
         "",
         "## Estimates beside Table IV",
         "",
-        f"Exact model, {results.sampler_name} sampler, {d['n_chains']} chains × {d['n_draws']} draws; "
+        f"Exact model, {results.sampler_name}, {d['n_chains']} chains × {d['n_draws']} draws; "
         f"R-hat max {d['r_hat_max']:.3f}, bulk ESS min {d['ess_bulk_min']:.0f}, tail ESS min {d['ess_tail_min']:.0f}. "
         "Intervals are mean ± 3 sd as in the paper; widths are 3 sd / |mean|. k2 is joint 2 without its compensator. "
         "A parameter is reported only when it is identifiable both structurally (rank of the design) and from these "

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["COMPENSATED_JOINT", "CompensatorGeometry", "Compensator"]
+__all__ = ["COMPENSATED_JOINT", "CompensatorGeometry", "Compensator", "stiffness_regressor"]
 
 COMPENSATED_JOINT = 1
 """Index (0-based) of the joint the compensator acts on: joint 2, as in the paper."""
@@ -40,6 +40,37 @@ COMPENSATED_JOINT = 1
 
 def _out(value: np.ndarray) -> np.ndarray | float:
     return float(value) if np.ndim(value) == 0 else value
+
+
+def stiffness_regressor(q2: ArrayLike, L: ArrayLike, a_x: ArrayLike, a_y: ArrayLike, phi: ArrayLike) -> np.ndarray:
+    """Rows ``C`` of eq 35, with ``K_θ2(q2) = C @ [K_θ2^0, K_c, s0·K_c]`` (eq 8).
+
+    All arguments broadcast against each other, so that one call evaluates
+    many angles for many geometries (posterior draws, say).
+
+    Parameters
+    ----------
+    q2
+        Joint angle(s) in rad.
+    L, a_x, a_y, phi
+        Geometry of :class:`CompensatorGeometry` (m, m, m, rad).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``broadcast + (3,)``; the columns are in 1, m², m (so that the
+        product is in N·m/rad when the parameters are in N·m/rad, N/m and N).
+    """
+    q2, L, a_x, a_y, phi = (np.asarray(v, dtype=float) for v in (q2, L, a_x, a_y, phi))
+    a = np.hypot(a_x, a_y)
+    gamma = phi - np.arctan2(a_y, a_x) - q2
+    cos, sin = np.cos(gamma), np.sin(gamma)
+    s2 = a**2 + L**2 + 2.0 * a * L * cos
+    aL = a * L
+    return np.stack(
+        np.broadcast_arrays(np.ones_like(gamma), -aL * cos, aL / np.sqrt(s2) * (aL / s2 * sin**2 + cos)),
+        axis=-1,
+    )
 
 
 @dataclass(frozen=True)
@@ -93,32 +124,8 @@ class CompensatorGeometry:
         return _out(np.sqrt(self.a**2 + self.L**2 + 2.0 * self.a * self.L * np.cos(gamma)))
 
     def regressor(self, q2: ArrayLike) -> np.ndarray:
-        """Rows ``C`` of eq 35 with ``K_θ2(q2) = C @ [K_θ2^0, K_c, s0·K_c]``.
-
-        Parameters
-        ----------
-        q2
-            Joint angle(s) in rad.
-
-        Returns
-        -------
-        numpy.ndarray
-            Shape ``(3,)`` for a scalar ``q2``, ``(n, 3)`` for ``n`` angles; the
-            columns are in 1, m², m (so that the product is in N·m/rad when the
-            parameters are in N·m/rad, N/m and N).
-        """
-        gamma = self.alpha - np.asarray(q2, dtype=float)
-        s = np.sqrt(self.a**2 + self.L**2 + 2.0 * self.a * self.L * np.cos(gamma))
-        aL = self.a * self.L
-        rows = np.stack(
-            np.broadcast_arrays(
-                np.ones_like(gamma),
-                -aL * np.cos(gamma),
-                aL / s * (aL / s**2 * np.sin(gamma) ** 2 + np.cos(gamma)),
-            ),
-            axis=-1,
-        )
-        return rows
+        """Rows ``C`` of eq 35 with ``K_θ2(q2) = C @ [K_θ2^0, K_c, s0·K_c]``: see :func:`stiffness_regressor`."""
+        return stiffness_regressor(q2, self.L, self.a_x, self.a_y, self.phi)
 
     def with_spring(self, K_c: float, s0: float) -> Compensator:
         """This geometry with a spring of stiffness ``K_c`` (N/m) and free length ``s0`` (m)."""
@@ -189,3 +196,15 @@ class Compensator(CompensatorGeometry):
             Stiffness of joint 2 without its compensator, ``K_θ2^0``, in N·m/rad.
         """
         return _out(K0 + np.asarray(self.stiffness(q2)))
+
+    def equivalent_compliance(self, q2: ArrayLike, own: ArrayLike) -> np.ndarray | float:
+        """Compliance of joint 2 with its compensator, ``1 / (1/own + K_c a L eta)`` (eq 8), in rad/(N·m).
+
+        ``own`` is the joint's compliance without the compensator, ``1/K_θ2^0``.
+        """
+        return _out(1.0 / (1.0 / np.asarray(own, dtype=float) + np.asarray(self.stiffness(q2))))
+
+    def own_compliance(self, q2: ArrayLike, equivalent: ArrayLike) -> np.ndarray | float:
+        """The inverse of :meth:`equivalent_compliance`: joint 2's own compliance ``1/K_θ2^0`` (rad/(N·m))
+        that, with this compensator at ``q2``, gives the ``equivalent`` compliance."""
+        return _out(1.0 / (1.0 / np.asarray(equivalent, dtype=float) - np.asarray(self.stiffness(q2))))

@@ -1,31 +1,16 @@
-"""Samplers: small objects that turn a log-posterior and a start into draws.
-
-A sampler is any object with ``sample(log_prob, start, scale, rng)`` returning
-draws of shape ``(chain, draw, ndim)``; models take one as an argument, the way
-emcee takes its moves, so that a conjugate or Gibbs sampler and an ensemble
-sampler can be swapped on the same posterior.
-"""
+"""emcee's affine-invariant ensemble behind the sampler protocol of :mod:`bayescal.sampling.protocol`."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol
 
 import emcee
 import numpy as np
 
-__all__ = ["Sampler", "EnsembleSampler"]
+from bayescal.sampling.protocol import LogProb
 
-LogProb = Callable[[np.ndarray], float]
-
-
-class Sampler(Protocol):
-    """What a model needs from a sampler."""
-
-    def sample(self, log_prob: LogProb, start: np.ndarray, scale: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """Return draws of shape ``(chain, draw, ndim)`` from ``exp(log_prob)``."""
-        ...
+__all__ = ["EnsembleSampler"]
 
 
 @dataclass(frozen=True)

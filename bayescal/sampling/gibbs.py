@@ -1,53 +1,276 @@
-"""Gibbs samplers that exploit the linear-Gaussian structure of the deflection model.
+"""Gibbs sampling of conditionally linear-Gaussian models, all chains at once.
 
-Given the noise variances, the deflections are linear in the joint compliances
-with Gaussian errors, so the compliances have a Gaussian conditional posterior
-(truncated to positive values), and given the compliances each noise variance
-has an inverse-gamma conditional.  Both are drawn exactly.
+The deflection model of a calibration campaign is linear in the joint
+compliances ``k`` once the noise levels and a small nonlinear block ``z`` (the
+compensator's spring and geometry) are given::
 
-For the compensated model (:class:`~bayescal.inference.likelihood.CompensatedPosterior`)
-the joint-2 stiffness ``C(q2) @ w`` with ``w = [K_theta2^0, K_c, s0 K_c]`` and
-the compensator geometry enter nonlinearly.  They are updated by Metropolis
-steps on their posterior with the other compliances integrated out (a
-partially collapsed Gibbs sampler), which removes the strong correlation
-between joints 2 and 3 that would otherwise slow the chain; the compliances
-are then drawn from their conditional.  ``(K_theta2^0, log K_c, s0)`` move by
-an independence proposal (a Student t fitted at the posterior mode) followed
-by random-walk steps whose covariance is refitted during tuning; the geometry,
-which the deflections barely inform, by an independence proposal from its prior.
+    y_i = X_i · k + b_i f(z)[level_i] + e_i,      e_i ~ N(0, sigma_g(i)^2),
 
-All sums over equations are precomputed per noise group, so an iteration costs
-the same whatever the number of equations.
+with ``k >= 0`` under a flat prior, a Jeffreys prior on each noise variance and
+the block's own prior on ``z``.  :class:`ConditionallyLinear` describes such a
+model; :class:`GibbsSampler` draws from it.  The compliances have a Gaussian
+conditional (truncated to positive values) and each variance an inverse-gamma
+one, both drawn exactly.  ``z`` is updated by Metropolis steps on its posterior
+with ``k`` integrated out (a partially collapsed Gibbs sampler), which removes
+the strong correlation between the block and the compliances that would
+otherwise slow the chain: an independence proposal (a Student t fitted at the
+mode, then refitted to each chain's own draws during tuning) followed by
+random-walk steps; the trailing coordinates that the data barely inform (the
+compensator geometry) by an independence proposal from their Gaussian prior.
+
+Every sum over equations is precomputed per noise group, so an iteration costs
+the same whatever the number of equations, and every step is vectorised over
+the chains.  The collapsed density ignores the positivity truncation of ``k``:
+compliances lie many standard deviations from zero.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
-from scipy import linalg, optimize, stats
 
-from bayescal.robot.compensator import COMPENSATED_JOINT
-from bayescal.inference.likelihood import CompensatedPosterior, PerAnglePosterior, compensator_regressor, in_support
+__all__ = ["GibbsSampler", "ConditionallyLinear", "NonlinearBlock"]
 
-__all__ = ["GibbsSampler"]
-
-_T_DOF = 5.0
+T_DOF = 5.0
 """Degrees of freedom of the independence proposal: heavy enough tails to cover the posterior's."""
-_RANDOM_WALK_STEPS = 5
-"""Random-walk Metropolis steps per sweep: cheap, since the collapsed target costs O(1) in the equations."""
-_T_INFLATION = 1.2
-"""Scale of the independence proposal relative to the Laplace covariance."""
+T_INFLATION = 1.2
+"""Scale of the independence proposal relative to the fitted covariance."""
+RANDOM_WALK_STEPS = 2
+"""Random-walk Metropolis steps per sweep after the independence step; they move chains the
+independence proposal leaves stuck in the tails."""
+REFITS = (0.25, 0.5, 0.75)
+"""Fractions of the tuning phase at which each chain refits its proposal to the second half of its
+own draws so far, so that the proposal follows the posterior where the Laplace fit is poor."""
+START_SPREAD = 0.3
+"""sd of the log-normal dispersion of the chains' initial noise variances around the start."""
+HESSIAN_STEP = 0.05
+"""Finite-difference step of the Laplace Hessian, in units of the caller's ``scale``."""
+
+
+class NonlinearBlock(Protocol):
+    """The nonlinear part ``f(z)`` of a :class:`ConditionallyLinear` model.
+
+    Attributes
+    ----------
+    ndim : int
+        Length of ``z``.
+    n_adapted : int
+        The leading coordinates of ``z``, moved by the adaptive proposal; the
+        trailing ``ndim - n_adapted`` have a Gaussian prior ``prior_mean``,
+        ``prior_cov`` and are proposed from it.
+    """
+
+    ndim: int
+    n_adapted: int
+    prior_mean: np.ndarray
+    prior_cov: np.ndarray
+
+    def evaluate(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """At ``(c, ndim)`` points: the ``(c, m)`` coefficients of ``b`` at each level (``nan`` outside the
+        support) and the ``(c,)`` log prior density up to a constant, trailing Gaussian included (``-inf`` outside)."""
+
+
+@dataclass(frozen=True)
+class ConditionallyLinear:
+    """A linear-Gaussian model with grouped unknown noise and an optional nonlinear block.
+
+    The parameter vector is ``theta = [k, z, log sigma]``; calling the model
+    returns its log posterior density (up to a constant), so that any sampler
+    of the protocol in :mod:`bayescal.sampling.protocol` can draw from it.
+
+    Parameters
+    ----------
+    y
+        ``(n,)`` observations.
+    X
+        ``(n, p)`` design of the linear coefficients ``k``.
+    group
+        ``(n,)`` noise group of each observation, in ``range(n_groups)``.
+    n_groups
+        Number of noise groups.
+    b, level
+        ``(n,)`` the column that the block scales and the index of each
+        observation's level in ``f(z)``; None without a block.
+    block
+        The nonlinear block, or None.
+    """
+
+    y: np.ndarray
+    X: np.ndarray
+    group: np.ndarray
+    n_groups: int
+    b: np.ndarray | None = None
+    level: np.ndarray | None = None
+    block: NonlinearBlock | None = None
+    _stats: _Sufficient = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        n = self.y.shape[0]
+        if self.X.shape[0] != n or self.group.shape != (n,):
+            raise ValueError("y, X and group must describe the same observations")
+        if (self.block is None) != (self.b is None) or (self.b is None) != (self.level is None):
+            raise ValueError("b, level and block go together")
+        object.__setattr__(self, "_stats", _Sufficient.of(self))
+
+    @property
+    def n_linear(self) -> int:
+        """Number of linear coefficients ``k``."""
+        return int(self.X.shape[1])
+
+    @property
+    def n_block(self) -> int:
+        """Length of ``z`` (0 without a block)."""
+        return 0 if self.block is None else int(self.block.ndim)
+
+    @property
+    def ndim(self) -> int:
+        """Length of ``theta``."""
+        return self.n_linear + self.n_block + self.n_groups
+
+    def __call__(self, theta: np.ndarray) -> float:
+        theta = np.asarray(theta, dtype=float)
+        p, d = self.n_linear, self.n_block
+        k, z, log_sigma = theta[:p], theta[p : p + d], theta[p + d :]
+        if np.any(k <= 0):
+            return -np.inf
+        fit = self.X @ k
+        prior = 0.0
+        if self.block is not None:
+            f, prior = self.block.evaluate(z[None])
+            f, prior = f[0], float(prior[0])
+            if not np.all(np.isfinite(f)) or not np.isfinite(prior):
+                return -np.inf
+            fit = fit + self.b * f[self.level]
+        ssr = np.bincount(self.group, weights=(self.y - fit) ** 2, minlength=self.n_groups)
+        counts = self._stats.counts
+        return float(np.sum(-counts * log_sigma - 0.5 * ssr * np.exp(-2.0 * log_sigma))) + prior
+
+
+@dataclass(frozen=True)
+class _Sufficient:
+    """Per-group sums of a :class:`ConditionallyLinear` model: X'X, X'y, y'y and their block terms."""
+
+    counts: np.ndarray
+    XtX: np.ndarray
+    Xty: np.ndarray
+    yty: np.ndarray
+    XtB: np.ndarray
+    ytB: np.ndarray
+    BtB: np.ndarray
+
+    @classmethod
+    def of(cls, model: ConditionallyLinear) -> _Sufficient:
+        G, X, y = model.n_groups, model.X, model.y
+        rows = [model.group == g for g in range(G)]
+        m = 0 if model.block is None else int(model.level.max(initial=-1)) + 1
+        # B spreads the scaled column over the levels: row i has b_i in column level_i.
+        XtB = np.zeros((G, X.shape[1], m))
+        ytB = np.zeros((G, m))
+        BtB = np.zeros((G, m))
+        for g, r in enumerate(rows):
+            if m:
+                for j in range(X.shape[1]):
+                    XtB[g, j] = np.bincount(model.level[r], weights=X[r, j] * model.b[r], minlength=m)
+                ytB[g] = np.bincount(model.level[r], weights=y[r] * model.b[r], minlength=m)
+                BtB[g] = np.bincount(model.level[r], weights=model.b[r] ** 2, minlength=m)
+        return cls(
+            counts=np.array([r.sum() for r in rows], dtype=float),
+            XtX=np.stack([X[r].T @ X[r] for r in rows]),
+            Xty=np.stack([X[r].T @ y[r] for r in rows]),
+            yty=np.array([y[r] @ y[r] for r in rows]),
+            XtB=XtB,
+            ytB=ytB,
+            BtB=BtB,
+        )
+
+    def precision(self, sigma2: np.ndarray) -> np.ndarray:
+        """``(c, p, p)`` precision of ``k`` given the variances ``(c, G)``."""
+        return np.einsum("cg,gij->cij", 1.0 / sigma2, self.XtX)
+
+    def rhs(self, f: np.ndarray, sigma2: np.ndarray) -> np.ndarray:
+        """``(c, p)`` ``sum_g X_g'(y_g - B_g f) / sigma_g^2``."""
+        Xtr = self.Xty[None] - np.einsum("gpm,cm->cgp", self.XtB, f)
+        return np.einsum("cgp,cg->cp", Xtr, 1.0 / sigma2)
+
+    def rtr(self, f: np.ndarray) -> np.ndarray:
+        """``(c, G)`` ``|y_g - B_g f|^2``."""
+        return self.yty[None] - 2.0 * f @ self.ytB.T + (f**2) @ self.BtB.T
+
+    def ssr(self, k: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """``(c, G)`` residual sums of squares at ``k`` ``(c, p)`` and block values ``f`` ``(c, m)``."""
+        Xtr = self.Xty[None] - np.einsum("gpm,cm->cgp", self.XtB, f)
+        quadratic = np.einsum("ci,gij,cj->cg", k, self.XtX, k)
+        return np.maximum(self.rtr(f) - 2.0 * np.einsum("cgp,cp->cg", Xtr, k) + quadratic, 0.0)
+
+
+class _Collapsed:
+    """Log posterior of ``z`` given the variances, with ``k`` integrated out, for a batch of points."""
+
+    def __init__(self, model: ConditionallyLinear) -> None:
+        self.model = model
+        self.stats = model._stats
+
+    def __call__(self, z: np.ndarray, sigma2: np.ndarray, covariance: np.ndarray) -> np.ndarray:
+        """``(c,)`` values at ``z`` ``(c, d)``, variances ``(c|1, G)`` and k's conditional covariance ``(c|1, p, p)``."""
+        block = self.model.block
+        f, log_prior = block.evaluate(z)
+        bad = ~np.all(np.isfinite(f), axis=1) | ~np.isfinite(log_prior)
+        f = np.where(bad[:, None], 0.0, f)
+        value = -0.5 * np.sum(self.stats.rtr(f) / sigma2, axis=1)
+        if self.model.n_linear:
+            rhs = self.stats.rhs(f, np.broadcast_to(sigma2, (f.shape[0], sigma2.shape[-1])))
+            value = value + 0.5 * np.einsum("cp,cp->c", rhs, (covariance @ rhs[..., None])[..., 0])
+        return np.where(bad, -np.inf, value + np.where(bad, 0.0, log_prior))
+
+
+@dataclass(frozen=True)
+class _Proposal:
+    """Per-chain Student-t proposals over the adapted coordinates: centres ``(c, d)`` and factors ``(c, d, d)``."""
+
+    center: np.ndarray
+    chol: np.ndarray
+
+    def draw(self, rng: np.random.Generator) -> np.ndarray:
+        c, d = self.center.shape
+        t = rng.standard_normal((c, d)) / np.sqrt(rng.chisquare(T_DOF, size=(c, 1)) / T_DOF)
+        return self.center + T_INFLATION * (self.chol @ t[..., None])[..., 0]
+
+    def log_q(self, z: np.ndarray) -> np.ndarray:
+        u = np.linalg.solve(T_INFLATION * self.chol, (z - self.center)[..., None])[..., 0]
+        return -0.5 * (T_DOF + z.shape[1]) * np.log1p(np.sum(u**2, axis=1) / T_DOF)
+
+    def refit(self, history: np.ndarray) -> _Proposal:
+        """Each chain's proposal refitted to the mean and covariance of its draws ``(steps, c, d)``; kept where degenerate."""
+        steps, c, d = history.shape
+        if steps < 5 * d:
+            return self
+        center = history.mean(axis=0)
+        deviation = history - center
+        cov = np.einsum("sci,scj->cij", deviation, deviation) / (steps - 1)
+        chol = self.chol.copy()
+        new_center = self.center.copy()
+        for chain in range(c):
+            try:
+                chol[chain] = np.linalg.cholesky(cov[chain])
+                new_center[chain] = center[chain]
+            except np.linalg.LinAlgError:
+                continue
+        return _Proposal(center=new_center, chol=chol)
 
 
 @dataclass(frozen=True)
 class GibbsSampler:
-    """Gibbs sampler for the per-angle and the compensated deflection models.
+    """Partially collapsed Gibbs sampler of :class:`ConditionallyLinear` models.
+
+    Honours the sampler protocol: ``sample(target, start, scale, rng)``; the
+    target must be a :class:`ConditionallyLinear` model, whose structure it uses.
 
     Parameters
     ----------
     n_chains
-        Number of independent chains, each started from its own dispersed point.
+        Number of chains, run together and each started from its own dispersed point.
     n_tune
         Iterations discarded at the start of each chain.
     n_draws
@@ -58,289 +281,195 @@ class GibbsSampler:
     n_tune: int = 200
     n_draws: int = 1000
 
-    def sample_per_angle(self, posterior: PerAnglePosterior, rng: np.random.Generator) -> np.ndarray:
-        """Draws ``(chain, draw, ndim)`` of ``[compliances, log sigma]`` of the per-angle model."""
-        equations = posterior.equations
-        gram = _GroupedGram(posterior.design, equations.y, equations.group, len(equations.group_names))
-        k_hat = np.linalg.lstsq(posterior.design, equations.y, rcond=None)[0]
-        k_hat = np.where(k_hat > 0, k_hat, np.abs(k_hat) + 1e-12)
-        sigma2_hat = gram.ssr(k_hat) / np.maximum(gram.counts - posterior.n_linear / gram.n_groups, 1.0)
-        chains = np.empty((self.n_chains, self.n_draws, posterior.n_linear + gram.n_groups))
-        for chain in range(self.n_chains):
-            sigma2 = sigma2_hat * np.exp(rng.normal(0.0, 0.5, gram.n_groups))
-            k = k_hat
-            for step in range(self.n_tune + self.n_draws):
-                mean, chol = gram.conditional(sigma2)
-                k = _positive_gaussian(mean, chol, k, rng)
-                sigma2 = _inverse_gamma(gram.counts, gram.ssr(k), rng)
-                if step >= self.n_tune:
-                    chains[chain, step - self.n_tune] = np.concatenate([k, 0.5 * np.log(sigma2)])
-        return chains
-
-    def sample_compensated(self, posterior: CompensatedPosterior, start: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """Draws ``(chain, draw, ndim)`` in the parameter order of ``posterior``.
+    def sample(self, target: ConditionallyLinear, start: np.ndarray, scale: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Draws ``(chain, draw, ndim)`` of ``theta = [k, z, log sigma]``.
 
         Parameters
         ----------
-        posterior
-            The compensated model.
+        target
+            The model.
         start
             A parameter vector near the posterior mode (e.g. the closed-form
-            estimate); it centres the first proposal, and each chain starts from
-            a dispersed draw around it.
+            estimate); the block's proposal is fitted around it and each chain
+            starts from a dispersed point.
+        scale
+            Typical posterior sd of each parameter; only the block's entries are
+            used, to scale the search for the mode of its collapsed posterior.
         rng
             Source of all randomness.
-
-        Notes
-        -----
-        During tuning, each chain refits its Metropolis proposal three times to
-        the mean and covariance of its own recent draws, so that the proposal
-        follows the posterior even where the Laplace approximation is poor
-        (a weakly identified ``K_c``); it is then frozen for the kept draws.
         """
-        state = _CompensatedState(posterior)
-        k0, stiffness0, _, log_sigma0 = posterior.split(np.asarray(start, dtype=float))
-        sigma2_0 = np.exp(2.0 * log_sigma0)
-        laplace = state.laplace(stiffness0, sigma2_0)
-        refits = {self.n_tune * i // 4 for i in (1, 2, 3)} - {0}
-        geometry_prior = posterior.geometry
-        chains = np.empty((self.n_chains, self.n_draws, posterior.ndim))
-        for chain in range(self.n_chains):
-            proposal = laplace
-            sigma2 = sigma2_0 * np.exp(rng.normal(0.0, 0.3, sigma2_0.size))
-            factor = state.precision_factor(sigma2)
-            spring = proposal.draw(rng)
-            geometry = geometry_prior.mean if state.n_geometry else np.empty(0)
-            while not np.isfinite(state.collapsed(np.concatenate([spring, geometry]), sigma2, factor)):
-                spring = proposal.draw(rng)
-            k = k0
-            history = []
-            for step in range(self.n_tune + self.n_draws):
+        if not isinstance(target, ConditionallyLinear):
+            raise TypeError(f"GibbsSampler samples ConditionallyLinear models, got {type(target).__name__}")
+        model, stats = target, target._stats
+        p, d, G, C = model.n_linear, model.n_block, model.n_groups, self.n_chains
+        start = np.asarray(start, dtype=float)
+        scale = np.broadcast_to(np.asarray(scale, dtype=float), start.shape)
+        k = np.broadcast_to(start[:p], (C, p)).copy()
+        z = np.broadcast_to(start[p : p + d], (C, d)).copy()
+        sigma2 = np.exp(2.0 * start[p + d :])[None] * np.exp(rng.normal(0.0, START_SPREAD, (C, G)))
+        collapsed = _Collapsed(model) if d else None
+        if d:
+            adapted = model.block.n_adapted
+            proposal = _laplace(collapsed, start[p : p + d], scale[p : p + d], np.exp(2.0 * start[p + d :]), adapted, C)
+            z[:, :adapted] = _finite_start(proposal, collapsed, z, sigma2, _covariance(stats, sigma2), rng)
+            trailing = _GaussianPrior(model.block.prior_mean, model.block.prior_cov) if d > adapted else None
+        refits = {int(self.n_tune * fraction) for fraction in REFITS} - {0}
+        history = []
+        draws = np.empty((C, self.n_draws, model.ndim))
+        for step in range(self.n_tune + self.n_draws):
+            covariance = _covariance(stats, sigma2)
+            if d:
                 if step in refits:
                     proposal = proposal.refit(np.array(history[len(history) // 2 :]))
-                factor = state.precision_factor(sigma2)
-
-                def target(x, geometry=geometry, sigma2=sigma2, factor=factor):
-                    return state.collapsed(np.concatenate([x, geometry]), sigma2, factor)
-
-                spring, current = proposal.independence_step(spring, target(spring), target, rng)
-                for _ in range(_RANDOM_WALK_STEPS):
-                    spring, current = proposal.random_walk_step(spring, current, target, rng)
-                if state.n_geometry:
-                    geometry = state.geometry_step(spring, geometry, current, sigma2, factor, rng)
-                history.append(spring)
-                z = np.concatenate([spring, geometry])
-                k2 = state.joint2(z)
-                mean, chol = state.linear_conditional(k2, sigma2)
-                k = _positive_gaussian(mean, chol, k, rng) if k.size else k
-                sigma2 = _inverse_gamma(state.gram.counts, state.ssr(k, k2), rng)
-                if step >= self.n_tune:
-                    chains[chain, step - self.n_tune] = state.theta(k, z, sigma2)
-        return chains
+                z = _block_step(collapsed, proposal, trailing, z, sigma2, covariance, rng)
+                history.append(z[:, : proposal.center.shape[1]])
+                f = model.block.evaluate(z)[0]
+            else:
+                f = np.zeros((C, 0))
+            if p:
+                mean = (covariance @ stats.rhs(f, sigma2)[..., None])[..., 0]
+                k = _positive_gaussian(mean, covariance, k, rng)
+            sigma2 = 0.5 * stats.ssr(k, f) / rng.gamma(0.5 * stats.counts, size=(C, G))
+            if step >= self.n_tune:
+                draws[:, step - self.n_tune] = np.concatenate([k, z, 0.5 * np.log(sigma2)], axis=1)
+        return draws
 
 
-class _GroupedGram:
-    """Per-noise-group sums X'X, X'y, y'y of a linear model."""
-
-    def __init__(self, X: np.ndarray, y: np.ndarray, group: np.ndarray, n_groups: int) -> None:
-        self.n_groups = n_groups
-        self.counts = np.bincount(group, minlength=n_groups).astype(float)
-        self.XtX = np.stack([X[group == g].T @ X[group == g] for g in range(n_groups)])
-        self.Xty = np.stack([X[group == g].T @ y[group == g] for g in range(n_groups)])
-        self.yty = np.array([y[group == g] @ y[group == g] for g in range(n_groups)])
-
-    def conditional(self, sigma2: np.ndarray, Xty: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Mean and lower Cholesky factor of the precision of the coefficients given the variances."""
-        precision = np.tensordot(1.0 / sigma2, self.XtX, axes=1)
-        rhs = (self.Xty if Xty is None else Xty).T @ (1.0 / sigma2)
-        chol = linalg.cholesky(precision, lower=True)
-        return linalg.cho_solve((chol, True), rhs), chol
-
-    def ssr(self, k: np.ndarray) -> np.ndarray:
-        """Sum of squared residuals per group."""
-        return np.maximum(self.yty - 2.0 * self.Xty @ k + np.einsum("i,gij,j->g", k, self.XtX, k), 0.0)
-
-
-class _CompensatedState:
-    """Precomputed sums and conditionals of the compensated model."""
-
-    def __init__(self, posterior: CompensatedPosterior) -> None:
-        self.posterior = posterior
-        eq = posterior.equations
-        X = eq.design[:, list(posterior.joints)]
-        b = eq.design[:, COMPENSATED_JOINT]
-        G, m = len(eq.group_names), eq.q2.size
-        self.gram = _GroupedGram(X, eq.y, eq.group, G)
-        # Joint 2's column spread over the angles: rows of E pick the equation's angle.
-        E = np.zeros((eq.n, m))
-        E[np.arange(eq.n), eq.angle] = b
-        self.XtB = np.stack([X[eq.group == g].T @ E[eq.group == g] for g in range(G)])
-        self.ytB = np.stack([eq.y[eq.group == g] @ E[eq.group == g] for g in range(G)])
-        self.BtB = np.stack([(E[eq.group == g] ** 2).sum(axis=0) for g in range(G)])
-        self.n_geometry = posterior.n_geometry
-
-    def split(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``w = [K0, K_c, s0 K_c]`` and the geometry from ``z = [K0, log K_c, s0, geometry]``."""
-        geometry = z[3:] if self.n_geometry else self.posterior.geometry.mean
-        Kc = np.exp(z[1])
-        return np.array([z[0], Kc, z[2] * Kc]), geometry
-
-    def joint2(self, z: np.ndarray) -> np.ndarray:
-        w, geometry = self.split(z)
-        return 1.0 / (compensator_regressor(geometry, self.posterior.equations.q2) @ w)
-
-    def _Xtr(self, k2: np.ndarray) -> np.ndarray:
-        return self.gram.Xty - self.XtB @ k2
-
-    def linear_conditional(self, k2: np.ndarray, sigma2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if not self.posterior.joints:
-            return np.empty(0), np.empty((0, 0))
-        return self.gram.conditional(sigma2, self._Xtr(k2))
-
-    def _rtr(self, k2: np.ndarray) -> np.ndarray:
-        return self.gram.yty - 2.0 * self.ytB @ k2 + self.BtB @ k2**2
-
-    def ssr(self, k: np.ndarray, k2: np.ndarray) -> np.ndarray:
-        Xtr = self._Xtr(k2)
-        fit = -2.0 * Xtr @ k + np.einsum("i,gij,j->g", k, self.gram.XtX, k) if k.size else 0.0
-        return np.maximum(self._rtr(k2) + fit, 0.0)
-
-    def precision_factor(self, sigma2: np.ndarray) -> np.ndarray | None:
-        """Lower Cholesky factor of the compliances' precision given the variances (None without compliances)."""
-        if not self.posterior.joints:
-            return None
-        return linalg.cholesky(np.tensordot(1.0 / sigma2, self.gram.XtX, axes=1), lower=True)
-
-    def geometry_step(self, spring, geometry, current, sigma2, factor, rng) -> np.ndarray:
-        """Independence Metropolis step for the geometry, proposed from its prior (so only the likelihood ratio counts).
-
-        ``current`` is the collapsed log-posterior at ``(spring, geometry)``.
-        """
-        prior = self.posterior.geometry
-        candidate = rng.multivariate_normal(prior.mean, prior.cov)
-        new = self.collapsed(np.concatenate([spring, candidate]), sigma2, factor) - prior.log_density(candidate)
-        old = current - prior.log_density(geometry)
-        return candidate if np.log(rng.uniform()) < new - old else geometry
-
-    def collapsed(self, z: np.ndarray, sigma2: np.ndarray, factor: np.ndarray | None = None) -> float:
-        """Log-posterior of ``z = [K0, log K_c, s0, geometry]`` given the variances, compliances integrated out.
-
-        K_c is moved on the log scale, where its posterior is far less skewed
-        when the data determine it loosely; ``+ log K_c`` is the Jacobian of the
-        flat prior on K_c.
-        """
-        w, geometry = self.split(z)
-        if not in_support(np.array([w[0], w[1], z[2]]), geometry):
-            return -np.inf
-        total = compensator_regressor(geometry, self.posterior.equations.q2) @ w
-        if np.any(total <= 0):
-            return -np.inf
-        k2 = 1.0 / total
-        value = -0.5 * float(self._rtr(k2) @ (1.0 / sigma2))
-        if self.posterior.joints:
-            factor = self.precision_factor(sigma2) if factor is None else factor
-            rhs = self._Xtr(k2).T @ (1.0 / sigma2)
-            value += 0.5 * float(rhs @ linalg.cho_solve((factor, True), rhs, check_finite=False))
-        return value + float(z[1]) + self.posterior.geometry.log_density(geometry)
-
-    def theta(self, k: np.ndarray, z: np.ndarray, sigma2: np.ndarray) -> np.ndarray:
-        stiffness = np.array([z[0], np.exp(z[1]), z[2]])
-        return np.concatenate([k, stiffness, z[3:], 0.5 * np.log(sigma2)])
-
-    def laplace(self, stiffness: np.ndarray, sigma2: np.ndarray) -> _Proposal:
-        """Student-t proposal centred at the mode of the collapsed posterior, with its Laplace covariance."""
-        z0 = np.array([stiffness[0], np.log(stiffness[1]), stiffness[2]], dtype=float)
-        scale = np.array([0.01 * stiffness[0], 0.2, 0.05 * stiffness[2]])
-        if self.n_geometry:
-            z0 = np.concatenate([z0, self.posterior.geometry.mean])
-            scale = np.concatenate([scale, np.sqrt(np.diag(self.posterior.geometry.cov))])
-
-        def negative(x: np.ndarray) -> float:
-            value = self.collapsed(z0 + scale * x, sigma2)
-            return -value if np.isfinite(value) else 1e300
-
-        best = optimize.minimize(negative, np.zeros(z0.size), method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-6, "maxiter": 4000})
-        best = optimize.minimize(negative, best.x, method="BFGS")
-        mode = best.x
-        hessian = _hessian(negative, mode, 0.05)
-        try:
-            cov_x = np.linalg.inv(hessian)
-            chol = np.linalg.cholesky(cov_x)
-        except np.linalg.LinAlgError:
-            chol = np.eye(z0.size)
-        center = z0 + scale * mode
-        cov = (scale[:, None] * chol) @ (scale[:, None] * chol).T
-        return _Proposal(center=center[:3], chol=np.linalg.cholesky(cov[:3, :3]))
-
-
-def _hessian(f, x: np.ndarray, step: float) -> np.ndarray:
-    n = x.size
-    H = np.empty((n, n))
-    for i in range(n):
-        for j in range(i, n):
-            e_i, e_j = np.eye(n)[i] * step, np.eye(n)[j] * step
-            H[i, j] = H[j, i] = (f(x + e_i + e_j) - f(x + e_i - e_j) - f(x - e_i + e_j) + f(x - e_i - e_j)) / (4 * step**2)
-    return H
+def _covariance(stats: _Sufficient, sigma2: np.ndarray) -> np.ndarray:
+    if not stats.XtX.shape[1]:
+        return np.zeros((sigma2.shape[0], 0, 0))
+    return np.linalg.inv(stats.precision(sigma2))
 
 
 @dataclass(frozen=True)
-class _Proposal:
-    center: np.ndarray
-    chol: np.ndarray
+class _GaussianPrior:
+    mean: np.ndarray
+    cov: np.ndarray
 
-    def _log_q(self, z: np.ndarray) -> float:
-        u = linalg.solve_triangular(self.chol * _T_INFLATION, z - self.center, lower=True)
-        return float(-0.5 * (_T_DOF + z.size) * np.log1p(u @ u / _T_DOF))
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "chol", np.linalg.cholesky(self.cov))
 
-    def refit(self, draws: np.ndarray) -> _Proposal:
-        """A proposal with the mean and covariance of ``draws``; this one if they are too few or degenerate."""
-        if draws.shape[0] < 5 * draws.shape[1]:
-            return self
-        try:
-            chol = np.linalg.cholesky(np.cov(draws, rowvar=False))
-        except np.linalg.LinAlgError:
-            return self
-        return _Proposal(center=draws.mean(axis=0), chol=chol)
+    def draw(self, c: int, rng: np.random.Generator) -> np.ndarray:
+        return self.mean + rng.standard_normal((c, self.mean.size)) @ self.chol.T
 
-    def draw(self, rng: np.random.Generator) -> np.ndarray:
-        t = rng.standard_normal(self.center.size) / np.sqrt(rng.chisquare(_T_DOF) / _T_DOF)
-        return self.center + _T_INFLATION * self.chol @ t
-
-    def independence_step(self, z: np.ndarray, current: float, log_target, rng: np.random.Generator) -> tuple[np.ndarray, float]:
-        """One independence Metropolis step from ``z`` (log-target ``current``): the new point and its log-target."""
-        candidate = self.draw(rng)
-        value = log_target(candidate)
-        log_ratio = value - current + self._log_q(z) - self._log_q(candidate)
-        return (candidate, value) if np.log(rng.uniform()) < log_ratio else (z, current)
-
-    def random_walk_step(self, z: np.ndarray, current: float, log_target, rng: np.random.Generator) -> tuple[np.ndarray, float]:
-        """One random-walk Metropolis step, scaled by 2.38/sqrt(d) times the proposal's covariance factor."""
-        candidate = z + 2.38 / np.sqrt(z.size) * self.chol @ rng.standard_normal(z.size)
-        value = log_target(candidate)
-        return (candidate, value) if np.log(rng.uniform()) < value - current else (z, current)
+    def log_density(self, x: np.ndarray) -> np.ndarray:
+        u = np.linalg.solve(self.chol, (x - self.mean).T).T
+        return -0.5 * np.sum(u**2, axis=1)
 
 
-def _inverse_gamma(counts: np.ndarray, ssr: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Variances from their conditional under the Jeffreys prior: InvGamma(n/2, SSR/2)."""
-    return 0.5 * ssr / rng.gamma(0.5 * counts)
+def _block_step(collapsed, proposal, trailing, z, sigma2, covariance, rng) -> np.ndarray:
+    """One update of the block in every chain: independence, random-walk, then trailing-prior steps."""
+    a = proposal.center.shape[1]
+    current = collapsed(z, sigma2, covariance)
+    candidate = z.copy()
+    candidate[:, :a] = proposal.draw(rng)
+    value = collapsed(candidate, sigma2, covariance)
+    log_ratio = value - current + proposal.log_q(z[:, :a]) - proposal.log_q(candidate[:, :a])
+    z, current = _accept(z, current, candidate, value, log_ratio, rng)
+    step = 2.38 / np.sqrt(a)
+    for _ in range(RANDOM_WALK_STEPS):
+        candidate = z.copy()
+        candidate[:, :a] += step * (proposal.chol @ rng.standard_normal((z.shape[0], a, 1)))[..., 0]
+        value = collapsed(candidate, sigma2, covariance)
+        z, current = _accept(z, current, candidate, value, value - current, rng)
+    if trailing is not None:
+        candidate = z.copy()
+        candidate[:, a:] = trailing.draw(z.shape[0], rng)
+        value = collapsed(candidate, sigma2, covariance)
+        # Proposed from its prior, so only the likelihood ratio counts.
+        log_ratio = value - trailing.log_density(candidate[:, a:]) - current + trailing.log_density(z[:, a:])
+        z, current = _accept(z, current, candidate, value, log_ratio, rng)
+    return z
 
 
-def _positive_gaussian(mean: np.ndarray, chol: np.ndarray, current: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """A draw of N(mean, (L L')^-1) restricted to positive values.
+def _accept(z, current, candidate, value, log_ratio, rng):
+    accept = np.log(rng.uniform(size=z.shape[0])) < log_ratio
+    return np.where(accept[:, None], candidate, z), np.where(accept, value, current)
+
+
+def _finite_start(proposal: _Proposal, collapsed, z, sigma2, covariance, rng, tries: int = 1000) -> np.ndarray:
+    """Each chain's adapted coordinates drawn from the proposal, redrawn until the posterior is finite there."""
+    a = proposal.center.shape[1]
+    start = z.copy()
+    pending = np.ones(z.shape[0], dtype=bool)
+    for _ in range(tries):
+        start[pending, :a] = proposal.draw(rng)[pending]
+        pending &= ~np.isfinite(collapsed(start, sigma2, covariance))
+        if not pending.any():
+            return start[:, :a]
+    raise ValueError("could not start the chains where the posterior is finite: the start is far from the posterior")
+
+
+def _laplace(collapsed: _Collapsed, z0: np.ndarray, scale: np.ndarray, sigma2: np.ndarray, adapted: int, chains: int) -> _Proposal:
+    """Student-t proposal for the adapted coordinates at the mode of the collapsed posterior, with its Laplace covariance."""
+    from scipy import optimize
+
+    sigma2 = sigma2[None]
+    covariance = _covariance(collapsed.stats, sigma2)
+    unit = np.where(scale[:adapted] > 0, scale[:adapted], 1.0)
+
+    def points(x: np.ndarray) -> np.ndarray:
+        x = np.atleast_2d(x)
+        z = np.broadcast_to(z0, (x.shape[0], z0.size)).copy()
+        z[:, :adapted] += unit * x
+        return z
+
+    def negative(x: np.ndarray) -> float:
+        value = collapsed(points(x), sigma2, covariance)[0]
+        return -value if np.isfinite(value) else 1e300
+
+    best = optimize.minimize(negative, np.zeros(adapted), method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-6, "maxiter": 4000})
+    best = optimize.minimize(negative, best.x, method="BFGS")
+    hessian = _hessian(lambda x: -collapsed(points(x), sigma2, covariance), best.x, HESSIAN_STEP)
+    try:
+        chol_x = np.linalg.cholesky(np.linalg.inv(hessian))
+    except np.linalg.LinAlgError:
+        chol_x = np.eye(adapted)
+    center = z0[:adapted] + unit * best.x
+    chol = unit[:, None] * chol_x
+    return _Proposal(center=np.tile(center, (chains, 1)), chol=np.tile(chol, (chains, 1, 1)))
+
+
+def _hessian(f, x: np.ndarray, step: float) -> np.ndarray:
+    """Central-difference Hessian of ``f`` (batched: ``f`` maps ``(c, n)`` points to ``(c,)`` values) at ``x``."""
+    n = x.size
+    e = np.eye(n) * step
+    i, j = np.triu_indices(n)
+    corners = np.concatenate([x + e[i] + e[j], x + e[i] - e[j], x - e[i] + e[j], x - e[i] - e[j]])
+    values = f(corners).reshape(4, -1)
+    upper = (values[0] - values[1] - values[2] + values[3]) / (4 * step**2)
+    H = np.zeros((n, n))
+    H[i, j] = upper
+    H[j, i] = upper
+    return H
+
+
+def _positive_gaussian(mean: np.ndarray, covariance: np.ndarray, current: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Draws of ``N(mean, covariance)`` restricted to positive values, one per chain (rows).
 
     Rejection is exact and almost always succeeds at once (compliances are many
-    sd from zero); when it keeps failing, one sweep of coordinate-wise truncated
-    normal draws from ``current`` (itself positive) keeps the chain valid.
+    sd from zero); for a chain where it keeps failing, one sweep of
+    coordinate-wise truncated normal draws from ``current`` (itself positive)
+    keeps the chain valid.
     """
+    chol = np.linalg.cholesky(covariance)
+    out = np.array(current, dtype=float)
+    pending = np.ones(mean.shape[0], dtype=bool)
     for _ in range(64):
-        x = mean + linalg.solve_triangular(chol.T, rng.standard_normal(mean.size), lower=False)
-        if np.all(x > 0):
-            return x
-    precision = chol @ chol.T
-    x = np.array(current, dtype=float)
-    for j in range(x.size):
-        sd = 1.0 / np.sqrt(precision[j, j])
-        others = precision[j] @ (x - mean) - precision[j, j] * (x[j] - mean[j])
-        loc = mean[j] - others / precision[j, j]
-        x[j] = stats.truncnorm.rvs(-loc / sd, np.inf, loc=loc, scale=sd, random_state=rng)
-    return x
+        x = mean + (chol @ rng.standard_normal(mean.shape)[..., None])[..., 0]
+        ok = pending & np.all(x > 0, axis=1)
+        out[ok] = x[ok]
+        pending &= ~ok
+        if not pending.any():
+            return out
+    from scipy import stats
+
+    for chain in np.flatnonzero(pending):
+        precision = np.linalg.inv(covariance[chain])
+        x = out[chain]
+        for j in range(x.size):
+            sd = 1.0 / np.sqrt(precision[j, j])
+            others = precision[j] @ (x - mean[chain]) - precision[j, j] * (x[j] - mean[chain, j])
+            loc = mean[chain, j] - others / precision[j, j]
+            x[j] = stats.truncnorm.rvs(-loc / sd, np.inf, loc=loc, scale=sd, random_state=rng)
+    return out

@@ -1,0 +1,265 @@
+"""The scalar equations of a campaign (eq 30) and the checks a campaign must pass.
+
+Klimchik et al., section V.B.  Each measured coordinate of a marker's
+deflection gives one equation, linear in the joint compliances:
+``Δp = A k`` with ``A`` the matrix of eq 31 for the marker.  The equations
+carry each row's q2 angle (for the per-angle joint-2 compliances of eq 33)
+and its noise group.  Markers are located on the tool by their measured
+unloaded positions, so a campaign needs no description of the tool.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from bayescal.cell.campaign import Campaign
+from bayescal.cell.tracker import TrackerNoise
+from bayescal.errors import InputError
+from bayescal.robot.compensator import COMPENSATED_JOINT
+from bayescal.robot.kinematics import Robot
+from bayescal.robot.stiffness import compliance_design
+from bayescal.units import DEG, MM
+
+__all__ = [
+    "DeflectionEquations",
+    "deflection_equations",
+    "deflection_noise",
+    "check_campaign",
+    "ANGLE_DECIMALS",
+    "MAX_DEFLECTION",
+    "MAX_MARKER_DISTANCE",
+    "MARKER_TOLERANCE",
+]
+
+MAX_DEFLECTION = 50 * MM
+"""Largest marker deflection accepted: far beyond what a loaded industrial robot shows."""
+MAX_MARKER_DISTANCE = 2.0
+"""Largest distance (m) of a marker from the flange origin: a tool is smaller than this."""
+MARKER_TOLERANCE = 10 * MM
+"""How far a marker's position on the tool may scatter between rows (gravity sag and
+the exact model's correction move it by a few mm at most)."""
+ANGLE_DECIMALS = 3
+"""q2 angles equal when rounded to this many decimals of a degree are one angle of eq 34."""
+
+@dataclass(frozen=True)
+class DeflectionEquations:
+    """The scalar equations of a campaign, linear in the joint compliances.
+
+    Parameters
+    ----------
+    y
+        Measured deflection components (m), shape ``(n,)``.
+    design
+        ``(n, 6)``: column j is the deflection per unit compliance of joint j
+        (m per rad/(N·m)).
+    angle
+        ``(n,)`` index into ``q2`` of each equation's joint-2 angle.
+    q2
+        The distinct joint-2 angles (rad), shape ``(m,)``.
+    group
+        ``(n,)`` noise group of each equation (index into ``group_names``).
+    group_names
+        Names of the noise groups, e.g. ``("x", "y", "z")``.
+    scale
+        ``(n,)`` known relative noise sd of each equation (e.g. from the
+        tracker's distance-dependent error); the group's unknown sigma
+        multiplies it.  None: all equal.
+    """
+
+    y: np.ndarray
+    design: np.ndarray
+    angle: np.ndarray
+    q2: np.ndarray
+    group: np.ndarray
+    group_names: tuple[str, ...]
+    scale: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = self.y.shape[0]
+        if self.design.shape != (n, 6) or self.angle.shape != (n,) or self.group.shape != (n,):
+            raise ValueError("y, design, angle and group must describe the same equations")
+        if self.angle.max(initial=0) >= self.q2.size or self.group.max(initial=0) >= len(self.group_names):
+            raise ValueError("angle or group index out of range")
+
+    def whitened(self) -> DeflectionEquations:
+        """The same equations divided by their relative noise sd, so that noise is equal within a group."""
+        if self.scale is None:
+            return self
+        return replace(self, y=self.y / self.scale, design=self.design / self.scale[:, None], scale=None)
+
+    @property
+    def n(self) -> int:
+        """Number of scalar equations."""
+        return int(self.y.shape[0])
+
+    def per_angle_columns(self) -> list[tuple[int, int | None]]:
+        """``(joint, angle)`` of each per-angle column: joint 2 once per angle, the others once."""
+        columns: list[tuple[int, int | None]] = []
+        for joint in range(6):
+            if joint == COMPENSATED_JOINT:
+                columns.extend((COMPENSATED_JOINT, a) for a in range(self.q2.size))
+            else:
+                columns.append((joint, None))
+        return columns
+
+    def per_angle_design(self) -> np.ndarray:
+        """The design of eq 30 with one joint-2 column per distinct q2 angle, ``(n, 5 + m)``."""
+        columns = []
+        for joint, angle in self.per_angle_columns():
+            column = self.design[:, joint].copy()
+            if angle is not None:
+                column[self.angle != angle] = 0.0
+            columns.append(column)
+        return np.column_stack(columns)
+
+
+
+def deflection_equations(
+    robot: Robot, campaign: Campaign, *, noise: str = "axis", tracker: TrackerNoise | None = None
+) -> tuple[DeflectionEquations, np.ndarray, np.ndarray]:
+    """The scalar equations of eq 30 for a campaign, with the loads' joint torques.
+
+    Parameters
+    ----------
+    robot
+        The robot.
+    campaign
+        The measurements.
+    noise
+        ``"axis"``: one noise level per base-frame axis; ``"marker"``: one per marker.
+    tracker
+        When given, each equation's noise is taken proportional to the tracker's
+        error at the unloaded and loaded positions, ``sqrt(s(p0)^2 + s(p1)^2)``
+        (scaled to mean 1; the unknown level per group multiplies it).
+
+    Returns
+    -------
+    equations : DeflectionEquations
+        Three equations per campaign row (x, y, z of the deflection).
+    torque : numpy.ndarray
+        ``(N, 6)`` joint torques ``J_F' w`` of each row's load (N·m).
+    points : numpy.ndarray
+        ``(N, 3)`` markers in the flange frame (m), from the unloaded positions.
+    """
+    n = len(campaign)
+    design = np.empty((n, 3, 6))
+    torque = np.empty((n, 6))
+    points = np.empty((n, 3))
+    for i in range(n):
+        points[i] = robot.point_in_flange(campaign.q[i], campaign.p0[i])
+        design[i] = compliance_design(robot, campaign.q[i], points[i], campaign.wrench[i])
+        torque[i] = robot.flange_jacobian(campaign.q[i]).T @ campaign.wrench[i]
+    q2_deg = np.round(campaign.q[:, COMPENSATED_JOINT] / DEG, ANGLE_DECIMALS)
+    values, angle = np.unique(q2_deg, return_inverse=True)
+    if noise == "axis":
+        group, names = np.tile(np.arange(3), n), ("x", "y", "z")
+    elif noise == "marker":
+        names_, index = np.unique(campaign.marker.astype(str), return_inverse=True)
+        group, names = np.repeat(index, 3), tuple(str(m) for m in names_)
+    else:
+        raise ValueError(f"noise must be 'axis' or 'marker', got {noise!r}")
+    equations = DeflectionEquations(
+        y=campaign.displacement.reshape(-1),
+        design=design.reshape(-1, 6),
+        angle=np.repeat(angle, 3),
+        q2=values * DEG,
+        group=group,
+        group_names=names,
+        scale=None if tracker is None else np.repeat(_relative_noise(tracker, campaign), 3),
+    )
+    return equations, torque, points
+
+
+def deflection_noise(tracker: TrackerNoise, campaign: Campaign) -> np.ndarray:
+    """Nominal sd (m) of each coordinate of each row's deflection: the tracker reads p0 and p1 independently."""
+    return np.hypot(tracker.sigma(campaign.p0), tracker.sigma(campaign.p1))
+
+
+def _relative_noise(tracker: TrackerNoise, campaign: Campaign) -> np.ndarray:
+    sd = deflection_noise(tracker, campaign)
+    return sd / sd.mean()
+
+
+def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray) -> None:
+    """Reject deflections or marker positions no robot could produce; warn when all loads are parallel.
+
+    Raises
+    ------
+    InputError
+        A deflection above :data:`MAX_DEFLECTION` or a marker farther than
+        :data:`MAX_MARKER_DISTANCE` from the flange (positions in the wrong unit).
+    """
+    deflection = np.linalg.norm(campaign.displacement, axis=1)
+    worst = int(np.argmax(deflection))
+    if deflection[worst] > MAX_DEFLECTION:
+        raise InputError(
+            f"marker '{campaign.marker[worst]}' deflects by {deflection[worst] / MM:.4g} mm under load, more than the "
+            f"{MAX_DEFLECTION / MM:.0f} mm a loaded robot can plausibly deflect: are x1_mm..z1_mm in another unit?",
+            source=campaign.source,
+            line=int(campaign.lines[worst]) or None,
+            column="xyz"[int(np.argmax(np.abs(campaign.displacement[worst])))] + "1_mm",
+        )
+    distance = np.linalg.norm(points, axis=1)
+    worst = int(np.argmax(distance))
+    if distance[worst] > MAX_MARKER_DISTANCE:
+        raise InputError(
+            f"marker '{campaign.marker[worst]}' is {distance[worst]:.3g} m from the flange, farther than any tool "
+            f"({MAX_MARKER_DISTANCE:g} m): are x0_mm..z0_mm in metres instead of mm?",
+            source=campaign.source,
+            line=int(campaign.lines[worst]) or None,
+            column="xyz"[int(np.argmax(np.abs(campaign.p0[worst])))] + "0_mm",
+        )
+    _check_markers(campaign, points)
+    forces = campaign.wrench[:, :3]
+    loaded = forces[np.linalg.norm(forces, axis=1) > 0]
+    if loaded.shape[0]:
+        singular = np.linalg.svd(loaded / np.linalg.norm(loaded, axis=1, keepdims=True), compute_uv=False)
+        if singular.size < 2 or singular[1] < 1e-3 * singular[0]:
+            direction = loaded[0] / np.linalg.norm(loaded[0])
+            warnings.warn(
+                f"{campaign.source}: all loads are parallel (force direction {np.array2string(direction, precision=3)}); "
+                "Klimchik et al. advise varying the load direction: parameters such loads cannot excite are reported as not identifiable",
+                UserWarning,
+                stacklevel=2,
+            )
+
+
+def _check_markers(campaign: Campaign, points: np.ndarray) -> None:
+    """Each marker label must name one point of the tool, measured in several configurations.
+
+    A marker is rigid on the tool, so its flange-frame position, recovered from
+    each row's unloaded reading, is the same in every row up to the arm's sag.
+    A label seen in a single configuration, or a row far from where its label
+    sits in the other rows, is a typo or a swapped label, which would silently
+    bias the compliances.
+    """
+    labels = sorted(set(campaign.marker))
+    configurations = {label: np.unique(campaign.config[campaign.marker == label]) for label in labels}
+    repeated = [label for label in labels if configurations[label].size >= 2]
+    for label in labels:
+        rows = np.flatnonzero(campaign.marker == label)
+        # A label seen once is only suspicious beside labels that are measured in several configurations.
+        if configurations[label].size < 2 and repeated:
+            raise InputError(
+                f"unknown marker '{label}': it is measured in configuration {configurations[label][0]} only, while "
+                f"{', '.join(repeated)} are measured in several; a marker must be measured in at least two configurations",
+                source=campaign.source,
+                line=int(campaign.lines[rows[0]]) or None,
+                column="marker",
+            )
+        centre = np.median(points[rows], axis=0)
+        offset = np.linalg.norm(points[rows] - centre, axis=1)
+        worst = int(np.argmax(offset))
+        if offset[worst] > MARKER_TOLERANCE:
+            raise InputError(
+                f"marker '{label}' is {offset[worst] / MM:.1f} mm from where '{label}' sits on the tool in its other "
+                f"rows (more than {MARKER_TOLERANCE / MM:.0f} mm): a mislabelled marker?",
+                source=campaign.source,
+                line=int(campaign.lines[rows[worst]]) or None,
+                column="marker",
+            )
+
+

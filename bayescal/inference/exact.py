@@ -1,0 +1,115 @@
+"""The exact elastostatic model: deflections between two static equilibria of the arm.
+
+The linear model of eq 30 takes the deflection as ``A k``.  The exact model
+computes it as the difference between the loaded and the unloaded static
+equilibria of the virtual-joint model with the links' weight and the
+compensator (eqs 1-3, 8).  The identification relinearises: the difference
+between the exact and the linear prediction at the current estimate is
+subtracted from the measured deflections and the linear problem solved again.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from bayescal.cell.campaign import Campaign
+from bayescal.inference.equations import DeflectionEquations
+from bayescal.robot.compensator import COMPENSATED_JOINT, Compensator
+from bayescal.robot.kinematics import Robot
+from bayescal.robot.stiffness import equilibrium
+
+__all__ = ["exact_deflections", "linearisation_offset", "scale_masses"]
+
+
+def exact_deflections(
+    robot: Robot,
+    q: np.ndarray,
+    wrench: np.ndarray,
+    compliances: np.ndarray,
+    compensator: Compensator | None,
+    *,
+    points_in_flange: np.ndarray | None = None,
+    unloaded_positions: np.ndarray | None = None,
+    load_point: np.ndarray | None = None,
+) -> np.ndarray:
+    """Deflections (m) of tool points between the unloaded and the loaded static equilibria.
+
+    Both equilibria include the links' weight and the compensator; the loaded
+    one adds ``wrench``.  The points are given either in the flange frame or by
+    their measured unloaded positions in the base frame (then located on the
+    tool at the unloaded equilibrium).
+
+    Parameters
+    ----------
+    robot
+        The robot.
+    q
+        ``(6,)`` commanded joint angles (rad).
+    wrench
+        ``(6,)`` load at the flange origin in base axes (N, N·m), as applied at ``q``.
+    compliances
+        ``(6,)`` joint compliances (rad/(N·m)), ``compliances[1] = 1/K_theta2^0``.
+    compensator
+        The spring compensator of joint 2.
+    points_in_flange, unloaded_positions
+        ``(k, 3)`` points, one of the two (m).
+    load_point
+        Flange-frame point where the load's force acts (a hanging mass); None: flange origin, dead load.
+    """
+    zero = np.zeros(6)
+    unloaded = q + equilibrium(robot, q, compliances, zero, compensator=compensator, load_point=load_point)
+    loaded = q + equilibrium(robot, q, compliances, wrench, compensator=compensator, load_point=load_point)
+    if points_in_flange is None:
+        points_in_flange = robot.point_in_flange(unloaded, unloaded_positions)
+    return robot.point_position(loaded, points_in_flange) - robot.point_position(unloaded, points_in_flange)
+
+
+def scale_masses(robot: Robot, factor: float) -> Robot:
+    """A copy of ``robot`` with every link's mass and rotational inertia multiplied by ``factor``."""
+    model = robot.model.copy()
+    for i in range(1, model.njoints):
+        inertia = model.inertias[i]
+        model.inertias[i] = pin.Inertia(inertia.mass * factor, inertia.lever, inertia.inertia * factor)
+    return Robot(model, flange=robot.flange, source=robot.source)
+
+
+
+
+def linearisation_offset(
+    robot: Robot,
+    campaign: Campaign,
+    equations: DeflectionEquations,
+    compliances: np.ndarray,
+    k2: np.ndarray,
+    compensator: Compensator,
+    load_point: np.ndarray | None,
+) -> np.ndarray:
+    """Exact minus linear prediction (m) of every equation of ``campaign``.
+
+    Parameters
+    ----------
+    robot, campaign, equations
+        The robot, the campaign and its equations.
+    compliances
+        ``(6,)`` joint compliances (rad/(N·m)); joint 2's entry is not used.
+    k2
+        ``(m,)`` equivalent joint-2 compliance at each of the equations' q2 angles.
+    compensator
+        The compensator whose static torque sets the unloaded and loaded equilibria.
+    load_point
+        Flange-frame point where the load's force acts; None: flange origin, dead load.
+    """
+    exact = np.empty((len(campaign), 3))
+    row_angle = equations.angle[::3]
+    for config in np.unique(campaign.config):
+        rows = np.flatnonzero(campaign.config == config)
+        q = campaign.q[rows[0]]
+        k = np.array(compliances, dtype=float)
+        k[COMPENSATED_JOINT] = compensator.own_compliance(q[COMPENSATED_JOINT], k2[row_angle[rows[0]]])
+        exact[rows] = exact_deflections(
+            robot, q, campaign.wrench[rows[0]], k, compensator, unloaded_positions=campaign.p0[rows], load_point=load_point
+        )
+    per_row = np.repeat(np.asarray(compliances, dtype=float)[None, :], equations.n, axis=0)
+    per_row[:, COMPENSATED_JOINT] = k2[equations.angle]
+    return exact.reshape(-1) - np.einsum("ij,ij->i", equations.design, per_row)

@@ -1,0 +1,294 @@
+"""What an elastostatic identification found: draws, the posterior DataTree and the results object."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from bayescal.inference.closedform import ClosedForm
+from bayescal.inference.equations import ANGLE_DECIMALS, DeflectionEquations
+from bayescal.inference.identifiability import Identifiability, angle_label
+from bayescal.inference.priors import GeometryPrior
+from bayescal.robot.compensator import COMPENSATED_JOINT, stiffness_regressor
+from bayescal.sampling.gibbs import ConditionallyLinear
+from bayescal.sampling.summary import diagnostics
+from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
+
+__all__ = ["ElastostaticResults", "ElastostaticDraws", "PARAMETER_UNITS"]
+
+PARAMETER_UNITS = {
+    "k1": "urad/(N m)",
+    "k2": "urad/(N m)",
+    "k3": "urad/(N m)",
+    "k4": "urad/(N m)",
+    "k5": "urad/(N m)",
+    "k6": "urad/(N m)",
+    "K_c": "N/mm",
+    "s0": "mm",
+}
+"""The reported parameters and their units (k2 is ``1/K_theta2^0``, joint 2 without its compensator)."""
+
+
+@dataclass(frozen=True)
+class ElastostaticDraws:
+    """Posterior draws in SI, each of shape ``(chain, draw[, ...])``.
+
+    Attributes
+    ----------
+    compliances : dict
+        ``{"k1": ..., "k2": ..., ...}`` joint compliances (rad/(N·m)) of the sampled joints;
+        ``k2`` is ``1/K_theta2^0`` (joint 2 without its compensator) in the compensated model.
+    spring : numpy.ndarray or None
+        ``(chain, draw, 3)``: ``K_theta2^0`` (N·m/rad), ``K_c`` (N/m), ``s0`` (m); None in the per-angle model.
+    k2 : numpy.ndarray
+        ``(chain, draw, m)`` equivalent joint-2 compliance (rad/(N·m)) at each campaign angle.
+    sigma : numpy.ndarray
+        ``(chain, draw, groups)`` noise sd per group (m).
+    geometry : numpy.ndarray or None
+        ``(chain, draw, 4)``: ``L, a_x, a_y`` (m), ``phi`` (rad) when the geometry was sampled.
+    """
+
+    compliances: dict[str, np.ndarray]
+    spring: np.ndarray | None
+    k2: np.ndarray
+    sigma: np.ndarray
+    geometry: np.ndarray | None
+
+    @classmethod
+    def compensated(cls, posterior: ConditionallyLinear, joints: tuple[int, ...], raw: np.ndarray) -> ElastostaticDraws:
+        """From draws ``(chain, draw, ndim)`` of :func:`~bayescal.inference.likelihood.compensated_posterior`."""
+        p, block = len(joints), posterior.block
+        z = raw[..., p : p + block.ndim]
+        k2 = block.evaluate(z.reshape(-1, block.ndim))[0].reshape(*raw.shape[:2], -1)
+        compliances = {f"k{j + 1}": raw[..., i] for i, j in enumerate(joints)}
+        compliances["k2"] = 1.0 / z[..., 0]
+        spring = np.stack([z[..., 0], np.exp(z[..., 1]), z[..., 2]], axis=-1)
+        return cls(
+            compliances=compliances,
+            spring=spring,
+            k2=k2,
+            sigma=np.exp(raw[..., p + block.ndim :]),
+            geometry=z[..., 3:7] if block.ndim > 3 else None,
+        )
+
+    @classmethod
+    def per_angle(cls, equations: DeflectionEquations, free: np.ndarray, raw: np.ndarray) -> ElastostaticDraws:
+        """From draws ``(chain, draw, ndim)`` of :func:`~bayescal.inference.likelihood.per_angle_posterior`."""
+        columns = [c for c, keep in zip(equations.per_angle_columns(), free) if keep]
+        compliances: dict[str, np.ndarray] = {}
+        k2 = np.full((*raw.shape[:2], equations.q2.size), np.nan)
+        for i, (joint, angle) in enumerate(columns):
+            if angle is None:
+                compliances[f"k{joint + 1}"] = raw[..., i]
+            else:
+                k2[..., angle] = raw[..., i]
+        return cls(compliances=compliances, spring=None, k2=k2, sigma=np.exp(raw[..., len(columns) :]), geometry=None)
+
+    def tree(self, equations: DeflectionEquations):
+        """The draws as a posterior DataTree in edge units (:data:`PARAMETER_UNITS`), ``k2_q2`` with its q2 in degrees."""
+        from bayescal.sampling.summary import posterior_tree
+
+        values: dict[str, np.ndarray] = {name: value / URAD_PER_NM for name, value in sorted(self.compliances.items())}
+        units = {name: PARAMETER_UNITS[name] for name in values}
+        if self.spring is not None:
+            values["K_c"] = self.spring[..., 1] / N_PER_MM
+            values["s0"] = self.spring[..., 2] / MM
+            units |= {"K_c": "N/mm", "s0": "mm"}
+        keep = ~np.all(np.isnan(self.k2), axis=(0, 1))
+        values["k2_q2"] = self.k2[..., keep] / URAD_PER_NM
+        values["sigma"] = self.sigma / MM
+        units |= {"k2_q2": "urad/(N m)", "sigma": "mm"}
+        dims = {"k2_q2": ["q2_deg"], "sigma": ["noise_group"]}
+        coords = {"q2_deg": [f"{v:.3f}" for v in equations.q2[keep] / DEG], "noise_group": list(equations.group_names)}
+        if self.geometry is not None:
+            for i, (name, unit, factor) in enumerate((("L", "mm", MM), ("a_x", "mm", MM), ("a_y", "mm", MM), ("phi", "deg", DEG))):
+                values[name] = self.geometry[..., i] / factor
+                units[name] = unit
+        return posterior_tree(values, units=units, dims=dims, coords=coords)
+
+
+@dataclass
+class ElastostaticResults:
+    """What :meth:`ElastostaticModel.fit` found.
+
+    Attributes
+    ----------
+    tree : xarray.DataTree
+        The posterior (edge units, see :data:`PARAMETER_UNITS`; ``k2_q2`` the
+        equivalent joint-2 compliance at each campaign angle, ``sigma`` the noise
+        per group in mm, and the geometry when it was sampled).
+    identifiability : Identifiability
+        Structural reasons, and the practical ones found after sampling.
+    closed_form : ClosedForm
+        Estimates of eqs 33-34 (after the exact model's correction when used).
+    model : str
+        ``"exact"`` or ``"linear"``.
+    q2 : numpy.ndarray
+        The campaign's distinct joint-2 angles (rad).
+    n_equations, n_rows : int
+        Scalar equations (3 per campaign row) and campaign rows.
+    residual_rms : float
+        RMS residual of the closed-form fit (m).
+    chi2_per_dof : float | None
+        Chi-square per degree of freedom against the nominal tracker noise.
+    nonlinearity : float
+        Largest difference between the exact and the linear model's prediction (m).
+    iterations : int
+        Relinearisations of the exact model.
+    linear_closed_form : ClosedForm | None
+        Estimates of eqs 33-34 without the exact model's correction.
+    """
+
+    tree: object
+    identifiability: Identifiability
+    closed_form: ClosedForm
+    model: str
+    q2: np.ndarray
+    draws: ElastostaticDraws = field(repr=False)
+    geometry: GeometryPrior = field(repr=False)
+    n_equations: int = 0
+    n_rows: int = 0
+    residual_rms: float = math.nan
+    chi2_per_dof: float | None = None
+    nonlinearity: float = 0.0
+    iterations: int = 0
+    linear_closed_form: ClosedForm | None = None
+    sampler_name: str = "gibbs"
+
+    def save(self, path) -> None:
+        """Write the posterior DataTree to NetCDF at ``path``."""
+        from bayescal.sampling.summary import save
+
+        save(self.tree, path)
+
+    def summary(self) -> pd.DataFrame:
+        """Mean, sd, ±3σ interval, R-hat, ESS and unit of every posterior variable."""
+        from bayescal.sampling.summary import summarize
+
+        return summarize(self.tree)
+
+    def parameters(self) -> dict[str, dict]:
+        """The CLI's ``parameters`` block: k1..k6, K_c, s0, each an estimate or ``{"identifiable": false, "reason"}``.
+
+        A parameter is given as an estimate only when it is identifiable both
+        structurally and from these data (:attr:`Identifiability.not_identifiable`).
+        """
+        from bayescal.sampling.summary import parameters_json
+
+        summary = self.summary()
+        reasons = self.identifiability.not_identifiable
+        known = parameters_json(summary.loc[[name for name in PARAMETER_UNITS if name in summary.index]])
+        out: dict[str, dict] = {}
+        for name in PARAMETER_UNITS:
+            if name in known and name not in reasons:
+                out[name] = known[name]
+            else:
+                out[name] = {"identifiable": False, "reason": reasons.get(name, "not sampled")}
+        return out
+
+    def weakly_determined(self) -> dict[str, dict]:
+        """Posterior summary (mean, sd, lo3, hi3, unit) of the sampled parameters that are not identifiable from these data.
+
+        They are kept for inspection, not as estimates: their intervals mostly
+        reflect the prior.
+        """
+        from bayescal.sampling.summary import parameters_json
+
+        summary = self.summary()
+        names = [name for name in self.identifiability.practical if name in summary.index]
+        return parameters_json(summary.loc[names])
+
+    def diagnostics(self) -> dict:
+        """Convergence and fit diagnostics (the CLI's ``diagnostics`` block)."""
+        report = diagnostics(self.tree)
+        report |= {
+            "model": self.model,
+            "sampler": self.sampler_name,
+            "n_equations": self.n_equations,
+            "residual_rms_mm": self.residual_rms / MM,
+            "chi2_per_dof": self.chi2_per_dof,
+            "nonlinearity_mm": self.nonlinearity / MM,
+            "relinearisations": self.iterations,
+        }
+        return report
+
+    def equivalent_compliance(self, q2: np.ndarray) -> np.ndarray:
+        """``(S, n)`` posterior draws of joint 2's equivalent compliance (rad/(N·m)) at angles ``q2`` (rad).
+
+        ``1 / (K_theta2^0 + K_c·a·L·η(q2))`` of eq 8 with every draw of the
+        spring and, when it was propagated, of the compensator geometry: the
+        paper's Fig. 7 with its uncertainty.  Needs the compensated model (at
+        least three q2 angles).
+        """
+        d = self.draws
+        if d.spring is None:
+            raise ValueError("the campaign does not identify the compensator model (fewer than three q2 angles)")
+        spring = d.spring.reshape(-1, 3)
+        geometry = d.geometry.reshape(-1, 4) if d.geometry is not None else np.broadcast_to(self.geometry.mean, (spring.shape[0], 4))
+        q2 = np.asarray(q2, dtype=float)
+        C = stiffness_regressor(q2[None, :], *(geometry[:, i, None] for i in range(4)))
+        w = np.column_stack([spring[:, 0], spring[:, 1], spring[:, 2] * spring[:, 1]])
+        return 1.0 / np.einsum("smk,sk->sm", C, w)
+
+    def linear_vs_exact(self) -> pd.DataFrame | None:
+        """How far the linear model of eq 30 would be from the exact one, in posterior sd.
+
+        Both models share the design and differ only by the exact model's
+        correction of the deflections, so the linear model's posterior is the
+        exact one shifted by the difference of their closed-form estimates
+        (eqs 33-34); ``sd_ratio`` is the ratio of their closed-form sds (the
+        residual variances differ).  None for the linear model.
+        """
+        if self.model != "exact":
+            return None
+        exact, linear = self.closed_form, self.linear_closed_form
+        pairs: dict[str, tuple[float, float, float]] = {}
+        for index, (joint, angle) in enumerate(exact.columns):
+            name = f"k{joint + 1}" if angle is None else angle_label(self.q2[angle])
+            ratio = math.sqrt(linear.cov[index, index] / exact.cov[index, index])
+            pairs[name] = (exact.per_angle[index] / URAD_PER_NM, linear.per_angle[index] / URAD_PER_NM, ratio)
+        if exact.spring is not None and linear.spring is not None:
+            pairs["k2"] = (1.0 / exact.spring[0] / URAD_PER_NM, 1.0 / linear.spring[0] / URAD_PER_NM, math.nan)
+            pairs["K_c"] = (exact.spring[1] / N_PER_MM, linear.spring[1] / N_PER_MM, math.nan)
+            pairs["s0"] = (exact.spring[2] / MM, linear.spring[2] / MM, math.nan)
+        summary = self.summary()
+        names = [name for name in summary.index if name in pairs]
+        shift = np.array([pairs[n][1] - pairs[n][0] for n in names])
+        return pd.DataFrame(
+            {
+                "exact_mean": summary.loc[names, "mean"],
+                "linear_mean": summary.loc[names, "mean"] + shift,
+                "shift_in_sd": shift / summary.loc[names, "sd"],
+                "sd_ratio": [pairs[n][2] for n in names],
+                "unit": summary.loc[names, "unit"],
+            }
+        )
+
+    def compliance_draws(self, q2: float, fill: np.ndarray | None = None) -> np.ndarray | None:
+        """``(S, 6)`` posterior draws of the compliances (rad/(N·m)) acting at joint angle ``q2``.
+
+        Joint 2's entry is its equivalent compliance at ``q2`` (with the
+        compensator).  A joint the campaign cannot identify takes its value from
+        ``fill`` (no uncertainty), or makes the result ``None`` without it;
+        ``None`` too when the compensator is not identified and ``q2`` is not a
+        campaign angle.
+        """
+        d = self.draws
+        missing = [j for j in range(6) if j != COMPENSATED_JOINT and f"k{j + 1}" not in d.compliances]
+        if missing and fill is None:
+            return None
+        if d.spring is not None:
+            k2 = self.equivalent_compliance(np.array([q2]))[:, 0]
+        else:
+            match = np.flatnonzero(np.abs(self.q2 - q2) < 0.5 * 10.0**-ANGLE_DECIMALS * DEG)
+            if not match.size or np.all(np.isnan(d.k2[..., match[0]])):
+                return None
+            k2 = d.k2[..., match[0]].reshape(-1)
+        columns = [
+            k2 if j == COMPENSATED_JOINT else np.full(k2.size, fill[j]) if j in missing else d.compliances[f"k{j + 1}"].reshape(-1)
+            for j in range(6)
+        ]
+        return np.column_stack(columns)
