@@ -56,7 +56,7 @@ from bayescal.units import MM, N_PER_MM, URAD_PER_NM
 
 __all__ = ["ElastostaticModel", "default_sampler"]
 
-GIBBS_TUNE = 500
+GIBBS_TUNE = 300
 """Gibbs iterations discarded per chain: the proposal refits settle within a few hundred."""
 GIBBS_DRAWS = 1500
 """Gibbs iterations kept per chain: bulk ESS above 1,000 for every parameter on the Table III campaign."""
@@ -65,7 +65,7 @@ EMCEE_TUNE = 1000
 LOG_SIGMA_SCALE = 0.05
 """Initial spread of log sigma around the closed form's: its posterior sd at a few hundred equations."""
 SPRING_SCALE = np.array([0.005, 0.05, 0.02])
-"""Typical posterior sd of ``K_theta2^0`` (relative), ``log K_c`` and ``s0`` (relative) when the data determine them:
+"""Typical posterior sd of joint 2's equivalent stiffness (relative), ``log K_c`` and ``s0`` (relative) when the data determine them:
 the scale of the Gibbs sampler's mode search and of emcee's initial ball."""
 
 
@@ -336,9 +336,8 @@ class ElastostaticModel:
             geometry = self.geometry.mean if posterior.block.ndim > 3 else np.empty(0)
 
             def start_at(spring: np.ndarray) -> np.ndarray:
-                K0, K_c, s0 = spring
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    return np.concatenate([cf.compliances[list(joints)], [K0, np.log(K_c), s0], geometry, np.log(cf.sigma)])
+                z = posterior.block.coordinates(spring)
+                return np.concatenate([cf.compliances[list(joints)], z, geometry, np.log(cf.sigma)])
 
             spring = cf.spring
             start = start_at(spring)
@@ -355,7 +354,7 @@ class ElastostaticModel:
             columns = [c for c, keep in zip(equations.per_angle_columns(), ident.identifiable) if keep]
             k_sd = np.array([sd[columns.index((j, None))] for j in joints])
             geometry_sd = np.sqrt(np.diag(self.geometry.cov)) if geometry.size else np.empty(0)
-            spring_sd = SPRING_SCALE * np.abs([spring[0], 1.0, spring[2]])
+            spring_sd = SPRING_SCALE * np.abs([start[len(joints)], 1.0, spring[2]])
             scale = np.concatenate([k_sd, spring_sd, geometry_sd, log_sigma_scale])
             draws = ElastostaticDraws.compensated(posterior, joints, self.sampler.sample(posterior, start, scale, rng))
         else:

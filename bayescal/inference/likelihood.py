@@ -39,8 +39,9 @@ from bayescal.sampling.gibbs import ConditionallyLinear
 
 __all__ = ["CompensatorBlock", "per_angle_posterior", "compensated_posterior", "SPRING"]
 
-SPRING = ("K_theta2_0", "log_K_c", "s0")
-"""The compensated model's spring coordinates, in order: N·m/rad, log(N/m), m."""
+SPRING = ("K_theta2_ref", "log_K_c", "s0")
+"""The compensated model's spring coordinates, in order: joint 2's equivalent stiffness at the reference
+angle (N·m/rad), log K_c (log N/m), s0 (m)."""
 GEOMETRY = ("L", "a_x", "a_y", "phi")
 """The compensator geometry's coordinates, in order: m, m, m, rad."""
 
@@ -49,13 +50,20 @@ GEOMETRY = ("L", "a_x", "a_y", "phi")
 class CompensatorBlock:
     """The joint-2 compliance at each campaign angle as a function of the spring and geometry (eq 8).
 
-    ``z = [K_theta2^0, log K_c, s0]`` followed by ``[L, a_x, a_y, phi]`` when
-    the geometry prior is not fixed; a block of
-    :class:`~bayescal.sampling.gibbs.ConditionallyLinear`.
+    ``z = [K_ref, log K_c, s0]`` followed by ``[L, a_x, a_y, phi]`` when the
+    geometry prior is not fixed; a block of
+    :class:`~bayescal.sampling.gibbs.ConditionallyLinear`.  ``K_ref`` is joint
+    2's equivalent stiffness (eq 8) at the reference angle ``q_ref``, so that
+    ``K_theta2^0 = K_ref - K_c a L eta(q_ref; s0)``.  The data determine the
+    equivalent stiffness far better than its split between the joint and a
+    spring that changes it by a fraction of a percent: in ``(K_theta2^0, K_c)``
+    the posterior is a narrow curved ridge, in ``(K_ref, log K_c)`` nearly a
+    product, which is what a Metropolis proposal needs.
     """
 
     q2: np.ndarray
     geometry: GeometryPrior
+    q_ref: float
 
     @property
     def ndim(self) -> int:
@@ -80,17 +88,32 @@ class CompensatorBlock:
     def _geometry(self, z: np.ndarray) -> np.ndarray:
         return np.broadcast_to(self.geometry.mean, (z.shape[0], 4)) if self.geometry.fixed else z[:, 3:7]
 
+    def _regressor(self, z: np.ndarray, q2: np.ndarray) -> np.ndarray:
+        """``(c|1, m + 1, 3)`` eq-35 rows at ``q2`` and, last, at ``q_ref``."""
+        if self.geometry.fixed:
+            return (self._fixed_regressor if q2 is self.q2 else stiffness_regressor(np.append(q2, self.q_ref), *self.geometry.mean))[None]
+        g = z[:, 3:7]
+        return stiffness_regressor(np.append(q2, self.q_ref)[None, :], *(g[:, i, None] for i in range(4)))
+
     def stiffness(self, z: np.ndarray, q2: np.ndarray | None = None) -> np.ndarray:
         """``(c, m)`` equivalent joint-2 stiffness (N·m/rad) at the angles ``q2`` (default: the campaign's)."""
-        q2 = self.q2 if q2 is None else np.asarray(q2, dtype=float)
-        if self.geometry.fixed:
-            C = self._fixed_regressor if q2 is self.q2 else stiffness_regressor(q2, *self.geometry.mean)
-            C = C[None]
-        else:
-            g = z[:, 3:7]
-            C = stiffness_regressor(q2[None, :], *(g[:, i, None] for i in range(4)))
+        C = self._regressor(z, self.q2 if q2 is None else np.asarray(q2, dtype=float))
+        change = C[..., :-1, 1:] - C[..., -1:, 1:]
         K_c = np.exp(z[:, 1])
-        return C[..., 0] * z[:, :1] + K_c[:, None] * (C[..., 1] + C[..., 2] * z[:, 2:3])
+        return z[:, :1] + K_c[:, None] * (change[..., 0] + change[..., 1] * z[:, 2:3])
+
+    def spring(self, z: np.ndarray) -> np.ndarray:
+        """``(c, 3)`` ``[K_theta2^0 (N·m/rad), K_c (N/m), s0 (m)]`` at ``(c, ndim)`` points."""
+        C = self._regressor(z, self.q2)[..., -1, :]
+        K_c = np.exp(z[:, 1])
+        return np.column_stack([z[:, 0] - K_c * (C[..., 1] + C[..., 2] * z[:, 2]), K_c, z[:, 2]])
+
+    def coordinates(self, spring: np.ndarray) -> np.ndarray:
+        """``[K_ref, log K_c, s0]`` of a spring ``[K_theta2^0, K_c, s0]`` at the geometry prior's mean."""
+        K0, K_c, s0 = spring
+        C = stiffness_regressor(self.q_ref, *self.geometry.mean)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.array([C @ [K0, K_c, s0 * K_c], np.log(K_c), s0])
 
     def evaluate(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(c, m)`` joint-2 compliances (rad/(N·m)) and ``(c,)`` log prior at ``(c, ndim)`` points.
@@ -108,14 +131,14 @@ class CompensatorBlock:
             longest = np.hypot(g[:, 1], g[:, 2]) + g[:, 0]
             log_prior = z[:, 1] + self.geometry.log_density(g)
         total = self.stiffness(z)
-        ok = (z[:, 0] > 0) & (z[:, 2] > 0) & (z[:, 2] < longest)
+        ok = (self.spring(z)[:, 0] > 0) & (z[:, 2] > 0) & (z[:, 2] < longest)
         positive = ok[:, None] & (total > 0)
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(positive, 1.0 / total, np.nan), np.where(ok, log_prior, -np.inf)
 
     @cached_property
     def _fixed_regressor(self) -> np.ndarray:
-        return stiffness_regressor(self.q2, *self.geometry.mean)
+        return stiffness_regressor(np.append(self.q2, self.q_ref), *self.geometry.mean)
 
     @cached_property
     def _longest(self) -> float:
@@ -137,7 +160,7 @@ def compensated_posterior(equations: DeflectionEquations, joints: tuple[int, ...
     """Posterior with the compensator's joint-2 stiffness (eq 8).
 
     ``theta``: the compliances of ``joints`` (0-based, joint 2 excluded), then
-    ``K_theta2^0, log K_c, s0``, then the geometry ``L, a_x, a_y, phi`` unless
+    ``K_ref, log K_c, s0`` (:class:`CompensatorBlock`, reference angle the campaign's median q2), then the geometry ``L, a_x, a_y, phi`` unless
     its prior is fixed, then ``log sigma`` per noise group.
     """
     if COMPENSATED_JOINT in joints:
@@ -149,5 +172,5 @@ def compensated_posterior(equations: DeflectionEquations, joints: tuple[int, ...
         n_groups=len(equations.group_names),
         b=equations.design[:, COMPENSATED_JOINT],
         level=equations.angle,
-        block=CompensatorBlock(equations.q2, geometry),
+        block=CompensatorBlock(equations.q2, geometry, q_ref=float(np.median(equations.q2))),
     )

@@ -64,8 +64,8 @@ class ElastostaticDraws:
         z = raw[..., p : p + block.ndim]
         k2 = block.evaluate(z.reshape(-1, block.ndim))[0].reshape(*raw.shape[:2], -1)
         compliances = {f"k{j + 1}": raw[..., i] for i, j in enumerate(joints)}
-        compliances["k2"] = 1.0 / z[..., 0]
-        spring = np.stack([z[..., 0], np.exp(z[..., 1]), z[..., 2]], axis=-1)
+        spring = block.spring(z.reshape(-1, block.ndim)).reshape(*raw.shape[:2], 3)
+        compliances["k2"] = 1.0 / spring[..., 0]
         return cls(
             compliances=compliances,
             spring=spring,

@@ -40,9 +40,9 @@ T_INFLATION = 1.2
 RANDOM_WALK_STEPS = 2
 """Random-walk Metropolis steps per sweep after the independence step; they move chains the
 independence proposal leaves stuck in the tails."""
-REFITS = (0.25, 0.5, 0.75)
-"""Fractions of the tuning phase at which each chain refits its proposal to the second half of its
-own draws so far, so that the proposal follows the posterior where the Laplace fit is poor."""
+REFITS = (0.2, 0.4, 0.6, 0.8)
+"""Fractions of the tuning phase at which the proposal is refitted to the second half of the chains'
+draws so far, so that it follows the posterior where the Laplace fit is poor."""
 START_SPREAD = 0.3
 """sd of the log-normal dispersion of the chains' initial noise variances around the start."""
 HESSIAN_STEP = 0.05
@@ -242,22 +242,20 @@ class _Proposal:
         return -0.5 * (T_DOF + z.shape[1]) * np.log1p(np.sum(u**2, axis=1) / T_DOF)
 
     def refit(self, history: np.ndarray) -> _Proposal:
-        """Each chain's proposal refitted to the mean and covariance of its draws ``(steps, c, d)``; kept where degenerate."""
+        """The proposal refitted to the mean and covariance of the draws ``(steps, c, d)`` of all chains; kept if degenerate.
+
+        Pooling the chains gives a covariance from several times more draws than
+        one chain's, which matters for the skewed, weakly identified directions.
+        """
         steps, c, d = history.shape
-        if steps < 5 * d:
+        if steps * c < 10 * d:
             return self
-        center = history.mean(axis=0)
-        deviation = history - center
-        cov = np.einsum("sci,scj->cij", deviation, deviation) / (steps - 1)
-        chol = self.chol.copy()
-        new_center = self.center.copy()
-        for chain in range(c):
-            try:
-                chol[chain] = np.linalg.cholesky(cov[chain])
-                new_center[chain] = center[chain]
-            except np.linalg.LinAlgError:
-                continue
-        return _Proposal(center=new_center, chol=chol)
+        pooled = history.reshape(-1, d)
+        try:
+            chol = np.linalg.cholesky(np.cov(pooled, rowvar=False))
+        except np.linalg.LinAlgError:
+            return self
+        return _Proposal(center=np.tile(pooled.mean(axis=0), (c, 1)), chol=np.tile(chol, (c, 1, 1)))
 
 
 @dataclass(frozen=True)

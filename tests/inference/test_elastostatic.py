@@ -6,7 +6,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayescal.inference.elastostatic import ElastostaticModel, posterior_geometry, scale_masses
+from bayescal.sampling.gibbs import GibbsSampler
+from bayescal.inference.elastostatic import ElastostaticModel
+from bayescal.inference.exact import scale_masses
+from bayescal.inference.priors import posterior_geometry
 from bayescal.errors import InputError, NotIdentifiableWarning
 from bayescal.cell.plan import read_plan
 from bayescal.sampling.summary import posterior_tree, save
@@ -16,7 +19,7 @@ from bayescal.units import MM, N_PER_MM, URAD_PER_NM
 
 DATA = Path(__file__).resolve().parents[2] / "data"
 
-SMALL = dict(n_chains=4, n_tune=300, n_draws=400)
+SMALL = dict(sampler=GibbsSampler(n_chains=4, n_tune=300, n_draws=400))
 
 
 @pytest.fixture(scope="module")
@@ -81,7 +84,7 @@ def test_compensator_becomes_identifiable_when_the_tracker_is_precise_enough(cel
     data = DigitalTwin(precise).simulate(plan, 3, np.random.default_rng(1))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        results = ElastostaticModel.from_cell(precise, **SMALL, compare_linear=False).fit(data, 1)
+        results = ElastostaticModel.from_cell(precise, **SMALL).fit(data, 1)
     parameters = results.parameters()
     assert results.identifiability.practical == {}
     assert results.weakly_determined() == {}
@@ -97,8 +100,8 @@ def test_exact_model_removes_the_linearisation_bias(cell, campaign):
     data = DigitalTwin(quiet).simulate(plan, 1, np.random.default_rng(0))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        exact = ElastostaticModel.from_cell(quiet, n_chains=2, n_tune=50, n_draws=50, compare_linear=False).fit(data, 0)
-        linear = ElastostaticModel.from_cell(quiet, model="linear", n_chains=2, n_tune=50, n_draws=50).fit(data, 0)
+        exact = ElastostaticModel.from_cell(quiet, sampler=GibbsSampler(n_chains=2, n_tune=50, n_draws=50)).fit(data, 0)
+        linear = ElastostaticModel.from_cell(quiet, model="linear", sampler=GibbsSampler(n_chains=2, n_tune=50, n_draws=50)).fit(data, 0)
     true = cell.compliances[2:]
     assert exact.closed_form.compliances[2:] == pytest.approx(true, rel=1e-4)
     assert exact.closed_form.spring[1] == pytest.approx(cell.compensator.K_c, rel=2e-3)
@@ -109,7 +112,9 @@ def test_exact_model_removes_the_linearisation_bias(cell, campaign):
 def test_linear_vs_exact_table(results):
     table = results.linear_vs_exact()
     assert {"k2", "k3", "K_c", "s0"} <= set(table.index)
-    assert np.all(table["sd_ratio"] > 0.5) and np.all(table["sd_ratio"] < 2)
+    ratios = table["sd_ratio"].dropna()
+    assert ratios.size >= 4 and np.all((ratios > 0.5) & (ratios < 2))
+    assert np.all(np.isfinite(table["shift_in_sd"]))
 
 
 def test_one_q2_angle_reports_the_compensator_not_identifiable(cell, campaign):
@@ -118,7 +123,7 @@ def test_one_q2_angle_reports_the_compensator_not_identifiable(cell, campaign):
         campaign, **{name: getattr(campaign, name)[rows] for name in ("config", "repeat", "marker", "q", "wrench", "p0", "p1", "lines")}
     )
     with pytest.warns(NotIdentifiableWarning, match="k2, K_c, s0 are not identifiable"):
-        results = ElastostaticModel.from_cell(cell, n_chains=2, n_tune=100, n_draws=200).fit(subset, 0)
+        results = ElastostaticModel.from_cell(cell, sampler=GibbsSampler(n_chains=2, n_tune=100, n_draws=200)).fit(subset, 0)
     parameters = results.parameters()
     for name in ("k2", "K_c", "s0"):
         assert parameters[name]["identifiable"] is False
@@ -138,7 +143,7 @@ def test_implausible_deflections_are_rejected(cell, campaign):
 
 def test_parallel_loads_are_warned(cell, campaign):
     with pytest.warns(UserWarning, match="all loads are parallel"):
-        ElastostaticModel.from_cell(cell, model="linear", n_chains=2, n_tune=20, n_draws=20).fit(campaign)
+        ElastostaticModel.from_cell(cell, model="linear", sampler=GibbsSampler(n_chains=2, n_tune=20, n_draws=20)).fit(campaign)
 
 
 def test_scale_masses_scales_gravity(cell):
@@ -186,7 +191,7 @@ def test_equivalent_compliance_curve_covers_the_truth_and_matches_the_per_angle_
 
 
 def test_markers_of_a_single_configuration_are_not_called_unknown(cell, campaign):
-    from bayescal.inference.elastostatic import check_campaign
+    from bayescal.inference.equations import check_campaign
 
     rows = np.flatnonzero(campaign.config == campaign.config[0])
     single = dataclasses.replace(

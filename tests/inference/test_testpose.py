@@ -4,8 +4,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bayescal.sampling.gibbs import GibbsSampler
 from bayescal.cell.config import load_cell
-from bayescal.inference.elastostatic import ElastostaticModel, exact_deflections
+from bayescal.inference.elastostatic import ElastostaticModel
+from bayescal.inference.exact import exact_deflections
 from bayescal.cell.plan import read_plan
 from bayescal.inference.testpose import predict_cell_test_pose, predict_test_pose
 from bayescal.twin.simulator import DigitalTwin
@@ -20,7 +22,7 @@ def setup():
     campaign = DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(3))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        results = ElastostaticModel.from_cell(cell, n_chains=4, n_tune=300, n_draws=400, compare_linear=False).fit(campaign, 3)
+        results = ElastostaticModel.from_cell(cell, sampler=GibbsSampler(n_chains=4, n_tune=300, n_draws=400)).fit(campaign, 3)
     return cell, results
 
 

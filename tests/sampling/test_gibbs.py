@@ -1,9 +1,12 @@
 import numpy as np
 import pytest
 
-from bayescal.sampling.gibbs import GibbsSampler, _positive_gaussian
-from bayescal.inference.likelihood import CompensatedPosterior, DeflectionEquations, GeometryPrior, PerAnglePosterior
+from bayescal.inference.equations import DeflectionEquations
+from bayescal.inference.likelihood import compensated_posterior, per_angle_posterior
+from bayescal.inference.priors import GeometryPrior
+from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.sampling.ensemble import EnsembleSampler
+from bayescal.sampling.gibbs import ConditionallyLinear, GibbsSampler, _positive_gaussian
 
 
 def linear_problem(rng, n=120, groups=1, sigma=0.5):
@@ -25,11 +28,12 @@ def test_per_angle_gibbs_matches_the_exact_student_t_posterior():
     # One noise group with the Jeffreys prior: the marginal posterior of the
     # coefficients is Student t(n - p) around least squares.
     rng = np.random.default_rng(4)
-    equations, _ = linear_problem(rng)
-    posterior = PerAnglePosterior(equations, np.ones(6, dtype=bool))
-    draws = GibbsSampler(n_chains=2, n_tune=100, n_draws=3000).sample_per_angle(posterior, rng)
+    equations, truth = linear_problem(rng)
+    posterior = per_angle_posterior(equations, np.ones(6, dtype=bool))
+    start = np.concatenate([truth, [np.log(0.5)]])
+    draws = GibbsSampler(n_chains=2, n_tune=100, n_draws=3000).sample(posterior, start, np.full(7, 0.1), rng)
     flat = draws.reshape(-1, draws.shape[-1])[:, :6]
-    X, y = posterior.design, equations.y
+    X, y = posterior.X, equations.y
     beta = np.linalg.lstsq(X, y, rcond=None)[0]
     n, p = X.shape
     s2 = np.sum((y - X @ beta) ** 2) / (n - p)
@@ -38,13 +42,31 @@ def test_per_angle_gibbs_matches_the_exact_student_t_posterior():
     assert flat.std(axis=0) == pytest.approx(sd, rel=0.06)
 
 
+def test_gibbs_refuses_a_plain_log_density():
+    with pytest.raises(TypeError, match="ConditionallyLinear"):
+        GibbsSampler().sample(lambda theta: 0.0, np.zeros(2), np.ones(2), np.random.default_rng(0))
+
+
+def test_the_model_is_its_own_log_density():
+    rng = np.random.default_rng(1)
+    equations, truth = linear_problem(rng, groups=3)
+    model = per_angle_posterior(equations, np.ones(6, dtype=bool))
+    log_sigma = np.log([0.4, 0.5, 0.6])
+    residual = equations.y - equations.design @ truth
+    sigma = np.exp(log_sigma)[equations.group]
+    expected = float(np.sum(-np.log(sigma) - 0.5 * (residual / sigma) ** 2))
+    assert model(np.concatenate([truth, log_sigma])) == pytest.approx(expected)
+    assert model(np.concatenate([-truth, log_sigma])) == -np.inf
+    assert isinstance(model, ConditionallyLinear)
+
+
 def test_positive_gaussian_stays_positive_when_rejection_fails():
     rng = np.random.default_rng(0)
-    mean = np.array([-3.0, 1.0])
-    chol = np.linalg.cholesky(np.eye(2))
-    x = np.array([0.5, 1.0])
+    mean = np.array([[-3.0, 1.0], [1.0, 1.0]])
+    covariance = np.stack([np.eye(2), np.eye(2)])
+    x = np.array([[0.5, 1.0], [1.0, 1.0]])
     for _ in range(50):
-        x = _positive_gaussian(mean, chol, x, rng)
+        x = _positive_gaussian(mean, covariance, x, rng)
         assert np.all(x > 0)
 
 
@@ -52,33 +74,37 @@ def compensated_problem(rng, sigma=2e-6):
     deg = np.pi / 180
     geometry = np.array([0.18472, 0.68593, 0.1203, 99.8 * deg])
     q2 = np.array([-0.01, -25.24, -56.9, -99.85, -140.0]) * deg
-    from bayescal.robot.compensator import CompensatorGeometry
-
-    k2 = 1.0 / CompensatorGeometry(*geometry).with_spring(1.44e5, 0.458).joint_stiffness(q2, 1 / 0.302e-6)
+    compensator = CompensatorGeometry(*geometry).with_spring(1.44e5, 0.458)
+    k2 = compensator.equivalent_compliance(q2, 0.302e-6)
     n = 300
     angle = np.arange(n) % 5
     design = rng.normal(size=(n, 6)) * np.array([0.0, 1e4, 3e3, 500, 500, 500])
     truth = np.array([0.0, 0.0, 0.406, 3.0, 3.3, 2.37]) * 1e-6
     y = design @ truth + design[:, 1] * k2[angle] + rng.normal(size=n) * sigma
-    equations = DeflectionEquations(
-        y=y, design=design, angle=angle, q2=q2, group=np.arange(n) % 3, group_names=("x", "y", "z")
-    )
+    equations = DeflectionEquations(y=y, design=design, angle=angle, q2=q2, group=np.arange(n) % 3, group_names=("x", "y", "z"))
     prior = GeometryPrior(mean=geometry, cov=np.zeros((4, 4)))
-    posterior = CompensatedPosterior(equations, (2, 3, 4, 5), prior)
-    start = posterior.start(truth[2:], np.array([1 / 0.302e-6, 1.44e5, 0.458]), np.full(3, sigma))
+    posterior = compensated_posterior(equations, (2, 3, 4, 5), prior)
+    z = posterior.block.coordinates(np.array([1 / 0.302e-6, 1.44e5, 0.458]))
+    start = np.concatenate([truth[2:], z, np.log(np.full(3, sigma))])
     return posterior, start
+
+
+def test_block_coordinates_round_trip_to_the_spring():
+    posterior, start = compensated_problem(np.random.default_rng(0))
+    spring = posterior.block.spring(start[None, 4:7])[0]
+    assert spring == pytest.approx([1 / 0.302e-6, 1.44e5, 0.458], rel=1e-12)
 
 
 def test_compensated_gibbs_and_emcee_sample_the_same_posterior():
     rng = np.random.default_rng(2)
     posterior, start = compensated_problem(rng)
-    gibbs = GibbsSampler(n_chains=2, n_tune=300, n_draws=1500).sample_compensated(posterior, start, rng)
-    scale = np.abs(start) * np.array([1e-3] * 4 + [1e-3, 0.05, 0.01] + [0.0] * 3) + np.array([0.0] * 7 + [0.05] * 3)
-    emcee = EnsembleSampler(n_chains=2, n_tune=1500, n_draws=400).sample(posterior.log_prob, start, scale, rng)
+    scale = np.abs(start) * np.array([1e-3] * 4 + [1e-3, 0.0, 0.01] + [0.0] * 3) + np.array([0.0] * 5 + [0.05, 0.0] + [0.05] * 3)
+    gibbs = GibbsSampler(n_chains=2, n_tune=300, n_draws=1500).sample(posterior, start, scale, rng)
+    emcee = EnsembleSampler(n_chains=2, n_tune=1500, n_draws=400).sample(posterior, start, scale, rng)
     g = gibbs.reshape(-1, posterior.ndim)
     e = emcee.reshape(-1, posterior.ndim)
     # Every parameter: means within a few Monte-Carlo errors (ESS ~ draws/20 for emcee), sds within 20%.
-    for i, name in enumerate(posterior.names()):
+    for i in range(posterior.ndim):
         sd = g[:, i].std()
-        assert abs(g[:, i].mean() - e[:, i].mean()) < 0.25 * sd, name
-        assert e[:, i].std() == pytest.approx(sd, rel=0.2), name
+        assert abs(g[:, i].mean() - e[:, i].mean()) < 0.25 * sd, i
+        assert e[:, i].std() == pytest.approx(sd, rel=0.2), i
