@@ -28,7 +28,9 @@ __all__ = [
     "deflection_equations",
     "deflection_noise",
     "check_campaign",
+    "group_angles",
     "ANGLE_DECIMALS",
+    "MAX_ANGLES",
     "MAX_DEFLECTION",
     "MAX_MARKER_DISTANCE",
     "MARKER_TOLERANCE",
@@ -43,6 +45,13 @@ MARKER_TOLERANCE = 10 * MM
 the exact model's correction move it by a few mm at most)."""
 ANGLE_DECIMALS = 3
 """q2 angles equal when rounded to this many decimals of a degree are one angle of eq 34."""
+MAX_ANGLES = 16
+"""Most distinct q2 angles kept apart.  The paper's device of one joint-2 compliance per angle
+(eq 33) suits a handful of angles; a campaign whose q2 varies freely has its rows grouped into
+this many bins of about equal count instead, each one angle at the mean q2 of its rows.  With
+the KR-270 cell's spring the compensator's share of the joint-2 stiffness changes by at most
+0.005 % per degree of q2, so a bin about 10° wide blurs it by a few hundredths of a percent,
+well below what per-angle compliances resolve."""
 
 @dataclass(frozen=True)
 class DeflectionEquations:
@@ -152,8 +161,7 @@ def deflection_equations(
         points[i] = robot.point_in_flange(campaign.q[i], campaign.p0[i])
         design[i] = compliance_design(robot, campaign.q[i], points[i], campaign.wrench[i])
         torque[i] = robot.flange_jacobian(campaign.q[i]).T @ campaign.wrench[i]
-    q2_deg = np.round(campaign.q[:, COMPENSATED_JOINT] / DEG, ANGLE_DECIMALS)
-    values, angle = np.unique(q2_deg, return_inverse=True)
+    values, angle = group_angles(campaign.q[:, COMPENSATED_JOINT])
     if noise == "axis":
         group, names = np.tile(np.arange(3), n), ("x", "y", "z")
     elif noise == "marker":
@@ -165,12 +173,38 @@ def deflection_equations(
         y=campaign.displacement.reshape(-1),
         design=design.reshape(-1, 6),
         angle=np.repeat(angle, 3),
-        q2=values * DEG,
+        q2=values,
         group=group,
         group_names=names,
         scale=None if tracker is None else np.repeat(_relative_noise(tracker, campaign), 3),
     )
     return equations, torque, points
+
+
+def group_angles(q2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct joint-2 angles of a campaign, grouped into at most :data:`MAX_ANGLES`.
+
+    Parameters
+    ----------
+    q2
+        ``(n,)`` joint-2 angle of each row (rad).
+
+    Returns
+    -------
+    angles : numpy.ndarray
+        ``(m,)`` increasing angles (rad): the distinct angles (rounded to
+        :data:`ANGLE_DECIMALS` of a degree), or the mean angle of each bin.
+    index : numpy.ndarray
+        ``(n,)`` each row's entry in ``angles``.
+    """
+    degrees = np.round(np.asarray(q2, dtype=float) / DEG, ANGLE_DECIMALS)
+    values, index = np.unique(degrees, return_inverse=True)
+    if values.size <= MAX_ANGLES:
+        return values * DEG, index
+    edges = np.quantile(degrees, np.linspace(0.0, 1.0, MAX_ANGLES + 1)[1:-1])
+    _, index = np.unique(np.searchsorted(edges, degrees, side="right"), return_inverse=True)
+    centres = np.bincount(index, weights=degrees) / np.bincount(index)
+    return centres * DEG, index
 
 
 def deflection_noise(tracker: TrackerNoise, campaign: Campaign) -> np.ndarray:
