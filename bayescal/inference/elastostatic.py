@@ -186,6 +186,7 @@ class ElastostaticModel:
         )
         if ident.compensator:
             ident = check_regression(ident, equations.per_angle_columns(), equations.q2, self.geometry.mean)
+        _check_determined(campaign, equations, ident)
         if announce:
             for names, reason in grouped({k: v for k, v in ident.reasons.items() if not k.startswith("k2_q2[")}):
                 warnings.warn(f"{_listed(names)} not identifiable: {reason}", NotIdentifiableWarning, stacklevel=3)
@@ -363,6 +364,25 @@ class ElastostaticModel:
             raw = self.sampler.sample(posterior, start, np.concatenate([sd, log_sigma_scale]), rng)
             draws = ElastostaticDraws.per_angle(equations, ident.identifiable, raw)
         return draws.tree(equations), draws
+
+
+def _check_determined(campaign: Campaign, equations: DeflectionEquations, ident: Identifiability) -> None:
+    """Reject a campaign that identifies no compliance, or has too few equations to estimate its noise."""
+    if not np.any(campaign.wrench):
+        raise InputError("no row of the campaign carries a load (every wrench is zero): nothing deflects", source=campaign.source)
+    if not ident.identifiable.any():
+        raise InputError(
+            f"the campaign identifies no joint compliance ({len(campaign)} rows, design rank {ident.rank} of "
+            f"{ident.identifiable.size} columns): measure more configurations",
+            source=campaign.source,
+        )
+    unknowns = int(ident.identifiable.sum()) + len(equations.group_names)
+    if equations.n <= unknowns:
+        raise InputError(
+            f"{equations.n} equations ({len(campaign)} rows x 3 coordinates) cannot determine {int(ident.identifiable.sum())} "
+            f"compliances and {len(equations.group_names)} noise levels: measure more markers or configurations",
+            source=campaign.source,
+        )
 
 
 def _listed(names: list[str]) -> str:

@@ -97,16 +97,22 @@ class CompensatorBlock:
 
     def stiffness(self, z: np.ndarray, q2: np.ndarray | None = None) -> np.ndarray:
         """``(c, m)`` equivalent joint-2 stiffness (N·m/rad) at the angles ``q2`` (default: the campaign's)."""
-        C = self._regressor(z, self.q2 if q2 is None else np.asarray(q2, dtype=float))
-        change = C[..., :-1, 1:] - C[..., -1:, 1:]
-        K_c = np.exp(z[:, 1])
-        return z[:, :1] + K_c[:, None] * (change[..., 0] + change[..., 1] * z[:, 2:3])
+        return self._stiffness(z, self._regressor(z, self.q2 if q2 is None else np.asarray(q2, dtype=float)))
 
     def spring(self, z: np.ndarray) -> np.ndarray:
         """``(c, 3)`` ``[K_theta2^0 (N·m/rad), K_c (N/m), s0 (m)]`` at ``(c, ndim)`` points."""
-        C = self._regressor(z, self.q2)[..., -1, :]
+        return self._spring(z, self._regressor(z, self.q2))
+
+    @staticmethod
+    def _stiffness(z: np.ndarray, C: np.ndarray) -> np.ndarray:
+        change = C[..., :-1, 1:] - C[..., -1:, 1:]
+        return z[:, :1] + np.exp(z[:, 1])[:, None] * (change[..., 0] + change[..., 1] * z[:, 2:3])
+
+    @staticmethod
+    def _spring(z: np.ndarray, C: np.ndarray) -> np.ndarray:
+        reference = C[..., -1, :]
         K_c = np.exp(z[:, 1])
-        return np.column_stack([z[:, 0] - K_c * (C[..., 1] + C[..., 2] * z[:, 2]), K_c, z[:, 2]])
+        return np.column_stack([z[:, 0] - K_c * (reference[..., 1] + reference[..., 2] * z[:, 2]), K_c, z[:, 2]])
 
     def coordinates(self, spring: np.ndarray) -> np.ndarray:
         """``[K_ref, log K_c, s0]`` of a spring ``[K_theta2^0, K_c, s0]`` at the geometry prior's mean."""
@@ -130,8 +136,9 @@ class CompensatorBlock:
             g = z[:, 3:7]
             longest = np.hypot(g[:, 1], g[:, 2]) + g[:, 0]
             log_prior = z[:, 1] + self.geometry.log_density(g)
-        total = self.stiffness(z)
-        ok = (self.spring(z)[:, 0] > 0) & (z[:, 2] > 0) & (z[:, 2] < longest)
+        C = self._regressor(z, self.q2)
+        total = self._stiffness(z, C)
+        ok = (self._spring(z, C)[:, 0] > 0) & (z[:, 2] > 0) & (z[:, 2] < longest)
         positive = ok[:, None] & (total > 0)
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(positive, 1.0 / total, np.nan), np.where(ok, log_prior, -np.inf)
