@@ -49,14 +49,25 @@ class Plan:
         return np.full(len(self), float(default)) if self.load_kg is None else self.load_kg.copy()
 
 
-def read_plan(path: str | PathLike[str], robot: Robot) -> Plan:
+def read_plan(path: str | PathLike[str], robot: Robot, *, max_load_kg: float | None = None) -> Plan:
     """Read a plan CSV for ``robot``, checking every row against the joint limits.
+
+    Parameters
+    ----------
+    path
+        The plan CSV.
+    robot
+        The robot whose joints and limits the plan must match.
+    max_load_kg
+        The heaviest plausible load, kg (e.g. ``cell.max_force / cell.gravity``);
+        a heavier ``load_kg`` is an error.
 
     Raises
     ------
     InputError
         Naming the line and column of a missing column, a value that is not a
-        number, a joint angle outside its limits, or a load that is not positive.
+        number, a joint angle outside its limits, or a load that is not positive
+        or above ``max_load_kg``.
     """
     source = str(path)
     joints = [f"q{j}_deg" for j in range(1, robot.nq + 1)]
@@ -80,4 +91,13 @@ def read_plan(path: str | PathLike[str], robot: Robot) -> Plan:
                 column="load_kg",
             )
         load = frame["load_kg"].to_numpy(dtype=float)
+        if max_load_kg is not None and np.any(load > max_load_kg):
+            row = int(np.argmax(load > max_load_kg))
+            raise InputError(
+                f"a load of {load[row]:g} kg is more than the {max_load_kg:.0f} kg the arm can plausibly carry: "
+                "is load_kg in another unit than kg?",
+                source=source,
+                line=int(frame.index[row]),
+                column="load_kg",
+            )
     return Plan(q=q, load_kg=load, lines=frame.index.to_numpy(dtype=int), source=source)

@@ -23,8 +23,15 @@ __all__ = ["main"]
 COMMANDS = ("geometry", "simulate", "calibrate")
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line, like the errors on files."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="bayescal",
         description="Probabilistic identification of geometric and elastostatic parameters of heavy industrial robots.",
     )
@@ -37,7 +44,11 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line and return the exit status (0 success, 2 bad input)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exit:
+        # A bad option value (status 2) or --help (status 0): the message is printed already.
+        return exit.code if isinstance(exit.code, int) else 0
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
