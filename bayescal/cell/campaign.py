@@ -182,7 +182,8 @@ def _joint_count(path: Path, cell: Cell | None) -> int:
             n += 1
         return max(n, 1)
     expected = _joint_columns(cell.robot.nq)
-    present = sorted((name for name in names if _JOINT_COLUMN.fullmatch(name)), key=lambda name: int(name[1:-4]))
+    present = sorted({name for name in names if _JOINT_COLUMN.fullmatch(name)}, key=lambda name: int(name[1:-4]))
+    # A repeated column is read_table's to report; here only which joints are there matters.
     if header is not None and present and present != expected:
         extra = [name for name in present if name not in expected]
         missing = [name for name in expected if name not in present]
