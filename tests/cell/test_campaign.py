@@ -257,7 +257,7 @@ def _perturbed(draw, lines):
     return "\n".join(comments + [",".join(fields) for fields in [header, *rows]]) + "\n"
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=200, deadline=None, database=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_random_perturbations_give_a_campaign_or_one_line_error(cell, campaign_csv, tmp_path, data):
     text = data.draw(_perturbed(campaign_csv.read_text().splitlines()))
