@@ -227,7 +227,7 @@ def read_campaign(
         value that is not a number, a row whose unloaded and loaded positions do
         not pair up, a duplicated (config, repeat, marker), rows of a
         configuration that disagree on the joint angles or the wrench, or an
-        unknown marker; with ``cell``, also joint columns that do not match the
+        unknown marker, loaded positions all equal to the unloaded ones; with ``cell``, also joint columns that do not match the
         robot, angles outside its limits or in radians, and implausible wrenches.
     """
     source = str(path)
@@ -301,6 +301,14 @@ def read_campaign(
         check_wrench(cell, values[firsts, n_joints:], frame.index[firsts], source)
 
     positions = frame[list(POSITION_COLUMNS)].to_numpy(dtype=float) * MM
+    if np.array_equal(positions[:, :3], positions[:, 3:]):
+        raise InputError(
+            "every loaded position x1_mm, y1_mm, z1_mm equals its unloaded x0_mm, y0_mm, z0_mm: no tracker reads a "
+            "point twice to the last digit; were the unloaded columns copied into the loaded ones?",
+            source=source,
+            line=int(frame.index[0]),
+            column="x1_mm",
+        )
     return Campaign(
         config=config,
         repeat=frame["repeat"].to_numpy(dtype=int),

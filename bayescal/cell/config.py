@@ -11,6 +11,7 @@ import difflib
 import math
 import tomllib
 from collections.abc import Mapping
+from xml.etree import ElementTree
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
@@ -234,6 +235,20 @@ class _Reader:
         return value
 
 
+def _check_urdf_xml(urdf: Path) -> None:
+    """Reject a URDF that is not XML with a ``<robot>`` root before the URDF parser prints its own lines to stderr."""
+    if not urdf.is_file():
+        return  # Robot.from_urdf names the missing file
+    try:
+        root = ElementTree.parse(urdf).getroot()
+    except ElementTree.ParseError as exc:
+        raise InputError(f"not a URDF: not valid XML ({exc.msg})", source=urdf, line=exc.position[0]) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the URDF ({type(exc).__name__})", source=urdf) from None
+    if root.tag != "robot":
+        raise InputError(f"not a URDF: the root element is <{root.tag}>, expected <robot>", source=urdf, line=1)
+
+
 def load_cell(path: str | PathLike[str]) -> Cell:
     """Read a cell TOML file (schema in ``docs/twin.md``) and convert it to SI.
 
@@ -272,6 +287,7 @@ def load_cell(path: str | PathLike[str]) -> Cell:
 
     urdf = file.parent / reader.text("robot", "urdf")
     flange = reader.text("robot", "flange", default="flange")
+    _check_urdf_xml(urdf)
     try:
         robot = Robot.from_urdf(urdf, flange=flange)
     except InputError as error:

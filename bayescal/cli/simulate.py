@@ -44,6 +44,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.cell.campaign import write_campaign
     from bayescal.cell.config import load_cell
     from bayescal.cell.plan import read_plan
+    from bayescal.errors import InputError
     from bayescal.twin.effects import parse_effect
     from bayescal.twin.simulator import DigitalTwin
     from bayescal.units import MM, UM
@@ -55,7 +56,19 @@ def run(args: argparse.Namespace) -> CommandOutput:
     check_output("-o", args.output, inputs | {"the robot URDF": cell.robot.source})
     plan = read_plan(args.plan, cell.robot, max_load_kg=cell.max_force / cell.gravity)
     twin = DigitalTwin(cell, effects)
-    campaign = twin.simulate(plan, args.repeats, np.random.default_rng(args.seed))
+    try:
+        campaign = twin.simulate(plan, args.repeats, np.random.default_rng(args.seed))
+    except InputError as error:
+        if not effects:
+            raise
+        # The plan line is where the twin failed; the planted effect is the likelier cause.
+        planted = ", ".join(effect.describe() for effect in effects)
+        raise InputError(
+            f"{error.what}, with the effects {planted}: is an --effect magnitude too large?",
+            source=error.source,
+            line=error.line,
+            column=error.column,
+        ) from None
 
     planted = [effect.describe() for effect in twin.effects]
     comments = [

@@ -241,8 +241,9 @@ def _perturbed(draw, lines):
     for _ in range(draw(st.integers(1, 3))):
         kind = draw(st.sampled_from(["cell", "drop", "duplicate", "rename", "truncate"]))
         if kind == "cell":
-            row, column = draw(st.integers(0, len(rows) - 1)), draw(st.integers(0, len(header) - 1))
-            rows[row][column] = draw(_JUNK)
+            row = draw(st.integers(0, len(rows) - 1))
+            if rows[row]:
+                rows[row][draw(st.integers(0, len(rows[row]) - 1))] = draw(_JUNK)
         elif kind == "drop" and len(rows) > 1:
             del rows[draw(st.integers(0, len(rows) - 1))]
         elif kind == "duplicate":
@@ -273,3 +274,13 @@ def test_random_perturbations_give_a_campaign_or_one_line_error(cell, campaign_c
         assert np.all(np.isfinite(campaign.q)) and np.all(np.isfinite(campaign.p1))
         assert np.linalg.norm(campaign.wrench[:, :3], axis=1).max() <= cell.max_force
     assert path.read_bytes() == before
+
+
+def test_loaded_positions_equal_to_the_unloaded_ones_are_an_error(tmp_path):
+    def copy_unloaded(lines):
+        for i, line in enumerate(lines[1:], start=1):
+            fields = line.split(",")
+            lines[i] = ",".join(fields[:-3] + fields[-6:-3])
+
+    message = _error(_write_rows(tmp_path, copy_unloaded))
+    assert "c.csv:2, column 'x1_mm'" in message and "were the unloaded columns copied" in message

@@ -156,3 +156,15 @@ def test_capacity_is_the_larger_of_payload_and_load(cell, tmp_path):
     assert cell.capacity_weight == pytest.approx(270.0 * 9.80665)
     path = _edited(tmp_path, "payload_kg = 270.0\n", "")
     assert load_cell(path).capacity_weight == pytest.approx(265.0 * 9.80665)
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [("not xml\n", r"kr270.urdf:1: not a URDF: not valid XML"), ("<foo/>\n", r"kr270.urdf:1: not a URDF: the root element is <foo>")],
+)
+def test_a_urdf_that_is_not_one_gives_one_line(tmp_path, capfd, content, message):
+    path = _edited(tmp_path, "[robot]", "[robot]")
+    (tmp_path / "robots" / "kr270.urdf").write_text(content)
+    with pytest.raises(InputError, match=message):
+        load_cell(path)
+    assert capfd.readouterr().err == ""  # the URDF parser did not get to print its own lines
