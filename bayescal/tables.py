@@ -21,7 +21,7 @@ import pandas as pd
 
 from bayescal.errors import InputError
 
-__all__ = ["read_table", "markdown_table", "ColumnKind"]
+__all__ = ["read_table", "markdown_table", "ColumnKind", "is_plain_number"]
 
 ColumnKind = Literal["number", "text", "integer"]
 
@@ -30,6 +30,11 @@ _NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 accepts ``7_9.20`` (as 79.2), ``nan``, ``infinity`` and non-ASCII digits."""
 
 _OTHER_SEPARATORS = (";", "\t", "|")
+
+
+def is_plain_number(text: str) -> bool:
+    """Whether ``text`` is a plain decimal number (sign, digits, one point, exponent), as the readers require."""
+    return _NUMBER.fullmatch(text.strip()) is not None
 
 
 def read_table(
@@ -136,7 +141,7 @@ def _parse(raw: str, kind: ColumnKind, column: str, unit: str | None, source: st
         raise InputError(f"missing value: expected {expected}", source=source, line=line, column=column)
     if kind == "text":
         return raw
-    if not _NUMBER.fullmatch(raw):
+    if not is_plain_number(raw):
         raise InputError(f"expected {expected}, got '{raw}'", source=source, line=line, column=column)
     value = float(raw)
     if not math.isfinite(value):

@@ -237,6 +237,8 @@ class _Reader:
 
 def _check_urdf_xml(urdf: Path) -> None:
     """Reject a URDF that is not XML with a ``<robot>`` root before the URDF parser prints its own lines to stderr."""
+    if urdf.is_dir():
+        raise InputError("is a folder; expected a URDF file", source=urdf)
     if not urdf.is_file():
         return  # Robot.from_urdf names the missing file
     try:

@@ -28,12 +28,23 @@ def add_parser(subparsers) -> None:
     parser.add_argument(
         "--effect",
         action="append",
+        type=_effect_text,
         default=[],
         metavar="NAME[=MAGNITUDE]",
         help=f"plant an effect, repeatable: {effects}",
     )
     add_common_options(parser)
     parser.set_defaults(run=run)
+
+
+def _effect_text(text: str) -> str:
+    """``NAME`` or ``NAME=MAGNITUDE`` with a plain decimal magnitude; the twin checks the name and the range."""
+    from bayescal.tables import is_plain_number
+
+    _, equals, value = text.partition("=")
+    if equals and not is_plain_number(value):
+        raise argparse.ArgumentTypeError(f"expected NAME=MAGNITUDE with a plain decimal number, got '{text}'")
+    return text
 
 
 def run(args: argparse.Namespace) -> CommandOutput:
