@@ -205,6 +205,10 @@ class _Reader:
             if name in SCHEMA and isinstance(node, Mapping):
                 self._check_table(name, node)
                 continue
+            if name in SCHEMA:
+                raise InputError(
+                    f"expected the table [{name}], got the value {node!r}", source=self.source, line=self.line("", name), column=name
+                )
             close = difflib.get_close_matches(name, tables, n=1, cutoff=0.6)
             hint = f"did you mean [{close[0]}]? " if close else ""
             kind = f"table [{name}]" if isinstance(node, Mapping) else f"key '{name}' outside any table"

@@ -104,6 +104,8 @@ def check_output(option: str, path: str | PathLike[str] | None, inputs: Mapping[
     """
     if path is None:
         return
+    if not str(path).strip():
+        raise InputError("expected the name of a file to write, got an empty text", source=option)
     target = Path(path)
     for what, source in inputs.items():
         if source is not None and _same_file(target, Path(source)):

@@ -42,6 +42,7 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> CommandOutput:
     from functools import partial
+    from pathlib import Path
 
     import numpy as np
 
@@ -57,6 +58,9 @@ def run(args: argparse.Namespace) -> CommandOutput:
     check_output("--posterior", args.posterior, inputs)
     cell = load_cell(args.config)
     check_output("--posterior", args.posterior, inputs | {"the robot URDF": cell.robot.source})
+    if args.geometry and not Path(args.geometry).is_file():
+        what = "is a folder" if Path(args.geometry).is_dir() else "file not found"
+        raise InputError(f"{what}; expected the NetCDF file `bayescal geometry --posterior` writes", source=args.geometry)
     geometry = posterior_geometry(args.geometry) if args.geometry else None
     campaign = read_campaign(args.campaign, cell=cell)
     model = ElastostaticModel.from_cell(

@@ -149,6 +149,10 @@ CASES = [
     ("loaded positions copied from the unloaded ones", lambda: copy_unloaded_into_loaded("campaign.csv"), CALIBRATE, ["campaign.csv:3, column 'x1_mm'", "were the unloaded columns copied"]),
     ("calibrate with a Latin-1 TOML", lambda: edit_text("cell.toml", b"# Leica", b"# Leica \xb5"), CALIBRATE,
      ["cell.toml:", "byte 0xb5"]),
+    ("geometry posterior is a folder", None, [*CALIBRATE, "--geometry", "robots"], ["robots: is a folder; expected the NetCDF file"]),
+    ("empty output name", None, [*CALIBRATE, "--posterior", ""], ["--posterior: expected the name of a file to write"]),
+    ("a table given as a value", lambda: Path("cell.toml").write_text("# a cell\nrobot = 3\n"), CALIBRATE,
+     ["cell.toml:2, column 'robot': expected the table [robot], got the value 3"]),
     ("calibrate negative seed", None, [*CALIBRATE, "--seed", "-1"], ["argument --seed"]),
     ("too few draws", None, [*CALIBRATE, "--draws", "50"], ["argument --draws: expected a whole number >= 100"]),
 ]
