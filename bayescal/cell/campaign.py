@@ -226,9 +226,10 @@ def read_campaign(
         Naming the line and column of the first problem: a missing column, a
         value that is not a number, a row whose unloaded and loaded positions do
         not pair up, a duplicated (config, repeat, marker), rows of a
-        configuration that disagree on the joint angles or the wrench, or an
-        unknown marker, loaded positions all equal to the unloaded ones; with ``cell``, also joint columns that do not match the
-        robot, angles outside its limits or in radians, and implausible wrenches.
+        configuration that disagree on the joint angles or the wrench, an
+        unknown marker, or loaded positions all equal to the unloaded ones;
+        with ``cell``, also joint columns that do not match the robot, angles
+        outside its limits or in radians, and implausible wrenches.
     """
     source = str(path)
     n_joints = _joint_count(Path(path), cell)
@@ -325,9 +326,8 @@ def read_campaign(
 def _check_angles(cell: Cell, q: np.ndarray, lines: Sequence[int], source: str) -> None:
     """Joint angles (rad, one row per configuration) within the robot's limits and not written in radians."""
     robot = cell.robot
-    outside = np.flatnonzero(np.any((q < robot.lower - 1e-9) | (q > robot.upper + 1e-9), axis=1))
-    if outside.size:
-        robot.check_limits(q[outside[0]], source=source, line=int(lines[outside[0]]))
+    for row, line in zip(q, lines):
+        robot.check_limits(row, source=source, line=int(line))
     if len(q) >= 2 and np.max(np.abs(q)) <= _RADIAN_SPAN * DEG and np.ptp(q, axis=0).max() > 0:
         raise InputError(
             f"every joint angle of the {len(q)} configurations lies within ±{_RADIAN_SPAN:g} deg, as angles in radians "
