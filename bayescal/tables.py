@@ -21,7 +21,7 @@ import pandas as pd
 
 from bayescal.errors import InputError
 
-__all__ = ["read_table", "markdown_table", "ColumnKind", "is_plain_number"]
+__all__ = ["read_table", "read_header", "markdown_table", "ColumnKind", "is_plain_number"]
 
 ColumnKind = Literal["number", "text", "integer"]
 
@@ -35,6 +35,23 @@ _OTHER_SEPARATORS = (";", "\t", "|")
 def is_plain_number(text: str) -> bool:
     """Whether ``text`` is a plain decimal number (sign, digits, one point, exponent), as the readers require."""
     return _NUMBER.fullmatch(text.strip()) is not None
+
+
+def read_header(path: str | PathLike[str]) -> tuple[int, list[str]] | None:
+    """The header row of a CSV file: its 1-based line number and its column names.
+
+    ``None`` when the file cannot be read or has no header; :func:`read_table`
+    then says why.  Readers use it to decide which columns to ask for (a
+    campaign's joint columns) before reading the table.
+    """
+    try:
+        with Path(path).open(encoding="utf-8-sig", newline="") as handle:
+            for number, line in enumerate(handle, start=1):
+                if line.strip() and not line.lstrip().startswith("#"):
+                    return number, [name.strip() for name in next(csv.reader([line], skipinitialspace=True))]
+    except (OSError, UnicodeDecodeError):
+        return None
+    return None
 
 
 def read_table(

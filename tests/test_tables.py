@@ -87,3 +87,11 @@ def test_markdown_table():
     from bayescal.tables import markdown_table
 
     assert markdown_table(["a", "b"], [[1, "x"], [2.5, ""]]) == "| a | b |\n|---|---|\n| 1 | x |\n| 2.5 |  |"
+
+
+def test_read_header_finds_the_first_row_after_comments(tmp_path):
+    from bayescal.tables import read_header
+
+    assert read_header(write(tmp_path, "\ufeff# note\n\nq2_deg, marker\n1,P1\n")) == (3, ["q2_deg", "marker"])
+    assert read_header(write(tmp_path, "# only a note\n")) is None
+    assert read_header(tmp_path / "absent.csv") is None

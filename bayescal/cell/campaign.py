@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from bayescal.errors import InputError
-from bayescal.tables import read_table
+from bayescal.tables import read_header, read_table
 from bayescal.units import DEG, MM
 
 if TYPE_CHECKING:
@@ -160,21 +160,9 @@ def write_campaign(campaign: Campaign, path: str | PathLike[str], *, comments: S
     Path(path).write_text(out.getvalue(), encoding="utf-8")
 
 
-def _header(path: Path) -> tuple[int, list[str]] | None:
-    """The header line's number and names (``None`` when unreadable: read_table reports why)."""
-    try:
-        with path.open(encoding="utf-8-sig", newline="") as handle:
-            for number, line in enumerate(handle, start=1):
-                if line.strip() and not line.lstrip().startswith("#"):
-                    return number, [name.strip() for name in next(csv.reader([line], skipinitialspace=True))]
-    except (OSError, UnicodeDecodeError):
-        return None
-    return None
-
-
 def _joint_count(path: Path, cell: Cell | None) -> int:
     """Number of joint columns to read: the robot's, or the consecutive ``q<j>_deg`` of the header."""
-    header = _header(path)
+    header = read_header(path)
     names = [] if header is None else header[1]
     if cell is None:
         n = 0

@@ -8,6 +8,7 @@ order; lines starting with ``#`` are provenance notes.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from os import PathLike
 
@@ -15,7 +16,7 @@ import numpy as np
 
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
-from bayescal.tables import read_table
+from bayescal.tables import read_header, read_table
 from bayescal.units import DEG
 
 __all__ = ["Plan", "read_plan"]
@@ -65,12 +66,22 @@ def read_plan(path: str | PathLike[str], robot: Robot, *, max_load_kg: float | N
     Raises
     ------
     InputError
-        Naming the line and column of a missing column, a value that is not a
-        number, a joint angle outside its limits, or a load that is not positive
-        or above ``max_load_kg``.
+        Naming the line and column of a missing column, a joint column the robot
+        does not have, a value that is not a number, a joint angle outside its
+        limits, or a load that is not positive or above ``max_load_kg``.
     """
     source = str(path)
     joints = [f"q{j}_deg" for j in range(1, robot.nq + 1)]
+    header = read_header(path)
+    extra = [name for name in (header[1] if header else []) if re.fullmatch(r"q[0-9]+_deg", name) and name not in joints]
+    if extra:
+        raise InputError(
+            f"the plan has a column {extra[0]} but the robot ({robot.source}) has {robot.nq} joints: "
+            f"expected the columns {joints[0]}..{joints[-1]}",
+            source=source,
+            line=header[0],
+            column=extra[0],
+        )
     frame = read_table(
         path,
         {name: "number" for name in joints},

@@ -67,3 +67,10 @@ def test_a_load_beyond_the_capacity_is_rejected(tmp_path, cell):
     assert len(read_plan(path, cell.robot)) == 2
     with pytest.raises(InputError, match=r"p.csv:3, column 'load_kg': a load of 2650 kg is more than the 540 kg"):
         read_plan(path, cell.robot, max_load_kg=limit)
+
+
+def test_a_joint_column_the_robot_lacks_is_rejected(tmp_path, robot):
+    path = tmp_path / "p.csv"
+    path.write_text("# seven joints\nq1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,q7_deg\n0,-45,30,0,20,0,0\n")
+    with pytest.raises(InputError, match=r"p.csv:2, column 'q7_deg': the plan has a column q7_deg but the robot .* has 6 joints"):
+        read_plan(path, robot)

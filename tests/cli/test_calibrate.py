@@ -182,7 +182,7 @@ def _perturbed_campaign(draw, lines):
 
 
 @pytest.mark.slow
-@settings(max_examples=12, deadline=None, database=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=25, deadline=None, database=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_random_perturbations_of_a_small_campaign_never_give_a_traceback(capsys, tmp_path, data):
     # Four Table III configurations, one repeat: the smallest campaign the linear model still calibrates in seconds.

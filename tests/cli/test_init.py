@@ -104,6 +104,8 @@ CASES = [
     ("output onto a folder", lambda: os.mkdir("out"), [*SIMULATE[:-1], "out"], ["-o: out is a directory"]),
     ("underscore in a plan cell", lambda: edit_text("plan.csv", b"\n95.00,-25.24,33.00", b"\n95.00,-2_5.24,33.00"), SIMULATE,
      ["plan.csv:11, column 'q2_deg'", "got '-2_5.24'"]),
+    ("plan with a seventh joint", lambda: rename_column("plan.csv", "q6_deg,load_kg", "q6_deg,q7_deg"), SIMULATE,
+     ["plan.csv:7, column 'q7_deg'", "has 6 joints: expected the columns q1_deg..q6_deg"]),
     ("plan load in grams", lambda: edit_csv("plan.csv", "load_kg", scaled(1e3)), SIMULATE,
      ["plan.csv:8, column 'load_kg'", "more than the 540 kg the arm can plausibly carry"]),
     ("TOML key typo", lambda: edit_text("cell.toml", b"\nfactor = 0.8", b"\nfactr = 0.1"), SIMULATE,
