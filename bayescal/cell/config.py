@@ -40,10 +40,11 @@ unit (N·mm or mN as N·m or N: a factor 1000) lies far beyond it.
 MIN_LOAD_FRACTION = 0.01
 """Smallest plausible largest load force of a campaign, as a fraction of the capacity's weight.
 
-On the KR-270 cell, 265 kg deflects the markers by 3 to 20 mm; 1 % of it moves
-them by 30 to 200 μm, the tracker's noise (20 to 60 μm per coordinate), so a
-campaign whose largest load is below this fraction carries no usable signal: its
-wrench is most likely written in kN.
+``bayescal simulate`` on the Table III plan (250-280 kg) deflects the markers by at
+most 9.1 mm, with tracker noise of 32-44 μm per coordinate; 1 % of such a load
+moves them by at most about 90 μm, two or three times the noise: not a calibration
+load.  A campaign whose largest force is below it is far more likely a wrench
+written in kN (1000 times smaller) than one measured so.
 """
 
 SCHEMA: dict[str, frozenset[str] | None] = {
@@ -351,17 +352,7 @@ def load_cell(path: str | PathLike[str]) -> Cell:
         reader.fail(error.what, "test_pose", "q_deg")
 
     test_wrench = reader.vector("test_pose", "wrench_N_Nm", 6, unit="N and N·m")
-    capacity = max(payload or 0.0, load_mass)
-    limit = OVERLOAD_FACTOR * capacity * gravity
-    if np.linalg.norm(test_wrench[:3]) > limit:
-        reader.fail(
-            f"a force of {np.linalg.norm(test_wrench[:3]):.4g} N is more than the {limit:.0f} N the robot can plausibly "
-            f"hold ({OVERLOAD_FACTOR:g} x the weight of {capacity:g} kg): is the wrench in another unit?",
-            "test_pose",
-            "wrench_N_Nm",
-        )
-
-    return Cell(
+    cell = Cell(
         robot=robot,
         compliances=compliances,
         compensator=compensator,
@@ -376,3 +367,12 @@ def load_cell(path: str | PathLike[str]) -> Cell:
         source=source,
         payload_kg=payload,
     )
+    force = float(np.linalg.norm(test_wrench[:3]))
+    if force > cell.max_force:
+        reader.fail(
+            f"a force of {force:.4g} N is more than the {cell.max_force:.0f} N the robot can plausibly hold "
+            f"({OVERLOAD_FACTOR:g} x the weight of {cell.capacity_weight / gravity:g} kg): is the wrench in another unit?",
+            "test_pose",
+            "wrench_N_Nm",
+        )
+    return cell
