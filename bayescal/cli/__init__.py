@@ -5,6 +5,8 @@ Each subcommand lives in its own module of this package and provides
 default.  ``run(args)`` returns a :class:`~bayescal.cli._command.CommandOutput`;
 this module prints it as JSON (``--json``) or as text, and turns an
 :class:`~bayescal.errors.InputError` into a one-line message and exit status 2.
+A bad option value is reported by the parser the same way: one line, status 2.
+Output files go through :mod:`bayescal.cli._command`'s guard and atomic writer.
 """
 
 from __future__ import annotations
