@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from collections.abc import Mapping, Sequence
 from os import PathLike
 from pathlib import Path
@@ -20,9 +21,37 @@ import pandas as pd
 
 from bayescal.errors import InputError
 
-__all__ = ["read_table", "markdown_table", "ColumnKind"]
+__all__ = ["read_table", "read_header", "markdown_table", "ColumnKind", "is_plain_number"]
 
 ColumnKind = Literal["number", "text", "integer"]
+
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+"""A number as a spreadsheet or a C program writes it.  ``float()`` alone also
+accepts ``7_9.20`` (as 79.2), ``nan``, ``infinity`` and non-ASCII digits."""
+
+_OTHER_SEPARATORS = (";", "\t", "|")
+
+
+def is_plain_number(text: str) -> bool:
+    """Whether ``text`` is a plain decimal number (sign, digits, one point, exponent), as the readers require."""
+    return _NUMBER.fullmatch(text.strip()) is not None
+
+
+def read_header(path: str | PathLike[str]) -> tuple[int, list[str]] | None:
+    """The header row of a CSV file: its 1-based line number and its column names.
+
+    ``None`` when the file cannot be read or has no header; :func:`read_table`
+    then says why.  Readers use it to decide which columns to ask for (a
+    campaign's joint columns) before reading the table.
+    """
+    try:
+        with Path(path).open(encoding="utf-8-sig", newline="") as handle:
+            for number, line in enumerate(handle, start=1):
+                if line.strip() and not line.lstrip().startswith("#"):
+                    return number, [name.strip() for name in next(csv.reader([line], skipinitialspace=True))]
+    except (OSError, UnicodeDecodeError):
+        return None
+    return None
 
 
 def read_table(
@@ -56,14 +85,18 @@ def read_table(
     Raises
     ------
     InputError
-        When the file is missing or unreadable, a column is missing, a row has
-        the wrong number of fields, or a value is empty, not finite or of the
-        wrong kind.
+        When the file is missing or unreadable, a column is missing, the file
+        is separated by another character than a comma, a row has the wrong
+        number of fields, or a value is empty, not finite, of the wrong kind or
+        not written as a plain decimal number (digits, one point, an optional
+        exponent: no ``_`` separators).
     """
     source = str(path)
     optional = dict(optional or {})
     units = dict(units or {})
     file = Path(path)
+    if file.is_dir():
+        raise InputError("is a folder; expected a CSV file", source=source)
     if not file.is_file():
         raise InputError("file not found", source=source)
     try:
@@ -84,6 +117,14 @@ def read_table(
     duplicated = sorted({name for name in header if header.count(name) > 1})
     if duplicated:
         raise InputError(f"column '{duplicated[0]}' appears more than once in the header", source=source, line=header_line)
+    separator = next((mark for mark in _OTHER_SEPARATORS if len(header) == 1 and mark in header[0]), None)
+    if separator is not None:
+        raise InputError(
+            f"the header is a single column; the file seems separated by {separator!r}: "
+            f"write it comma-separated with columns {', '.join(columns)}",
+            source=source,
+            line=header_line,
+        )
     for name in columns:
         if name not in header:
             raise InputError(
@@ -117,10 +158,9 @@ def _parse(raw: str, kind: ColumnKind, column: str, unit: str | None, source: st
         raise InputError(f"missing value: expected {expected}", source=source, line=line, column=column)
     if kind == "text":
         return raw
-    try:
-        value = float(raw)
-    except ValueError:
-        raise InputError(f"expected {expected}, got '{raw}'", source=source, line=line, column=column) from None
+    if not is_plain_number(raw):
+        raise InputError(f"expected {expected}, got '{raw}'", source=source, line=line, column=column)
+    value = float(raw)
     if not math.isfinite(value):
         raise InputError(f"expected {expected}, got '{raw}'", source=source, line=line, column=column)
     if kind == "integer":

@@ -5,8 +5,10 @@ Paths are resolved from this file, so the tests pass from any working directory.
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from bayescal.cell.campaign import write_campaign
 from bayescal.cell.config import load_cell
 from bayescal.cell.plan import read_plan
 
@@ -35,3 +37,14 @@ def robot(cell):
 def plan(cell):
     """The paper's Table III plan."""
     return read_plan(DATA / "table3_plan.csv", cell.robot)
+
+
+@pytest.fixture(scope="session")
+def campaign_csv(cell, plan, tmp_path_factory) -> Path:
+    """A campaign CSV of the Table III plan measured once on the twin (seed 1): 45 rows, read-only for tests."""
+    from bayescal.twin.simulator import DigitalTwin
+
+    campaign = DigitalTwin(cell).simulate(plan, 1, np.random.default_rng(1))
+    path = tmp_path_factory.mktemp("campaign") / "campaign.csv"
+    write_campaign(campaign, path, comments=["twin, Table III, 1 repeat, seed 1"])
+    return path

@@ -39,6 +39,8 @@ def test_optional_column_is_read_when_present(tmp_path):
         ("q2_deg,marker,x_mm\n", "no data rows"),
         ("", "the file is empty"),
         ("q2_deg,marker,x_mm,x_mm\n0,P1,1,1\n", "column 'x_mm' appears more than once"),
+        ("q2_deg;marker;x_mm\n0;P1;1\n", "points.csv:1: the header is a single column; the file seems separated by ';'"),
+        ("q2_deg\tmarker\tx_mm\n0\tP1\t1\n", "separated by '\\t'"),
     ],
 )
 def test_bad_files_give_one_line_errors_naming_the_place(tmp_path, text, expected):
@@ -48,6 +50,26 @@ def test_bad_files_give_one_line_errors_naming_the_place(tmp_path, text, expecte
     message = str(raised.value)
     assert expected in message
     assert "\n" not in message
+
+
+@pytest.mark.parametrize("raw", ["7_9.20", "1_000", "0x1A", "infinity", "-inf", "1e400", "١٢", "1.2.3", "1e", "+-1", "1,5"])
+def test_numbers_are_parsed_strictly(tmp_path, raw):
+    # float() accepts the first three kinds (underscores, "infinity", non-ASCII digits) without complaint.
+    path = write(tmp_path, f'q2_deg,marker,x_mm\n"{raw}",P1,1\n')
+    with pytest.raises(InputError) as raised:
+        read_table(path, COLUMNS)
+    assert str(raised.value).startswith(f"{path}:2, column 'q2_deg': expected a number, got '{raw}'")
+
+
+@pytest.mark.parametrize(("raw", "value"), [("79.20", 79.2), ("-.5", -0.5), ("+3.", 3.0), ("1e3", 1000.0), ("2.5E-3", 0.0025)])
+def test_plain_decimal_numbers_are_read(tmp_path, raw, value):
+    path = write(tmp_path, f"q2_deg,marker,x_mm\n{raw},P1,1\n")
+    assert read_table(path, COLUMNS).loc[2, "q2_deg"] == value
+
+
+def test_a_folder_is_not_a_missing_file(tmp_path):
+    with pytest.raises(InputError, match="is a folder; expected a CSV file"):
+        read_table(tmp_path, COLUMNS)
 
 
 def test_integer_column_rejects_fractions(tmp_path):
@@ -65,3 +87,11 @@ def test_markdown_table():
     from bayescal.tables import markdown_table
 
     assert markdown_table(["a", "b"], [[1, "x"], [2.5, ""]]) == "| a | b |\n|---|---|\n| 1 | x |\n| 2.5 |  |"
+
+
+def test_read_header_finds_the_first_row_after_comments(tmp_path):
+    from bayescal.tables import read_header
+
+    assert read_header(write(tmp_path, "\ufeff# note\n\nq2_deg, marker\n1,P1\n")) == (3, ["q2_deg", "marker"])
+    assert read_header(write(tmp_path, "# only a note\n")) is None
+    assert read_header(tmp_path / "absent.csv") is None

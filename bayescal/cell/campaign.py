@@ -6,8 +6,9 @@ data, one row per marker per repeat per configuration::
     config, repeat, q1_deg, ..., q6_deg, fx_N, fy_N, fz_N, mx_Nm, my_Nm, mz_Nm,
     marker, x0_mm, y0_mm, z0_mm, x1_mm, y1_mm, z1_mm
 
-* ``config`` numbers the robot configurations, ``repeat`` the repetitions of the
-  unloaded/loaded measurement in that configuration (both whole numbers);
+* ``config`` labels the robot configurations, ``repeat`` the repetitions of the
+  unloaded/loaded measurement in that configuration (both whole numbers, any
+  sign: they are labels, not counts);
 * ``q<j>_deg`` are the controller's joint angles; a robot with another number of
   joints has columns ``q1_deg`` … ``q<n>_deg``;
 * the wrench is the one applied to the robot, referred to the origin of the
@@ -24,24 +25,37 @@ from __future__ import annotations
 
 import csv
 import io
+import re
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from bayescal.errors import InputError
-from bayescal.tables import read_table
+from bayescal.tables import read_header, read_table
 from bayescal.units import DEG, MM
 
-__all__ = ["Campaign", "read_campaign", "write_campaign", "WRENCH_COLUMNS", "POSITION_COLUMNS"]
+if TYPE_CHECKING:
+    from bayescal.cell.config import Cell
+
+__all__ = ["Campaign", "read_campaign", "write_campaign", "WRENCH_COLUMNS", "POSITION_COLUMNS", "MAX_LOAD_ARM", "check_wrench"]
 
 WRENCH_COLUMNS = ("fx_N", "fy_N", "fz_N", "mx_Nm", "my_Nm", "mz_Nm")
 POSITION_COLUMNS = ("x0_mm", "y0_mm", "z0_mm", "x1_mm", "y1_mm", "z1_mm")
 _SAME_CONFIG_TOLERANCE = 1e-6
 """Largest difference (deg, N or N·m) between rows of one configuration still read as equal."""
+MAX_LOAD_ARM = 2.0
+"""Farthest (m) a load can plausibly act from the flange: the length of a long tool.
+
+The KR-270 cell hangs its load 0.39 m from the flange (``data/kr270.toml``).  A
+moment that needs a longer arm for its force is a moment column in N·mm."""
+_RADIAN_SPAN = 3.2
+"""Joint angles (in the file's deg) all within ± this are most likely radians: π rad is 3.14."""
+_JOINT_COLUMN = re.compile(r"q([0-9]+)_deg")
 
 
 def _joint_columns(n: int) -> list[str]:
@@ -146,25 +160,35 @@ def write_campaign(campaign: Campaign, path: str | PathLike[str], *, comments: S
     Path(path).write_text(out.getvalue(), encoding="utf-8")
 
 
-def _count_joint_columns(path: Path) -> int:
-    """Number of consecutive ``q<j>_deg`` columns in the header (0 when unreadable; read_table reports why)."""
-    try:
-        with path.open(encoding="utf-8-sig", newline="") as handle:
-            for line in handle:
-                if line.strip() and not line.lstrip().startswith("#"):
-                    header = [name.strip() for name in next(csv.reader([line], skipinitialspace=True))]
-                    break
-            else:
-                return 0
-    except (OSError, UnicodeDecodeError):
-        return 0
-    n = 0
-    while f"q{n + 1}_deg" in header:
-        n += 1
-    return n
+def _joint_count(path: Path, cell: Cell | None) -> int:
+    """Number of joint columns to read: the robot's, or the consecutive ``q<j>_deg`` of the header."""
+    header = read_header(path)
+    names = [] if header is None else header[1]
+    if cell is None:
+        n = 0
+        while f"q{n + 1}_deg" in names:
+            n += 1
+        return max(n, 1)
+    expected = _joint_columns(cell.robot.nq)
+    present = sorted({name for name in names if _JOINT_COLUMN.fullmatch(name)}, key=lambda name: int(name[1:-4]))
+    # A repeated column is read_table's to report; here only which joints are there matters.
+    if header is not None and present and present != expected:
+        extra = [name for name in present if name not in expected]
+        missing = [name for name in expected if name not in present]
+        problem = f"has no column {missing[0]}" if missing else f"has a column {extra[0]}"
+        raise InputError(
+            f"the campaign {problem} but the robot ({cell.robot.source}) has {cell.robot.nq} joints: "
+            f"expected the columns {expected[0]}..{expected[-1]}, found {', '.join(present)}",
+            source=str(path),
+            line=header[0],
+            column=(missing or extra)[0],
+        )
+    return cell.robot.nq
 
 
-def read_campaign(path: str | PathLike[str], *, markers: Collection[str] | None = None) -> Campaign:
+def read_campaign(
+    path: str | PathLike[str], *, markers: Collection[str] | None = None, cell: Cell | None = None
+) -> Campaign:
     """Read and validate a campaign CSV.
 
     Parameters
@@ -173,6 +197,11 @@ def read_campaign(path: str | PathLike[str], *, markers: Collection[str] | None 
         The CSV file (format in the module documentation).
     markers
         The marker names the tool carries; when given, any other name is an error.
+    cell
+        The cell the campaign was measured in; when given, the file must have
+        one joint column per joint of its robot, every configuration must lie
+        within the joint limits, and the wrench must be one the arm can carry
+        (see :func:`check_wrench`).
 
     Returns
     -------
@@ -185,11 +214,13 @@ def read_campaign(path: str | PathLike[str], *, markers: Collection[str] | None 
         Naming the line and column of the first problem: a missing column, a
         value that is not a number, a row whose unloaded and loaded positions do
         not pair up, a duplicated (config, repeat, marker), rows of a
-        configuration that disagree on the joint angles or the wrench, a
-        repeat or config number below 1, or an unknown marker.
+        configuration that disagree on the joint angles or the wrench, an
+        unknown marker, or loaded positions all equal to the unloaded ones;
+        with ``cell``, also joint columns that do not match the robot, angles
+        outside its limits or in radians, and implausible wrenches.
     """
     source = str(path)
-    n_joints = max(_count_joint_columns(Path(path)), 1)
+    n_joints = _joint_count(Path(path), cell)
     columns: dict[str, str] = {"config": "integer", "repeat": "integer"}
     columns |= {name: "number" for name in _joint_columns(n_joints)}
     columns |= {name: "number" for name in WRENCH_COLUMNS}
@@ -211,11 +242,6 @@ def read_campaign(path: str | PathLike[str], *, markers: Collection[str] | None 
                 column=error.column,
             ) from None
         raise
-
-    for name in ("config", "repeat"):
-        bad = frame.index[frame[name] < 1]
-        if len(bad):
-            raise InputError(f"expected a whole number >= 1, got {frame.at[bad[0], name]}", source=source, line=int(bad[0]), column=name)
 
     if markers is not None:
         known = set(markers)
@@ -258,7 +284,20 @@ def read_campaign(path: str | PathLike[str], *, markers: Collection[str] | None 
                 column=column,
             )
 
+    if cell is not None:
+        firsts = np.array(sorted(reference_row.values()))
+        _check_angles(cell, values[firsts, :n_joints] * DEG, frame.index[firsts], source)
+        check_wrench(cell, values[firsts, n_joints:], frame.index[firsts], source)
+
     positions = frame[list(POSITION_COLUMNS)].to_numpy(dtype=float) * MM
+    if np.array_equal(positions[:, :3], positions[:, 3:]):
+        raise InputError(
+            "every loaded position x1_mm, y1_mm, z1_mm equals its unloaded x0_mm, y0_mm, z0_mm: no tracker reads a "
+            "point twice to the last digit; were the unloaded columns copied into the loaded ones?",
+            source=source,
+            line=int(frame.index[0]),
+            column="x1_mm",
+        )
     return Campaign(
         config=config,
         repeat=frame["repeat"].to_numpy(dtype=int),
@@ -270,3 +309,83 @@ def read_campaign(path: str | PathLike[str], *, markers: Collection[str] | None 
         lines=frame.index.to_numpy(dtype=int),
         source=source,
     )
+
+
+def _check_angles(cell: Cell, q: np.ndarray, lines: Sequence[int], source: str) -> None:
+    """Joint angles (rad, one row per configuration) within the robot's limits and not written in radians."""
+    robot = cell.robot
+    for row, line in zip(q, lines):
+        robot.check_limits(row, source=source, line=int(line))
+    if len(q) >= 2 and np.max(np.abs(q)) <= _RADIAN_SPAN * DEG and np.ptp(q, axis=0).max() > 0:
+        raise InputError(
+            f"every joint angle of the {len(q)} configurations lies within ±{_RADIAN_SPAN:g} deg, as angles in radians "
+            f"would: write q1_deg..q{robot.nq}_deg in degrees",
+            source=source,
+            line=int(lines[0]),
+            column="q1_deg",
+        )
+
+
+def check_wrench(cell: Cell, wrench: np.ndarray, lines: Sequence[int], source: str) -> None:
+    """Reject wrenches the arm cannot carry or that no load on a tool produces: a wrench in a wrong unit.
+
+    Parameters
+    ----------
+    cell
+        Gives the scale: :attr:`~bayescal.cell.config.Cell.max_force` and
+        :attr:`~bayescal.cell.config.Cell.capacity_weight`.
+    wrench
+        (M, 6) ``[f (N); m (N·m)]``, one row per configuration.
+    lines
+        (M,) the line of each row, for the messages.
+    source
+        The file, for the messages.
+
+    Raises
+    ------
+    InputError
+        A force above ``cell.max_force`` (a wrench 1000 times too large, or 1e12 N),
+        a moment that needs its force to act more than :data:`MAX_LOAD_ARM` from
+        the flange (moments in N·mm), or a campaign whose largest force is below
+        :data:`~bayescal.cell.config.MIN_LOAD_FRACTION` of the capacity's weight
+        (a wrench in kN).
+    """
+    from bayescal.cell.config import MIN_LOAD_FRACTION, OVERLOAD_FACTOR
+
+    force = np.linalg.norm(wrench[:, :3], axis=1)
+    moment = np.linalg.norm(wrench[:, 3:], axis=1)
+    capacity = cell.capacity_weight / cell.gravity
+    worst = int(np.argmax(force))
+    if force[worst] > cell.max_force:
+        column = WRENCH_COLUMNS[int(np.argmax(np.abs(wrench[worst, :3])))]
+        raise InputError(
+            f"a load force of {force[worst]:.4g} N is more than the {cell.max_force:.0f} N the arm can plausibly carry "
+            f"({OVERLOAD_FACTOR:g} x the weight of {capacity:g} kg, from {cell.source}): is the wrench in another unit "
+            "than N and N·m?",
+            source=source,
+            line=int(lines[worst]),
+            column=column,
+        )
+    # A force at the flange gives a moment |m| <= |f| times its arm; a pure moment is bounded by the capacity's.
+    arm_limit = np.maximum(force, cell.capacity_weight) * MAX_LOAD_ARM
+    beyond = np.flatnonzero(moment > arm_limit)
+    if beyond.size:
+        row = int(beyond[0])
+        column = WRENCH_COLUMNS[3 + int(np.argmax(np.abs(wrench[row, 3:])))]
+        raise InputError(
+            f"a moment of {moment[row]:.4g} N·m needs the load to act {moment[row] / max(force[row], cell.capacity_weight):.3g} m "
+            f"or more from the flange, beyond any tool ({MAX_LOAD_ARM:g} m): are mx_Nm..mz_Nm in N·mm instead of N·m?",
+            source=source,
+            line=int(lines[row]),
+            column=column,
+        )
+    floor = MIN_LOAD_FRACTION * cell.capacity_weight
+    if 0 < force[worst] < floor:
+        raise InputError(
+            f"the largest load force of the campaign is {force[worst]:.4g} N, below {floor:.0f} N "
+            f"({MIN_LOAD_FRACTION:.0%} of the weight of {capacity:g} kg, from {cell.source}), too small to deflect "
+            "the arm beyond the tracker's noise: is the wrench in kN instead of N?",
+            source=source,
+            line=int(lines[worst]),
+            column=WRENCH_COLUMNS[int(np.argmax(np.abs(wrench[worst, :3])))],
+        )

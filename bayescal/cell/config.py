@@ -6,9 +6,12 @@ A cell is described by a TOML file whose keys carry their units (schema in
 
 from __future__ import annotations
 
+import codecs
+import difflib
 import math
 import tomllib
 from collections.abc import Mapping
+from xml.etree import ElementTree
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
@@ -22,7 +25,42 @@ from bayescal.robot.kinematics import Robot
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.units import DEG, MM, N_PER_MM, UM, URAD_PER_NM
 
-__all__ = ["Cell", "load_cell"]
+__all__ = ["Cell", "load_cell", "OVERLOAD_FACTOR", "MIN_LOAD_FRACTION", "SCHEMA"]
+
+OVERLOAD_FACTOR = 2.0
+"""Largest plausible static load on the arm, as a multiple of the weight of its capacity.
+
+The capacity is the larger of the rated payload (``robot.payload_kg``; the KR-270's
+is 270 kg) and the cell's calibration load (``load.mass_kg``): Klimchik et al. hung
+250-280 kg on the KR-270, 1.04 times its rating.  Twice the capacity leaves room for
+a heavier calibration load or a tool's own weight, while a wrench written in a wrong
+unit (N·mm or mN as N·m or N: a factor 1000) lies far beyond it.
+"""
+
+MIN_LOAD_FRACTION = 0.01
+"""Smallest plausible largest load force of a campaign, as a fraction of the capacity's weight.
+
+``bayescal simulate`` on the Table III plan (250-280 kg) deflects the markers by at
+most 9.1 mm, with tracker noise of 32-44 μm per coordinate; 1 % of such a load
+moves them by at most about 90 μm, two or three times the noise: not a calibration
+load.  A campaign whose largest force is below it is far more likely a wrench
+written in kN (1000 times smaller) than one measured so.
+"""
+
+SCHEMA: dict[str, frozenset[str] | None] = {
+    "robot": frozenset({"urdf", "flange", "payload_kg"}),
+    "joints": frozenset({"k_urad_per_Nm"}),
+    "compensator": frozenset({"L_mm", "a_x_mm", "a_y_mm", "phi_deg", "K_c_N_per_mm", "s0_mm"}),
+    "tool": frozenset({"load_point_mm", "markers_mm"}),
+    "tool.markers_mm": None,
+    "tracker": frozenset({"position_mm", "U0_um", "U1_um_per_m", "factor"}),
+    "load": frozenset({"mass_kg", "gravity_m_per_s2"}),
+    "test_pose": frozenset({"q_deg", "wrench_N_Nm", "point_mm"}),
+}
+"""The tables of a cell file and their keys (``None``: any key, e.g. marker names).
+
+Any other table or key is an error: a misspelt optional key (``factr``) would
+otherwise be ignored silently and its default used."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,6 +91,8 @@ class Cell:
         (3,) the tool point whose accuracy matters at the test pose, flange frame, m.
     source : str
         The TOML file.
+    payload_kg : float or None
+        The robot's rated payload, kg (``robot.payload_kg``), when the file gives it.
     """
 
     robot: Robot
@@ -67,6 +107,17 @@ class Cell:
     test_wrench: np.ndarray
     test_point: np.ndarray
     source: str
+    payload_kg: float | None = None
+
+    @property
+    def capacity_weight(self) -> float:
+        """Weight (N) of the larger of the rated payload and the calibration load: the scale of plausible loads."""
+        return max(self.payload_kg or 0.0, self.load_mass) * self.gravity
+
+    @property
+    def max_force(self) -> float:
+        """Largest plausible static load force on the arm, N (:data:`OVERLOAD_FACTOR` times :attr:`capacity_weight`)."""
+        return OVERLOAD_FACTOR * self.capacity_weight
 
     def load_wrench(self, q, mass: float) -> np.ndarray:
         """(6,) wrench at the flange origin (base axes) of ``mass`` kg hanging at the load point with the arm at ``q``."""
@@ -111,7 +162,16 @@ class _Reader:
             self.fail(f"expected a table [{name}]", name)
         return node
 
-    def number(self, table: str, key: str, *, unit: str, positive: bool = False, default: float | None = None) -> float:
+    def number(
+        self,
+        table: str,
+        key: str,
+        *,
+        unit: str,
+        positive: bool = False,
+        non_negative: bool = False,
+        default: float | None = None,
+    ) -> float:
         values = self.table(table)
         if key not in values:
             if default is not None:
@@ -122,6 +182,8 @@ class _Reader:
             self.fail(f"expected a number in {unit}, got {value!r}", table, key)
         if positive and value <= 0:
             self.fail(f"expected a positive number in {unit}, got {value!r}", table, key)
+        if non_negative and value < 0:
+            self.fail(f"expected a number >= 0 in {unit}, got {value!r}", table, key)
         return float(value)
 
     def vector(self, table: str, key: str, size: int, *, unit: str) -> np.ndarray:
@@ -137,12 +199,61 @@ class _Reader:
             self.fail(f"expected a list of {size} numbers in {unit}, got {value!r}", table, key)
         return np.array(value, dtype=float)
 
+    def check_keys(self) -> None:
+        """Reject tables and keys the schema does not know, naming the closest known one."""
+        tables = sorted(name for name in SCHEMA if "." not in name)
+        for name, node in self.data.items():
+            if name in SCHEMA and isinstance(node, Mapping):
+                self._check_table(name, node)
+                continue
+            if name in SCHEMA:
+                raise InputError(
+                    f"expected the table [{name}], got the value {node!r}", source=self.source, line=self.line("", name), column=name
+                )
+            close = difflib.get_close_matches(name, tables, n=1, cutoff=0.6)
+            hint = f"did you mean [{close[0]}]? " if close else ""
+            kind = f"table [{name}]" if isinstance(node, Mapping) else f"key '{name}' outside any table"
+            raise InputError(
+                f"unknown {kind}; {hint}known tables: {', '.join(f'[{table}]' for table in tables)}",
+                source=self.source,
+                line=self.line(name) if isinstance(node, Mapping) else self.line("", name),
+                column=name,
+            )
+
+    def _check_table(self, table: str, node: Mapping[str, Any]) -> None:
+        known = SCHEMA[table]
+        if known is None:
+            return
+        for key, value in node.items():
+            if key not in known:
+                close = difflib.get_close_matches(key, sorted(known), n=1, cutoff=0.6)
+                hint = f"did you mean '{close[0]}'? " if close else ""
+                self.fail(f"unknown key '{key}' in [{table}]; {hint}known keys: {', '.join(sorted(known))}", table, key)
+            if isinstance(value, Mapping) and f"{table}.{key}" in SCHEMA:
+                self._check_table(f"{table}.{key}", value)
+
     def text(self, table: str, key: str, default: str | None = None) -> str:
         values = self.table(table)
         value = values.get(key, default)
         if not isinstance(value, str) or not value:
             self.fail(f"expected a non-empty text, got {value!r}", table, key)
         return value
+
+
+def _check_urdf_xml(urdf: Path) -> None:
+    """Reject a URDF that is not XML with a ``<robot>`` root before the URDF parser prints its own lines to stderr."""
+    if urdf.is_dir():
+        raise InputError("is a folder; expected a URDF file", source=urdf)
+    if not urdf.is_file():
+        return  # Robot.from_urdf names the missing file
+    try:
+        root = ElementTree.parse(urdf).getroot()
+    except ElementTree.ParseError as exc:
+        raise InputError(f"not a URDF: not valid XML ({exc.msg})", source=urdf, line=exc.position[0]) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the URDF ({type(exc).__name__})", source=urdf) from None
+    if root.tag != "robot":
+        raise InputError(f"not a URDF: the root element is <{root.tag}>, expected <robot>", source=urdf, line=1)
 
 
 def load_cell(path: str | PathLike[str]) -> Cell:
@@ -156,22 +267,43 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     """
     source = str(path)
     file = Path(path)
+    if file.is_dir():
+        raise InputError("is a folder; expected a cell TOML file", source=source)
     if not file.is_file():
         raise InputError("cell file not found", source=source)
-    text = file.read_text(encoding="utf-8")
+    try:
+        raw = file.read_bytes()
+    except OSError as exc:
+        raise InputError(f"cannot read the cell file ({exc.strerror or type(exc).__name__})", source=source) from None
+    # A byte-order mark is accepted here as by the CSV readers (editors on Windows add one).
+    raw = raw.removeprefix(codecs.BOM_UTF8)
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(
+            f"byte 0x{raw[exc.start]:02x} is not UTF-8 text (a Latin-1 or Windows-1252 character?): save the file as UTF-8",
+            source=source,
+            line=raw[: exc.start].count(b"\n") + 1,
+        ) from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"not a valid TOML file ({exc})", source=source) from None
     reader = _Reader(data, text, source)
+    reader.check_keys()
 
     urdf = file.parent / reader.text("robot", "urdf")
     flange = reader.text("robot", "flange", default="flange")
+    _check_urdf_xml(urdf)
     try:
         robot = Robot.from_urdf(urdf, flange=flange)
     except InputError as error:
         key = "flange" if error.what.startswith("the model has no frame") else "urdf"
         reader.fail(f"{error.what} ({urdf})", "robot", key)
+
+    payload = None
+    if "payload_kg" in reader.table("robot"):
+        payload = reader.number("robot", "payload_kg", unit="kg", positive=True)
 
     compliances = reader.vector("joints", "k_urad_per_Nm", robot.nq, unit="μrad/(N·m)") * URAD_PER_NM
     if np.any(compliances <= 0):
@@ -184,8 +316,8 @@ def load_cell(path: str | PathLike[str]) -> Cell:
             "a_x": reader.number("compensator", "a_x_mm", unit="mm") * MM,
             "a_y": reader.number("compensator", "a_y_mm", unit="mm") * MM,
             "phi": reader.number("compensator", "phi_deg", unit="deg") * DEG,
-            "K_c": reader.number("compensator", "K_c_N_per_mm", unit="N/mm") * N_PER_MM,
-            "s0": reader.number("compensator", "s0_mm", unit="mm") * MM,
+            "K_c": reader.number("compensator", "K_c_N_per_mm", unit="N/mm", non_negative=True) * N_PER_MM,
+            "s0": reader.number("compensator", "s0_mm", unit="mm", non_negative=True) * MM,
         }
         try:
             compensator = Compensator(**values)
@@ -219,7 +351,8 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     except InputError as error:
         reader.fail(error.what, "test_pose", "q_deg")
 
-    return Cell(
+    test_wrench = reader.vector("test_pose", "wrench_N_Nm", 6, unit="N and N·m")
+    cell = Cell(
         robot=robot,
         compliances=compliances,
         compensator=compensator,
@@ -229,7 +362,17 @@ def load_cell(path: str | PathLike[str]) -> Cell:
         load_mass=load_mass,
         gravity=gravity,
         test_q=test_q,
-        test_wrench=reader.vector("test_pose", "wrench_N_Nm", 6, unit="N and N·m"),
+        test_wrench=test_wrench,
         test_point=reader.vector("test_pose", "point_mm", 3, unit="mm") * MM,
         source=source,
+        payload_kg=payload,
     )
+    force = float(np.linalg.norm(test_wrench[:3]))
+    if force > cell.max_force:
+        reader.fail(
+            f"a force of {force:.4g} N is more than the {cell.max_force:.0f} N the robot can plausibly hold "
+            f"({OVERLOAD_FACTOR:g} x the weight of {cell.capacity_weight / gravity:g} kg): is the wrench in another unit?",
+            "test_pose",
+            "wrench_N_Nm",
+        )
+    return cell

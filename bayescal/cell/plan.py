@@ -8,6 +8,7 @@ order; lines starting with ``#`` are provenance notes.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from os import PathLike
 
@@ -15,7 +16,7 @@ import numpy as np
 
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
-from bayescal.tables import read_table
+from bayescal.tables import read_header, read_table
 from bayescal.units import DEG
 
 __all__ = ["Plan", "read_plan"]
@@ -49,17 +50,38 @@ class Plan:
         return np.full(len(self), float(default)) if self.load_kg is None else self.load_kg.copy()
 
 
-def read_plan(path: str | PathLike[str], robot: Robot) -> Plan:
+def read_plan(path: str | PathLike[str], robot: Robot, *, max_load_kg: float | None = None) -> Plan:
     """Read a plan CSV for ``robot``, checking every row against the joint limits.
+
+    Parameters
+    ----------
+    path
+        The plan CSV.
+    robot
+        The robot whose joints and limits the plan must match.
+    max_load_kg
+        The heaviest plausible load, kg (e.g. ``cell.max_force / cell.gravity``);
+        a heavier ``load_kg`` is an error.
 
     Raises
     ------
     InputError
-        Naming the line and column of a missing column, a value that is not a
-        number, a joint angle outside its limits, or a load that is not positive.
+        Naming the line and column of a missing column, a joint column the robot
+        does not have, a value that is not a number, a joint angle outside its
+        limits, or a load that is not positive or above ``max_load_kg``.
     """
     source = str(path)
     joints = [f"q{j}_deg" for j in range(1, robot.nq + 1)]
+    header = read_header(path)
+    extra = [name for name in (header[1] if header else []) if re.fullmatch(r"q[0-9]+_deg", name) and name not in joints]
+    if extra:
+        raise InputError(
+            f"the plan has a column {extra[0]} but the robot ({robot.source}) has {robot.nq} joints: "
+            f"expected the columns {joints[0]}..{joints[-1]}",
+            source=source,
+            line=header[0],
+            column=extra[0],
+        )
     frame = read_table(
         path,
         {name: "number" for name in joints},
@@ -80,4 +102,13 @@ def read_plan(path: str | PathLike[str], robot: Robot) -> Plan:
                 column="load_kg",
             )
         load = frame["load_kg"].to_numpy(dtype=float)
+        if max_load_kg is not None and np.any(load > max_load_kg):
+            row = int(np.argmax(load > max_load_kg))
+            raise InputError(
+                f"a load of {load[row]:g} kg is more than the {max_load_kg:.0f} kg the arm can plausibly carry: "
+                "is load_kg in another unit than kg?",
+                source=source,
+                line=int(frame.index[row]),
+                column="load_kg",
+            )
     return Plan(q=q, load_kg=load, lines=frame.index.to_numpy(dtype=int), source=source)

@@ -5,6 +5,8 @@ Each subcommand lives in its own module of this package and provides
 default.  ``run(args)`` returns a :class:`~bayescal.cli._command.CommandOutput`;
 this module prints it as JSON (``--json``) or as text, and turns an
 :class:`~bayescal.errors.InputError` into a one-line message and exit status 2.
+A bad option value is reported by the parser the same way: one line, status 2.
+Output files go through :mod:`bayescal.cli._command`'s guard and atomic writer.
 """
 
 from __future__ import annotations
@@ -23,8 +25,15 @@ __all__ = ["main"]
 COMMANDS = ("geometry", "simulate", "calibrate")
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line, like the errors on files."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="bayescal",
         description="Probabilistic identification of geometric and elastostatic parameters of heavy industrial robots.",
     )
@@ -37,7 +46,11 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line and return the exit status (0 success, 2 bad input)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exit:
+        # A bad option value (status 2) or --help (status 0): the message is printed already.
+        return exit.code if isinstance(exit.code, int) else 0
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:

@@ -5,9 +5,12 @@ from __future__ import annotations
 import argparse
 import math
 
-from ._command import CommandOutput, add_common_options
+from ._command import CommandOutput, add_common_options, check_output, whole_number, write_atomically
 
 __all__ = ["add_parser", "run"]
+
+MIN_DRAWS = 100
+"""Fewest kept draws per chain the command accepts."""
 
 
 def add_parser(subparsers) -> None:
@@ -27,12 +30,19 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--noise", choices=("axis", "marker"), default="axis", help="unknown noise level per axis or per marker")
     parser.add_argument("--geometry", metavar="POSTERIOR.nc", help="geometry posterior from `bayescal geometry --posterior`")
     parser.add_argument("--posterior", metavar="OUT.nc", help="write the posterior as a NetCDF DataTree")
-    parser.add_argument("--draws", type=int, default=1500, help="kept draws per chain (default 1500)")
+    parser.add_argument(
+        "--draws",
+        type=whole_number(MIN_DRAWS, "fewer give no usable R-hat or effective sample size"),
+        default=1500,
+        help=f"kept draws per chain, at least {MIN_DRAWS} (default 1500)",
+    )
     add_common_options(parser)
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> CommandOutput:
+    from pathlib import Path
+
     import numpy as np
 
     from bayescal.cell.campaign import read_campaign
@@ -43,11 +53,15 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.robot.stiffness import EquilibriumError
     from bayescal.inference.testpose import predict_cell_test_pose
 
-    if args.draws < 100:
-        raise InputError(f"expected at least 100 draws, got {args.draws}", source="--draws")
+    inputs = {"the campaign": args.campaign, "the config": args.config, "the --geometry posterior": args.geometry}
+    check_output("--posterior", args.posterior, inputs)
     cell = load_cell(args.config)
+    check_output("--posterior", args.posterior, inputs | {"the robot URDF": cell.robot.source})
+    if args.geometry and not Path(args.geometry).is_file():
+        what = "is a folder" if Path(args.geometry).is_dir() else "file not found"
+        raise InputError(f"{what}; expected the NetCDF file `bayescal geometry --posterior` writes", source=args.geometry)
     geometry = posterior_geometry(args.geometry) if args.geometry else None
-    campaign = read_campaign(args.campaign)
+    campaign = read_campaign(args.campaign, cell=cell)
     model = ElastostaticModel.from_cell(
         cell, geometry, model=args.model, sampler=default_sampler(args.sampler, args.draws), noise=args.noise
     )
@@ -57,10 +71,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     except EquilibriumError as exc:
         raise InputError(f"the exact model found no static equilibrium ({exc}); try --model linear", source=args.campaign) from None
     if args.posterior:
-        try:
-            results.save(args.posterior)
-        except OSError as exc:
-            raise InputError(f"cannot write the posterior ({exc.strerror or type(exc).__name__})", source=args.posterior) from None
+        write_atomically("--posterior", args.posterior, results.save)
 
     comparison = results.linear_vs_exact()
     payload = {

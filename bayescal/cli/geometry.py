@@ -5,20 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._command import CommandOutput, add_common_options
+from ._command import CommandOutput, add_common_options, check_output, whole_number, write_atomically
 
 # Table II's parameters, set beside ours in the text output.
 _PAPER_ROWS = ("L", "a_x", "a_y")
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text}")
-    return value
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -46,23 +36,26 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         metavar="PATH",
         help="CSV of published values (table, parameter, unit, value, ci3); default: the repository's data/paper_reference.csv",
     )
-    parser.add_argument("--chains", type=_positive_int, default=4, help="independent ensembles (default 4)")
-    parser.add_argument("--tune", type=_positive_int, default=1000, help="tuning steps per ensemble (default 1000)")
-    parser.add_argument("--draws", type=_positive_int, default=1000, help="kept steps per walker (default 1000)")
+    parser.add_argument(
+        "--chains",
+        type=whole_number(2, "R-hat needs at least 2 chains"),
+        default=4,
+        help="independent ensembles, at least 2 (default 4)",
+    )
+    parser.add_argument("--tune", type=whole_number(1), default=1000, help="tuning steps per ensemble (default 1000)")
+    parser.add_argument("--draws", type=whole_number(1), default=1000, help="kept steps per walker (default 1000)")
     add_common_options(parser)
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> CommandOutput:
     """Fit the geometry and return the JSON payload and a readable table."""
-    from bayescal.sampling import summary as posterior
-    from bayescal.errors import InputError
     from bayescal.geometry.arcs import read_arc_points
-    from bayescal.reference import REFERENCE_FILE, read_paper_reference
     from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler
+    from bayescal.reference import REFERENCE_FILE, read_paper_reference
+    from bayescal.sampling import summary as posterior
 
-    if args.chains < 2:
-        raise InputError("R-hat needs at least 2 chains", source="--chains")
+    check_output("--posterior", args.posterior, {"the points file": args.points, "the --reference file": args.reference})
     points = read_arc_points(args.points)
     reference_path = Path(args.reference) if args.reference else REFERENCE_FILE
     reference = None
@@ -71,10 +64,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     model = GeometryPosteriorModel(args.cylinder_model, sampler=default_sampler(args.chains, args.tune, args.draws))
     result = model.fit(points, rng=args.seed)
     if args.posterior:
-        try:
-            result.save(args.posterior)
-        except OSError as error:
-            raise InputError(f"cannot write the posterior ({error.strerror or error})", source=args.posterior) from None
+        write_atomically("--posterior", args.posterior, result.save)
 
     summary = result.summary()
     closed = result.closed_form

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._command import CommandOutput, add_common_options
+from ._command import CommandOutput, add_common_options, check_output, whole_number, write_atomically
 
 __all__ = ["add_parser", "run"]
 
@@ -23,11 +23,12 @@ def add_parser(subparsers) -> None:
     )
     parser.add_argument("--plan", required=True, help="plan CSV: q1_deg..q6_deg and optionally load_kg per configuration")
     parser.add_argument("--config", required=True, help="cell TOML file (robot, stiffness, compensator, tool, tracker)")
-    parser.add_argument("--repeats", type=int, default=3, help="measurements of each configuration (default 3)")
+    parser.add_argument("--repeats", type=whole_number(1), default=3, help="measurements of each configuration (default 3)")
     parser.add_argument("-o", "--output", required=True, help="campaign CSV to write")
     parser.add_argument(
         "--effect",
         action="append",
+        type=_effect_text,
         default=[],
         metavar="NAME[=MAGNITUDE]",
         help=f"plant an effect, repeatable: {effects}",
@@ -36,43 +37,62 @@ def add_parser(subparsers) -> None:
     parser.set_defaults(run=run)
 
 
+def _effect_text(text: str) -> str:
+    """``NAME`` or ``NAME=MAGNITUDE`` with a plain decimal magnitude; the twin checks the name and the range."""
+    from bayescal.tables import is_plain_number
+
+    _, equals, value = text.partition("=")
+    if equals and not is_plain_number(value):
+        raise argparse.ArgumentTypeError(f"expected NAME=MAGNITUDE with a plain decimal number, got '{text}'")
+    return text
+
+
 def run(args: argparse.Namespace) -> CommandOutput:
-    from pathlib import Path
+    from functools import partial
 
     import numpy as np
 
     from bayescal.cell.campaign import write_campaign
     from bayescal.cell.config import load_cell
-    from bayescal.twin.effects import parse_effect
-    from bayescal.errors import InputError
     from bayescal.cell.plan import read_plan
+    from bayescal.errors import InputError
+    from bayescal.twin.effects import parse_effect
     from bayescal.twin.simulator import DigitalTwin
     from bayescal.units import MM, UM
 
-    cell = load_cell(args.config)
-    plan = read_plan(args.plan, cell.robot)
+    inputs = {"the plan": args.plan, "the config": args.config}
+    check_output("-o", args.output, inputs)
     effects = [parse_effect(text) for text in args.effect]
+    cell = load_cell(args.config)
+    check_output("-o", args.output, inputs | {"the robot URDF": cell.robot.source})
+    plan = read_plan(args.plan, cell.robot, max_load_kg=cell.max_force / cell.gravity)
     twin = DigitalTwin(cell, effects)
-    campaign = twin.simulate(plan, args.repeats, np.random.default_rng(args.seed))
+    try:
+        campaign = twin.simulate(plan, args.repeats, np.random.default_rng(args.seed))
+    except InputError as error:
+        if not effects:
+            raise
+        # The plan line is where the twin failed; the planted effect is the likelier cause.
+        planted = ", ".join(effect.describe() for effect in effects)
+        raise InputError(
+            f"{error.what}, with the effects {planted}: is an --effect magnitude too large?",
+            source=error.source,
+            line=error.line,
+            column=error.column,
+        ) from None
 
-    output = Path(args.output)
-    if not output.parent.is_dir():
-        raise InputError("the output directory does not exist", source=args.output)
     planted = [effect.describe() for effect in twin.effects]
     comments = [
         f"simulated by bayescal simulate --plan {args.plan} --config {args.config} --repeats {args.repeats} --seed {args.seed}",
         f"effects: {', '.join(planted) if planted else 'none'}; compensator {'on' if twin.compensator else 'off'}",
         "wrench at the flange origin in base axes; positions in the base frame, 0 unloaded, 1 loaded",
     ]
-    try:
-        write_campaign(campaign, output, comments=comments)
-    except OSError as exc:
-        raise InputError(f"cannot write the campaign ({exc.strerror})", source=args.output) from None
+    write_atomically("-o", args.output, partial(write_campaign, campaign, comments=comments))
 
     sigma = np.concatenate([cell.tracker.sigma(campaign.p0), cell.tracker.sigma(campaign.p1)]) / UM
     deflection = float(np.linalg.norm(campaign.displacement, axis=1).max() / MM)
     payload = {
-        "output": str(output),
+        "output": args.output,
         "rows": len(campaign),
         "configurations": len(plan),
         "repeats": args.repeats,
@@ -86,7 +106,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     }
     text = "\n".join(
         [
-            f"wrote {output}: {len(campaign)} rows = {len(plan)} configurations x {args.repeats} repeats x "
+            f"wrote {args.output}: {len(campaign)} rows = {len(plan)} configurations x {args.repeats} repeats x "
             f"{len(twin.marker_names)} markers, {campaign.n_equations} equations",
             f"compensator: {'on' if twin.compensator else 'off'}; effects: {', '.join(planted) if planted else 'none'}",
             f"tracker noise sd per coordinate: {sigma.min():.1f} to {sigma.max():.1f} um",

@@ -56,6 +56,18 @@ _CYLINDER_MARKER = re.compile(r"P0\d+")
 _MIN_POINTS = 3
 # Points closer than this (in m) are treated as the same point.
 _SAME_POINT = 1e-9
+MIN_POINT_SPREAD = 10 * MM
+"""Smallest plausible extent (m, bounding-box diagonal) of a file's tracker points.
+
+A heavy robot's spring compensator is hundreds of mm long (KR-270: L = 184.7 mm,
+|a| = 696 mm, Klimchik et al. Table II) and its markers' points spread over the
+whole of it (Table I: 850 mm); the same points written in metres spread over
+less than 1 mm."""
+MAX_POINT_DISTANCE = 100.0
+"""Largest plausible distance (m) of a tracker point from the tracker's origin.
+
+Laser trackers measure within tens of metres (the AT901 class, whose noise the
+cell models, within 80 m), so a larger coordinate is in another unit (μm)."""
 
 
 @dataclass(frozen=True)
@@ -179,7 +191,9 @@ def read_arc_points(path: str | PathLike[str]) -> MarkerPoints:
         A one-line message naming the file, line and column: missing file or
         column, a value that is not a finite number, an unknown marker, no P1
         or no P0<k> rows, a marker with fewer than 3 points (P1: 3 angles), a
-        repeated angle, or a marker whose points are identical or collinear.
+        repeated angle, a marker whose points are identical or collinear, or
+        coordinates in another unit than mm (all points within
+        :data:`MIN_POINT_SPREAD`, or one beyond :data:`MAX_POINT_DISTANCE`).
     """
     units = {"q2_deg": "deg", "x_mm": "mm", "y_mm": "mm", "z_mm": "mm"}
     frame = read_table(
@@ -189,6 +203,7 @@ def read_arc_points(path: str | PathLike[str]) -> MarkerPoints:
         units=units,
     )
     columns = ["x_mm", "y_mm", "z_mm"] if "z_mm" in frame else ["x_mm", "y_mm"]
+    _check_scale(frame[columns].to_numpy() * MM, frame.index.to_numpy(), columns, str(path))
     return MarkerPoints.from_arrays(
         frame["marker"].to_numpy(dtype=str),
         frame["q2_deg"].to_numpy() * DEG,
@@ -196,6 +211,29 @@ def read_arc_points(path: str | PathLike[str]) -> MarkerPoints:
         line=frame.index.to_numpy(),
         source=str(path),
     )
+
+
+def _check_scale(xyz: np.ndarray, lines: np.ndarray, columns: list[str], source: str) -> None:
+    """Reject coordinates (m) whose extent fits no compensator: a file written in metres or μm."""
+    distance = np.linalg.norm(xyz, axis=1)
+    far = int(np.argmax(distance))
+    if distance[far] > MAX_POINT_DISTANCE:
+        raise InputError(
+            f"a point {distance[far]:.4g} m from the tracker, beyond any tracker's range ({MAX_POINT_DISTANCE:g} m): "
+            f"are {', '.join(columns)} in another unit than mm (μm)?",
+            source=source,
+            line=int(lines[far]),
+            column=columns[int(np.argmax(np.abs(xyz[far])))],
+        )
+    spread = float(np.linalg.norm(np.ptp(xyz, axis=0)))
+    if len(xyz) >= 2 and spread < MIN_POINT_SPREAD:
+        raise InputError(
+            f"all points lie within {spread / MM:.3g} mm of each other, less than any compensator "
+            f"({MIN_POINT_SPREAD / MM:g} mm): are {', '.join(columns)} in metres instead of mm?",
+            source=source,
+            line=int(lines[0]),
+            column=columns[0],
+        )
 
 
 @dataclass(frozen=True)

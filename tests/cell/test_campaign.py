@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-from bayescal.cell.campaign import Campaign, read_campaign, write_campaign
+from bayescal.cell.campaign import WRENCH_COLUMNS, Campaign, read_campaign, write_campaign
 from bayescal.errors import InputError
 from bayescal.units import DEG, MM
 
@@ -130,17 +134,153 @@ def test_unknown_marker(tmp_path):
     assert "c.csv:4" in message and "unknown marker 'M3'" in message
 
 
-def test_repeat_must_be_positive(tmp_path):
-    def zero_repeat(lines):
-        fields = lines[1].split(",")
-        fields[1] = "0"
-        lines[1] = ",".join(fields)
+def test_config_and_repeat_are_labels_of_any_sign(tmp_path):
+    def relabel(lines):
+        for i, line in enumerate(lines[1:], start=1):
+            fields = line.split(",")
+            fields[0], fields[1] = str(-int(fields[0]) + 1), str(int(fields[1]) - 1)
+            lines[i] = ",".join(fields)
 
-    message = _error(_write_rows(tmp_path, zero_repeat))
-    assert "c.csv:2" in message and "repeat" in message
+    campaign = read_campaign(_write_rows(tmp_path, relabel))
+    assert set(campaign.config) == {0, -1} and set(campaign.repeat) == {0, 1}
 
 
 def test_campaign_checks_shapes():
     campaign = _campaign()
     with pytest.raises(ValueError, match="p1"):
         Campaign(campaign.config, campaign.repeat, campaign.marker, campaign.q, campaign.wrench, campaign.p0, campaign.p1[:-1], campaign.lines)
+
+
+def _rewrite(source, tmp_path, change) -> Path:
+    """A copy of a campaign CSV with ``change(header, rows)`` applied to its data (lists of fields)."""
+    lines = source.read_text().splitlines()
+    comments = [line for line in lines if line.startswith("#")]
+    header, *rows = (line.split(",") for line in lines if not line.startswith("#"))
+    header, rows = change(header, rows)
+    path = tmp_path / "edited.csv"
+    path.write_text("\n".join(comments + [",".join(fields) for fields in [header, *rows]]) + "\n")
+    return path
+
+
+def _scale(columns, factor):
+    def change(header, rows):
+        at = [header.index(name) for name in columns]
+        return header, [[f"{float(v) * factor:.6g}" if i in at else v for i, v in enumerate(row)] for row in rows]
+
+    return change
+
+
+def _set(column, value, config="3"):
+    def change(header, rows):
+        at = header.index(column)
+        return header, [[value if i == at and row[0] == config else v for i, v in enumerate(row)] for row in rows]
+
+    return change
+
+
+def _drop(column):
+    def change(header, rows):
+        at = header.index(column)
+        return [v for i, v in enumerate(header) if i != at], [[v for i, v in enumerate(row) if i != at] for row in rows]
+
+    return change
+
+
+def _add_q7(header, rows):
+    at = header.index("q6_deg") + 1
+    return header[:at] + ["q7_deg"] + header[at:], [row[:at] + ["0"] + row[at:] for row in rows]
+
+
+@pytest.mark.parametrize(
+    ("change", "place", "message"),
+    [
+        (_scale(WRENCH_COLUMNS, 1000), ":9, column 'fz_N'", "the arm can plausibly carry (2 x the weight of 270 kg"),
+        (_set("fz_N", "-1e12"), ":9, column 'fz_N'", "a load force of 1e+12 N is more than the 5296 N"),
+        (_scale(WRENCH_COLUMNS, 1e-3), ":9, column 'fz_N'", "is the wrench in kN instead of N?"),
+        (_scale(WRENCH_COLUMNS[3:], 1000), ":3, column 'm", "are mx_Nm..mz_Nm in N·mm instead of N·m?"),
+        (_set("q2_deg", "200"), ":9, column 'q2_deg'", "joint A2 at 200.000 deg is outside its limits"),
+        (_scale(["q1_deg", "q2_deg", "q3_deg", "q4_deg", "q5_deg", "q6_deg"], DEG), ":3, column 'q1_deg'", "write q1_deg..q6_deg in degrees"),
+    ],
+)
+def test_a_campaign_is_checked_against_the_cell(cell, campaign_csv, tmp_path, change, place, message):
+    path = _rewrite(campaign_csv, tmp_path, change)
+    assert len(read_campaign(path)) == 45  # well-formed: only the cell tells these numbers are wrong
+    text = _error(path, cell=cell)
+    assert message in text and f"edited.csv{place}" in text
+
+
+@pytest.mark.parametrize(
+    ("change", "column", "message"),
+    [
+        (_drop("q6_deg"), "q6_deg", "has no column q6_deg but the robot"),
+        (_add_q7, "q7_deg", "has a column q7_deg but the robot"),
+    ],
+)
+def test_joint_columns_must_match_the_robot(cell, campaign_csv, tmp_path, change, column, message):
+    text = _error(_rewrite(campaign_csv, tmp_path, change), cell=cell)
+    assert f"edited.csv:2, column '{column}'" in text and message in text and "expected the columns q1_deg..q6_deg" in text
+
+
+def test_the_twin_campaign_passes_the_cell_checks(cell, campaign_csv):
+    campaign = read_campaign(campaign_csv, cell=cell)
+    assert len(campaign) == 45 and campaign.q.shape == (45, 6)
+    assert np.abs(campaign.wrench[:, :3]).max() < cell.max_force
+
+
+# --------------------------------------------------------------------------- random perturbations
+
+_JUNK = st.sampled_from(["", "nan", "inf", "-1e12", "1e12", "7_9.20", "abc", "0x10", " ", "1;2", '"', "١", "M9", "-0", "1e400"])
+
+
+@st.composite
+def _perturbed(draw, lines):
+    """A valid campaign's lines with cells replaced by junk, rows dropped or duplicated, or columns renamed."""
+    comments = [line for line in lines if line.startswith("#")]
+    header, *rows = [line.split(",") for line in lines if not line.startswith("#")]
+    header, rows = list(header), [list(row) for row in rows]
+    for _ in range(draw(st.integers(1, 3))):
+        kind = draw(st.sampled_from(["cell", "drop", "duplicate", "rename", "truncate"]))
+        if kind == "cell":
+            row = draw(st.integers(0, len(rows) - 1))
+            if rows[row]:
+                rows[row][draw(st.integers(0, len(rows[row]) - 1))] = draw(_JUNK)
+        elif kind == "drop" and len(rows) > 1:
+            del rows[draw(st.integers(0, len(rows) - 1))]
+        elif kind == "duplicate":
+            row = draw(st.integers(0, len(rows) - 1))
+            rows.insert(draw(st.integers(0, len(rows))), list(rows[row]))
+        elif kind == "rename":
+            column = draw(st.integers(0, len(header) - 1))
+            header[column] = draw(st.sampled_from(["q7_deg", "fx_kN", "x0_m", "", header[column].upper(), "q1_deg"]))
+        elif kind == "truncate":
+            row = draw(st.integers(0, len(rows) - 1))
+            rows[row] = rows[row][: draw(st.integers(0, len(header) - 1))]
+    return "\n".join(comments + [",".join(fields) for fields in [header, *rows]]) + "\n"
+
+
+@settings(max_examples=200, deadline=None, database=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_random_perturbations_give_a_campaign_or_one_line_error(cell, campaign_csv, tmp_path, data):
+    text = data.draw(_perturbed(campaign_csv.read_text().splitlines()))
+    path = tmp_path / "perturbed.csv"
+    path.write_text(text)
+    before = path.read_bytes()
+    try:
+        campaign = read_campaign(path, cell=cell)
+    except InputError as error:
+        message = str(error)
+        assert "\n" not in message and message.startswith(str(path))
+    else:
+        assert np.all(np.isfinite(campaign.q)) and np.all(np.isfinite(campaign.p1))
+        assert np.linalg.norm(campaign.wrench[:, :3], axis=1).max() <= cell.max_force
+    assert path.read_bytes() == before
+
+
+def test_loaded_positions_equal_to_the_unloaded_ones_are_an_error(tmp_path):
+    def copy_unloaded(lines):
+        for i, line in enumerate(lines[1:], start=1):
+            fields = line.split(",")
+            lines[i] = ",".join(fields[:-3] + fields[-6:-3])
+
+    message = _error(_write_rows(tmp_path, copy_unloaded))
+    assert "c.csv:2, column 'x1_mm'" in message and "were the unloaded columns copied" in message

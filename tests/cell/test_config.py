@@ -105,3 +105,66 @@ def test_unknown_flange_frame_names_the_flange_key(tmp_path):
     path = _edited(tmp_path, 'flange = "flange"', 'flange = "tool0"')
     with pytest.raises(InputError, match=r"cell.toml:\d+, column 'robot.flange': the model has no frame named 'tool0'"):
         load_cell(path)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "needle", "message"),
+    [
+        ("factor = 0.8", "factr = 0.1", "factr", "column 'tracker.factr': unknown key 'factr' in [tracker]; did you mean 'factor'?"),
+        ("[tracker]", "[trackr]", "[trackr]", "column 'trackr': unknown table [trackr]; did you mean [tracker]?"),
+        ("mass_kg = 265.0", "mass_kg = 265.0\nmas_kg = 1.0", "mas_kg", "unknown key 'mas_kg' in [load]; did you mean 'mass_kg'?"),
+        ("K_c_N_per_mm = 144.0", "K_c_N_per_mm = -144.0", "K_c_N_per_mm", "column 'compensator.K_c_N_per_mm': expected a number >= 0 in N/mm, got -144.0"),
+        ("payload_kg = 270.0", "payload_kg = 0", "payload_kg", "column 'robot.payload_kg': expected a positive number in kg"),
+        ("wrench_N_Nm = [-1000.0,", "wrench_N_Nm = [-1e7,", "wrench_N_Nm", "more than the 5296 N the robot can plausibly hold"),
+    ],
+)
+def test_mistakes_name_the_line_and_key(tmp_path, old, new, needle, message):
+    path = _edited(tmp_path, old, new)
+    with pytest.raises(InputError) as caught:
+        load_cell(path)
+    text = str(caught.value)
+    assert message in text and f"cell.toml:{_line_of(path, needle)}," in text and "\n" not in text
+
+
+def test_a_key_outside_any_table_is_unknown(tmp_path):
+    path = _edited(tmp_path, "[robot]", 'factor = 0.1\n[robot]')
+    with pytest.raises(InputError, match=r"cell.toml:\d+, column 'factor': unknown key 'factor' outside any table"):
+        load_cell(path)
+
+
+def test_latin1_byte_names_its_line(tmp_path):
+    path = _edited(tmp_path, "# Leica AT901", "# Leica AT901")
+    raw = path.read_bytes().replace(b"# Leica AT901", b"# Leica AT901 \xb1", 1)
+    path.write_bytes(raw)
+    line = raw[: raw.index(b"\xb1")].count(b"\n") + 1
+    with pytest.raises(InputError, match=rf"cell.toml:{line}: byte 0xb1 is not UTF-8 text .*save the file as UTF-8"):
+        load_cell(path)
+
+
+def test_byte_order_mark_is_accepted(tmp_path):
+    path = _edited(tmp_path, "[robot]", "[robot]")
+    path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    assert load_cell(path).payload_kg == 270.0
+
+
+def test_a_folder_is_not_a_missing_file(tmp_path):
+    with pytest.raises(InputError, match="is a folder; expected a cell TOML file"):
+        load_cell(tmp_path)
+
+
+def test_capacity_is_the_larger_of_payload_and_load(cell, tmp_path):
+    assert cell.capacity_weight == pytest.approx(270.0 * 9.80665)
+    path = _edited(tmp_path, "payload_kg = 270.0\n", "")
+    assert load_cell(path).capacity_weight == pytest.approx(265.0 * 9.80665)
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [("not xml\n", r"kr270.urdf:1: not a URDF: not valid XML"), ("<foo/>\n", r"kr270.urdf:1: not a URDF: the root element is <foo>")],
+)
+def test_a_urdf_that_is_not_one_gives_one_line(tmp_path, capfd, content, message):
+    path = _edited(tmp_path, "[robot]", "[robot]")
+    (tmp_path / "robots" / "kr270.urdf").write_text(content)
+    with pytest.raises(InputError, match=message):
+        load_cell(path)
+    assert capfd.readouterr().err == ""  # the URDF parser did not get to print its own lines

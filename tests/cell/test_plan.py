@@ -49,3 +49,28 @@ def test_bad_load(tmp_path, robot):
     path.write_text("q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,load_kg\n0,-45,30,0,20,0,nan\n")
     with pytest.raises(InputError, match=r"p.csv:2.*load_kg"):
         read_plan(path, robot)
+
+
+def test_underscores_in_numbers_are_rejected(tmp_path, robot):
+    # float("7_9.20") is 79.2: the plan cell must be an error, not a joint angle.
+    path = tmp_path / "p.csv"
+    path.write_text("q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n0,-7_9.20,30,0,20,0\n")
+    with pytest.raises(InputError, match=r"p.csv:2, column 'q2_deg': expected a number in deg, got '-7_9.20'"):
+        read_plan(path, robot)
+
+
+def test_a_load_beyond_the_capacity_is_rejected(tmp_path, cell):
+    path = tmp_path / "p.csv"
+    path.write_text("q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,load_kg\n0,-45,30,0,20,0,265\n0,-45,30,0,20,0,2650\n")
+    limit = cell.max_force / cell.gravity
+    assert limit == pytest.approx(540.0)  # twice the KR-270's rated 270 kg
+    assert len(read_plan(path, cell.robot)) == 2
+    with pytest.raises(InputError, match=r"p.csv:3, column 'load_kg': a load of 2650 kg is more than the 540 kg"):
+        read_plan(path, cell.robot, max_load_kg=limit)
+
+
+def test_a_joint_column_the_robot_lacks_is_rejected(tmp_path, robot):
+    path = tmp_path / "p.csv"
+    path.write_text("# seven joints\nq1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,q7_deg\n0,-45,30,0,20,0,0\n")
+    with pytest.raises(InputError, match=r"p.csv:2, column 'q7_deg': the plan has a column q7_deg but the robot .* has 6 joints"):
+        read_plan(path, robot)

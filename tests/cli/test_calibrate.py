@@ -3,11 +3,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from bayescal.cell.campaign import read_campaign, write_campaign
 from bayescal.cell.config import load_cell
 from bayescal.cli import main
-from bayescal.cell.plan import read_plan
+from bayescal.cell.plan import Plan, read_plan
 from bayescal.sampling.summary import load
 from bayescal.twin.simulator import DigitalTwin
 
@@ -153,3 +155,50 @@ def test_swapped_marker_labels_are_an_error(capsys, campaign_file, tmp_path):
 
     status, _, err = run(capsys, [str(edit(campaign_file, tmp_path, swap)), "--config", CONFIG])
     assert status == 2 and "mislabelled marker" in err and "column 'marker'" in err
+
+
+# --------------------------------------------------------------------------- random perturbations through the CLI
+
+_JUNK = st.sampled_from(["", "nan", "1e12", "-1e-3", "7_9.20", "abc", "0", "-0", "M9", "200", "1e400"])
+
+
+@st.composite
+def _perturbed_campaign(draw, lines):
+    """A campaign's lines with one or two cells replaced by junk, a row dropped or duplicated, or a column renamed."""
+    comments = [line for line in lines if line.startswith("#")]
+    header, *rows = [line.split(",") for line in lines if not line.startswith("#")]
+    for _ in range(draw(st.integers(1, 2))):
+        kind = draw(st.sampled_from(["cell", "drop", "duplicate", "rename"]))
+        row = draw(st.integers(0, len(rows) - 1))
+        if kind == "cell":
+            rows[row][draw(st.integers(0, len(header) - 1))] = draw(_JUNK)
+        elif kind == "drop" and len(rows) > 1:
+            del rows[row]
+        elif kind == "duplicate":
+            rows.insert(draw(st.integers(0, len(rows))), list(rows[row]))
+        elif kind == "rename":
+            header[draw(st.integers(0, len(header) - 1))] = draw(st.sampled_from(["q7_deg", "fx_kN", "x0_m", "config"]))
+    return "\n".join(comments + [",".join(fields) for fields in [header, *rows]]) + "\n"
+
+
+@pytest.mark.slow
+@settings(max_examples=25, deadline=None, database=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_random_perturbations_of_a_small_campaign_never_give_a_traceback(capsys, tmp_path, data):
+    # Four Table III configurations, one repeat: the smallest campaign the linear model still calibrates in seconds.
+    cell = load_cell(CONFIG)
+    plan = read_plan(DATA / "table3_plan.csv", cell.robot)
+    small = Plan(q=plan.q[[0, 3, 6, 9]], load_kg=plan.load_kg[[0, 3, 6, 9]], lines=plan.lines[[0, 3, 6, 9]])
+    campaign = DigitalTwin(cell).simulate(small, 1, np.random.default_rng(3))
+    valid = tmp_path / "valid.csv"
+    write_campaign(campaign, valid)
+    path = tmp_path / "perturbed.csv"
+    path.write_text(data.draw(_perturbed_campaign(valid.read_text().splitlines())))
+    before = path.read_bytes()
+    status, out, err = run(capsys, [str(path), "--config", CONFIG, "--model", "linear", "--draws", "100", "--json"])
+    assert status in (0, 2)
+    if status == 2:
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    else:
+        assert json.loads(out)["diagnostics"]["n_equations"] > 0
+    assert path.read_bytes() == before

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import re
+import shutil
 from pathlib import Path
 
 import pytest
@@ -60,7 +62,8 @@ def test_effects_and_seed_change_the_file(main, tmp_path, capsys):
     "extra, message",
     [
         (["--effect", "wobble"], "unknown effect 'wobble'"),
-        (["--repeats", "0"], "at least 1 repeat"),
+        (["--repeats", "0"], "argument --repeats: expected a whole number >= 1, got 0"),
+        (["--seed", "-1"], "argument --seed: expected a whole number >= 0"),
     ],
 )
 def test_bad_options_exit_2(main, tmp_path, capsys, extra, message):
@@ -81,12 +84,28 @@ def test_plan_outside_limits_exit_2(main, tmp_path, capsys):
 
 def test_missing_output_directory_exit_2(main, tmp_path, capsys):
     assert main(["simulate", "--plan", PLAN, "--config", CONFIG, "-o", str(tmp_path / "no" / "x.csv")]) == 2
-    assert "output directory does not exist" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "-o: the output folder" in err and "does not exist" in err
 
 
-def test_a_load_the_arm_cannot_hold_exits_2_naming_the_plan_line(main, tmp_path, capsys):
+def test_a_load_the_arm_cannot_carry_exits_2_naming_the_plan_line(main, tmp_path, capsys):
     plan = tmp_path / "plan.csv"
     plan.write_text("q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,load_kg\n0,-45,30,0,20,0,250\n0,-45,30,0,20,0,1e6\n")
     assert main(["simulate", "--plan", str(plan), "--config", CONFIG, "-o", str(tmp_path / "x.csv")]) == 2
     err = capsys.readouterr().err.strip()
-    assert "plan.csv:3" in err and "no static equilibrium under 1e+06 kg" in err and len(err.splitlines()) == 1
+    assert "plan.csv:3, column 'load_kg'" in err and "more than the 540 kg the arm can plausibly carry" in err
+    assert len(err.splitlines()) == 1
+
+
+def test_no_equilibrium_exits_2_naming_the_plan_line(main, tmp_path, capsys):
+    # Joints 10,000 times softer than the KR-270's: the arm folds under a load it could carry.
+    shutil.copytree(DATA / "robots", tmp_path / "robots")
+    text = (DATA / "kr270.toml").read_text()
+    config = tmp_path / "soft.toml"
+    config.write_text(re.sub(r"k_urad_per_Nm = \[[^]]*\]", "k_urad_per_Nm = [3000, 3020, 4060, 30020, 33030, 23650]", text))
+    plan = tmp_path / "plan.csv"
+    plan.write_text("q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,load_kg\n0,-45,30,0,20,0,250\n0,-45,30,0,20,0,500\n")
+    assert main(["simulate", "--plan", str(plan), "--config", str(config), "-o", str(tmp_path / "x.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "plan.csv:3" in err and "no static equilibrium under 500 kg" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "x.csv").exists()

@@ -242,6 +242,24 @@ def test_bad_input_gives_one_line_errors(tmp_path, rows, header, message):
     assert "points.csv" in str(error.value)
 
 
+@pytest.mark.parametrize(
+    ("factor", "message"),
+    [(1e-3, "are x_mm, y_mm in metres instead of mm?"), (1e3, "beyond any tracker's range (100 m): are x_mm, y_mm in another unit")],
+)
+def test_table1_in_another_unit_is_rejected(tmp_path, factor, message):
+    # Table I in metres gave L = 0.185 mm beside the paper's 184.72 mm without a word.
+    lines = TABLE1.read_text().splitlines()
+    scaled = [
+        line if line.startswith(("#", "q2")) else ",".join([*line.split(",")[:2], *(f"{float(v) * factor:.8g}" for v in line.split(",")[2:])])
+        for line in lines
+    ]
+    path = tmp_path / "points.csv"
+    path.write_text("\n".join(scaled) + "\n")
+    with pytest.raises(InputError) as raised:
+        read_arc_points(path)
+    assert message in str(raised.value) and "column 'x_mm'" in str(raised.value)
+
+
 def test_missing_file(tmp_path):
     with pytest.raises(InputError, match="file not found"):
         read_arc_points(tmp_path / "absent.csv")
