@@ -64,6 +64,9 @@ EMCEE_TUNE = 1000
 """emcee steps discarded per ensemble: its autocorrelation times here are a few tens of steps."""
 LOG_SIGMA_SCALE = 0.05
 """Initial spread of log sigma around the closed form's: its posterior sd at a few hundred equations."""
+CHI2_TOLERANCE = 2.0
+"""chi2/dof of the fit against the config's tracker model beyond which (or below whose inverse) the tracker model
+is reported as not describing the data: with a few hundred equations chi2/dof has an sd below 0.1."""
 SPRING_SCALE = np.array([0.005, 0.05, 0.02])
 """Typical posterior sd of joint 2's equivalent stiffness (relative), ``log K_c`` and ``s0`` (relative) when the data determine them:
 the scale of the Gibbs sampler's mode search and of emcee's initial ball."""
@@ -218,6 +221,16 @@ class ElastostaticModel:
             warnings.warn(f"{_listed(names)} not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=2)
         residual = corrected.y - corrected.per_angle_design()[:, ident.identifiable] @ cf.per_angle
         warn_if_unconverged(diagnostics(tree), what="the elastostatic posterior")
+        chi2 = self._chi2_per_dof(campaign, residual, cf.per_angle.size)
+        if chi2 is not None and not 1 / CHI2_TOLERANCE < chi2 < CHI2_TOLERANCE:
+            warnings.warn(
+                f"{campaign.source}: the residuals are {math.sqrt(chi2):.2f} times the tracker noise of the config "
+                f"(chi2/dof {chi2:.3g}): the config's tracker model does not describe these data "
+                f"({'a larger error, or a misfit of the model' if chi2 > 1 else 'a noise model too pessimistic'}); "
+                "the intervals use the noise the data show",
+                UserWarning,
+                stacklevel=2,
+            )
         return ElastostaticResults(
             tree=tree,
             identifiability=replace(ident, practical=practical),
@@ -229,7 +242,7 @@ class ElastostaticModel:
             n_equations=equations.n,
             n_rows=len(campaign),
             residual_rms=float(np.sqrt(np.mean(residual**2))),
-            chi2_per_dof=self._chi2_per_dof(campaign, residual, cf.per_angle.size),
+            chi2_per_dof=chi2,
             nonlinearity=float(np.abs(offset).max(initial=0.0)),
             iterations=iterations,
             linear_closed_form=linear_cf,

@@ -208,3 +208,16 @@ def test_implausible_deflection_names_the_coordinate_that_jumped(cell, campaign)
     p1[4, 2] += 0.5  # half a metre in z on the fifth row
     with pytest.raises(InputError, match="column 'z1_mm'"):
         ElastostaticModel.from_cell(cell, **SMALL).fit(dataclasses.replace(campaign, p1=p1))
+
+
+def test_a_tracker_model_that_does_not_describe_the_data_is_warned(cell, campaign):
+    # The config claims a tracker four times more precise than the one that measured.
+    optimistic = dataclasses.replace(cell, tracker=dataclasses.replace(cell.tracker, factor=cell.tracker.factor / 4))
+    model = ElastostaticModel.from_cell(optimistic, model="linear", sampler=GibbsSampler(n_chains=2, n_tune=20, n_draws=20))
+    with pytest.warns(UserWarning, match=r"residuals are 3\.\d\d times the tracker noise"):
+        model.fit(campaign)
+    honest = ElastostaticModel.from_cell(cell, model="linear", sampler=GibbsSampler(n_chains=2, n_tune=20, n_draws=20))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        honest.fit(campaign)
+    assert not [w for w in caught if "tracker noise" in str(w.message)]
