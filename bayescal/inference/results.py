@@ -49,6 +49,8 @@ class ElastostaticDraws:
         ``(chain, draw, groups)`` noise sd per group (m).
     geometry : numpy.ndarray or None
         ``(chain, draw, 4)``: ``L, a_x, a_y`` (m), ``phi`` (rad) when the geometry was sampled.
+    gravity : numpy.ndarray or None
+        ``(chain, draw)`` scale of the link masses, when the exact model sampled it.
     """
 
     compliances: dict[str, np.ndarray]
@@ -56,6 +58,7 @@ class ElastostaticDraws:
     k2: np.ndarray
     sigma: np.ndarray
     geometry: np.ndarray | None
+    gravity: np.ndarray | None = None
 
     @classmethod
     def compensated(cls, posterior: ConditionallyLinear, joints: tuple[int, ...], raw: np.ndarray) -> ElastostaticDraws:
@@ -66,12 +69,15 @@ class ElastostaticDraws:
         compliances = {f"k{j + 1}": raw[..., i] for i, j in enumerate(joints)}
         spring = block.spring(z.reshape(-1, block.ndim)).reshape(*raw.shape[:2], 3)
         compliances["k2"] = 1.0 / spring[..., 0]
+        gravity = block.gravity_scale(z.reshape(-1, block.ndim))
+        a = block.n_adapted
         return cls(
             compliances=compliances,
             spring=spring,
             k2=k2,
             sigma=np.exp(raw[..., p + block.ndim :]),
-            geometry=z[..., 3:7] if block.ndim > 3 else None,
+            geometry=z[..., a : a + 4] if block.ndim > a else None,
+            gravity=None if gravity is None else gravity.reshape(raw.shape[:2]),
         )
 
     @classmethod
@@ -103,6 +109,9 @@ class ElastostaticDraws:
         units |= {"k2_q2": "urad/(N m)", "sigma": "mm"}
         dims = {"k2_q2": ["q2_deg"], "sigma": ["noise_group"]}
         coords = {"q2_deg": [f"{v:.3f}" for v in equations.q2[keep] / DEG], "noise_group": list(equations.group_names)}
+        if self.gravity is not None:
+            values["gravity_scale"] = self.gravity
+            units["gravity_scale"] = "1"
         if self.geometry is not None:
             for i, (name, unit, factor) in enumerate((("L", "mm", MM), ("a_x", "mm", MM), ("a_y", "mm", MM), ("phi", "deg", DEG))):
                 values[name] = self.geometry[..., i] / factor
@@ -131,9 +140,9 @@ class ElastostaticResults:
     n_equations, n_rows : int
         Scalar equations (3 per campaign row) and campaign rows.
     residual_rms : float
-        RMS residual of the closed-form fit (m).
+        RMS residual (m) of the model at the posterior mean of its parameters.
     chi2_per_dof : float | None
-        Chi-square per degree of freedom against the nominal tracker noise.
+        Chi-square per degree of freedom of those residuals against the nominal tracker noise.
     nonlinearity : float
         Largest difference between the exact and the linear model's prediction (m).
     iterations : int
