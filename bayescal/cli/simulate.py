@@ -62,7 +62,11 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
     inputs = {"the plan": args.plan, "the config": args.config}
     check_output("-o", args.output, inputs)
-    effects = [parse_effect(text) for text in args.effect]
+    effects = [parse_effect(text, source="--effect") for text in args.effect]
+    names = [effect.name for effect in effects]
+    if len(set(names)) < len(names):
+        repeated = next(name for name in names if names.count(name) > 1)
+        raise InputError(f"effect '{repeated}' is given more than once", source="--effect")
     cell = load_cell(args.config)
     check_output("-o", args.output, inputs | {"the robot URDF": cell.robot.source})
     plan = read_plan(args.plan, cell.robot, max_load_kg=cell.max_force / cell.gravity)

@@ -41,7 +41,7 @@ class DigitalTwin:
         names = [effect.name for effect in effects]
         for name in names:
             if names.count(name) > 1:
-                raise InputError(f"effect '{name}' is given more than once", source="--effect")
+                raise ValueError(f"effect '{name}' is given more than once")
         order = list(EFFECTS)
         self.cell = cell
         self.effects = tuple(sorted(effects, key=lambda effect: order.index(effect.name)))
@@ -91,7 +91,7 @@ class DigitalTwin:
         the flange origin with the arm at its commanded angles.
         """
         if repeats < 1:
-            raise InputError(f"expected at least 1 repeat, got {repeats}", source="--repeats")
+            raise ValueError(f"expected at least 1 repeat, got {repeats}")
         masses = plan.masses(self.cell.load_mass)
         n_markers = len(self.marker_names)
         rows = {"config": [], "repeat": [], "marker": [], "q": [], "wrench": [], "p0": [], "p1": []}

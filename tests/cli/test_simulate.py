@@ -61,7 +61,9 @@ def test_effects_and_seed_change_the_file(main, tmp_path, capsys):
 @pytest.mark.parametrize(
     "extra, message",
     [
-        (["--effect", "wobble"], "unknown effect 'wobble'"),
+        (["--effect", "wobble"], "--effect: unknown effect 'wobble'"),
+        (["--effect", "backlash", "--effect", "backlash=0.01"], "--effect: effect 'backlash' is given more than once"),
+        (["--effect", "outliers=2"], "--effect: effect 'outliers' needs a fraction between 0 and 1"),
         (["--repeats", "0"], "argument --repeats: expected a whole number >= 1, got 0"),
         (["--seed", "-1"], "argument --seed: expected a whole number >= 0"),
     ],

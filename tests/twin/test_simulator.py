@@ -83,7 +83,7 @@ def test_effects_change_the_deflections_as_documented(silent, plan):
 
 
 def test_repeated_or_impossible_requests(cell, plan):
-    with pytest.raises(InputError, match="more than once"):
+    with pytest.raises(ValueError, match="more than once"):
         DigitalTwin(cell, [parse_effect("backlash"), parse_effect("backlash=0.01")])
-    with pytest.raises(InputError, match="at least 1 repeat"):
+    with pytest.raises(ValueError, match="at least 1 repeat"):
         DigitalTwin(cell).simulate(plan, 0, np.random.default_rng(0))
