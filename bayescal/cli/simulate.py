@@ -88,7 +88,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     planted = [effect.describe() for effect in twin.effects]
     comments = [
         f"simulated by bayescal simulate --plan {args.plan} --config {args.config} --repeats {args.repeats} --seed {args.seed}",
-        f"effects: {', '.join(planted) if planted else 'none'}; compensator {'on' if twin.compensator else 'off'}",
+        f"effects: {', '.join(planted) if planted else 'none'}; compensator {'on' if twin.arm.compensator else 'off'}",
         "wrench at the flange origin in base axes; positions in the base frame, 0 unloaded, 1 loaded",
     ]
     write_atomically("-o", args.output, partial(write_campaign, campaign, comments=comments))
@@ -102,7 +102,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         "repeats": args.repeats,
         "markers": list(twin.marker_names),
         "equations": campaign.n_equations,
-        "compensator": twin.compensator is not None,
+        "compensator": twin.arm.compensator is not None,
         "effects": [{"name": effect.name, "magnitude": effect.magnitude, "unit": effect.unit} for effect in twin.effects],
         "noise_sd_um": {"min": float(sigma.min()), "max": float(sigma.max())},
         "max_deflection_mm": deflection,
@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         [
             f"wrote {args.output}: {len(campaign)} rows = {len(plan)} configurations x {args.repeats} repeats x "
             f"{len(twin.marker_names)} markers, {campaign.n_equations} equations",
-            f"compensator: {'on' if twin.compensator else 'off'}; effects: {', '.join(planted) if planted else 'none'}",
+            f"compensator: {'on' if twin.arm.compensator else 'off'}; effects: {', '.join(planted) if planted else 'none'}",
             f"tracker noise sd per coordinate: {sigma.min():.1f} to {sigma.max():.1f} um",
             f"largest marker deflection: {deflection:.3f} mm",
         ]

@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 from bayescal.twin.effects import parse_effect
-from bayescal.errors import InputError
-from bayescal.robot.stiffness import compliance_design, equilibrium
+from bayescal.robot.stiffness import ElasticArm, compliance_design
 from bayescal.twin.simulator import DigitalTwin
 
 DATA = Path(__file__).resolve().parents[2] / "data"
@@ -40,7 +39,7 @@ def test_positions_come_from_the_nonlinear_equilibrium(cell, plan):
     q, mass = plan.q[4], 265.0
     unloaded, loaded = twin.positions(q, mass)
     points = np.array(list(cell.markers.values()))
-    theta0 = equilibrium(cell.robot, q, cell.compliances, np.zeros(6), compensator=cell.compensator, load_point=cell.load_point)
+    theta0 = ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, load_point=cell.load_point).equilibrium(q, np.zeros(6))
     np.testing.assert_allclose(unloaded, cell.robot.point_position(q + theta0, points), atol=1e-12)
     # gravity sags the unloaded arm: it is not at the nominal pose
     assert np.abs(unloaded - cell.robot.point_position(q, points)).max() > 1e-4
