@@ -226,26 +226,23 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray) -> None
         A deflection above :data:`MAX_DEFLECTION` or a marker farther than
         :data:`MAX_MARKER_DISTANCE` from the flange (positions in the wrong unit).
     """
-    deflection = np.linalg.norm(campaign.displacement, axis=1)
-    worst = int(np.argmax(deflection))
-    if deflection[worst] > MAX_DEFLECTION:
-        raise InputError(
-            f"marker '{campaign.marker[worst]}' deflects by {deflection[worst] / MM:.4g} mm under load, more than the "
-            f"{MAX_DEFLECTION / MM:.0f} mm a loaded robot can plausibly deflect: are x1_mm..z1_mm in another unit?",
-            source=campaign.source,
-            line=int(campaign.lines[worst]) or None,
-            column="xyz"[int(np.argmax(np.abs(campaign.displacement[worst])))] + "1_mm",
-        )
-    distance = np.linalg.norm(points, axis=1)
-    worst = int(np.argmax(distance))
-    if distance[worst] > MAX_MARKER_DISTANCE:
-        raise InputError(
-            f"marker '{campaign.marker[worst]}' is {distance[worst]:.3g} m from the flange, farther than any tool "
-            f"({MAX_MARKER_DISTANCE:g} m): are x0_mm..z0_mm in metres instead of mm?",
-            source=campaign.source,
-            line=int(campaign.lines[worst]) or None,
-            column="xyz"[int(np.argmax(np.abs(campaign.p0[worst])))] + "0_mm",
-        )
+    _reject_largest(
+        campaign,
+        campaign.displacement,
+        MAX_DEFLECTION,
+        "1_mm",
+        lambda marker, size: f"marker '{marker}' deflects by {size / MM:.4g} mm under load, more than the "
+        f"{MAX_DEFLECTION / MM:.0f} mm a loaded robot can plausibly deflect: are x1_mm..z1_mm in another unit?",
+    )
+    _reject_largest(
+        campaign,
+        points,
+        MAX_MARKER_DISTANCE,
+        "0_mm",
+        lambda marker, size: f"marker '{marker}' is {size:.3g} m from the flange, farther than any tool "
+        f"({MAX_MARKER_DISTANCE:g} m): are x0_mm..z0_mm in metres instead of mm?",
+        columns=campaign.p0,
+    )
     _check_markers(campaign, points)
     forces = campaign.wrench[:, :3]
     loaded = forces[np.linalg.norm(forces, axis=1) > 0]
@@ -259,6 +256,24 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray) -> None
                 UserWarning,
                 stacklevel=2,
             )
+
+
+def _reject_largest(campaign: Campaign, vectors: np.ndarray, limit: float, suffix: str, message, columns=None) -> None:
+    """Raise an InputError naming the row whose vector is longest when it exceeds ``limit``.
+
+    The column named is the coordinate (``x``, ``y`` or ``z`` followed by ``suffix``)
+    of ``columns`` (default ``vectors``) largest in that row.
+    """
+    size = np.linalg.norm(vectors, axis=1)
+    worst = int(np.argmax(size))
+    if size[worst] > limit:
+        values = vectors if columns is None else columns
+        raise InputError(
+            message(campaign.marker[worst], size[worst]),
+            source=campaign.source,
+            line=int(campaign.lines[worst]) or None,
+            column="xyz"[int(np.argmax(np.abs(values[worst])))] + suffix,
+        )
 
 
 def _check_markers(campaign: Campaign, points: np.ndarray) -> None:
