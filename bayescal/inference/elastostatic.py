@@ -46,7 +46,7 @@ from bayescal.inference.exact import linearisation_offset, scale_masses
 from bayescal.inference.identifiability import Identifiability, analyse, grouped, practical_reasons
 from bayescal.inference.likelihood import compensated_posterior, per_angle_posterior
 from bayescal.inference.priors import GeometryPrior, config_geometry
-from bayescal.inference.results import PARAMETER_UNITS, ElastostaticDraws, ElastostaticResults
+from bayescal.inference.results import ElastostaticDraws, ElastostaticResults, parameter_units
 from bayescal.robot.compensator import COMPENSATED_JOINT, CompensatorGeometry
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.gibbs import GibbsSampler
@@ -124,7 +124,7 @@ class ElastostaticModel:
         Prior of the compensator geometry ``[L, a_x, a_y, phi]`` (m, rad): from a
         geometry posterior (:meth:`GeometryPrior.from_draws`) or from the config.
     nominal_compliances
-        ``(6,)`` compliances (rad/(N·m), k2 without compensator) used only by the
+        ``(nq,)`` compliances (rad/(N·m), k2 without compensator) used only by the
         exact model for parameters the campaign cannot identify.
     nominal_spring
         ``(K_c, s0)`` (N/m, m) used by the exact model when the compensator is not identifiable.
@@ -281,7 +281,7 @@ class ElastostaticModel:
         summary = summarize(tree)
         L, a_x, a_y = self.geometry.mean[:3]
         # s0's prior is flat on (0, a + L): its sd is the width over sqrt(12).
-        prior_sd: dict[str, float | None] = {name: None for name in PARAMETER_UNITS if name != "s0"}
+        prior_sd: dict[str, float | None] = {name: None for name in parameter_units(equations.n_joints) if name != "s0"}
         prior_sd["s0"] = (math.hypot(a_x, a_y) + L) / math.sqrt(12.0) / MM
         prior_sd |= {name: None for name in summary.index if name.startswith("k2_q2[")}
         context = {}
@@ -376,7 +376,7 @@ class ElastostaticModel:
         sd = np.sqrt(np.diag(cf.cov))
         log_sigma_scale = np.full(cf.sigma.size, LOG_SIGMA_SCALE)
         if ident.compensator:
-            joints = tuple(j for j in range(6) if j != COMPENSATED_JOINT and f"k{j + 1}" not in ident.reasons)
+            joints = tuple(j for j in range(equations.n_joints) if j != COMPENSATED_JOINT and f"k{j + 1}" not in ident.reasons)
             posterior = compensated_posterior(equations, joints, self.geometry, static, GRAVITY_SD)
             geometry = np.empty(0) if self.geometry.fixed else self.geometry.mean
             gravity = np.ones(int(static is not None))

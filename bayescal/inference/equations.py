@@ -62,7 +62,7 @@ class DeflectionEquations:
     y
         Measured deflection components (m), shape ``(n,)``.
     design
-        ``(n, 6)``: column j is the deflection per unit compliance of joint j
+        ``(n, nq)``: column j is the deflection per unit compliance of joint j
         (m per rad/(N·m)).
     angle
         ``(n,)`` index into ``q2`` of each equation's joint-2 angle.
@@ -88,7 +88,7 @@ class DeflectionEquations:
 
     def __post_init__(self) -> None:
         n = self.y.shape[0]
-        if self.design.shape != (n, 6) or self.angle.shape != (n,) or self.group.shape != (n,):
+        if self.design.ndim != 2 or self.design.shape[0] != n or self.angle.shape != (n,) or self.group.shape != (n,):
             raise ValueError("y, design, angle and group must describe the same equations")
         if self.angle.max(initial=0) >= self.q2.size or self.group.max(initial=0) >= len(self.group_names):
             raise ValueError("angle or group index out of range")
@@ -100,6 +100,11 @@ class DeflectionEquations:
         return replace(self, y=self.y / self.scale, design=self.design / self.scale[:, None], scale=None)
 
     @property
+    def n_joints(self) -> int:
+        """Number of joints (columns of ``design``)."""
+        return int(self.design.shape[1])
+
+    @property
     def n(self) -> int:
         """Number of scalar equations."""
         return int(self.y.shape[0])
@@ -107,7 +112,7 @@ class DeflectionEquations:
     def per_angle_columns(self) -> list[tuple[int, int | None]]:
         """``(joint, angle)`` of each per-angle column: joint 2 once per angle, the others once."""
         columns: list[tuple[int, int | None]] = []
-        for joint in range(6):
+        for joint in range(self.n_joints):
             if joint == COMPENSATED_JOINT:
                 columns.extend((COMPENSATED_JOINT, a) for a in range(self.q2.size))
             else:
@@ -115,7 +120,7 @@ class DeflectionEquations:
         return columns
 
     def per_angle_design(self) -> np.ndarray:
-        """The design of eq 30 with one joint-2 column per distinct q2 angle, ``(n, 5 + m)``."""
+        """The design of eq 30 with one joint-2 column per distinct q2 angle, ``(n, nq - 1 + m)``."""
         columns = []
         for joint, angle in self.per_angle_columns():
             column = self.design[:, joint].copy()
@@ -149,13 +154,13 @@ def deflection_equations(
     equations : DeflectionEquations
         Three equations per campaign row (x, y, z of the deflection).
     torque : numpy.ndarray
-        ``(N, 6)`` joint torques ``J_F' w`` of each row's load (N·m).
+        ``(N, nq)`` joint torques ``J_F' w`` of each row's load (N·m).
     points : numpy.ndarray
         ``(N, 3)`` markers in the flange frame (m), from the unloaded positions.
     """
     n = len(campaign)
-    design = np.empty((n, 3, 6))
-    torque = np.empty((n, 6))
+    design = np.empty((n, 3, robot.nq))
+    torque = np.empty((n, robot.nq))
     points = np.empty((n, 3))
     for i in range(n):
         points[i] = robot.point_in_flange(campaign.q[i], campaign.p0[i])
@@ -171,7 +176,7 @@ def deflection_equations(
         raise ValueError(f"noise must be 'axis' or 'marker', got {noise!r}")
     equations = DeflectionEquations(
         y=campaign.displacement.reshape(-1),
-        design=design.reshape(-1, 6),
+        design=design.reshape(-1, robot.nq),
         angle=np.repeat(angle, 3),
         q2=values,
         group=group,

@@ -45,11 +45,11 @@ def exact_deflections(
     robot
         The robot.
     q
-        ``(6,)`` commanded joint angles (rad).
+        ``(nq,)`` commanded joint angles (rad).
     wrench
         ``(6,)`` load at the flange origin in base axes (N, N·m), as applied at ``q``.
     compliances
-        ``(6,)`` joint compliances (rad/(N·m)), ``compliances[1] = 1/K_theta2^0``.
+        ``(nq,)`` joint compliances (rad/(N·m)), ``compliances[1] = 1/K_theta2^0``.
     compensator
         The spring compensator of joint 2.
     points_in_flange, unloaded_positions
@@ -92,7 +92,7 @@ def linearisation_offset(
     robot, campaign, equations
         The robot, the campaign and its equations.
     compliances
-        ``(6,)`` joint compliances (rad/(N·m)); joint 2's entry is not used.
+        ``(nq,)`` joint compliances (rad/(N·m)); joint 2's entry is not used.
     k2
         ``(m,)`` equivalent joint-2 compliance at each of the equations' q2 angles.
     compensator

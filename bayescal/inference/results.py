@@ -17,19 +17,16 @@ from bayescal.sampling.gibbs import ConditionallyLinear
 from bayescal.sampling.summary import diagnostics
 from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
 
-__all__ = ["ElastostaticResults", "ElastostaticDraws", "PARAMETER_UNITS"]
+__all__ = ["ElastostaticResults", "ElastostaticDraws", "parameter_units", "COMPLIANCE_UNIT"]
 
-PARAMETER_UNITS = {
-    "k1": "urad/(N m)",
-    "k2": "urad/(N m)",
-    "k3": "urad/(N m)",
-    "k4": "urad/(N m)",
-    "k5": "urad/(N m)",
-    "k6": "urad/(N m)",
-    "K_c": "N/mm",
-    "s0": "mm",
-}
-"""The reported parameters and their units (k2 is ``1/K_theta2^0``, joint 2 without its compensator)."""
+COMPLIANCE_UNIT = "urad/(N m)"
+"""Unit of the joint compliances at the edges."""
+
+
+def parameter_units(n_joints: int) -> dict[str, str]:
+    """The reported parameters and their units: ``k1``..``k<n>`` (``k2`` is ``1/K_theta2^0``, joint 2
+    without its compensator), ``K_c`` and ``s0``."""
+    return {f"k{j + 1}": COMPLIANCE_UNIT for j in range(n_joints)} | {"K_c": "N/mm", "s0": "mm"}
 
 
 @dataclass(frozen=True)
@@ -94,11 +91,11 @@ class ElastostaticDraws:
         return cls(compliances=compliances, spring=None, k2=k2, sigma=np.exp(raw[..., len(columns) :]), geometry=None)
 
     def tree(self, equations: DeflectionEquations):
-        """The draws as a posterior DataTree in edge units (:data:`PARAMETER_UNITS`), ``k2_q2`` with its q2 in degrees."""
+        """The draws as a posterior DataTree in edge units (:func:`parameter_units`), ``k2_q2`` with its q2 in degrees."""
         from bayescal.sampling.summary import posterior_tree
 
         values: dict[str, np.ndarray] = {name: value / URAD_PER_NM for name, value in sorted(self.compliances.items())}
-        units = {name: PARAMETER_UNITS[name] for name in values}
+        units = {name: COMPLIANCE_UNIT for name in values}
         if self.spring is not None:
             values["K_c"] = self.spring[..., 1] / N_PER_MM
             values["s0"] = self.spring[..., 2] / MM
@@ -126,7 +123,7 @@ class ElastostaticResults:
     Attributes
     ----------
     tree : xarray.DataTree
-        The posterior (edge units, see :data:`PARAMETER_UNITS`; ``k2_q2`` the
+        The posterior (edge units, see :func:`parameter_units`; ``k2_q2`` the
         equivalent joint-2 compliance at each campaign angle, ``sigma`` the noise
         per group in mm, and the geometry when it was sampled).
     identifiability : Identifiability
@@ -167,6 +164,11 @@ class ElastostaticResults:
     linear_closed_form: ClosedForm | None = None
     sampler_name: str = "gibbs"
 
+    @property
+    def parameter_units(self) -> dict[str, str]:
+        """The reported parameters and their units (:func:`parameter_units` for this robot's joints)."""
+        return parameter_units(self.closed_form.compliances.size)
+
     def save(self, path) -> None:
         """Write the posterior DataTree to NetCDF at ``path``."""
         from bayescal.sampling.summary import save
@@ -189,9 +191,10 @@ class ElastostaticResults:
 
         summary = self.summary()
         reasons = self.identifiability.not_identifiable
-        known = parameters_json(summary.loc[[name for name in PARAMETER_UNITS if name in summary.index]])
+        units = self.parameter_units
+        known = parameters_json(summary.loc[[name for name in units if name in summary.index]])
         out: dict[str, dict] = {}
-        for name in PARAMETER_UNITS:
+        for name in units:
             if name in known and name not in reasons:
                 out[name] = known[name]
             else:
@@ -277,7 +280,7 @@ class ElastostaticResults:
         )
 
     def compliance_draws(self, q2: float, fill: np.ndarray | None = None) -> np.ndarray | None:
-        """``(S, 6)`` posterior draws of the compliances (rad/(N·m)) acting at joint angle ``q2``.
+        """``(S, nq)`` posterior draws of the compliances (rad/(N·m)) acting at joint angle ``q2``.
 
         Joint 2's entry is its equivalent compliance at ``q2`` (with the
         compensator).  A joint the campaign cannot identify takes its value from
@@ -286,7 +289,8 @@ class ElastostaticResults:
         campaign angle.
         """
         d = self.draws
-        missing = [j for j in range(6) if j != COMPENSATED_JOINT and f"k{j + 1}" not in d.compliances]
+        n_joints = self.closed_form.compliances.size
+        missing = [j for j in range(n_joints) if j != COMPENSATED_JOINT and f"k{j + 1}" not in d.compliances]
         if missing and fill is None:
             return None
         if d.spring is not None:
@@ -298,6 +302,6 @@ class ElastostaticResults:
             k2 = d.k2[..., match[0]].reshape(-1)
         columns = [
             k2 if j == COMPENSATED_JOINT else np.full(k2.size, fill[j]) if j in missing else d.compliances[f"k{j + 1}"].reshape(-1)
-            for j in range(6)
+            for j in range(n_joints)
         ]
         return np.column_stack(columns)

@@ -25,7 +25,7 @@ from bayescal.cell.config import Cell, load_cell
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.exact import scale_masses
-from bayescal.inference.results import PARAMETER_UNITS, ElastostaticResults
+from bayescal.inference.results import ElastostaticResults
 from bayescal.inference.identifiability import grouped
 from bayescal.cell.plan import Plan, read_plan
 from bayescal.reports.plots import plot_joint2_compliance
@@ -216,7 +216,7 @@ def build_report(
         paper = published("IV").get(name)
         paper_cells = [paper[0], paper[1], f"{100 * paper[1] / paper[0]:.1f}%"] if paper else ["–", "–", "–"]
         if "mean" not in entry:
-            rows[name] = [PARAMETER_UNITS[name], "not identifiable", "", "", truth[name], "", *paper_cells]
+            rows[name] = [results.parameter_units[name], "not identifiable", "", "", truth[name], "", *paper_cells]
             continue
         width = 100 * 3 * entry["sd"] / abs(entry["mean"])
         inside = entry["lo3"] <= truth[name] <= entry["hi3"]
