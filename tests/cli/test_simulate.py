@@ -111,3 +111,10 @@ def test_no_equilibrium_exits_2_naming_the_plan_line(main, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "plan.csv:3" in err and "no static equilibrium under 500 kg" in err and len(err.splitlines()) == 1
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_help_lists_the_effects_with_their_defaults(capsys):
+    assert cli.main(["simulate", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "plant an effect, repeatable: compensator:" in text
+    assert "outliers: a few gross tracker errors" in text
