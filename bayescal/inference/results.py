@@ -182,10 +182,14 @@ class ElastostaticResults:
         return summarize(self.tree)
 
     def parameters(self) -> dict[str, dict]:
-        """The CLI's ``parameters`` block: k1..k6, K_c, s0, each an estimate or ``{"identifiable": false, "reason"}``.
+        """The CLI's ``parameters`` block: k1..k<n>, K_c, s0, each an estimate or ``{"identifiable": false, "reason"}``.
 
-        A parameter is given as an estimate only when it is identifiable both
-        structurally and from these data (:attr:`Identifiability.not_identifiable`).
+        A parameter is given as an estimate (mean, sd, ``lo3``/``hi3`` = mean ∓ 3 sd,
+        ``q_lo3``/``q_hi3`` the central 99.73 % interval, unit) only when it is
+        identifiable both structurally and from these data
+        (:attr:`Identifiability.not_identifiable`); a flagged parameter that was
+        sampled carries its posterior summary under ``"posterior"``, for
+        inspection, not as an estimate.
         """
         from bayescal.sampling.summary import parameters_json
 
@@ -199,6 +203,8 @@ class ElastostaticResults:
                 out[name] = known[name]
             else:
                 out[name] = {"identifiable": False, "reason": reasons.get(name, "not sampled")}
+                if name in known:
+                    out[name]["posterior"] = known[name]
         return out
 
     def weakly_determined(self) -> dict[str, dict]:

@@ -33,7 +33,9 @@ ESS_LIMIT = 400
 class ConvergenceWarning(UserWarning):
     """The sampler has not converged well enough for its intervals to be trusted."""
 
-SUMMARY_COLUMNS = ["mean", "sd", "lo3", "hi3", "r_hat", "ess_bulk", "ess_tail", "unit"]
+SUMMARY_COLUMNS = ["mean", "sd", "lo3", "hi3", "q_lo3", "q_hi3", "r_hat", "ess_bulk", "ess_tail", "unit"]
+CENTRAL_3SIGMA = (0.00135, 0.99865)
+"""Quantiles of the central 99.73 % interval: the ±3σ content of a Gaussian, for posteriors far from one."""
 
 
 def posterior_tree(
@@ -105,7 +107,7 @@ def _dataset(
 
 
 def summarize(tree: xr.DataTree, var_names: Sequence[str] | None = None) -> pd.DataFrame:
-    """Mean, sd, ±3σ interval, R-hat and ESS of each posterior variable.
+    """Mean, sd, ±3σ interval, central 99.73 % interval, R-hat and ESS of each posterior variable.
 
     Non-scalar variables give one row per element, named ``name[i]`` (or
     ``name[label]`` when the dimension has labels).
@@ -113,7 +115,9 @@ def summarize(tree: xr.DataTree, var_names: Sequence[str] | None = None) -> pd.D
     Returns
     -------
     pandas.DataFrame
-        Indexed by parameter, with columns ``mean, sd, lo3, hi3, r_hat, ess_bulk, ess_tail, unit``.
+        Indexed by parameter, with columns ``mean, sd, lo3, hi3, q_lo3, q_hi3, r_hat, ess_bulk,
+        ess_tail, unit``: ``lo3, hi3`` are mean ∓ 3 sd as in the paper, ``q_lo3, q_hi3`` the
+        0.135 % and 99.865 % posterior quantiles.
     """
     posterior = tree["posterior"].to_dataset()
     names = list(var_names) if var_names is not None else list(posterior.data_vars)
@@ -124,15 +128,19 @@ def summarize(tree: xr.DataTree, var_names: Sequence[str] | None = None) -> pd.D
         values = selected[name]
         mean = values.mean(("chain", "draw"))
         sd = values.std(("chain", "draw"), ddof=1)
+        quantiles = values.quantile(list(CENTRAL_3SIGMA), dim=("chain", "draw"))
         unit = values.attrs.get("units", "")
         for label, index in _elements(values):
             m = float(mean[index]) if index else float(mean)
             s = float(sd[index]) if index else float(sd)
+            low, high = (quantiles[index] if index else quantiles).values
             rows[label] = {
                 "mean": m,
                 "sd": s,
                 "lo3": m - 3 * s,
                 "hi3": m + 3 * s,
+                "q_lo3": float(low),
+                "q_hi3": float(high),
                 "r_hat": float(r_hat[name][tuple(index.values())]),
                 "ess_bulk": float(bulk[name][tuple(index.values())]),
                 "ess_tail": float(tail[name][tuple(index.values())]),
@@ -181,9 +189,10 @@ def warn_if_unconverged(report: dict[str, float | int], *, what: str) -> None:
 
 
 def parameters_json(summary: pd.DataFrame) -> dict[str, dict[str, float | str]]:
-    """The ``{"name": {"mean", "sd", "lo3", "hi3", "unit"}}`` block of the CLI's JSON output."""
+    """The ``{"name": {"mean", "sd", "lo3", "hi3", "q_lo3", "q_hi3", "unit"}}`` block of the CLI's JSON output."""
+    keys = ("mean", "sd", "lo3", "hi3", "q_lo3", "q_hi3", "unit")
     return {
-        str(name): {key: (row[key] if key == "unit" else float(row[key])) for key in ("mean", "sd", "lo3", "hi3", "unit")}
+        str(name): {key: (row[key] if key == "unit" else float(row[key])) for key in keys}
         for name, row in summary.iterrows()
     }
 
