@@ -40,7 +40,7 @@ LINK_RADII = (0.40, 0.30, 0.25, 0.20, 0.15)
 """Radii (m) of the capsules around base→A1, A1→A2, A2→A3, A3→A4 and A4→A5 (ESTIMATES of the
 KR-270's castings, which the URDF does not describe); the wrist beyond A5 is left to the incidence test."""
 
-ACCEPTANCE_DEG = 50.0
+ACCEPTANCE_DEG = 60.0
 """Largest angle (deg) between a marker's facing direction and the line to the tracker: an
 ESTIMATE between the ±30° of a hollow-corner cube reflector and the ±60° of a glass-prism one."""
 

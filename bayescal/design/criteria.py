@@ -52,6 +52,7 @@ __all__ = [
     "configuration_design",
     "configuration_information",
     "criterion_value",
+    "criterion_values",
     "nominal_parameters",
     "parameter_names",
     "predict",
@@ -266,6 +267,49 @@ def criterion_value(prediction: PlanPrediction, criterion: str) -> float:
     if criterion == "d-optimal":
         return -prediction.log_det
     raise ValueError(f"unknown criterion {criterion!r}; expected one of {', '.join(CRITERIA)}")
+
+
+def criterion_values(cell: Cell, information: np.ndarray, criterion: str, *, test_design: np.ndarray | None = None) -> np.ndarray:
+    """:func:`criterion_value` of many information matrices at once, as the exchange algorithm needs.
+
+    Parameters
+    ----------
+    cell
+        The cell.
+    information
+        (n, p, p) information matrices (relative parameters).
+    criterion
+        One of :data:`CRITERIA`.
+    test_design
+        (3, p) :func:`test_pose_design` of ``cell``, when already computed.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n,) the criterion of each matrix (inf where it cannot be delivered).  The
+        parameters held at their nominal value are those no matrix of the batch
+        excites; a parameter only some matrices excite makes the others singular.
+    """
+    if criterion not in CRITERIA:
+        raise ValueError(f"unknown criterion {criterion!r}; expected one of {', '.join(CRITERIA)}")
+    diagonal = np.einsum("nii->ni", information)
+    excited = diagonal.max(axis=0) > UNEXCITED * max(diagonal.max(), 1e-300)
+    block = information[:, excited][:, :, excited]
+    scale = 1.0 / np.sqrt(np.maximum(np.einsum("nii->ni", block), 1e-300))
+    outer = scale[:, :, np.newaxis] * scale[:, np.newaxis, :]
+    values, vectors = np.linalg.eigh(block * outer)
+    usable = values[:, 0] > SINGULAR * values[:, -1]
+    safe = np.where(usable[:, np.newaxis], values, 1.0)
+    if criterion == "d-optimal":
+        return np.where(usable, -(np.sum(np.log(safe), axis=1) - 2.0 * np.sum(np.log(scale), axis=1)), np.inf)
+    inverse = (vectors / safe[:, np.newaxis, :]) @ vectors.transpose(0, 2, 1) * outer
+    if criterion == "compensator":
+        if cell.compensator is None:
+            raise ValueError("the compensator criterion needs a cell with a compensator")
+        return np.where(usable, inverse[:, -2, -2] + inverse[:, -1, -1], np.inf)
+    G0 = (test_pose_design(cell) if test_design is None else test_design)[:, excited]
+    squared = np.einsum("ij,njk,ik->n", G0, inverse, G0)
+    return np.where(usable, np.sqrt(np.maximum(squared, 0.0)), np.inf)
 
 
 def _unit(name: str) -> tuple[float, str]:
