@@ -40,14 +40,18 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from dataclasses import replace
+
 from bayescal.cell.config import Cell
 from bayescal.reference import published
 from bayescal.robot.compensator import COMPENSATED_JOINT
-from bayescal.robot.stiffness import compliance_design
+from bayescal.robot.stiffness import compliance_design, equilibrium
+from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import MM, N_PER_MM, URAD_PER_NM
 
 __all__ = [
     "CRITERIA",
+    "ExactLinearisation",
     "PlanPrediction",
     "configuration_design",
     "configuration_information",
@@ -56,7 +60,9 @@ __all__ = [
     "nominal_parameters",
     "parameter_names",
     "predict",
+    "test_deflection",
     "test_pose_design",
+    "with_parameters",
 ]
 
 CRITERIA = ("test-pose", "compensator", "d-optimal")
@@ -131,9 +137,15 @@ def configuration_design(cell: Cell, q, wrench) -> tuple[np.ndarray, np.ndarray]
     return np.vstack(rows), np.repeat(sigma, 3)
 
 
-def configuration_information(cell: Cell, q, mass: float, repeats: int = 1) -> np.ndarray:
-    """(p, p) information ``r Bᵀ W B`` of one configuration loaded with ``mass`` kg, relative parameters."""
-    design, sigma = configuration_design(cell, q, cell.load_wrench(q, mass))
+def configuration_information(cell: Cell, q, mass: float, repeats: int = 1, *, exact: ExactLinearisation | None = None) -> np.ndarray:
+    """(p, p) information ``r Bᵀ W B`` of one configuration loaded with ``mass`` kg, relative parameters.
+
+    ``exact``: take ``B`` from the exact model's linearisation instead of eq 31.
+    """
+    if exact is None:
+        design, sigma = configuration_design(cell, q, cell.load_wrench(q, mass))
+    else:
+        design, sigma = exact.configuration_design(q, mass)
     weighted = design / sigma[:, np.newaxis]
     return repeats * weighted.T @ weighted
 
@@ -145,6 +157,81 @@ def test_pose_design(cell: Cell) -> np.ndarray:
 
 
 test_pose_design.__test__ = False  # a library function, not a pytest test
+
+
+DIFFERENCE_STEP = 1e-4
+"""Relative step of the exact model's central differences: deflections are nearly linear in the
+parameters, so the truncation error (order step², relative) stays far below the solves' rounding."""
+
+
+def with_parameters(cell: Cell, theta: np.ndarray) -> Cell:
+    """``cell`` with the parameters ``theta`` = [k1..k<n>, K_c, s0] (SI)."""
+    nq = cell.robot.nq
+    compensator = cell.compensator
+    if compensator is not None:
+        compensator = replace(compensator, K_c=float(theta[nq]), s0=float(theta[nq + 1]))
+    return replace(cell, compliances=np.array(theta[:nq], dtype=float), compensator=compensator)
+
+
+def test_deflection(cell: Cell) -> np.ndarray:
+    """(3,) exact deflection (m) of the test point under the test wrench, its force acting at that point."""
+    robot = cell.robot
+    states = [
+        equilibrium(robot, cell.test_q, cell.compliances, wrench, compensator=cell.compensator, load_point=cell.test_point)
+        for wrench in (np.zeros(6), cell.test_wrench)
+    ]
+    return robot.point_position(cell.test_q + states[1], cell.test_point) - robot.point_position(cell.test_q + states[0], cell.test_point)
+
+
+test_deflection.__test__ = False  # a library function, not a pytest test
+
+
+class ExactLinearisation:
+    """The exact model (the twin's loaded equilibrium with the links' weights and the compensator)
+    linearised about the cell's values by central differences, in relative parameters.
+
+    The compensator's static torque moves the unloaded and loaded equilibria, so
+    ``K_c`` and ``s0`` act on the deflections also through the arm's geometry,
+    which eq 31's design leaves out: on Table III the exact model predicts
+    K_c and s0 about 2.4 and 1.4 times more precisely than eq 31 (docs/design.md).
+    """
+
+    def __init__(self, cell: Cell) -> None:
+        self.cell = cell
+        nominal = nominal_parameters(cell)
+        self._twins = []
+        self._cells = []
+        for i in range(len(nominal)):
+            pair = []
+            for sign in (1.0, -1.0):
+                theta = nominal.copy()
+                theta[i] *= 1.0 + sign * DIFFERENCE_STEP
+                pair.append(with_parameters(cell, theta))
+            self._cells.append(pair)
+            self._twins.append([DigitalTwin(changed) for changed in pair])
+        self._nominal = DigitalTwin(cell)
+
+    def deflections(self, q, mass: float) -> np.ndarray:
+        """(markers, 3) noiseless deflections (m) at the cell's values."""
+        unloaded, loaded = self._nominal.positions(q, mass)
+        return loaded - unloaded
+
+    def configuration_design(self, q, mass: float) -> tuple[np.ndarray, np.ndarray]:
+        """Like :func:`configuration_design`, from the exact model; the noise is that of the two readings."""
+        columns = []
+        for plus, minus in self._twins:
+            moved = [np.subtract(*twin.positions(q, mass)[::-1]).ravel() for twin in (plus, minus)]
+            columns.append((moved[0] - moved[1]) / (2.0 * DIFFERENCE_STEP))
+        unloaded, loaded = self._nominal.positions(q, mass)
+        tracker = self.cell.tracker
+        sigma = np.sqrt(tracker.sigma(unloaded) ** 2 + tracker.sigma(loaded) ** 2)
+        return np.column_stack(columns), np.repeat(sigma, 3)
+
+    def test_design(self) -> np.ndarray:
+        """(3, p) derivatives of the test point's exact deflection (m) in the relative parameters."""
+        return np.column_stack(
+            [(test_deflection(plus) - test_deflection(minus)) / (2.0 * DIFFERENCE_STEP) for plus, minus in self._cells]
+        )
 
 
 @dataclass(frozen=True)

@@ -36,6 +36,7 @@ from bayescal.cell.plan import Plan, write_plan
 from bayescal.design.constraints import DesignSpace, Feasibility, load_design_space
 from bayescal.design.criteria import (
     CRITERIA,
+    ExactLinearisation,
     PlanPrediction,
     configuration_information,
     criterion_value,
@@ -105,7 +106,13 @@ class PlanDesign:
     criterion : str
         What was minimised (one of :data:`bayescal.design.criteria.CRITERIA`).
     prediction : PlanPrediction
-        The plan's predicted precision and test-pose error.
+        The plan's predicted precision and test-pose error with the exact model
+        linearised (:class:`~bayescal.design.criteria.ExactLinearisation`), as the
+        identification's default model sees it.
+    linear : PlanPrediction
+        The same with eq 31's design (the paper's eqs 37-39).
+    model : str
+        The model the search used, ``"linear"`` or ``"exact"``.
     repeats : int
         Measurements per configuration the prediction assumes.
     starts : list of float
@@ -119,6 +126,8 @@ class PlanDesign:
     plan: Plan
     criterion: str
     prediction: PlanPrediction
+    linear: PlanPrediction
+    model: str
     repeats: int
     starts: list[float] = field(default_factory=list)
     candidates: int = 0
@@ -132,7 +141,10 @@ class PlanDesign:
         """``criterion`` (ρ0, mm), the optimised criterion, the plan's angles and each parameter's ±3σ width."""
         q2 = np.unique(np.round(self.plan.q[:, COMPENSATED_JOINT] / DEG, 3))
         return self.prediction.to_json() | {
+            "model": "exact",
+            "linear_model": self.linear.to_json(),
             "optimised_for": self.criterion,
+            "search_model": self.model,
             "criterion_value": _finite(criterion_value(self.prediction, self.criterion)),
             "configurations": len(self.plan),
             "repeats": self.repeats,
@@ -161,15 +173,23 @@ class PlanDesigner:
         Admissible loads and geometric limits; default :func:`load_design_space` of the cell.
     repeats
         Measurements of each configuration (the paper: 3).
+    model
+        The model the search scores plans with: ``"linear"`` (eq 31, fast) or ``"exact"``
+        (:class:`~bayescal.design.criteria.ExactLinearisation`, about 70 times slower per configuration).
     """
 
-    def __init__(self, cell: Cell, space: DesignSpace | None = None, *, repeats: int = 3) -> None:
+    def __init__(self, cell: Cell, space: DesignSpace | None = None, *, repeats: int = 3, model: str = "linear") -> None:
         if repeats < 1:
             raise InputError(f"expected at least 1 repeat, got {repeats}", source="--repeats")
+        if model not in ("linear", "exact"):
+            raise InputError(f"unknown model '{model}'; expected linear or exact", source="--model")
         cell.robot.check_limits(cell.test_q, source=cell.source)
         self.cell = cell
         self.space = load_design_space(cell) if space is None else space
         self.repeats = repeats
+        self.model = model
+        self.exact = ExactLinearisation(cell)
+        self._exact_test_design = self.exact.test_design()
         self.feasibility = Feasibility(cell, self.space)
         self.mass = self.space.mass_range[1]
         self._test_design = test_pose_design(cell)
@@ -179,14 +199,16 @@ class PlanDesigner:
 
     # ----------------------------------------------------------------- scoring
 
-    def information(self, q, mass: float) -> np.ndarray:
-        """(p, p) information of one configuration measured :attr:`repeats` times."""
-        return configuration_information(self.cell, q, mass, self.repeats)
+    def information(self, q, mass: float, model: str | None = None) -> np.ndarray:
+        """(p, p) information of one configuration measured :attr:`repeats` times (default: the search's model)."""
+        exact = self.exact if (model or self.model) == "exact" else None
+        return configuration_information(self.cell, q, mass, self.repeats, exact=exact)
 
-    def evaluate(self, plan: Plan) -> PlanPrediction:
+    def evaluate(self, plan: Plan, model: str = "exact") -> PlanPrediction:
         """The prediction for any plan (its own masses, or the cell's load where it has none)."""
-        information = sum(self.information(q, m) for q, m in zip(plan.q, plan.masses(self.cell.load_mass)))
-        return predict(self.cell, information, test_design=self._test_design)
+        information = sum(self.information(q, m, model) for q, m in zip(plan.q, plan.masses(self.cell.load_mass)))
+        design = self._exact_test_design if model == "exact" else self._test_design
+        return predict(self.cell, information, test_design=design)
 
     def violations(self, plan: Plan) -> list[dict]:
         """The configurations of ``plan`` (numbered from 1) that break a constraint, and why."""
@@ -198,7 +220,8 @@ class PlanDesigner:
         return found
 
     def _scores(self, information: np.ndarray, criterion: str) -> np.ndarray:
-        return criterion_values(self.cell, information, criterion, test_design=self._test_design)
+        design = self._exact_test_design if self.model == "exact" else self._test_design
+        return criterion_values(self.cell, information, criterion, test_design=design)
 
     def _score(self, information: np.ndarray, criterion: str) -> float:
         return float(self._scores(information[np.newaxis], criterion)[0])
@@ -365,7 +388,9 @@ class PlanDesigner:
         return PlanDesign(
             plan=plan,
             criterion=criterion,
-            prediction=self.evaluate(plan),
+            prediction=self.evaluate(plan, "exact"),
+            linear=self.evaluate(plan, "linear"),
+            model=self.model,
             repeats=self.repeats,
             starts=scores,
             candidates=len(configurations),
