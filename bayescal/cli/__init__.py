@@ -20,7 +20,7 @@ from bayescal.errors import InputError
 
 __all__ = ["main"]
 
-COMMANDS = ("geometry", "simulate", "calibrate")
+COMMANDS = ("geometry", "simulate", "calibrate", "plan")
 
 
 def build_parser() -> argparse.ArgumentParser:

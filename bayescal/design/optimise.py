@@ -60,11 +60,11 @@ TRIES_PER_CANDIDATE = 60
 """Random draws allowed per wanted candidate before a q2 angle is declared unusable
 (about one draw in ten is feasible in the KR-270 cell)."""
 
-STARTS = 4
-"""Random starts of the exchange; on the KR-270 the best of four is within 1 % of the best of sixteen."""
+STARTS = 3
+"""Random starts of the exchange; on the KR-270 their results differ by 1-3 % (docs/design.md)."""
 
-REFINE_STEPS = 400
-"""Proposals of the continuous refinement."""
+REFINE_STEPS = 200
+"""Proposals of the continuous refinement of each start."""
 
 REFINE_STEP_DEG = (3.0, 0.1)
 """First and last standard deviation (deg) of the refinement's random steps."""
@@ -174,11 +174,13 @@ class PlanDesigner:
     repeats
         Measurements of each configuration (the paper: 3).
     model
-        The model the search scores plans with: ``"linear"`` (eq 31, fast) or ``"exact"``
-        (:class:`~bayescal.design.criteria.ExactLinearisation`, about 70 times slower per configuration).
+        The model the search scores plans with: ``"exact"``
+        (:class:`~bayescal.design.criteria.ExactLinearisation`, the identification's default model) or
+        ``"linear"`` (eq 31, about 70 times faster per configuration, but on the KR-270 its
+        test-pose optimum leaves 1.4 times the exact model's error, docs/design.md).
     """
 
-    def __init__(self, cell: Cell, space: DesignSpace | None = None, *, repeats: int = 3, model: str = "linear") -> None:
+    def __init__(self, cell: Cell, space: DesignSpace | None = None, *, repeats: int = 3, model: str = "exact") -> None:
         if repeats < 1:
             raise InputError(f"expected at least 1 repeat, got {repeats}", source="--repeats")
         if model not in ("linear", "exact"):

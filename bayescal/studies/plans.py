@@ -252,3 +252,44 @@ def compare_plans(
     scores = pd.DataFrame.from_dict(rows, orient="index")
     scores.index.name = "plan"
     return scores, pd.DataFrame(width_rows).set_index(["plan", "parameter"])
+
+
+def design_comparison(
+    cell: Cell,
+    *,
+    angles: int = 5,
+    per_angle: int = 3,
+    random_plans: int = 100,
+    campaigns: int = 50,
+    repeats: int = 3,
+    seed: int = 0,
+    reference: Plan | None = None,
+    executor: Executor | None = None,
+) -> tuple[pd.DataFrame, pd.DataFrame, dict[str, Plan]]:
+    """The test-pose optimal plan against a reference plan, the best random plans and a D-optimal plan.
+
+    Plans are designed with :class:`~bayescal.design.optimise.PlanDesigner` (exact model)
+    from ``seed``; the best of ``random_plans`` random feasible plans is the one with
+    the lowest predicted ``ρ0``.  All are then scored by :func:`compare_plans`.
+
+    Returns
+    -------
+    scores, widths
+        As :func:`compare_plans`, with ``violations`` (configurations breaking a
+        constraint of the cell) added to ``scores``.
+    plans : dict
+        The plans, by name.
+    """
+    from bayescal.design.optimise import PlanDesigner
+
+    designer = PlanDesigner(cell, repeats=repeats)
+    rng = np.random.default_rng(seed)
+    plans: dict[str, Plan] = {"test-pose optimal": designer.optimise(angles, per_angle, "test-pose", rng=rng).plan}
+    if reference is not None:
+        plans["reference"] = reference
+    candidates = [designer.random_plan(angles, per_angle, rng) for _ in range(random_plans)]
+    plans[f"best of {random_plans} random"] = min(candidates, key=lambda plan: designer.evaluate(plan).rho0)
+    plans["D-optimal"] = designer.optimise(angles, per_angle, "d-optimal", rng=rng).plan
+    scores, widths = compare_plans(cell, plans, campaigns=campaigns, repeats=repeats, seed=seed, executor=executor)
+    scores["violations"] = [len(designer.violations(plan)) for plan in plans.values()]
+    return scores, widths, plans
