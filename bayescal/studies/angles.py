@@ -22,6 +22,7 @@ of workers.
 
 from __future__ import annotations
 
+import copy
 import math
 import os
 from collections.abc import Sequence
@@ -46,6 +47,8 @@ NOISE_FRACTIONS = (1.0, 0.1)
 
 def _design(designer: PlanDesigner, candidates, angles: int, per_angle: int, criterion: str, seed) -> list[dict]:
     """One task: the plan for (angles, per_angle) and its prediction at each noise level."""
+    # A Robot keeps one Pinocchio data object: tasks on threads of one process must not share it.
+    designer = copy.deepcopy(designer)
     design = designer.optimise(angles, per_angle, criterion, rng=np.random.default_rng(seed), starts=1, refine_steps=0, candidates=candidates)
     prediction = design.prediction
     rows = []
