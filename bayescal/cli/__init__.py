@@ -20,7 +20,7 @@ from bayescal.errors import InputError
 
 __all__ = ["main"]
 
-COMMANDS = ("geometry", "simulate", "calibrate", "plan")
+COMMANDS = ("geometry", "simulate", "calibrate", "plan", "study")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -46,7 +46,7 @@ from bayescal.design.criteria import (
 )
 from bayescal.errors import InputError
 from bayescal.robot.compensator import COMPENSATED_JOINT
-from bayescal.units import DEG
+from bayescal.units import DEG, MM
 
 __all__ = ["PlanDesign", "PlanDesigner"]
 
@@ -158,7 +158,7 @@ class PlanDesign:
     def save(self, path: str | PathLike[str], *, comments: tuple[str, ...] = ()) -> None:
         """Write the plan in the format of ``data/table3_plan.csv``."""
         rho0 = self.prediction.rho0
-        note = f"predicted rms error at the test pose after compensation {rho0 / 1e-3:.5f} mm" if math.isfinite(rho0) else ""
+        note = f"predicted rms error at the test pose after compensation {rho0 / MM:.5f} mm" if math.isfinite(rho0) else ""
         write_plan(self.plan, path, comments=(f"plan optimised for the {self.criterion} criterion, {self.repeats} repeats; {note}",) + tuple(comments))
 
 
