@@ -43,3 +43,18 @@ def test_predicted_rho0_agrees_with_the_simulated_error(cell, plan):
     assert abs(row.simulated_rms_mm - row.criterion_mm) < 3 * row.simulated_rms_se_mm + 0.05 * row.criterion_mm
     identified = widths.loc["table III"].loc[["k2", "k3", "k4", "k5", "k6"]]
     np.testing.assert_allclose(identified.simulated_width_3sd_pct, identified.predicted_width_3sd_pct, rtol=0.2)
+
+
+def test_the_paired_ratio_standard_error_matches_its_spread():
+    from bayescal.studies.plans import _paired_ratio
+
+    rng = np.random.default_rng(0)
+    draws = []
+    for _ in range(400):
+        first = rng.chisquare(3, 200)
+        draws.append(_paired_ratio(0.8 * first + 0.3 * rng.chisquare(3, 200), first))
+    ratios = np.array([d["rms_ratio_to_first"] for d in draws])
+    errors = np.array([d["rms_ratio_se"] for d in draws])
+    # 400 draws know the spread to about 4 %
+    assert errors.mean() == pytest.approx(ratios.std(ddof=1), rel=0.15)
+    assert _paired_ratio(ratios, ratios) == {"rms_ratio_to_first": 1.0, "rms_ratio_se": 0.0}
