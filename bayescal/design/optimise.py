@@ -235,7 +235,7 @@ class PlanDesigner:
         low, high = self.q2_range
         return int(math.floor((high - low) / self.space.min_separation + 1e-9)) + 1
 
-    def _check_request(self, angles: int, per_angle: int, criterion: str) -> None:
+    def _check_request(self, angles: int, per_angle: int, criterion: str, *, scored: bool = True) -> None:
         if criterion not in CRITERIA:
             raise InputError(f"unknown criterion '{criterion}'; expected one of {', '.join(CRITERIA)}", source="--criterion")
         if angles < 1 or per_angle < 1:
@@ -247,7 +247,8 @@ class PlanDesigner:
                 f"{math.degrees(self.space.min_separation):.0f} deg apart (at most {self.max_angles()})",
                 source="--angles",
             )
-        if self.cell.compensator is not None and angles < 3 and criterion != "d-optimal":
+        # every criterion inverts the information in K_θ2^0, K_c and s0, singular below three angles
+        if self.cell.compensator is not None and angles < 3 and scored:
             raise InputError(
                 f"the compensator's K_θ2^0, K_c and s0 need at least 3 distinct q2 angles, got {angles}", source="--angles"
             )
@@ -299,7 +300,7 @@ class PlanDesigner:
 
     def random_plan(self, angles: int, per_angle: int, rng: np.random.Generator) -> Plan:
         """A random feasible plan: ``angles`` q2 values uniform over the range and apart, random other joints."""
-        self._check_request(angles, per_angle, "d-optimal")
+        self._check_request(angles, per_angle, "d-optimal", scored=False)
         low, high = self.q2_range
         reasons: Counter = Counter()
         for _ in range(100):

@@ -61,6 +61,7 @@ def test_json_and_saved_plan(design, designer, tmp_path, cell):
     [
         ({"angles": 40}, "do not fit in the joint range"),
         ({"angles": 2}, "at least 3 distinct q2 angles"),
+        ({"angles": 2, "criterion": "d-optimal"}, "at least 3 distinct q2 angles"),
         ({"criterion": "a-optimal"}, "unknown criterion"),
         ({"per_angle": 0}, "at least 1 angle"),
     ],
