@@ -23,6 +23,7 @@ information of a configuration grows as the square of its load.
 from __future__ import annotations
 
 import math
+import re
 import sys
 from collections import Counter
 from dataclasses import dataclass, field
@@ -268,7 +269,8 @@ class PlanDesigner:
             reason = self.feasibility.violation(q, self.mass)
             if reason is None:
                 return q
-            reasons[reason.split(" (")[0]] += 1
+            # angles removed, so that "marker M1 faces 97 deg away" and "... 120 deg away" count together
+            reasons[re.sub(r" -?\d+(\.\d+)? deg", "", reason.split(" (")[0])] += 1
         return None
 
     def candidates(self, rng: np.random.Generator, *, per_angle: int = CANDIDATES_PER_ANGLE, progress: bool = False):

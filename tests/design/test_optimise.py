@@ -76,3 +76,11 @@ def test_table_iii_is_scored_and_its_violations_listed(designer, plan):
     assert math.isfinite(prediction.rho0)
     # its q1 were chosen for the paper's tracker, which is not where the twin's is
     assert len(designer.violations(plan)) > 0
+
+
+def test_a_tracker_that_sees_no_marker_is_refused(cell):
+    from dataclasses import replace
+
+    hidden = replace(cell, tracker=replace(cell.tracker, position=np.array([0.0, 0.0, 0.3])))  # inside the base
+    with pytest.raises(InputError, match=r"no feasible configuration found in the cell \(most frequent reason: "):
+        PlanDesigner(hidden, model="linear").optimise(5, 3, rng=0, **SMALL)
