@@ -31,7 +31,8 @@ import numpy as np
 
 from bayescal.cell.config import Cell
 from bayescal.errors import InputError
-from bayescal.robot.stiffness import EquilibriumError, equilibrium
+from bayescal.design.criteria import solve_equilibrium
+from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG, MM
 
 __all__ = ["DesignSpace", "Feasibility", "load_design_space"]
@@ -214,14 +215,7 @@ class Feasibility:
         if reason is not None:
             return reason
         try:
-            equilibrium(
-                robot,
-                q,
-                self.cell.compliances,
-                self.cell.load_wrench(q, mass),
-                compensator=self.cell.compensator,
-                load_point=self.cell.load_point,
-            )
+            solve_equilibrium(self.cell, q, self.cell.load_wrench(q, mass), self.cell.load_point)
         except EquilibriumError as exc:
             return f"no loaded equilibrium ({exc})"
         return None

@@ -60,6 +60,7 @@ __all__ = [
     "nominal_parameters",
     "parameter_names",
     "predict",
+    "solve_equilibrium",
     "test_deflection",
     "test_pose_design",
     "with_parameters",
@@ -173,13 +174,18 @@ def with_parameters(cell: Cell, theta: np.ndarray) -> Cell:
     return replace(cell, compliances=np.array(theta[:nq], dtype=float), compensator=compensator)
 
 
+def solve_equilibrium(cell: Cell, q, wrench, load_point) -> np.ndarray:
+    """(nq,) joint deflections (rad) of ``cell``'s arm at ``q`` under ``wrench``, its force acting at ``load_point``.
+
+    Raises :class:`~bayescal.robot.stiffness.EquilibriumError` when there is none.
+    """
+    return equilibrium(cell.robot, q, cell.compliances, wrench, compensator=cell.compensator, load_point=load_point)
+
+
 def test_deflection(cell: Cell) -> np.ndarray:
     """(3,) exact deflection (m) of the test point under the test wrench, its force acting at that point."""
     robot = cell.robot
-    states = [
-        equilibrium(robot, cell.test_q, cell.compliances, wrench, compensator=cell.compensator, load_point=cell.test_point)
-        for wrench in (np.zeros(6), cell.test_wrench)
-    ]
+    states = [solve_equilibrium(cell, cell.test_q, wrench, cell.test_point) for wrench in (np.zeros(6), cell.test_wrench)]
     return robot.point_position(cell.test_q + states[1], cell.test_point) - robot.point_position(cell.test_q + states[0], cell.test_point)
 
 
