@@ -24,7 +24,7 @@ def test_json_output_has_parameters_diagnostics_and_residuals(capsys):
     payload = run_json(capsys)
     for name in ("L", "a_x", "a_y"):
         block = payload["parameters"][name]
-        assert set(block) == {"mean", "sd", "lo3", "hi3", "unit"}
+        assert set(block) == {"mean", "sd", "lo3", "hi3", "q_lo3", "q_hi3", "unit"}
         assert block["unit"] == "mm"
     assert payload["parameters"]["phi"]["unit"] == "deg"
     assert abs(payload["parameters"]["L"]["mean"] - 184.72) < 0.03
