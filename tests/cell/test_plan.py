@@ -2,20 +2,15 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from bayescal.errors import InputError
 from bayescal.cell.plan import read_plan
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 
-
-
-def test_table_iii(robot):
-    plan = read_plan(DATA / "table3_plan.csv", robot)
+def test_table_iii(robot, data_dir):
+    plan = read_plan(data_dir / "table3_plan.csv", robot)
     assert len(plan) == 15
     q2 = np.degrees(plan.q[:, 1]).reshape(5, 3)
     np.testing.assert_allclose(q2, np.repeat([[-0.01], [-25.24], [-56.9], [-99.85], [-140.0]], 3, axis=1))

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,9 +11,6 @@ from bayescal.twin.effects import parse_effect
 from bayescal.errors import InputError
 from bayescal.robot.stiffness import compliance_design, equilibrium
 from bayescal.twin.simulator import DigitalTwin
-
-DATA = Path(__file__).resolve().parents[2] / "data"
-
 
 
 @pytest.fixture(scope="module")
