@@ -5,23 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bayescal.geometry.arcs import CompensatorGeometryModel, MarkerLayout, read_arc_points
 from bayescal.studies.arc_fit import TABLE_I_NOISE, arc_fit_study
-from bayescal.units import DEG
-
-Q2 = np.array([-0.01, -30, -60, -90, -120, -145]) * DEG
-
-
-@pytest.fixture(scope="module")
-def layout(data_dir):
-    points = read_arc_points(data_dir / "table1_geometry.csv")
-    return MarkerLayout.from_fit(CompensatorGeometryModel().fit(points), points)
 
 
 @pytest.mark.slow
-def test_known_angle_fit_reaches_the_cramer_rao_bound_and_beats_circle_fits(layout):
+def test_known_angle_fit_reaches_the_cramer_rao_bound_and_beats_circle_fits(layout, q2):
     # 2000 arcs: each RMSE is known to about 1.6 %, well inside the 10 % and 1.8x margins.
-    study = arc_fit_study(layout, Q2, TABLE_I_NOISE, 2000, np.random.default_rng(1))
+    study = arc_fit_study(layout, q2, TABLE_I_NOISE, 2000, np.random.default_rng(1))
     known = study.loc["known-angle"]
     bound = study.loc["CRB known angles"]
     assert known["rmse_L_mm"] / bound["rmse_L_mm"] == pytest.approx(1.0, abs=0.1)
@@ -34,15 +24,15 @@ def test_known_angle_fit_reaches_the_cramer_rao_bound_and_beats_circle_fits(layo
     assert study.loc["geometric", "rmse_centre_mm"] / unknown["rmse_centre_mm"] == pytest.approx(1.0, abs=0.1)
 
 
-def test_a_small_study_already_separates_the_known_angle_fit(layout):
+def test_a_small_study_already_separates_the_known_angle_fit(layout, q2):
     # 200 arcs: each RMSE to about 5 %; the known-angle fit's factor of about 2 stands well clear of that.
-    study = arc_fit_study(layout, Q2, TABLE_I_NOISE, 200, np.random.default_rng(2))
+    study = arc_fit_study(layout, q2, TABLE_I_NOISE, 200, np.random.default_rng(2))
     assert list(study.index) == ["known-angle", "geometric", "hyper", "kasa", "CRB known angles", "CRB unknown angles"]
     assert list(study.columns) == ["rmse_L_mm", "rmse_centre_mm"]
     known, bound = study.loc["known-angle"], study.loc["CRB known angles"]
     assert known["rmse_L_mm"] / bound["rmse_L_mm"] == pytest.approx(1.0, abs=0.2)
     assert study.loc["geometric", "rmse_L_mm"] > 1.5 * known["rmse_L_mm"]
     # the bounds scale with the noise, the study's errors with it
-    half = arc_fit_study(layout, Q2, TABLE_I_NOISE / 2, 200, np.random.default_rng(2))
+    half = arc_fit_study(layout, q2, TABLE_I_NOISE / 2, 200, np.random.default_rng(2))
     np.testing.assert_allclose(half.loc["CRB known angles"], bound / 2)
     np.testing.assert_allclose(half.loc["known-angle"], known / 2, rtol=0.01)

@@ -5,24 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bayescal.geometry.arcs import CompensatorGeometryModel, MarkerLayout, read_arc_points
 from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler
 from bayescal.studies.arc_fit import TABLE_I_NOISE
 from bayescal.studies.coverage import binomial_se, coverage_study, layout_truth
 from bayescal.units import DEG, MM
 
-Q2 = np.array([-0.01, -30, -60, -90, -120, -145]) * DEG
 
-
-@pytest.fixture(scope="module")
-def layout(data_dir):
-    points = read_arc_points(data_dir / "table1_geometry.csv")
-    return MarkerLayout.from_fit(CompensatorGeometryModel().fit(points), points)
-
-
-def test_coverage_study_reports_rates_per_parameter(layout):
+def test_coverage_study_reports_rates_per_parameter(layout, q2):
     model = GeometryPosteriorModel(sampler=default_sampler(n_chains=2, n_tune=100, n_draws=50))
-    study = coverage_study(layout, Q2, TABLE_I_NOISE, 2, model, np.random.default_rng(0))
+    study = coverage_study(layout, q2, TABLE_I_NOISE, 2, model, np.random.default_rng(0))
     assert list(study.index) == ["L", "a_x", "a_y", "phi", "p2_x", "p2_y", "p0_x", "p0_y"]
     assert ((study[["covered_1", "covered_2", "covered_3"]].isin([0.0, 0.5, 1.0])).all()).all()
     assert (study["content_1"] < study["content_2"]).all()
@@ -30,8 +21,8 @@ def test_coverage_study_reports_rates_per_parameter(layout):
     assert (study["n_rep"] == 2).all()
 
 
-def test_the_truth_of_a_layout_is_the_closed_form_geometry(data_dir, layout):
-    fit = CompensatorGeometryModel().fit(read_arc_points(data_dir / "table1_geometry.csv"))
+def test_the_truth_of_a_layout_is_the_closed_form_geometry(table1, layout):
+    _, fit = table1
     truth = layout_truth(layout)
     assert truth["L"] == pytest.approx(fit.geometry.L / MM)
     assert truth["a_x"] == pytest.approx(fit.geometry.a_x / MM)

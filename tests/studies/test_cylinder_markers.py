@@ -6,15 +6,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bayescal.geometry.arcs import CompensatorGeometryModel, MarkerLayout, read_arc_points
+from bayescal.geometry.arcs import CompensatorGeometryModel
 from bayescal.studies.cylinder_markers import along_arc_residuals, cylinder_marker_study, implied_cylinder_noise
 from bayescal.units import DEG, MM
-
-
-@pytest.fixture(scope="module")
-def table1(data_dir):
-    points = read_arc_points(data_dir / "table1_geometry.csv")
-    return points, CompensatorGeometryModel().fit(points)
 
 
 def test_each_marker_alone_fixes_p0_poorly_on_table_i(table1):
@@ -32,10 +26,7 @@ def test_each_marker_alone_fixes_p0_poorly_on_table_i(table1):
     )
 
 
-def test_markers_rigid_on_the_cylinder_do_not_drift(table1):
-    points, closed = table1
-    layout = MarkerLayout.from_fit(closed, points)
-    q2 = np.sort(points.of("P1")[0])
+def test_markers_rigid_on_the_cylinder_do_not_drift(layout, q2):
     exact = layout.simulate(q2, 0.0, np.random.default_rng(0))
     study = cylinder_marker_study(exact, CompensatorGeometryModel().fit(exact))
     assert study["drift_deg"].to_numpy() == pytest.approx(0.0, abs=1e-6)
