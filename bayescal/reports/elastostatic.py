@@ -22,14 +22,21 @@ import numpy as np
 import pandas as pd
 
 from bayescal.cell.config import Cell, load_cell
-from bayescal.cell.plan import Plan, read_plan
+from bayescal.cell.plan import read_plan
 from bayescal.inference.elastostatic import PARAMETER_UNITS, ElastostaticModel, ElastostaticResults
 from bayescal.inference.identifiability import grouped, label_angle
 from bayescal.inference.testpose import predict_cell_test_pose
 from bayescal.reference import beside_published, width_3sd_pct
 from bayescal.reports.plots import plot_joint2_compliance
 from bayescal.studies.balance import BALANCE_Q2_DEG, spring_balance
-from bayescal.studies.linearisation import NOISE_QUANTILE, linearisation_misfit, misfit_summary, unloaded_sag, weightless
+from bayescal.studies.linearisation import (
+    LINEARISATION_NOISE,
+    LINEARISATION_SEEDS,
+    NOISE_QUANTILE,
+    REDUCED,
+    linearisation_study,
+    unloaded_sag,
+)
 from bayescal.studies.precision import CompensatorPrecision, compensator_precision, equivalent_compliance_band
 from bayescal.studies.sensitivity import assumption_sensitivity
 from bayescal.studies.testpose import true_test_deflection
@@ -46,15 +53,6 @@ REPEATS = 3
 
 PAPER_EQUATIONS = 405
 """Scalar deflection equations of the paper's Table III campaign."""
-
-LINEARISATION_SEEDS = range(5)
-"""Seeds of the twin campaigns of the linearisation study."""
-
-LINEARISATION_NOISE = 8 * UM
-"""Tracker noise per coordinate (m) at which a linear fit of a nonlinear simulation was reported to misfit."""
-
-REDUCED = 0.1
-"""Factor on the loads and the noise of the reduced-load campaigns of the linearisation study."""
 
 REPORTED_MISFIT = (1.3, 1.4)
 """χ²/dof range reported for a linear fit of a nonlinear simulation at 8 μm tracker noise."""
@@ -134,7 +132,7 @@ def build_report(
     masses = plan.masses(cell.load_mass)
     noise = np.concatenate([cell.tracker.sigma(campaign.p0), cell.tracker.sigma(campaign.p1)]) / UM
     reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in NAMES}
-    paper_count = "the paper's count" if results.n_equations == PAPER_EQUATIONS else "against the paper's"
+    paper_count = f"the paper's count of {PAPER_EQUATIONS}" if results.n_equations == PAPER_EQUATIONS else f"against the paper's {PAPER_EQUATIONS}"
 
     lines = [
         "# Elastostatic identification on the digital twin",
@@ -145,7 +143,7 @@ def build_report(
         "",
         f"The twin (`{config}`) measures the {len(plan)} configurations of Klimchik et al., Table III, "
         f"{REPEATS} times each with {len(cell.markers)} markers: {len(campaign)} rows, each giving the x, y and z of one marker "
-        f"deflection, so {results.n_equations} scalar equations — {paper_count} of {PAPER_EQUATIONS}. The loads are masses of "
+        f"deflection, so {results.n_equations} scalar equations — {paper_count}. The loads are masses of "
         f"{masses.min():g} to {masses.max():g} kg hanging at the tool's load point; the tracker noise per coordinate is "
         f"{noise.min():.1f} to {noise.max():.1f} μm (the cell's distance-dependent model), so each deflection "
         "coordinate carries √2 times that.",
@@ -191,7 +189,7 @@ def build_report(
         stiff = round(precision.spring.loc["K_c", "needed_factor"])
         balance = spring_balance(cell, (1.0, 10.0, float(stiff)))
         lines += _compensator_section(results, cell, precision, balance, noise)
-    lines += _linearisation_section(*_linearisation_study(cell, plan), unloaded_sag(cell, plan))
+    lines += _linearisation_section(linearisation_study(cell, plan), unloaded_sag(cell, plan))
     lines += [
         "## Linear against exact model on this campaign",
         "",
@@ -289,31 +287,19 @@ def _joint2_figure(results: ElastostaticResults, band: pd.DataFrame, path: Path)
     ]
 
 
-def _linearisation_study(cell: Cell, plan: Plan) -> tuple[dict[tuple[str, float], pd.Series], dict[tuple[str, float], float]]:
-    """The misfit summaries of the four campaigns of the linearisation study, keyed by (twin, load factor), and their noise."""
-    bare = weightless(cell)
-    cases = [
-        ("the twin", cell, 1.0, LINEARISATION_NOISE),
-        ("the twin", cell, REDUCED, REDUCED * LINEARISATION_NOISE),
-        ("without link weight and compensator", bare, 1.0, LINEARISATION_NOISE),
-        ("without link weight and compensator", bare, REDUCED, REDUCED * LINEARISATION_NOISE),
-    ]
-    summaries, noise = {}, {}
-    for label, twin, scale, sigma in cases:
-        summaries[(label, scale)] = misfit_summary(linearisation_misfit(twin, plan, sigma, load_scale=scale, seeds=LINEARISATION_SEEDS))
-        noise[(label, scale)] = sigma
-    return summaries, noise
+TWIN_LABELS = {"cell": "the twin", "weightless": "without link weight and compensator"}
+"""How the report names the twins of the linearisation study."""
 
 
-def _linearisation_section(summaries: dict[tuple[str, float], pd.Series], noise: dict[tuple[str, float], float], sag: pd.DataFrame) -> list[str]:
+def _linearisation_section(study: pd.DataFrame, sag: pd.DataFrame) -> list[str]:
     rows = [
-        f"| {label} | ×{scale:g} | {noise[(label, scale)] / UM:g} | {s['linear_mean']:.3f} ({s['linear_min']:.3f}–{s['linear_max']:.3f}) "
+        f"| {TWIN_LABELS[twin]} | ×{scale:g} | {s['noise_um']:g} | {s['linear_mean']:.3f} ({s['linear_min']:.3f}–{s['linear_max']:.3f}) "
         f"| {s['exact_mean']:.3f} ({s['exact_min']:.3f}–{s['exact_max']:.3f}) | {s['excess_chi2']:.1f} |"
-        for (label, scale), s in summaries.items()
+        for (twin, scale), s in study.iterrows()
     ]
-    full = summaries[("the twin", 1.0)]
-    reduced = summaries[("the twin", REDUCED)]
-    bare = summaries[("without link weight and compensator", 1.0)], summaries[("without link weight and compensator", REDUCED)]
+    full = study.loc[("cell", 1.0)]
+    reduced = study.loc[("cell", REDUCED)]
+    bare = study.loc[("weightless", 1.0)], study.loc[("weightless", REDUCED)]
     n, dof, upper, n_seeds = full["n_equations"], full["dof"], full["noise_high"], full["n_seeds"]
     spread = math.sqrt(2 * dof)
     reported = f"{REPORTED_MISFIT[0]:g}–{REPORTED_MISFIT[1]:g}"

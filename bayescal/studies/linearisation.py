@@ -5,7 +5,8 @@ both models fit the same campaign in closed form.  Scaling the loads and the
 noise together leaves a misfit that grows with the load (the arm's own sag
 under its weight, which the linear model ignores) and removes one that grows
 with the load squared (second order in the deflections); :func:`weightless`
-removes the first, :func:`unloaded_sag` measures it.
+removes the first, :func:`unloaded_sag` measures it.  :func:`linearisation_study`
+runs the four campaigns that separate the two parts.
 """
 
 from __future__ import annotations
@@ -26,10 +27,29 @@ from bayescal.robot.stiffness import equilibrium
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import UM
 
-__all__ = ["NOISE_QUANTILE", "linearisation_misfit", "misfit_summary", "unloaded_sag", "weightless"]
+__all__ = [
+    "LINEARISATION_NOISE",
+    "LINEARISATION_SEEDS",
+    "NOISE_QUANTILE",
+    "REDUCED",
+    "linearisation_misfit",
+    "linearisation_study",
+    "misfit_summary",
+    "unloaded_sag",
+    "weightless",
+]
 
 _MRAD = 1e-3
 """One milliradian in radians."""
+
+LINEARISATION_NOISE = 8 * UM
+"""Tracker noise per coordinate (m) at which a linear fit of a nonlinear simulation was reported to misfit."""
+
+LINEARISATION_SEEDS = range(5)
+"""Seeds of the twin campaigns of :func:`linearisation_study`."""
+
+REDUCED = 0.1
+"""Factor on the loads and the noise of the reduced-load campaigns of :func:`linearisation_study`."""
 
 NOISE_QUANTILE = 0.999
 """χ²/dof above this quantile of the χ² distribution counts as misfit beyond noise (one campaign in a thousand)."""
@@ -124,6 +144,41 @@ def misfit_summary(runs: pd.DataFrame) -> pd.Series:
         },
         dtype=object,
     )
+
+
+def linearisation_study(
+    cell: Cell,
+    plan: Plan,
+    *,
+    noise: float = LINEARISATION_NOISE,
+    reduced: float = REDUCED,
+    seeds: Iterable[int] = LINEARISATION_SEEDS,
+    repeats: int = 3,
+) -> pd.DataFrame:
+    """The linear model's misfit on the twin and on the twin without weight, at full and at reduced loads and noise.
+
+    Four sets of campaigns, each over ``seeds``: the cell and its
+    :func:`weightless` twin, each with the plan's loads and a tracker noise of
+    ``noise`` (m), then with loads and noise multiplied by ``reduced``.  A misfit
+    second order in the deflections drops by ``1/reduced²`` (its excess χ² grows
+    as the load squared when the noise grows with the load); one proportional to
+    the load stays.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Indexed by ``twin`` (``"cell"``, ``"weightless"``) and ``load_scale``,
+        the columns of :func:`misfit_summary` and ``noise_um``.
+    """
+    seeds = list(seeds)
+    rows = {}
+    for twin, case in (("cell", cell), ("weightless", weightless(cell))):
+        for scale in (1.0, reduced):
+            runs = linearisation_misfit(case, plan, scale * noise, load_scale=scale, seeds=seeds, repeats=repeats)
+            rows[(twin, scale)] = pd.concat([misfit_summary(runs), pd.Series({"noise_um": scale * noise / UM}, dtype=object)])
+    frame = pd.DataFrame.from_dict(rows, orient="index")
+    frame.index.names = ["twin", "load_scale"]
+    return frame
 
 
 def unloaded_sag(cell: Cell, plan: Plan) -> pd.DataFrame:

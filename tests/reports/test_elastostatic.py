@@ -7,10 +7,6 @@ import pytest
 
 from bayescal.reports.elastostatic import REDUCED, _estimates_table, _linearisation_section
 from bayescal.reference import beside_published
-from bayescal.units import UM
-
-TWIN, BARE = "the twin", "without link weight and compensator"
-
 
 def summary(linear: float, exact: float, excess: float, gap_min: float, beyond: int) -> pd.Series:
     """A misfit summary over 5 seeds of 405 equations, as studies.linearisation.misfit_summary gives it."""
@@ -38,10 +34,14 @@ def summary(linear: float, exact: float, excess: float, gap_min: float, beyond: 
 
 
 def section(full: pd.Series, reduced: pd.Series, bare_reduced: pd.Series) -> str:
-    summaries = {(TWIN, 1.0): full, (TWIN, REDUCED): reduced, (BARE, 1.0): full, (BARE, REDUCED): bare_reduced}
-    noise = {key: (8 if key[1] == 1.0 else 0.8) * UM for key in summaries}
+    """The section for a linearisation study with these summaries (the weightless twin at full load as ``full``)."""
+    rows = {("cell", 1.0): full, ("cell", REDUCED): reduced, ("weightless", 1.0): full, ("weightless", REDUCED): bare_reduced}
+    study = pd.DataFrame.from_dict(
+        {key: pd.concat([row, pd.Series({"noise_um": 8 * key[1]}, dtype=object)]) for key, row in rows.items()}, orient="index"
+    )
+    study.index.names = ["twin", "load_scale"]
     sag = pd.DataFrame({"sag_j1_mrad": [0.0], "sag_j2_mrad": [-0.58], "sag_j3_mrad": [0.33]})
-    return "\n".join(_linearisation_section(summaries, noise, sag))
+    return "\n".join(_linearisation_section(study, sag))
 
 
 def test_a_misfit_beyond_the_noise_is_called_the_linearisation():

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from bayescal.studies.linearisation import linearisation_misfit, misfit_summary, unloaded_sag, weightless
+from bayescal.studies.linearisation import linearisation_misfit, linearisation_study, misfit_summary, unloaded_sag, weightless
 from bayescal.units import UM
 
 
@@ -62,3 +62,13 @@ def test_the_unloaded_twin_sags_under_its_weight(cell, plan):
     # joint 2 carries the arm's weight; joint 1, vertical, carries none of it
     assert sag["sag_j2_mrad"].abs().max() > 0.1
     assert sag["sag_j1_mrad"].abs().max() < 1e-9
+
+
+def test_the_study_runs_the_four_campaigns(cell, plan):
+    study = linearisation_study(cell, plan, seeds=[0])
+    assert list(study.index) == [("cell", 1.0), ("cell", 0.1), ("weightless", 1.0), ("weightless", 0.1)]
+    assert list(study["noise_um"]) == pytest.approx([8.0, 0.8, 8.0, 0.8])
+    alone = misfit_summary(linearisation_misfit(weightless(cell), plan, 0.8 * UM, load_scale=0.1, seeds=[0]))
+    assert study.loc[("weightless", 0.1), "excess_chi2"] == pytest.approx(alone["excess_chi2"])
+    # the arm's own sag keeps part of the misfit at reduced loads; without weight it goes
+    assert study.loc[("cell", 0.1), "excess_chi2"] > 5 * study.loc[("weightless", 0.1), "excess_chi2"]
