@@ -300,7 +300,9 @@ def _linearisation_section(study: pd.DataFrame, sag: pd.DataFrame) -> list[str]:
     full = study.loc[("cell", 1.0)]
     reduced = study.loc[("cell", REDUCED)]
     bare = study.loc[("weightless", 1.0)], study.loc[("weightless", REDUCED)]
-    n, dof, upper, n_seeds = full["n_equations"], full["dof"], full["noise_high"], full["n_seeds"]
+    # A row of the study holds counts and χ² values together, as floats.
+    n, dof, n_seeds, beyond = (int(full[name]) for name in ("n_equations", "dof", "n_seeds", "linear_beyond"))
+    upper = full["noise_high"]
     spread = math.sqrt(2 * dof)
     reported = f"{REPORTED_MISFIT[0]:g}–{REPORTED_MISFIT[1]:g}"
     ours = 1 + full["excess_chi2"] / dof
@@ -340,7 +342,7 @@ def _linearisation_section(study: pd.DataFrame, sag: pd.DataFrame) -> list[str]:
         f"the count does not explain a difference. Noise alone exceeds χ²/dof = {upper:.3f} with probability {1 - NOISE_QUANTILE:.3g}.",
         "",
         f"At {full_noise:g} μm the linear model's misfit is {'real' if real else 'within the noise'} (excess χ² ≈ {full['excess_chi2']:.0f}, "
-        f"against a χ² spread of {spread:.0f}; {full['linear_beyond']} of {n_seeds} seeds beyond χ²/dof = {upper:.3f}, and {every} "
+        f"against a χ² spread of {spread:.0f}; {beyond} of {n_seeds} seeds beyond χ²/dof = {upper:.3f}, and {every} "
         f"{full['gap_min']:.2f}–{full['gap_max']:.2f} above the exact model's χ²/dof on the same data) "
         f"and the exact model's χ²/dof {'is that of noise' if noise_like else 'is not that of noise either'}"
         f"{': the misfit is the linearisation' if real and noise_like else ''}. Our χ²/dof, about "

@@ -176,7 +176,8 @@ def linearisation_study(
         for scale in (1.0, reduced):
             runs = linearisation_misfit(case, plan, scale * noise, load_scale=scale, seeds=seeds, repeats=repeats)
             rows[(twin, scale)] = pd.concat([misfit_summary(runs), pd.Series({"noise_um": scale * noise / UM}, dtype=object)])
-    frame = pd.DataFrame.from_dict(rows, orient="index")
+    counts = ["linear_beyond", "exact_beyond", "n_seeds", "n_equations", "dof"]
+    frame = pd.DataFrame.from_dict(rows, orient="index").astype(float).astype({name: int for name in counts})
     frame.index.names = ["twin", "load_scale"]
     return frame
 

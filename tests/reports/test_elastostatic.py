@@ -39,6 +39,7 @@ def section(full: pd.Series, reduced: pd.Series, bare_reduced: pd.Series) -> str
     study = pd.DataFrame.from_dict(
         {key: pd.concat([row, pd.Series({"noise_um": 8 * key[1]}, dtype=object)]) for key, row in rows.items()}, orient="index"
     )
+    study = study.astype(float)
     study.index.names = ["twin", "load_scale"]
     sag = pd.DataFrame({"sag_j1_mrad": [0.0], "sag_j2_mrad": [-0.58], "sag_j3_mrad": [0.33]})
     return "\n".join(_linearisation_section(study, sag))
@@ -47,6 +48,7 @@ def section(full: pd.Series, reduced: pd.Series, bare_reduced: pd.Series) -> str
 def test_a_misfit_beyond_the_noise_is_called_the_linearisation():
     text = section(summary(1.25, 0.99, 101.0, 0.21, 3), summary(1.04, 0.99, 17.0, 0.01, 0), summary(0.995, 0.99, 1.3, 0.0, 0))
     assert "misfit is real (excess χ² ≈ 101" in text
+    assert "3 of 5 seeds beyond" in text and "dof = 396." in text
     assert "on every seed 0.21–0.31 above" in text
     assert "is that of noise: the misfit is the linearisation" in text
     assert "about 1.26, is lower than the reported 1.3–1.4" in text  # 1 + 101 / 396

@@ -68,6 +68,7 @@ def test_the_study_runs_the_four_campaigns(cell, plan):
     study = linearisation_study(cell, plan, seeds=[0])
     assert list(study.index) == [("cell", 1.0), ("cell", 0.1), ("weightless", 1.0), ("weightless", 0.1)]
     assert list(study["noise_um"]) == pytest.approx([8.0, 0.8, 8.0, 0.8])
+    assert study["dof"].dtype.kind == "i" and (study["n_equations"] == 405).all()
     alone = misfit_summary(linearisation_misfit(weightless(cell), plan, 0.8 * UM, load_scale=0.1, seeds=[0]))
     assert study.loc[("weightless", 0.1), "excess_chi2"] == pytest.approx(alone["excess_chi2"])
     # the arm's own sag keeps part of the misfit at reduced loads; without weight it goes
