@@ -24,7 +24,7 @@ from bayescal.cell.plan import Plan
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.exact import scale_masses
-from bayescal.robot.stiffness import equilibrium
+from bayescal.robot.stiffness import ElasticArm
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import UM
 
@@ -192,9 +192,8 @@ def unloaded_sag(cell: Cell, plan: Plan) -> pd.DataFrame:
         One row per configuration of ``plan``, columns ``sag_j1_mrad`` … the
         joint deflections of the static equilibrium without load (mrad).
     """
-    sag = np.array(
-        [equilibrium(cell.robot, q, cell.compliances, np.zeros(6), compensator=cell.compensator, load_point=cell.load_point) for q in plan.q]
-    )
+    arm = ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, load_point=cell.load_point)
+    sag = np.array([arm.equilibrium(q, np.zeros(6)) for q in plan.q])
     frame = pd.DataFrame(sag / _MRAD, columns=[f"sag_j{j + 1}_mrad" for j in range(sag.shape[1])])
     frame.index.name = "configuration"
     return frame

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from bayescal.cell.config import Cell
-from bayescal.robot.stiffness import equilibrium
+from bayescal.inference.exact import exact_deflections
 
 __all__ = ["true_test_deflection"]
 
@@ -17,8 +17,7 @@ def true_test_deflection(cell: Cell) -> np.ndarray:
     weight and the compensator, with the cell's own compliances: the truth a
     posterior prediction of the twin's test pose is judged against.
     """
-    robot, q = cell.robot, cell.test_q
-    common = {"compensator": cell.compensator, "load_point": cell.test_point}
-    loaded = q + equilibrium(robot, q, cell.compliances, cell.test_wrench, **common)
-    unloaded = q + equilibrium(robot, q, cell.compliances, np.zeros(6), **common)
-    return robot.point_position(loaded, cell.test_point) - robot.point_position(unloaded, cell.test_point)
+    point = np.asarray(cell.test_point, dtype=float).reshape(1, 3)
+    return exact_deflections(
+        cell.robot, cell.test_q, cell.test_wrench, cell.compliances, cell.compensator, points_in_flange=point, load_point=cell.test_point
+    )[0]

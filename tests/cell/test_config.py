@@ -114,22 +114,22 @@ def test_unknown_flange_frame_names_the_flange_key(tmp_path, data_dir):
         ("wrench_N_Nm = [-1000.0,", "wrench_N_Nm = [-1e7,", "wrench_N_Nm", "more than the 5296 N the robot can plausibly hold"),
     ],
 )
-def test_mistakes_name_the_line_and_key(tmp_path, old, new, needle, message):
-    path = _edited(tmp_path, old, new)
+def test_mistakes_name_the_line_and_key(tmp_path, old, new, needle, message, data_dir):
+    path = _edited(data_dir, tmp_path, old, new)
     with pytest.raises(InputError) as caught:
         load_cell(path)
     text = str(caught.value)
     assert message in text and f"cell.toml:{_line_of(path, needle)}," in text and "\n" not in text
 
 
-def test_a_key_outside_any_table_is_unknown(tmp_path):
-    path = _edited(tmp_path, "[robot]", 'factor = 0.1\n[robot]')
+def test_a_key_outside_any_table_is_unknown(tmp_path, data_dir):
+    path = _edited(data_dir, tmp_path, "[robot]", 'factor = 0.1\n[robot]')
     with pytest.raises(InputError, match=r"cell.toml:\d+, column 'factor': unknown key 'factor' outside any table"):
         load_cell(path)
 
 
-def test_latin1_byte_names_its_line(tmp_path):
-    path = _edited(tmp_path, "# Leica AT901", "# Leica AT901")
+def test_latin1_byte_names_its_line(tmp_path, data_dir):
+    path = _edited(data_dir, tmp_path, "# Leica AT901", "# Leica AT901")
     raw = path.read_bytes().replace(b"# Leica AT901", b"# Leica AT901 \xb1", 1)
     path.write_bytes(raw)
     line = raw[: raw.index(b"\xb1")].count(b"\n") + 1
@@ -137,8 +137,8 @@ def test_latin1_byte_names_its_line(tmp_path):
         load_cell(path)
 
 
-def test_byte_order_mark_is_accepted(tmp_path):
-    path = _edited(tmp_path, "[robot]", "[robot]")
+def test_byte_order_mark_is_accepted(tmp_path, data_dir):
+    path = _edited(data_dir, tmp_path, "[robot]", "[robot]")
     path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
     assert load_cell(path).payload_kg == 270.0
 
@@ -148,9 +148,9 @@ def test_a_folder_is_not_a_missing_file(tmp_path):
         load_cell(tmp_path)
 
 
-def test_capacity_is_the_larger_of_payload_and_load(cell, tmp_path):
+def test_capacity_is_the_larger_of_payload_and_load(cell, tmp_path, data_dir):
     assert cell.capacity_weight == pytest.approx(270.0 * 9.80665)
-    path = _edited(tmp_path, "payload_kg = 270.0\n", "")
+    path = _edited(data_dir, tmp_path, "payload_kg = 270.0\n", "")
     assert load_cell(path).capacity_weight == pytest.approx(265.0 * 9.80665)
 
 
@@ -158,8 +158,8 @@ def test_capacity_is_the_larger_of_payload_and_load(cell, tmp_path):
     ("content", "message"),
     [("not xml\n", r"kr270.urdf:1: not a URDF: not valid XML"), ("<foo/>\n", r"kr270.urdf:1: not a URDF: the root element is <foo>")],
 )
-def test_a_urdf_that_is_not_one_gives_one_line(tmp_path, capfd, content, message):
-    path = _edited(tmp_path, "[robot]", "[robot]")
+def test_a_urdf_that_is_not_one_gives_one_line(tmp_path, capfd, content, message, data_dir):
+    path = _edited(data_dir, tmp_path, "[robot]", "[robot]")
     (tmp_path / "robots" / "kr270.urdf").write_text(content)
     with pytest.raises(InputError, match=message):
         load_cell(path)

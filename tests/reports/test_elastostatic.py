@@ -73,7 +73,7 @@ def test_estimates_sit_beside_table_iv_with_the_truth():
         "k2": {"unit": "urad/(N m)", "mean": 0.3026, "sd": 0.0016, "lo3": 0.2978, "hi3": 0.3074},
     }
     paper = beside_published(pd.DataFrame({"mean": [float("nan"), 0.3026], "sd": [float("nan"), 0.0016]}, index=["k1", "k2"]), "IV")
-    table = _estimates_table(paper, parameters, {"k1": 0.3, "k2": 0.302})
+    table = _estimates_table(paper, parameters, {"k1": 0.3, "k2": 0.302}, {"k1": "urad/(N m)", "k2": "urad/(N m)"})
     assert list(table.loc["k1"]) == ["urad/(N m)", "not identifiable", "", "", 0.3, "", "–", "–", "–"]
     k2 = table.loc["k2"]
     assert k2["width"] == "1.6%" and k2["truth inside"] == "yes"

@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from bayescal.sampling.gibbs import GibbsSampler
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.reference import published
 from bayescal.studies.precision import (
@@ -30,7 +31,7 @@ def results(cell, plan):
     with warnings.catch_warnings():
         # short chains on a campaign that cannot identify k1 and the spring
         warnings.simplefilter("ignore")
-        return ElastostaticModel.from_cell(cell, n_chains=2, n_tune=50, n_draws=100, compare_linear=False).fit(campaign, 1)
+        return ElastostaticModel.from_cell(cell, sampler=GibbsSampler(n_chains=2, n_tune=50, n_draws=100)).fit(campaign, 1)
 
 
 def test_design_precision_is_of_the_order_of_table_iv(cell, plan):
