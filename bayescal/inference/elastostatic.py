@@ -54,7 +54,7 @@ from bayescal.sampling.protocol import Sampler
 from bayescal.sampling.summary import diagnostics, warn_if_unconverged
 from bayescal.units import MM, N_PER_MM, URAD_PER_NM
 
-__all__ = ["ElastostaticModel", "default_sampler"]
+__all__ = ["ElastostaticModel", "default_sampler", "restore_results"]
 
 GIBBS_TUNE = 300
 """Gibbs iterations discarded per chain: the proposal refits settle within a few hundred."""
@@ -211,17 +211,17 @@ class ElastostaticModel:
     def fit(self, campaign: Campaign, rng: np.random.Generator | int = 0) -> ElastostaticResults:
         """Identify the parameters from ``campaign``; ``rng`` seeds every random draw."""
         rng = np.random.default_rng(rng)
-        equations, ident, linear_cf, offset, cf, iterations = self._prepare(campaign)
-        corrected = replace(equations, y=equations.y - offset)
-        tree, draws = self._sample(corrected.whitened(), ident, cf, rng)
-
-
-        practical = self._practical(tree, equations, ident, cf)
-        for names, reason in grouped(practical):
+        prepared = self._prepare(campaign)
+        corrected = replace(prepared.equations, y=prepared.equations.y - prepared.offset)
+        tree, draws = self._sample(corrected.whitened(), prepared.identifiability, prepared.closed_form, rng)
+        tree.attrs.update(
+            {"model": self.model, "noise": self.noise, "sampler": type(self.sampler).__name__, "geometry": self.geometry.source}
+        )
+        results = self._results(campaign, prepared, tree, draws)
+        for names, reason in grouped(results.identifiability.practical):
             warnings.warn(f"{_listed(names)} not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=2)
-        residual = corrected.y - corrected.per_angle_design()[:, ident.identifiable] @ cf.per_angle
         warn_if_unconverged(diagnostics(tree), what="the elastostatic posterior")
-        chi2 = self._chi2_per_dof(campaign, residual, cf.per_angle.size)
+        chi2 = results.chi2_per_dof
         if chi2 is not None and not 1 / CHI2_TOLERANCE < chi2 < CHI2_TOLERANCE:
             warnings.warn(
                 f"{campaign.source}: the residuals are {math.sqrt(chi2):.2f} times the tracker noise of the config "
@@ -231,6 +231,46 @@ class ElastostaticModel:
                 UserWarning,
                 stacklevel=2,
             )
+        return results
+
+    def restore(self, campaign: Campaign, tree) -> ElastostaticResults:
+        """The results of an earlier :meth:`fit` of ``campaign`` from its saved posterior, without sampling again.
+
+        The closed forms, the identifiability and the residuals are recomputed from the
+        campaign (they are deterministic); the draws are the tree's.  The model must be
+        configured as the one that was fitted (same ``model``, ``noise`` and geometry prior).
+
+        Parameters
+        ----------
+        campaign
+            The campaign the posterior was computed from.
+        tree
+            The posterior DataTree (:meth:`ElastostaticResults.save` writes it).
+
+        Raises
+        ------
+        InputError
+            When the posterior does not belong to this campaign and model.
+        """
+        prepared = self._prepare(campaign, announce=False)
+        try:
+            draws = ElastostaticDraws.from_tree(tree, prepared.equations)
+        except (KeyError, ValueError) as exc:
+            raise InputError(f"the posterior is not one of this campaign and model: {exc}", source=campaign.source) from None
+        if prepared.identifiability.compensator != (draws.spring is not None):
+            raise InputError(
+                "the posterior is not one of this campaign: "
+                f"it {'has' if draws.spring is not None else 'lacks'} the compensator's K_c and s0, which the campaign "
+                f"{'does not determine' if draws.spring is not None else 'determines'}",
+                source=campaign.source,
+            )
+        return self._results(campaign, prepared, tree, draws, sampler_name=str(tree.attrs.get("sampler", "unknown")))
+
+    def _results(self, campaign: Campaign, prepared: _Prepared, tree, draws: ElastostaticDraws, sampler_name: str | None = None) -> ElastostaticResults:
+        equations, ident, linear_cf, offset, cf, iterations = prepared
+        corrected = replace(equations, y=equations.y - offset)
+        practical = self._practical(tree, equations, ident, cf)
+        residual = corrected.y - corrected.per_angle_design()[:, ident.identifiable] @ cf.per_angle
         return ElastostaticResults(
             tree=tree,
             identifiability=replace(ident, practical=practical),
@@ -242,11 +282,12 @@ class ElastostaticModel:
             n_equations=equations.n,
             n_rows=len(campaign),
             residual_rms=float(np.sqrt(np.mean(residual**2))),
-            chi2_per_dof=chi2,
+            chi2_per_dof=self._chi2_per_dof(campaign, residual, cf.per_angle.size),
             nonlinearity=float(np.abs(offset).max(initial=0.0)),
             iterations=iterations,
+            residuals=residual.reshape(-1, 3),
             linear_closed_form=linear_cf,
-            sampler_name=type(self.sampler).__name__,
+            sampler_name=sampler_name or type(self.sampler).__name__,
         )
 
     def chi2_per_dof(self, campaign: Campaign) -> float | None:
@@ -377,6 +418,30 @@ class ElastostaticModel:
             raw = self.sampler.sample(posterior, start, np.concatenate([sd, log_sigma_scale]), rng)
             draws = ElastostaticDraws.per_angle(equations, ident.identifiable, raw)
         return draws.tree(equations), draws
+
+
+def restore_results(cell: Cell, campaign: Campaign, tree, geometry: GeometryPrior | None = None) -> ElastostaticResults:
+    """The results of a saved calibration: :meth:`ElastostaticModel.restore` with the model the tree was fitted with.
+
+    Parameters
+    ----------
+    cell
+        The calibration cell of the fit.
+    campaign
+        The campaign of the fit.
+    tree
+        The saved posterior; its ``model`` and ``noise`` attributes choose the model
+        (files without them: the exact model, and the noise groups' names tell the noise model).
+    geometry
+        The geometry prior of the fit (``None``: the cell's, as :meth:`ElastostaticModel.from_cell`).
+    """
+    attrs = tree.attrs
+    model = str(attrs.get("model", "exact"))
+    if model not in ("exact", "linear"):
+        raise InputError(f"the posterior's model attribute is {model!r}, expected 'exact' or 'linear'", source=campaign.source)
+    groups = tuple(str(v) for v in tree["posterior"]["noise_group"].values) if "noise_group" in tree["posterior"].coords else ()
+    noise = str(attrs.get("noise", "axis" if groups == ("x", "y", "z") else "marker"))
+    return ElastostaticModel.from_cell(cell, geometry, model=model, noise=noise).restore(campaign, tree)
 
 
 def _check_determined(campaign: Campaign, equations: DeflectionEquations, ident: Identifiability) -> None:
