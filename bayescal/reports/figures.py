@@ -49,7 +49,7 @@ def plot_rank(draws: Mapping[str, ArrayLike], *, columns: int = 3) -> Figure:
         expected = values.shape[1] / RANK_BINS
         for chain in range(values.shape[0]):
             counts, _ = np.histogram(ranks[chain], bins=edges)
-            ax.step(edges[:-1] / values.size, counts / expected, where="post", lw=1.0, label=f"chain {chain + 1}")
+            ax.stairs(counts / expected, edges / values.size, lw=1.0, label=f"chain {chain + 1}")
         ax.axhline(1.0, color="0.5", lw=0.8, ls="--")
         ax.set_title(name, fontsize=9)
         ax.set_xlabel("rank quantile [-]", fontsize=8)
@@ -63,7 +63,9 @@ def plot_rank(draws: Mapping[str, ArrayLike], *, columns: int = 3) -> Figure:
     return figure
 
 
-def plot_pairs(draws: Mapping[str, ArrayLike], *, reference: Mapping[str, float] | None = None, seed: int = 0) -> Figure:
+def plot_pairs(
+    draws: Mapping[str, ArrayLike], *, reference: Mapping[str, float] | None = None, reference_label: str = "reference", seed: int = 0
+) -> Figure:
     """Marginal histograms and pairwise scatter of posterior draws (a corner plot).
 
     Parameters
@@ -72,6 +74,8 @@ def plot_pairs(draws: Mapping[str, ArrayLike], *, reference: Mapping[str, float]
         Label (with its unit) to flat draws ``(S,)``, all of the same length.
     reference
         Label to a value drawn as a line (e.g. the paper's), where known.
+    reference_label
+        What the reference values are, for the legend.
     seed
         Seed of the thinning of the scatter panels to :data:`PAIR_POINTS` draws.
     """
@@ -93,11 +97,12 @@ def plot_pairs(draws: Mapping[str, ArrayLike], *, reference: Mapping[str, float]
                 ax.hist(values[row], bins=40, color="C0", alpha=0.7)
                 ax.set_yticks([])
                 if row in reference:
-                    ax.axvline(reference[row], color="C3", lw=1.2, ls="--", label="reference")
+                    ax.axvline(reference[row], color="C3", lw=1.2, ls="--", label=reference_label)
             else:
                 ax.plot(values[column][shown], values[row][shown], ".", ms=1.5, color="C0", alpha=0.4)
                 correlation = np.corrcoef(values[column], values[row])[0, 1]
-                ax.text(0.04, 0.92, f"ρ = {correlation:+.2f}", transform=ax.transAxes, fontsize=8, va="top")
+                ax.text(0.04, 0.92, f"ρ = {correlation:+.2f}", transform=ax.transAxes, fontsize=8, va="top",
+                        bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none", "pad": 1.5})
             # Offsets ("+1.847e2") would hide the values the reader compares with the tables.
             ax.ticklabel_format(axis="x", style="plain", useOffset=False)
             if i != j:

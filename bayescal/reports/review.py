@@ -51,6 +51,8 @@ ETA_S0_MM = (300.0, 400.0, 500.0, 600.0)
 """Spring free lengths (mm) of the η(q2) curves beside the identified one, spanning the paper's Fig. 3."""
 GEOMETRY_NAMES = ("L", "a_x", "a_y", "phi")
 """The compensator geometry of Table II (and the lever angle phi, which it does not list)."""
+DISPLAY_UNITS = {"urad/(N m)": "μrad/(N·m)"}
+"""How the figures write the units the posterior files store in ASCII."""
 SIGNIFICANT = 4
 """Significant digits of the numbers on the page (the JSON keeps every digit)."""
 
@@ -172,12 +174,16 @@ class _Page:
         self.record(key, {str(name): row for name, row in frame.to_dict(orient="index").items()})
         header = [index, *map(str, frame.columns)]
         rows = [[str(name), *(_format(value) for value in row)] for name, row in zip(frame.index, frame.itertuples(index=False))]
+        numeric = [[False, *(_is_number(value) for value in row)] for row in frame.itertuples(index=False)]
         caption_html = f"<caption>{html.escape(caption)}</caption>" if caption else ""
         self.html.append(
             f"<table>{caption_html}<thead><tr>"
             + "".join(f"<th>{html.escape(h)}</th>" for h in header)
             + "</tr></thead><tbody>"
-            + "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>" for row in rows)
+            + "".join(
+                "<tr>" + "".join(f'<td{" class=num" if n else ""}>{html.escape(c)}</td>' for c, n in zip(row, kinds)) + "</tr>"
+                for row, kinds in zip(rows, numeric)
+            )
             + "</tbody></table>"
         )
         if caption:
@@ -217,8 +223,8 @@ h1 {{ margin-bottom: 0.2em; }}
 h2 {{ border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 1.8em; }}
 table {{ border-collapse: collapse; margin: 0.8em 0; font-size: 0.9em; }}
 caption {{ caption-side: top; text-align: left; font-style: italic; padding-bottom: 0.3em; }}
-th, td {{ border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: right; vertical-align: top; }}
-th:first-child, td:first-child {{ text-align: left; }}
+th, td {{ border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }}
+td.num {{ text-align: right; font-variant-numeric: tabular-nums; }}
 td {{ max-width: 38em; }}
 thead {{ background: #f0f0f0; }}
 figure {{ margin: 1em 0; }}
@@ -252,6 +258,10 @@ def _plain(value: Any) -> Any:
     if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool | np.bool_)
 
 
 def _format(value: Any) -> str:
@@ -365,7 +375,7 @@ def _geometry_section(page: _Page, tree, seed: int) -> None:
     page.table("parameters", frame, caption="Posterior mean and ±3σ half-width beside Klimchik et al., Table II")
     draws = {f"{name} [{summary.loc[name, 'unit']}]": np.asarray(tree["posterior"][name].values).ravel() for name in names}
     reference = {f"{n} [{summary.loc[n, 'unit']}]": table_ii[n][0] for n in names if n in table_ii}
-    page.figure("geometry_pairs", plot_pairs(draws, reference=reference, seed=seed), "Geometry posterior: pairs of L, a_x, a_y, phi; dashed: Table II.")
+    page.figure("geometry_pairs", plot_pairs(draws, reference=reference, reference_label="Table II", seed=seed), "Geometry posterior: pairs of L, a_x, a_y, phi; dashed: Table II.")
     page.close()
 
 
@@ -447,7 +457,7 @@ def _convergence_section(page: _Page, inputs: ReviewInputs) -> None:
     if inputs.results is not None:
         tree = inputs.results.tree["posterior"]
         names = [name for name in PARAMETER_UNITS if name in tree and name not in inputs.results.identifiability.reasons]
-        draws = {f"{name} [{PARAMETER_UNITS[name]}]": np.asarray(tree[name].values) for name in names}
+        draws = {f"{name} [{DISPLAY_UNITS.get(PARAMETER_UNITS[name], PARAMETER_UNITS[name])}]": np.asarray(tree[name].values) for name in names}
         page.figure("rank_elastostatic", plot_rank(draws), "Rank plots of the elastostatic posterior: flat and overlapping when the chains mix.")
     if inputs.geometry is not None:
         tree = inputs.geometry["posterior"]
@@ -463,11 +473,12 @@ def _pairs_section(page: _Page, results: ElastostaticResults, seed: int) -> None
         return
     page.heading("pairs", "Posterior pairs")
     table_iv = published("IV")
-    draws = {f"{name} [{PARAMETER_UNITS[name]}]": np.asarray(tree[name].values).ravel() for name in names}
-    reference = {f"{n} [{PARAMETER_UNITS[n]}]": table_iv[n][0] for n in names if n in table_iv}
+    labels = {name: f"{name} [{DISPLAY_UNITS.get(PARAMETER_UNITS[name], PARAMETER_UNITS[name])}]" for name in names}
+    draws = {labels[name]: np.asarray(tree[name].values).ravel() for name in names}
+    reference = {labels[n]: table_iv[n][0] for n in names if n in table_iv}
     page.figure(
         "pairs_elastostatic",
-        plot_pairs(draws, reference=reference, seed=seed),
+        plot_pairs(draws, reference=reference, reference_label="Table IV", seed=seed),
         "Pairs of K_c, s0, k2 (joint 2 without compensator) and k3, with their correlation ρ; dashed: Table IV.",
     )
     page.close()
