@@ -103,7 +103,7 @@ def _read_inputs(args: argparse.Namespace):
     review = ReviewInputs(sources=sources, seed=args.seed)
     if args.geometry:
         sources["geometry posterior"] = args.geometry
-        review.geometry = _load_tree(args.geometry, "--geometry", load, needs=("L", "a_x", "a_y"))
+        review.geometry = _load_tree(args.geometry, "--geometry", load, needs=("L", "a_x", "a_y"), foreign="k2_q2")
     if args.calibration:
         from bayescal.cell.campaign import read_campaign
         from bayescal.cell.config import load_cell
@@ -115,7 +115,7 @@ def _read_inputs(args: argparse.Namespace):
         sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
         cell = load_cell(args.config)
         campaign = read_campaign(args.campaign, cell=cell)
-        tree = _load_tree(args.calibration, "--calibration", load, needs=("k2_q2", "sigma"))
+        tree = _load_tree(args.calibration, "--calibration", load, needs=("k2_q2", "sigma"), foreign="R")
         geometry = posterior_geometry(args.geometry) if args.geometry else None
         results = restore_results(cell, campaign, tree, geometry)
         review.results, review.campaign, review.cell = results, campaign, cell
@@ -133,7 +133,9 @@ def _read_inputs(args: argparse.Namespace):
     return review
 
 
-def _load_tree(path: str, option: str, load, needs: tuple[str, ...]):
+def _load_tree(path: str, option: str, load, needs: tuple[str, ...], foreign: str):
+    """The posterior at ``path``, refused when it lacks a variable of ``needs`` or has ``foreign``, a variable only
+    the other kind of posterior has (an elastostatic posterior also holds the geometry it sampled)."""
     from bayescal.errors import InputError
 
     try:
@@ -144,6 +146,9 @@ def _load_tree(path: str, option: str, load, needs: tuple[str, ...]):
     missing = [name for name in needs if name not in posterior]
     if missing:
         raise InputError(f"the posterior has no variable {', '.join(repr(m) for m in missing)}: is it the file {option} expects?", source=path)
+    if foreign in posterior:
+        other = "--calibration" if option == "--geometry" else "--geometry"
+        raise InputError(f"the posterior has the variable '{foreign}' of a {other} posterior: is it the file {option} expects?", source=path)
     return tree
 
 
@@ -154,7 +159,7 @@ def _read_json(path: str, option: str) -> dict:
         with open(path, encoding="utf-8") as stream:
             data = json.load(stream)
     except json.JSONDecodeError as exc:
-        raise InputError(f"not valid JSON: {exc.msg}", source=path, line=exc.lineno, column=str(exc.colno)) from None
+        raise InputError(f"not valid JSON ({exc.msg} at character {exc.colno})", source=path, line=exc.lineno) from None
     except UnicodeDecodeError:
         raise InputError("not a UTF-8 text file", source=path) from None
     if not isinstance(data, dict):

@@ -107,20 +107,21 @@ def render_review(inputs: ReviewInputs) -> dict[str, bytes]:
     if inputs.results is not None and (inputs.campaign is None or inputs.cell is None):
         raise ValueError("a review of elastostatic results needs their campaign and cell")
     page = _Page("Calibration review")
-    _overview(page, inputs)
+    facts = _Facts.of(inputs.results) if inputs.results is not None else None
+    _overview(page, inputs, facts)
     if inputs.results is not None:
         _data_section(page, inputs.results, inputs.campaign, inputs.cell)
     if inputs.geometry is not None:
         _geometry_section(page, inputs.geometry, inputs.seed)
     if inputs.results is not None:
-        _parameter_section(page, inputs.results)
-        _identifiability_section(page, inputs.results)
-    _convergence_section(page, inputs)
+        _parameter_section(page, inputs.results, facts)
+        _identifiability_section(page, inputs.results, facts)
+    _convergence_section(page, inputs, facts)
     if inputs.results is not None:
         _pairs_section(page, inputs.results, inputs.seed)
         if inputs.residuals is not None:
             _residual_section(page, inputs.results, inputs.residuals, inputs.campaign, inputs.cell)
-        _compensator_section(page, inputs.results, inputs.cell)
+        _compensator_section(page, inputs.results, inputs.cell, facts)
     if inputs.test_pose is not None:
         _test_pose_section(page, inputs.test_pose, inputs.cell)
     if inputs.plan is not None:
@@ -130,6 +131,19 @@ def render_review(inputs: ReviewInputs) -> dict[str, bytes]:
     if inputs.critique is not None:
         _critique_section(page, inputs.critique, inputs.sources.get("critique", ""))
     return page.files()
+
+
+@dataclass(frozen=True)
+class _Facts:
+    """The summaries of the elastostatic results that several sections show, computed once (each is an ESS pass)."""
+
+    summary: pd.DataFrame
+    parameters: dict
+    diagnostics: dict
+
+    @classmethod
+    def of(cls, results: ElastostaticResults) -> _Facts:
+        return cls(summary=results.summary(), parameters=results.parameters(), diagnostics=results.diagnostics())
 
 
 # ---------------------------------------------------------------------------- page
@@ -279,16 +293,16 @@ def _format(value: Any) -> str:
 
 
 # ---------------------------------------------------------------------------- sections
-def _overview(page: _Page, inputs: ReviewInputs) -> None:
+def _overview(page: _Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
     page.heading("overview", "Overview")
     lines = []
     results = inputs.results
     if results is not None:
-        parameters = results.parameters()
+        parameters = facts.parameters
         known = [name for name, value in parameters.items() if "mean" in value]
         unknown = [name for name, value in parameters.items() if "mean" not in value]
         lines.append(f"Identified from the campaign: {', '.join(known) or 'nothing'}; not identifiable: {', '.join(unknown) or 'none'}.")
-        report = results.diagnostics()
+        report = facts.diagnostics
         converged = report["r_hat_max"] <= R_HAT_LIMIT and min(report["ess_bulk_min"], report["ess_tail_min"]) >= ESS_LIMIT
         lines.append(
             f"Elastostatic posterior: R-hat ≤ {report['r_hat_max']:.3f}, ESS ≥ {min(report['ess_bulk_min'], report['ess_tail_min']):.0f} "
@@ -379,10 +393,9 @@ def _geometry_section(page: _Page, tree, seed: int) -> None:
     page.close()
 
 
-def _parameter_section(page: _Page, results: ElastostaticResults) -> None:
+def _parameter_section(page: _Page, results: ElastostaticResults, facts: _Facts) -> None:
     page.heading("parameters", "Elastostatic parameters beside Table IV")
-    summary = results.summary()
-    parameters = results.parameters()
+    summary, parameters = facts.summary, facts.parameters
     table_iv = published("IV")
     rows = {}
     for name, value in parameters.items():
@@ -412,7 +425,7 @@ def _parameter_section(page: _Page, results: ElastostaticResults) -> None:
     page.close()
 
 
-def _identifiability_section(page: _Page, results: ElastostaticResults) -> None:
+def _identifiability_section(page: _Page, results: ElastostaticResults, facts: _Facts) -> None:
     page.heading("identifiability", "What the data cannot identify, and why")
     ident = results.identifiability
     page.paragraph(
@@ -427,9 +440,9 @@ def _identifiability_section(page: _Page, results: ElastostaticResults) -> None:
         frame = pd.DataFrame({"kind": kind, "reason": reasons})
         frame.index.name = "parameter"
         page.table("not_identifiable", frame)
-        weak = results.weakly_determined()
+        weak = [name for name in ident.practical if name in facts.summary.index]
         if weak:
-            frame = pd.DataFrame.from_dict(weak, orient="index")[["mean", "lo3", "hi3", "unit"]]
+            frame = facts.summary.loc[weak, ["mean", "lo3", "hi3", "unit"]]
             frame.index.name = "parameter"
             page.table("weakly_determined", frame, caption="Their posterior, kept for inspection only: it mostly reflects the prior")
     else:
@@ -437,7 +450,7 @@ def _identifiability_section(page: _Page, results: ElastostaticResults) -> None:
     page.close()
 
 
-def _convergence_section(page: _Page, inputs: ReviewInputs) -> None:
+def _convergence_section(page: _Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
     posteriors = {}
     if inputs.geometry is not None:
         posteriors["geometry"] = inputs.geometry
@@ -448,7 +461,7 @@ def _convergence_section(page: _Page, inputs: ReviewInputs) -> None:
     page.heading("convergence", "Convergence diagnostics")
     rows = {}
     for name, tree in posteriors.items():
-        report = diagnostics(tree)
+        report = facts.diagnostics if name == "elastostatic" else diagnostics(tree)
         rows[name] = {key: report[key] for key in ("r_hat_max", "ess_bulk_min", "ess_tail_min", "n_chains", "n_draws")}
         rows[name]["sampler"] = str(tree.attrs.get("sampler", "not recorded"))
     frame = pd.DataFrame.from_dict(rows, orient="index")
@@ -505,7 +518,7 @@ def _residual_section(page: _Page, results: ElastostaticResults, table: pd.DataF
     page.close()
 
 
-def _compensator_section(page: _Page, results: ElastostaticResults, cell: Cell) -> None:
+def _compensator_section(page: _Page, results: ElastostaticResults, cell: Cell, facts: _Facts) -> None:
     page.heading("compensator", "The compensator: η(q2) and joint 2's compliance")
     tree = results.tree["posterior"]
     mean = results.geometry.mean
@@ -521,7 +534,7 @@ def _compensator_section(page: _Page, results: ElastostaticResults, cell: Cell) 
         f"({'posterior mean' if 's0' in tree else 'the cell’s'}).",
     )
     if results.draws.spring is not None:
-        summary = results.summary()
+        summary = facts.summary
         per_angle = [name for name in summary.index if name.startswith("k2_q2[")]
         angles = np.array([float(name[6:-1]) for name in per_angle]) * DEG
         lo, hi = min(angles.min(), -150 * DEG), max(angles.max(), 0.0)
