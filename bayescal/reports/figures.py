@@ -49,7 +49,7 @@ def plot_rank(draws: Mapping[str, ArrayLike], *, columns: int = 3) -> Figure:
         expected = values.shape[1] / RANK_BINS
         for chain in range(values.shape[0]):
             counts, _ = np.histogram(ranks[chain], bins=edges)
-            ax.stairs(counts / expected, edges / values.size, lw=1.0, label=f"chain {chain + 1}")
+            ax.stairs(counts / expected, edges / values.size, baseline=None, lw=1.0, label=f"chain {chain + 1}")
         ax.axhline(1.0, color="0.5", lw=0.8, ls="--")
         ax.set_title(name, fontsize=9)
         ax.set_xlabel("rank quantile [-]", fontsize=8)

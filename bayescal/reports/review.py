@@ -189,9 +189,10 @@ class _Page:
         header = [index, *map(str, frame.columns)]
         rows = [[str(name), *(_format(value) for value in row)] for name, row in zip(frame.index, frame.itertuples(index=False))]
         numeric = [[False, *(_is_number(value) for value in row)] for row in frame.itertuples(index=False)]
-        caption_html = f"<caption>{html.escape(caption)}</caption>" if caption else ""
+        # A paragraph, not a <caption>: a caption wraps to the width of a narrow table.
+        caption_html = f'<p class="caption">{html.escape(caption)}</p>' if caption else ""
         self.html.append(
-            f"<table>{caption_html}<thead><tr>"
+            f"{caption_html}<table><thead><tr>"
             + "".join(f"<th>{html.escape(h)}</th>" for h in header)
             + "</tr></thead><tbody>"
             + "".join(
@@ -236,7 +237,7 @@ body {{ font-family: system-ui, sans-serif; max-width: 1120px; margin: 1.5em aut
 h1 {{ margin-bottom: 0.2em; }}
 h2 {{ border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 1.8em; }}
 table {{ border-collapse: collapse; margin: 0.8em 0; font-size: 0.9em; }}
-caption {{ caption-side: top; text-align: left; font-style: italic; padding-bottom: 0.3em; }}
+p.caption {{ font-style: italic; margin: 1em 0 0.3em 0; }}
 th, td {{ border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }}
 td.num {{ text-align: right; font-variant-numeric: tabular-nums; }}
 td {{ max-width: 38em; }}
@@ -272,6 +273,10 @@ def _plain(value: Any) -> Any:
     if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
+
+
+def _unit(unit: str) -> str:
+    return DISPLAY_UNITS.get(unit, unit)
 
 
 def _is_number(value: Any) -> bool:
@@ -382,7 +387,7 @@ def _geometry_section(page: _Page, tree, seed: int) -> None:
             ],
             "R-hat": summary["r_hat"],
             "ESS bulk": summary["ess_bulk"],
-            "unit": summary["unit"],
+            "unit": [_unit(u) for u in summary["unit"]],
         },
         index=pd.Index(names, name="parameter"),
     )
@@ -401,7 +406,7 @@ def _parameter_section(page: _Page, results: ElastostaticResults, facts: _Facts)
     for name, value in parameters.items():
         paper = table_iv.get(name, (math.nan, math.nan))
         row = {"mean": math.nan, "±3σ": math.nan, "±3σ [% of mean]": math.nan, "Table IV": paper[0], "Table IV ±3σ": paper[1]}
-        row |= {"Table IV ±3σ [%]": 100 * paper[1] / paper[0] if paper[0] else math.nan, "R-hat": math.nan, "unit": PARAMETER_UNITS[name]}
+        row |= {"Table IV ±3σ [%]": 100 * paper[1] / paper[0] if paper[0] else math.nan, "R-hat": math.nan, "unit": _unit(PARAMETER_UNITS[name])}
         if "mean" in value:
             row |= {"mean": value["mean"], "±3σ": value["hi3"] - value["mean"], "R-hat": summary.loc[name, "r_hat"]}
             row["±3σ [% of mean]"] = 100 * (value["hi3"] - value["mean"]) / abs(value["mean"])
@@ -418,7 +423,11 @@ def _parameter_section(page: _Page, results: ElastostaticResults, facts: _Facts)
     per_angle = summary.loc[[name for name in summary.index if name.startswith("k2_q2[")]]
     if not per_angle.empty:
         frame = pd.DataFrame(
-            {"mean": per_angle["mean"], "±3σ": 3 * per_angle["sd"], "±3σ [% of mean]": 300 * per_angle["sd"] / per_angle["mean"].abs()},
+            {
+                "mean": per_angle["mean"].to_numpy(),
+                "±3σ": 3 * per_angle["sd"].to_numpy(),
+                "±3σ [% of mean]": 300 * (per_angle["sd"] / per_angle["mean"].abs()).to_numpy(),
+            },
             index=pd.Index([f"{float(name[6:-1]):g}" for name in per_angle.index], name="q2 [deg]"),
         )
         page.table("k2_per_angle", frame, caption="Equivalent joint-2 compliance (with the compensator) at each campaign angle, μrad/(N·m)")
@@ -442,7 +451,7 @@ def _identifiability_section(page: _Page, results: ElastostaticResults, facts: _
         page.table("not_identifiable", frame)
         weak = [name for name in ident.practical if name in facts.summary.index]
         if weak:
-            frame = facts.summary.loc[weak, ["mean", "lo3", "hi3", "unit"]]
+            frame = facts.summary.loc[weak, ["mean", "lo3", "hi3", "unit"]].assign(unit=lambda f: f["unit"].map(_unit))
             frame.index.name = "parameter"
             page.table("weakly_determined", frame, caption="Their posterior, kept for inspection only: it mostly reflects the prior")
     else:
@@ -470,7 +479,7 @@ def _convergence_section(page: _Page, inputs: ReviewInputs, facts: _Facts | None
     if inputs.results is not None:
         tree = inputs.results.tree["posterior"]
         names = [name for name in PARAMETER_UNITS if name in tree and name not in inputs.results.identifiability.reasons]
-        draws = {f"{name} [{DISPLAY_UNITS.get(PARAMETER_UNITS[name], PARAMETER_UNITS[name])}]": np.asarray(tree[name].values) for name in names}
+        draws = {f"{name} [{_unit(PARAMETER_UNITS[name])}]": np.asarray(tree[name].values) for name in names}
         page.figure("rank_elastostatic", plot_rank(draws), "Rank plots of the elastostatic posterior: flat and overlapping when the chains mix.")
     if inputs.geometry is not None:
         tree = inputs.geometry["posterior"]
@@ -486,7 +495,7 @@ def _pairs_section(page: _Page, results: ElastostaticResults, seed: int) -> None
         return
     page.heading("pairs", "Posterior pairs")
     table_iv = published("IV")
-    labels = {name: f"{name} [{DISPLAY_UNITS.get(PARAMETER_UNITS[name], PARAMETER_UNITS[name])}]" for name in names}
+    labels = {name: f"{name} [{_unit(PARAMETER_UNITS[name])}]" for name in names}
     draws = {labels[name]: np.asarray(tree[name].values).ravel() for name in names}
     reference = {labels[n]: table_iv[n][0] for n in names if n in table_iv}
     page.figure(
@@ -583,7 +592,7 @@ def _test_pose_section(page: _Page, prediction: TestPosePrediction, cell: Cell |
     error.index.name = "error left"
     page.table("residual_error_mm", error)
     if numbers["assumed"]:
-        page.items([f"{name} held at the cell's {value['value']:.4g} {value['unit']}: {value['note']}" for name, value in numbers["assumed"].items()])
+        page.items([f"{name} held at the cell's {value['value']:.4g} {_unit(value['unit'])}: {value['note']}" for name, value in numbers["assumed"].items()])
         page.record("assumed", numbers["assumed"])
     error_mm = numbers["residual_error_mm"]
     to_um = MM / UM
@@ -610,7 +619,7 @@ def _generic(page: _Page, data: Mapping, prefix: str = "") -> None:
     scalars = {key: value for key, value in data.items() if not isinstance(value, Mapping | list)}
     if scalars:
         frame = pd.DataFrame({"value": [_format(v) for v in scalars.values()]}, index=pd.Index(list(scalars), name="key"))
-        page.table(prefix + "values", frame)
+        page.table(prefix + "values", frame, caption=prefix.rstrip(".").replace(".", ": "))
         page.record(prefix + "values", scalars)
     for key, value in data.items():
         if isinstance(value, Mapping) and value and all(isinstance(item, Mapping) for item in value.values()):
