@@ -307,7 +307,10 @@ def _overview(page: _Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
         known = [name for name, value in parameters.items() if "mean" in value]
         unknown = [name for name, value in parameters.items() if "mean" not in value]
         lines.append(f"Identified from the campaign: {', '.join(known) or 'nothing'}; not identifiable: {', '.join(unknown) or 'none'}.")
+        page.record("identified", known)
+        page.record("not_identifiable", unknown)
         report = facts.diagnostics
+        page.record("elastostatic_diagnostics", {key: report[key] for key in ("r_hat_max", "ess_bulk_min", "ess_tail_min", "chi2_per_dof")})
         converged = report["r_hat_max"] <= R_HAT_LIMIT and min(report["ess_bulk_min"], report["ess_tail_min"]) >= ESS_LIMIT
         lines.append(
             f"Elastostatic posterior: R-hat ≤ {report['r_hat_max']:.3f}, ESS ≥ {min(report['ess_bulk_min'], report['ess_tail_min']):.0f} "
@@ -317,6 +320,7 @@ def _overview(page: _Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
             lines.append(f"Fit against the tracker's noise model: χ²/dof = {report['chi2_per_dof']:.3f} (1 when the model describes the data).")
     if inputs.test_pose is not None and inputs.test_pose.available:
         error = inputs.test_pose.to_json()["residual_error_mm"]
+        page.record("test_pose_error_mm", {"rms": error["rms"], "q99.73": error["q99.73"]})
         lines.append(
             f"Positioning error left at the test pose after compensation: rms {error['rms'] / (UM / MM):.1f} μm, "
             f"99.73 % of draws below {error['q99.73'] / (UM / MM):.1f} μm."
@@ -353,6 +357,7 @@ def _data_section(page: _Page, results: ElastostaticResults, campaign: Campaign,
     frame.index.name = "quantity"
     page.table("ranges", frame)
     tracker = cell.tracker
+    page.record("tracker", {"factor": tracker.factor, "U0_um": tracker.U0 / UM, "U1_um_per_m": tracker.U1 / UM, "position_mm": tracker.position / MM})
     page.paragraph(
         f"Tracker model of the cell: sd = {tracker.factor:g} × ({tracker.U0 / UM:g} μm + {tracker.U1 / UM:g} μm/m × distance) "
         f"per coordinate, tracker at ({', '.join(f'{v / MM:.0f}' for v in tracker.position)}) mm; a deflection is the "
@@ -369,6 +374,7 @@ def _geometry_section(page: _Page, tree, seed: int) -> None:
     observed = tree["observed_data"] if "observed_data" in tree.children else None
     if observed is not None and "q2_deg" in observed:
         q2 = np.asarray(observed["q2_deg"].values, dtype=float)
+        page.record("points", {"count": q2.size, "q2_angles": int(np.unique(q2).size), "q2_min_deg": q2.min(), "q2_max_deg": q2.max()})
         page.paragraph(
             f"{q2.size} tracker points at {np.unique(q2).size} q2 angles from {q2.min():g} to {q2.max():g} deg "
             f"({tree.attrs.get('source', 'source not recorded')}); model: {tree.attrs.get('model', 'not recorded')}."
@@ -394,6 +400,7 @@ def _geometry_section(page: _Page, tree, seed: int) -> None:
     page.table("parameters", frame, caption="Posterior mean and ±3σ half-width beside Klimchik et al., Table II")
     draws = {f"{name} [{summary.loc[name, 'unit']}]": np.asarray(tree["posterior"][name].values).ravel() for name in names}
     reference = {f"{n} [{summary.loc[n, 'unit']}]": table_ii[n][0] for n in names if n in table_ii}
+    page.record("correlation", pd.DataFrame(draws).corr().to_dict())
     page.figure("geometry_pairs", plot_pairs(draws, reference=reference, reference_label="Table II", seed=seed), "Geometry posterior: pairs of L, a_x, a_y, phi; dashed: Table II.")
     page.close()
 
@@ -498,6 +505,7 @@ def _pairs_section(page: _Page, results: ElastostaticResults, seed: int) -> None
     labels = {name: f"{name} [{_unit(PARAMETER_UNITS[name])}]" for name in names}
     draws = {labels[name]: np.asarray(tree[name].values).ravel() for name in names}
     reference = {labels[n]: table_iv[n][0] for n in names if n in table_iv}
+    page.record("correlation", pd.DataFrame(draws).corr().to_dict())
     page.figure(
         "pairs_elastostatic",
         plot_pairs(draws, reference=reference, reference_label="Table IV", seed=seed),
@@ -536,6 +544,7 @@ def _compensator_section(page: _Page, results: ElastostaticResults, cell: Cell, 
     geometry = CompensatorGeometry(*mean)
     s0 = float(tree["s0"].mean()) * MM if "s0" in tree else cell.compensator.s0
     values = sorted({*(v * MM for v in ETA_S0_MM), s0})
+    page.record("eta_s0_mm", {"curves": [v / MM for v in values], "highlighted": s0 / MM})
     page.figure(
         "eta",
         plot_eta_curves(geometry, values, highlight=s0),
@@ -578,6 +587,7 @@ def _test_pose_section(page: _Page, prediction: TestPosePrediction, cell: Cell |
         page.close()
         return
     if cell is not None:
+        page.record("pose", {"q_deg": cell.test_q / DEG, "force_N": cell.test_wrench[:3], "moment_Nm": cell.test_wrench[3:]})
         page.paragraph(
             f"Test pose q = ({', '.join(f'{v / DEG:g}' for v in cell.test_q)}) deg, wrench f = "
             f"({', '.join(f'{v:g}' for v in cell.test_wrench[:3])}) N, m = ({', '.join(f'{v:g}' for v in cell.test_wrench[3:])}) N·m. "
