@@ -59,7 +59,8 @@ def plot_rank(draws: Mapping[str, ArrayLike], *, columns: int = 3) -> Figure:
     for ax in axes[len(names) :]:
         ax.set_visible(False)
     if names:
-        axes[0].legend(fontsize=7, ncols=2)
+        # Above the panels, where it hides no histogram.
+        figure.legend(*axes[0].get_legend_handles_labels(), loc="outside upper center", ncols=values.shape[0], fontsize=8)
     return figure
 
 
@@ -159,7 +160,7 @@ def plot_residuals(table: pd.DataFrame, covariates: Mapping[str, str], *, noise_
     for ax in axes[len(names) :]:
         ax.set_visible(False)
     if names:
-        axes[0].legend(fontsize=8, ncols=2)
+        figure.legend(*axes[0].get_legend_handles_labels(), loc="outside upper center", ncols=4, fontsize=9)
     return figure
 
 
