@@ -109,27 +109,28 @@ def render_review(inputs: ReviewInputs) -> dict[str, bytes]:
     page = _Page("Calibration review")
     facts = _Facts.of(inputs.results) if inputs.results is not None else None
     _overview(page, inputs, facts)
-    if inputs.results is not None:
-        _data_section(page, inputs.results, inputs.campaign, inputs.cell)
-    if inputs.geometry is not None:
-        _geometry_section(page, inputs.geometry, inputs.seed)
+    # Results first, for the reader who stops after the first screen; then what they rest on.
     if inputs.results is not None:
         _parameter_section(page, inputs.results, facts)
         _identifiability_section(page, inputs.results, facts)
+    if inputs.test_pose is not None:
+        _test_pose_section(page, inputs.test_pose, inputs.cell)
+    if inputs.geometry is not None:
+        _geometry_section(page, inputs.geometry, inputs.seed)
+    if inputs.results is not None:
+        _compensator_section(page, inputs.results, inputs.cell, facts)
+        _data_section(page, inputs.results, inputs.campaign, inputs.cell)
+        if inputs.residuals is not None:
+            _residual_section(page, inputs.results, inputs.residuals, inputs.campaign, inputs.cell)
+    if inputs.critique is not None:
+        _critique_section(page, inputs.critique, inputs.sources.get("critique", ""))
     _convergence_section(page, inputs, facts)
     if inputs.results is not None:
         _pairs_section(page, inputs.results, inputs.seed)
-        if inputs.residuals is not None:
-            _residual_section(page, inputs.results, inputs.residuals, inputs.campaign, inputs.cell)
-        _compensator_section(page, inputs.results, inputs.cell, facts)
-    if inputs.test_pose is not None:
-        _test_pose_section(page, inputs.test_pose, inputs.cell)
     if inputs.plan is not None:
         _json_section(page, "plan", "Experiment plan", inputs.plan, sources=inputs.sources.get("plan", ""))
     if inputs.study is not None:
         _study_section(page, inputs.study, inputs.sources.get("q2-angle study", ""))
-    if inputs.critique is not None:
-        _critique_section(page, inputs.critique, inputs.sources.get("critique", ""))
     return page.files()
 
 

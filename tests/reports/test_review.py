@@ -76,8 +76,8 @@ def test_report_writes_page_summary_numbers_and_every_figure(report):
     summary = (report / MARKDOWN_FILE).read_text()
     assert all(f"]({name})" in summary for name in figures)
     numbers = json.loads((report / JSON_FILE).read_text())
-    sections = ["overview", "data", "geometry", "parameters", "identifiability", "convergence", "pairs", "residuals",
-                "compensator", "test_pose", "plan", "study", "critique"]
+    sections = ["overview", "parameters", "identifiability", "test_pose", "geometry", "compensator", "data", "residuals",
+                "critique", "convergence", "pairs", "plan", "study"]
     assert list(numbers) == sections
     assert all(f'id="{section}"' in page for section in sections)
 
