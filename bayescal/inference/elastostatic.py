@@ -257,6 +257,17 @@ class ElastostaticModel:
             draws = ElastostaticDraws.from_tree(tree, prepared.equations)
         except (KeyError, ValueError) as exc:
             raise InputError(f"the posterior is not one of this campaign and model: {exc}", source=campaign.source) from None
+        ident = prepared.identifiability
+        saved = set(np.flatnonzero(~np.all(np.isnan(draws.k2), axis=(0, 1))).tolist())
+        expected = set(range(prepared.equations.q2.size)) if draws.spring is not None else {
+            angle for (_, angle), keep in zip(prepared.equations.per_angle_columns(), ident.identifiable) if angle is not None and keep
+        }
+        if saved != expected:
+            raise InputError(
+                f"the posterior is not one of this campaign: it has joint-2 compliances at {len(saved)} q2 angles, "
+                f"the campaign identifies them at {len(expected)}",
+                source=campaign.source,
+            )
         if prepared.identifiability.compensator != (draws.spring is not None):
             raise InputError(
                 "the posterior is not one of this campaign: "

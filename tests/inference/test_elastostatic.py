@@ -251,3 +251,15 @@ def test_restore_refuses_the_posterior_of_another_campaign(cell, campaign, resul
         restore_results(cell, other, results.tree)
     with pytest.raises(InputError, match="noise groups"):
         ElastostaticModel.from_cell(cell, noise="marker").restore(campaign, results.tree)
+
+
+def test_restore_refuses_a_posterior_with_fewer_angles_than_the_campaign(cell, campaign, results):
+    from bayescal.inference.elastostatic import restore_results
+
+    fewer = np.flatnonzero(campaign.q[:, 1] > np.radians(-120.0))
+    other = dataclasses.replace(campaign, **{name: getattr(campaign, name)[fewer] for name in ("config", "repeat", "marker", "q", "wrench", "p0", "p1", "lines")})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        smaller = ElastostaticModel.from_cell(cell, sampler=GibbsSampler(n_chains=2, n_tune=50, n_draws=100)).fit(other, 0)
+    with pytest.raises(InputError, match="joint-2 compliances at 4 q2 angles, the campaign identifies them at 5"):
+        restore_results(cell, campaign, smaller.tree)
