@@ -35,7 +35,7 @@ from bayescal.inference.testpose import TestPosePrediction
 from bayescal.reference import published
 from bayescal.reports.figures import plot_error_distribution, plot_evidence, plot_pairs, plot_rank, plot_residuals
 from bayescal.reports.plots import plot_eta_curves, plot_joint2_compliance
-from bayescal.robot.compensator import COMPENSATED_JOINT, CompensatorGeometry
+from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, diagnostics, summarize
 from bayescal.studies.residuals import COVARIATES
 from bayescal.units import DEG, MM, UM, URAD_PER_NM
@@ -128,7 +128,7 @@ def render_review(inputs: ReviewInputs) -> dict[str, bytes]:
     if inputs.results is not None:
         _pairs_section(page, inputs.results, inputs.seed)
     if inputs.plan is not None:
-        _json_section(page, "plan", "Experiment plan", inputs.plan, sources=inputs.sources.get("plan", ""))
+        _plan_section(page, inputs.plan, inputs.sources.get("plan", ""))
     if inputs.study is not None:
         _study_section(page, inputs.study, inputs.sources.get("q2-angle study", ""))
     return page.files()
@@ -617,11 +617,14 @@ def _test_pose_section(page: _Page, prediction: TestPosePrediction, cell: Cell |
     page.close()
 
 
-def _json_section(page: _Page, key: str, title: str, data: Mapping, *, sources: str = "", known: Sequence[str] = ()) -> None:
-    page.heading(key, title)
-    if sources:
-        page.paragraph(f"From {sources}.")
-    _generic(page, {k: v for k, v in data.items() if k not in known})
+def _plan_section(page: _Page, plan: Mapping, source: str) -> None:
+    page.heading("plan", "Experiment plan")
+    if source:
+        page.paragraph(f"From {source}.")
+    criteria = {key: value for key, value in plan.items() if key.startswith("criterion") and not isinstance(value, Mapping | list)}
+    if criteria:
+        page.paragraph("Design criterion: " + ", ".join(f"{key} = {_format(value)}" for key, value in criteria.items()), css="verdict")
+    _generic(page, plan)
     page.close()
 
 

@@ -117,6 +117,7 @@ def test_optional_files_are_rendered_known_keys_and_unknown_ones(report):
     assert numbers["study"]["table"]["2"]["K_c_3sigma_percent"] == 120
     page = (report / HTML_FILE).read_text()
     assert "hand-written fixture" in page and "critique_evidence.png" in page
+    assert "Design criterion: criterion = rho0, criterion_mm = 0.0412" in page
 
 
 def test_sections_appear_only_for_what_was_given(short_calibration):
