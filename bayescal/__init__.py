@@ -27,6 +27,7 @@ _ENTRY_POINTS = {
     "ElastostaticModel": "inference.elastostatic",
     "predict_test_pose": "inference.testpose",
     "predict_cell_test_pose": "inference.testpose",
+    "PlanDesigner": "design.optimise",
 }
 
 __all__ = [*_ENTRY_POINTS, "__version__"]

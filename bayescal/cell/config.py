@@ -56,6 +56,7 @@ SCHEMA: dict[str, frozenset[str] | None] = {
     "tracker": frozenset({"position_mm", "U0_um", "U1_um_per_m", "factor"}),
     "load": frozenset({"mass_kg", "gravity_m_per_s2"}),
     "test_pose": frozenset({"q_deg", "wrench_N_Nm", "point_mm"}),
+    "design": frozenset({"mass_kg", "acceptance_deg", "floor_z_mm", "hanging_clearance_mm"}),
 }
 """The tables of a cell file and their keys (``None``: any key, e.g. marker names).
 

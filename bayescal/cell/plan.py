@@ -9,8 +9,10 @@ order; lines starting with ``#`` are provenance notes.
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from os import PathLike
+from pathlib import Path
 
 import numpy as np
 
@@ -19,7 +21,7 @@ from bayescal.robot.kinematics import Robot
 from bayescal.tables import read_header, read_table
 from bayescal.units import DEG
 
-__all__ = ["Plan", "read_plan"]
+__all__ = ["Plan", "read_plan", "write_plan"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -112,3 +114,21 @@ def read_plan(path: str | PathLike[str], robot: Robot, *, max_load_kg: float | N
                 column="load_kg",
             )
     return Plan(q=q, load_kg=load, lines=frame.index.to_numpy(dtype=int), source=source)
+
+
+def write_plan(plan: Plan, path: str | PathLike[str], *, comments: Sequence[str] = ()) -> None:
+    """Write ``plan`` in the format :func:`read_plan` reads; ``comments`` become leading ``#`` lines.
+
+    Joint angles are written with 3 decimals in deg (about 17 μrad, far below the
+    controllers' repeatability), loads with 1 decimal in kg.
+    """
+    lines = [f"# {line}" for comment in comments for line in str(comment).splitlines()]
+    joints = [f"q{j}_deg" for j in range(1, plan.q.shape[1] + 1)]
+    lines.append(",".join(joints + ([] if plan.load_kg is None else ["load_kg"])))
+    for number, q in enumerate(plan.q):
+        # "+ 0.0" turns a rounded -0.0 into 0.0 so the file does not depend on rounding sign.
+        fields = [f"{round(float(value / DEG), 3) + 0.0:.3f}" for value in q]
+        if plan.load_kg is not None:
+            fields.append(f"{float(plan.load_kg[number]):.1f}")
+        lines.append(",".join(fields))
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")

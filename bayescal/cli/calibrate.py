@@ -121,12 +121,12 @@ def _finite(value):
 def _text(results, test_pose, args) -> str:
     import textwrap
 
-    from bayescal.inference.results import PARAMETER_UNITS
     from bayescal.reference import published
     from bayescal.inference.identifiability import grouped
 
     parameters = results.parameters()
-    reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in PARAMETER_UNITS}
+    units = results.parameter_units
+    reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in units}
     lines = [
         f"{args.campaign}: {results.n_equations} equations ({results.n_rows} rows x 3 coordinates), "
         f"{results.model} model, {results.sampler_name}, seed {args.seed}",
@@ -136,7 +136,7 @@ def _text(results, test_pose, args) -> str:
     for name, entry in parameters.items():
         reference = published("IV").get(name)
         paper = f"{reference[0]:>9.4g}{reference[1]:>8.3g}{100 * reference[1] / reference[0]:>7.1f}%" if reference else f"{'–':>9}"
-        unit = PARAMETER_UNITS[name]
+        unit = units[name]
         if "mean" in entry:
             width = 100 * 3 * entry["sd"] / abs(entry["mean"]) if entry["mean"] else math.inf
             lines.append(f"{name:<10}{unit:<12}{entry['mean']:>10.4g}{3 * entry['sd']:>10.3g}{width:>7.1f}%   | {paper}")

@@ -40,10 +40,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "--chains",
         type=whole_number(2, "R-hat needs at least 2 chains"),
         default=4,
-        help="independent ensembles, at least 2 (default 4)",
+        help="independent chains, at least 2 (default 4)",
     )
-    parser.add_argument("--tune", type=whole_number(1), default=1000, help="tuning steps per ensemble (default 1000)")
-    parser.add_argument("--draws", type=whole_number(1), default=1000, help="kept steps per walker (default 1000)")
+    parser.add_argument("--tune", type=whole_number(1), default=200, help="discarded steps per chain (default 200)")
+    parser.add_argument("--draws", type=whole_number(1), default=1000, help="kept draws per chain (default 1000)")
     add_common_options(parser)
     parser.set_defaults(run=run)
 

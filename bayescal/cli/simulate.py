@@ -9,10 +9,23 @@ from ._command import CommandOutput, add_common_options, check_output, whole_num
 __all__ = ["add_parser", "run"]
 
 
-def add_parser(subparsers) -> None:
-    from bayescal.twin.effects import EFFECTS
+class _EffectsHelp(argparse.HelpFormatter):
+    """Lists the twin's effects in ``--effect``'s help when the help is shown.
 
-    effects = "; ".join(f"{name}: {cls.summary} (default {cls.default:g} {cls.unit})" for name, cls in EFFECTS.items())
+    Building the list imports the twin (and Pinocchio), which the other
+    subcommands, whose parsers are built on every run, do not need.
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = super()._get_help_string(action) or ""
+        if "--effect" in action.option_strings:
+            from bayescal.twin.effects import EFFECTS
+
+            text += ": " + "; ".join(f"{name}: {cls.summary} (default {cls.default:g} {cls.unit})" for name, cls in EFFECTS.items())
+        return text
+
+
+def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "simulate",
         help="simulate an elastostatic calibration campaign on the digital twin",
@@ -20,6 +33,7 @@ def add_parser(subparsers) -> None:
             "Measure every configuration of a plan unloaded and loaded on the digital twin of a cell, "
             "with laser-tracker noise, and write the campaign CSV."
         ),
+        formatter_class=_EffectsHelp,
     )
     parser.add_argument("--plan", required=True, help="plan CSV: q1_deg..q6_deg and optionally load_kg per configuration")
     parser.add_argument("--config", required=True, help="cell TOML file (robot, stiffness, compensator, tool, tracker)")
@@ -31,7 +45,7 @@ def add_parser(subparsers) -> None:
         type=_effect_text,
         default=[],
         metavar="NAME[=MAGNITUDE]",
-        help=f"plant an effect, repeatable: {effects}",
+        help="plant an effect, repeatable",
     )
     add_common_options(parser)
     parser.set_defaults(run=run)
@@ -62,7 +76,11 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
     inputs = {"the plan": args.plan, "the config": args.config}
     check_output("-o", args.output, inputs)
-    effects = [parse_effect(text) for text in args.effect]
+    effects = [parse_effect(text, source="--effect") for text in args.effect]
+    names = [effect.name for effect in effects]
+    if len(set(names)) < len(names):
+        repeated = next(name for name in names if names.count(name) > 1)
+        raise InputError(f"effect '{repeated}' is given more than once", source="--effect")
     cell = load_cell(args.config)
     check_output("-o", args.output, inputs | {"the robot URDF": cell.robot.source})
     plan = read_plan(args.plan, cell.robot, max_load_kg=cell.max_force / cell.gravity)
@@ -84,7 +102,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     planted = [effect.describe() for effect in twin.effects]
     comments = [
         f"simulated by bayescal simulate --plan {args.plan} --config {args.config} --repeats {args.repeats} --seed {args.seed}",
-        f"effects: {', '.join(planted) if planted else 'none'}; compensator {'on' if twin.compensator else 'off'}",
+        f"effects: {', '.join(planted) if planted else 'none'}; compensator {'on' if twin.arm.compensator else 'off'}",
         "wrench at the flange origin in base axes; positions in the base frame, 0 unloaded, 1 loaded",
     ]
     write_atomically("-o", args.output, partial(write_campaign, campaign, comments=comments))
@@ -98,7 +116,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         "repeats": args.repeats,
         "markers": list(twin.marker_names),
         "equations": campaign.n_equations,
-        "compensator": twin.compensator is not None,
+        "compensator": twin.arm.compensator is not None,
         "effects": [{"name": effect.name, "magnitude": effect.magnitude, "unit": effect.unit} for effect in twin.effects],
         "noise_sd_um": {"min": float(sigma.min()), "max": float(sigma.max())},
         "max_deflection_mm": deflection,
@@ -108,7 +126,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         [
             f"wrote {args.output}: {len(campaign)} rows = {len(plan)} configurations x {args.repeats} repeats x "
             f"{len(twin.marker_names)} markers, {campaign.n_equations} equations",
-            f"compensator: {'on' if twin.compensator else 'off'}; effects: {', '.join(planted) if planted else 'none'}",
+            f"compensator: {'on' if twin.arm.compensator else 'off'}; effects: {', '.join(planted) if planted else 'none'}",
             f"tracker noise sd per coordinate: {sigma.min():.1f} to {sigma.max():.1f} um",
             f"largest marker deflection: {deflection:.3f} mm",
         ]

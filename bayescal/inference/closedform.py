@@ -33,7 +33,7 @@ class ClosedForm:
     sigma : numpy.ndarray
         Residual standard deviation per noise group (m).
     compliances : numpy.ndarray
-        ``(6,)`` joint compliances with ``k2 = 1/K_theta2^0``; ``nan`` where not identifiable.
+        ``(nq,)`` joint compliances with ``k2 = 1/K_theta2^0``; ``nan`` where not identifiable.
     spring : numpy.ndarray | None
         ``[K_theta2^0, K_c, s0]`` from eq 34 (None when not identifiable).
     k2 : numpy.ndarray
@@ -68,7 +68,7 @@ def closed_form(
     counts = np.bincount(equations.group, minlength=groups)
     sigma = np.sqrt(ssr / np.maximum(counts * dof / equations.n, 1.0))
     columns = [c for c, keep in zip(equations.per_angle_columns(), identifiability.identifiable) if keep]
-    compliances = np.full(6, np.nan)
+    compliances = np.full(equations.n_joints, np.nan)
     k2 = np.full(equations.q2.size, np.nan)
     k2_sd = np.full(equations.q2.size, np.nan)
     for index, (value, (joint, angle)) in enumerate(zip(k, columns)):

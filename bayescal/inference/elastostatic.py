@@ -42,12 +42,12 @@ from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError, NotIdentifiableWarning
 from bayescal.inference.closedform import ClosedForm, check_regression, closed_form
 from bayescal.inference.equations import DeflectionEquations, check_campaign, deflection_equations, deflection_noise
-from bayescal.inference.exact import linearisation_offset
+from bayescal.inference.exact import linearisation_offset, scale_masses
 from bayescal.inference.identifiability import Identifiability, analyse, grouped, practical_reasons
 from bayescal.inference.likelihood import compensated_posterior, per_angle_posterior
 from bayescal.inference.priors import GeometryPrior, config_geometry
-from bayescal.inference.results import PARAMETER_UNITS, ElastostaticDraws, ElastostaticResults
-from bayescal.robot.compensator import COMPENSATED_JOINT, CompensatorGeometry
+from bayescal.inference.results import ElastostaticDraws, ElastostaticResults, parameter_units
+from bayescal.robot.compensator import COMPENSATED_JOINT, CompensatorGeometry, stiffness_regressor
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.gibbs import GibbsSampler
 from bayescal.sampling.protocol import Sampler
@@ -64,6 +64,11 @@ EMCEE_TUNE = 1000
 """emcee steps discarded per ensemble: its autocorrelation times here are a few tens of steps."""
 LOG_SIGMA_SCALE = 0.05
 """Initial spread of log sigma around the closed form's: its posterior sd at a few hundred equations."""
+GRAVITY_SD = 0.2 / 3
+"""Prior sd of the scale on the link masses: ±20 % at 3σ, as uncertain as the URDF's mass ESTIMATES."""
+STATIC_STEPS = (0.05, 0.05, 0.05)
+"""Finite-difference steps of the static columns: relative in K_c and K_c s0, absolute in the mass scale;
+the correction is linear in all three to well within this (the compensator torque is linear in K_c and K_c s0, eq 7)."""
 CHI2_TOLERANCE = 2.0
 """chi2/dof of the fit against the config's tracker model beyond which (or below whose inverse) the tracker model
 is reported as not describing the data: with a few hundred equations chi2/dof has an sd below 0.1."""
@@ -119,7 +124,7 @@ class ElastostaticModel:
         Prior of the compensator geometry ``[L, a_x, a_y, phi]`` (m, rad): from a
         geometry posterior (:meth:`GeometryPrior.from_draws`) or from the config.
     nominal_compliances
-        ``(6,)`` compliances (rad/(N·m), k2 without compensator) used only by the
+        ``(nq,)`` compliances (rad/(N·m), k2 without compensator) used only by the
         exact model for parameters the campaign cannot identify.
     nominal_spring
         ``(K_c, s0)`` (N/m, m) used by the exact model when the compensator is not identifiable.
@@ -211,17 +216,20 @@ class ElastostaticModel:
     def fit(self, campaign: Campaign, rng: np.random.Generator | int = 0) -> ElastostaticResults:
         """Identify the parameters from ``campaign``; ``rng`` seeds every random draw."""
         rng = np.random.default_rng(rng)
-        prepared = self._prepare(campaign)
-        corrected = replace(prepared.equations, y=prepared.equations.y - prepared.offset)
-        tree, draws = self._sample(corrected.whitened(), prepared.identifiability, prepared.closed_form, rng)
+        equations, ident, linear_cf, offset, cf, iterations = self._prepare(campaign)
+        corrected = replace(equations, y=equations.y - offset)
+        static = self._static_columns(campaign, equations, cf) if self.model == "exact" and ident.compensator else None
+        tree, draws, residual, n_free = self._sample(corrected.whitened(), ident, cf, rng, static)
         tree.attrs.update(
             {"model": self.model, "noise": self.noise, "sampler": type(self.sampler).__name__, "geometry": self.geometry.source}
         )
-        results = self._results(campaign, prepared, tree, draws)
-        for names, reason in grouped(results.identifiability.practical):
+        if corrected.scale is not None:
+            residual = residual * corrected.scale
+        practical = self._practical(tree, equations, ident, cf)
+        for names, reason in grouped(practical):
             warnings.warn(f"{_listed(names)} not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=2)
         warn_if_unconverged(diagnostics(tree), what="the elastostatic posterior")
-        chi2 = results.chi2_per_dof
+        chi2 = self._chi2_per_dof(campaign, residual, n_free)
         if chi2 is not None and not 1 / CHI2_TOLERANCE < chi2 < CHI2_TOLERANCE:
             warnings.warn(
                 f"{campaign.source}: the residuals are {math.sqrt(chi2):.2f} times the tracker noise of the config "
@@ -231,7 +239,24 @@ class ElastostaticModel:
                 UserWarning,
                 stacklevel=2,
             )
-        return results
+        return ElastostaticResults(
+            tree=tree,
+            identifiability=replace(ident, practical=practical),
+            closed_form=cf,
+            model=self.model,
+            q2=equations.q2,
+            draws=draws,
+            geometry=self.geometry,
+            n_equations=equations.n,
+            n_rows=len(campaign),
+            residual_rms=float(np.sqrt(np.mean(residual**2))),
+            chi2_per_dof=chi2,
+            nonlinearity=float(np.abs(offset).max(initial=0.0)),
+            iterations=iterations,
+            residuals=residual.reshape(-1, 3),
+            linear_closed_form=linear_cf,
+            sampler_name=type(self.sampler).__name__,
+        )
 
     def restore(self, campaign: Campaign, tree) -> ElastostaticResults:
         """The results of an earlier :meth:`fit` of ``campaign`` from its saved posterior, without sampling again.
@@ -275,16 +300,20 @@ class ElastostaticModel:
                 f"{'does not determine' if draws.spring is not None else 'determines'}",
                 source=campaign.source,
             )
-        return self._results(campaign, prepared, tree, draws, sampler_name=str(tree.attrs.get("sampler", "unknown")))
-
-    def _results(self, campaign: Campaign, prepared: _Prepared, tree, draws: ElastostaticDraws, sampler_name: str | None = None) -> ElastostaticResults:
-        equations, ident, linear_cf, offset, cf, iterations = prepared
+        equations, _, linear_cf, offset, cf, iterations = prepared
         corrected = replace(equations, y=equations.y - offset)
-        practical = self._practical(tree, equations, ident, cf)
-        residual = corrected.y - corrected.per_angle_design()[:, ident.identifiable] @ cf.per_angle
+        static = self._static_columns(campaign, equations, cf) if self.model == "exact" and ident.compensator else None
+        whitened = corrected.whitened()
+        posterior, joints = self._posterior(whitened, ident, static)
+        if (static is None) != (draws.gravity is None):
+            raise InputError("the posterior is not one of this model: the link-weight scale is sampled by the exact model only", source=campaign.source)
+        # The residuals at the posterior mean of the sampled coordinates, as fit computes them.
+        residual = posterior.residual(_coordinates(posterior, joints, draws, whitened, ident).mean(axis=0))
+        if corrected.scale is not None:
+            residual = residual * corrected.scale
         return ElastostaticResults(
             tree=tree,
-            identifiability=replace(ident, practical=practical),
+            identifiability=replace(ident, practical=self._practical(tree, equations, ident, cf)),
             closed_form=cf,
             model=self.model,
             q2=equations.q2,
@@ -293,12 +322,12 @@ class ElastostaticModel:
             n_equations=equations.n,
             n_rows=len(campaign),
             residual_rms=float(np.sqrt(np.mean(residual**2))),
-            chi2_per_dof=self._chi2_per_dof(campaign, residual, cf.per_angle.size),
+            chi2_per_dof=self._chi2_per_dof(campaign, residual, posterior.ndim - posterior.n_groups),
             nonlinearity=float(np.abs(offset).max(initial=0.0)),
             iterations=iterations,
             residuals=residual.reshape(-1, 3),
             linear_closed_form=linear_cf,
-            sampler_name=sampler_name or type(self.sampler).__name__,
+            sampler_name=str(tree.attrs.get("sampler", "not recorded")),
         )
 
     def chi2_per_dof(self, campaign: Campaign) -> float | None:
@@ -328,7 +357,7 @@ class ElastostaticModel:
         summary = summarize(tree)
         L, a_x, a_y = self.geometry.mean[:3]
         # s0's prior is flat on (0, a + L): its sd is the width over sqrt(12).
-        prior_sd: dict[str, float | None] = {name: None for name in PARAMETER_UNITS if name != "s0"}
+        prior_sd: dict[str, float | None] = {name: None for name in parameter_units(equations.n_joints) if name != "s0"}
         prior_sd["s0"] = (math.hypot(a_x, a_y) + L) / math.sqrt(12.0) / MM
         prior_sd |= {name: None for name in summary.index if name.startswith("k2_q2[")}
         context = {}
@@ -352,19 +381,43 @@ class ElastostaticModel:
         )
 
     # ----------------------------------------------------------------- exact model
-    def _offset(self, campaign: Campaign, equations: DeflectionEquations, cf: ClosedForm) -> np.ndarray:
+    def _offset(self, campaign: Campaign, equations: DeflectionEquations, cf: ClosedForm, *, spring=None, robot: Robot | None = None) -> np.ndarray:
         """Exact minus linear prediction of every equation at the closed-form estimate ``cf``.
 
         The per-angle joint-2 compliances of ``cf`` fix joint 2's stiffness at each
-        angle; the compensator's static torque, which balances the arm's weight and
-        so sets the unloaded sag, is the nominal spring's: the deflections
-        determine K_c far too loosely for that.
+        angle; the compensator's static torque, which with the arm's weight sets
+        the sag under which the loads act, is that of ``spring`` ``(K_c, s0)``
+        (default: the config's), and the weights those of ``robot`` (default:
+        the URDF's).  The compensated model corrects both through
+        :meth:`_static_columns`.
         """
         compliances = np.where(np.isfinite(cf.compliances) & (cf.compliances > 0), cf.compliances, self.nominal_compliances)
-        compensator = CompensatorGeometry(*self.geometry.mean).with_spring(*self.nominal_spring)
-        nominal_k2 = 1.0 / compensator.joint_stiffness(equations.q2, 1.0 / self.nominal_compliances[COMPENSATED_JOINT])
+        compensator = CompensatorGeometry(*self.geometry.mean).with_spring(*(spring or self.nominal_spring))
+        nominal_k2 = compensator.equivalent_compliance(equations.q2, self.nominal_compliances[COMPENSATED_JOINT])
         k2 = np.where(np.isfinite(cf.k2) & (cf.k2 > 0), cf.k2, nominal_k2)
-        return linearisation_offset(self.robot, campaign, equations, compliances, k2, compensator, self.load_point)
+        return linearisation_offset(robot or self.robot, campaign, equations, compliances, k2, compensator, self.load_point)
+
+    def _static_columns(self, campaign: Campaign, equations: DeflectionEquations, cf: ClosedForm) -> tuple[np.ndarray, np.ndarray]:
+        """The exact model's correction linearised in the compensator's static torque and the link weights.
+
+        Returns the linearisation point ``[K_c, K_c s0]`` (the config's spring)
+        and the ``(n, 3)`` derivatives of the correction with respect to
+        ``K_c`` (at fixed ``K_c s0``), ``K_c s0`` and a common scale of the link
+        masses, by finite differences, divided like the equations by their
+        relative noise.
+        """
+        Kc, s0 = self.nominal_spring
+        base = self._offset(campaign, equations, cf)
+        dKc, dP, dg = STATIC_STEPS[0] * Kc, STATIC_STEPS[1] * Kc * s0, STATIC_STEPS[2]
+        columns = [
+            (self._offset(campaign, equations, cf, spring=(Kc + dKc, Kc * s0 / (Kc + dKc))) - base) / dKc,
+            (self._offset(campaign, equations, cf, spring=(Kc, s0 + dP / Kc)) - base) / dP,
+            (self._offset(campaign, equations, cf, robot=scale_masses(self.robot, 1.0 + dg)) - base) / dg,
+        ]
+        W = np.column_stack(columns)
+        if equations.scale is not None:
+            W = W / equations.scale[:, None]
+        return np.array([Kc, Kc * s0]), W
 
     def _relinearise(self, campaign, equations, ident, cf):
         sd = np.sqrt(np.diag(cf.cov))
@@ -393,17 +446,26 @@ class ElastostaticModel:
         K0 = float(np.mean(1.0 / cf.k2[known] - compensator.stiffness(q2[known])))
         return np.array([K0, Kc, s0])
 
-    def _sample(self, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm, rng) -> tuple[object, ElastostaticDraws]:
+    def _posterior(self, equations: DeflectionEquations, ident: Identifiability, static=None):
+        """The posterior density of the (whitened) equations and, in the compensated model, the joints it samples."""
+        if ident.compensator:
+            joints = tuple(j for j in range(equations.n_joints) if j != COMPENSATED_JOINT and f"k{j + 1}" not in ident.reasons)
+            return compensated_posterior(equations, joints, self.geometry, static, GRAVITY_SD), joints
+        return per_angle_posterior(equations, ident.identifiable), None
+
+    def _sample(self, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm, rng, static=None):
+        """The posterior tree, its draws, the residuals (whitened) at the posterior mean and the number of parameters
+        other than the noise levels."""
         sd = np.sqrt(np.diag(cf.cov))
         log_sigma_scale = np.full(cf.sigma.size, LOG_SIGMA_SCALE)
+        posterior, joints = self._posterior(equations, ident, static)
         if ident.compensator:
-            joints = tuple(j for j in range(6) if j != COMPENSATED_JOINT and f"k{j + 1}" not in ident.reasons)
-            posterior = compensated_posterior(equations, joints, self.geometry)
-            geometry = self.geometry.mean if posterior.block.ndim > 3 else np.empty(0)
+            geometry = np.empty(0) if self.geometry.fixed else self.geometry.mean
+            gravity = np.ones(int(static is not None))
 
             def start_at(spring: np.ndarray) -> np.ndarray:
                 z = posterior.block.coordinates(spring)
-                return np.concatenate([cf.compliances[list(joints)], z, geometry, np.log(cf.sigma)])
+                return np.concatenate([cf.compliances[list(joints)], z, gravity, geometry, np.log(cf.sigma)])
 
             spring = cf.spring
             start = start_at(spring)
@@ -421,14 +483,36 @@ class ElastostaticModel:
             k_sd = np.array([sd[columns.index((j, None))] for j in joints])
             geometry_sd = np.sqrt(np.diag(self.geometry.cov)) if geometry.size else np.empty(0)
             spring_sd = SPRING_SCALE * np.abs([start[len(joints)], 1.0, spring[2]])
-            scale = np.concatenate([k_sd, spring_sd, geometry_sd, log_sigma_scale])
-            draws = ElastostaticDraws.compensated(posterior, joints, self.sampler.sample(posterior, start, scale, rng))
+            scale = np.concatenate([k_sd, spring_sd, np.full(gravity.size, GRAVITY_SD), geometry_sd, log_sigma_scale])
+            raw = self.sampler.sample(posterior, start, scale, rng)
+            draws = ElastostaticDraws.compensated(posterior, joints, raw)
         else:
-            posterior = per_angle_posterior(equations, ident.identifiable)
             start = np.concatenate([cf.per_angle, np.log(cf.sigma)])
             raw = self.sampler.sample(posterior, start, np.concatenate([sd, log_sigma_scale]), rng)
             draws = ElastostaticDraws.per_angle(equations, ident.identifiable, raw)
-        return draws.tree(equations), draws
+        residual = posterior.residual(raw.reshape(-1, raw.shape[-1]).mean(axis=0))
+        return draws.tree(equations), draws, residual, posterior.ndim - posterior.n_groups
+
+
+def _coordinates(posterior, joints: tuple[int, ...] | None, draws: ElastostaticDraws, equations: DeflectionEquations, ident: Identifiability) -> np.ndarray:
+    """``(S, ndim)`` the sampler's coordinates ``[k, z, log sigma]`` of saved draws: the inverse of
+    :meth:`ElastostaticDraws.compensated` and :meth:`ElastostaticDraws.per_angle`."""
+    sigma = np.log(draws.sigma.reshape(-1, draws.sigma.shape[-1]))
+    if joints is None:
+        columns = [c for c, keep in zip(equations.per_angle_columns(), ident.identifiable) if keep]
+        values = [draws.compliances[f"k{j + 1}"].reshape(-1) if a is None else draws.k2[..., a].reshape(-1) for j, a in columns]
+        return np.column_stack([*values, sigma])
+    block = posterior.block
+    K0, K_c, s0 = (draws.spring[..., i].reshape(-1) for i in range(3))
+    geometry = block.geometry.mean[None, :] if draws.geometry is None else draws.geometry.reshape(-1, 4)
+    reference = stiffness_regressor(block.q_ref, *(geometry[:, i] for i in range(4)))
+    z = [reference[..., 0] * K0 + reference[..., 1] * K_c + reference[..., 2] * s0 * K_c, np.log(K_c), s0]
+    if draws.gravity is not None:
+        z.append(draws.gravity.reshape(-1))
+    if not block.geometry.fixed:
+        z.extend(geometry.T)
+    k = [draws.compliances[f"k{j + 1}"].reshape(-1) for j in joints]
+    return np.column_stack([*k, *np.broadcast_arrays(*z), sigma])
 
 
 def restore_results(cell: Cell, campaign: Campaign, tree, geometry: GeometryPrior | None = None) -> ElastostaticResults:

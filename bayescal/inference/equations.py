@@ -62,7 +62,7 @@ class DeflectionEquations:
     y
         Measured deflection components (m), shape ``(n,)``.
     design
-        ``(n, 6)``: column j is the deflection per unit compliance of joint j
+        ``(n, nq)``: column j is the deflection per unit compliance of joint j
         (m per rad/(N·m)).
     angle
         ``(n,)`` index into ``q2`` of each equation's joint-2 angle.
@@ -88,7 +88,7 @@ class DeflectionEquations:
 
     def __post_init__(self) -> None:
         n = self.y.shape[0]
-        if self.design.shape != (n, 6) or self.angle.shape != (n,) or self.group.shape != (n,):
+        if self.design.ndim != 2 or self.design.shape[0] != n or self.angle.shape != (n,) or self.group.shape != (n,):
             raise ValueError("y, design, angle and group must describe the same equations")
         if self.angle.max(initial=0) >= self.q2.size or self.group.max(initial=0) >= len(self.group_names):
             raise ValueError("angle or group index out of range")
@@ -100,6 +100,11 @@ class DeflectionEquations:
         return replace(self, y=self.y / self.scale, design=self.design / self.scale[:, None], scale=None)
 
     @property
+    def n_joints(self) -> int:
+        """Number of joints (columns of ``design``)."""
+        return int(self.design.shape[1])
+
+    @property
     def n(self) -> int:
         """Number of scalar equations."""
         return int(self.y.shape[0])
@@ -107,7 +112,7 @@ class DeflectionEquations:
     def per_angle_columns(self) -> list[tuple[int, int | None]]:
         """``(joint, angle)`` of each per-angle column: joint 2 once per angle, the others once."""
         columns: list[tuple[int, int | None]] = []
-        for joint in range(6):
+        for joint in range(self.n_joints):
             if joint == COMPENSATED_JOINT:
                 columns.extend((COMPENSATED_JOINT, a) for a in range(self.q2.size))
             else:
@@ -115,7 +120,7 @@ class DeflectionEquations:
         return columns
 
     def per_angle_design(self) -> np.ndarray:
-        """The design of eq 30 with one joint-2 column per distinct q2 angle, ``(n, 5 + m)``."""
+        """The design of eq 30 with one joint-2 column per distinct q2 angle, ``(n, nq - 1 + m)``."""
         columns = []
         for joint, angle in self.per_angle_columns():
             column = self.design[:, joint].copy()
@@ -149,13 +154,13 @@ def deflection_equations(
     equations : DeflectionEquations
         Three equations per campaign row (x, y, z of the deflection).
     torque : numpy.ndarray
-        ``(N, 6)`` joint torques ``J_F' w`` of each row's load (N·m).
+        ``(N, nq)`` joint torques ``J_F' w`` of each row's load (N·m).
     points : numpy.ndarray
         ``(N, 3)`` markers in the flange frame (m), from the unloaded positions.
     """
     n = len(campaign)
-    design = np.empty((n, 3, 6))
-    torque = np.empty((n, 6))
+    design = np.empty((n, 3, robot.nq))
+    torque = np.empty((n, robot.nq))
     points = np.empty((n, 3))
     for i in range(n):
         points[i] = robot.point_in_flange(campaign.q[i], campaign.p0[i])
@@ -171,7 +176,7 @@ def deflection_equations(
         raise ValueError(f"noise must be 'axis' or 'marker', got {noise!r}")
     equations = DeflectionEquations(
         y=campaign.displacement.reshape(-1),
-        design=design.reshape(-1, 6),
+        design=design.reshape(-1, robot.nq),
         angle=np.repeat(angle, 3),
         q2=values,
         group=group,
@@ -226,26 +231,23 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray) -> None
         A deflection above :data:`MAX_DEFLECTION` or a marker farther than
         :data:`MAX_MARKER_DISTANCE` from the flange (positions in the wrong unit).
     """
-    deflection = np.linalg.norm(campaign.displacement, axis=1)
-    worst = int(np.argmax(deflection))
-    if deflection[worst] > MAX_DEFLECTION:
-        raise InputError(
-            f"marker '{campaign.marker[worst]}' deflects by {deflection[worst] / MM:.4g} mm under load, more than the "
-            f"{MAX_DEFLECTION / MM:.0f} mm a loaded robot can plausibly deflect: are x1_mm..z1_mm in another unit?",
-            source=campaign.source,
-            line=int(campaign.lines[worst]) or None,
-            column="xyz"[int(np.argmax(np.abs(campaign.displacement[worst])))] + "1_mm",
-        )
-    distance = np.linalg.norm(points, axis=1)
-    worst = int(np.argmax(distance))
-    if distance[worst] > MAX_MARKER_DISTANCE:
-        raise InputError(
-            f"marker '{campaign.marker[worst]}' is {distance[worst]:.3g} m from the flange, farther than any tool "
-            f"({MAX_MARKER_DISTANCE:g} m): are x0_mm..z0_mm in metres instead of mm?",
-            source=campaign.source,
-            line=int(campaign.lines[worst]) or None,
-            column="xyz"[int(np.argmax(np.abs(campaign.p0[worst])))] + "0_mm",
-        )
+    _reject_largest(
+        campaign,
+        campaign.displacement,
+        MAX_DEFLECTION,
+        "1_mm",
+        lambda marker, size: f"marker '{marker}' deflects by {size / MM:.4g} mm under load, more than the "
+        f"{MAX_DEFLECTION / MM:.0f} mm a loaded robot can plausibly deflect: are x1_mm..z1_mm in another unit?",
+    )
+    _reject_largest(
+        campaign,
+        points,
+        MAX_MARKER_DISTANCE,
+        "0_mm",
+        lambda marker, size: f"marker '{marker}' is {size:.3g} m from the flange, farther than any tool "
+        f"({MAX_MARKER_DISTANCE:g} m): are x0_mm..z0_mm in metres instead of mm?",
+        columns=campaign.p0,
+    )
     _check_markers(campaign, points)
     forces = campaign.wrench[:, :3]
     loaded = forces[np.linalg.norm(forces, axis=1) > 0]
@@ -259,6 +261,24 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray) -> None
                 UserWarning,
                 stacklevel=2,
             )
+
+
+def _reject_largest(campaign: Campaign, vectors: np.ndarray, limit: float, suffix: str, message, columns=None) -> None:
+    """Raise an InputError naming the row whose vector is longest when it exceeds ``limit``.
+
+    The column named is the coordinate (``x``, ``y`` or ``z`` followed by ``suffix``)
+    of ``columns`` (default ``vectors``) largest in that row.
+    """
+    size = np.linalg.norm(vectors, axis=1)
+    worst = int(np.argmax(size))
+    if size[worst] > limit:
+        values = vectors if columns is None else columns
+        raise InputError(
+            message(campaign.marker[worst], size[worst]),
+            source=campaign.source,
+            line=int(campaign.lines[worst]) or None,
+            column="xyz"[int(np.argmax(np.abs(values[worst])))] + suffix,
+        )
 
 
 def _check_markers(campaign: Campaign, points: np.ndarray) -> None:

@@ -17,7 +17,7 @@ from bayescal.cell.campaign import Campaign
 from bayescal.inference.equations import DeflectionEquations
 from bayescal.robot.compensator import COMPENSATED_JOINT, Compensator
 from bayescal.robot.kinematics import Robot
-from bayescal.robot.stiffness import equilibrium
+from bayescal.robot.stiffness import ElasticArm
 
 __all__ = ["exact_deflections", "linearisation_offset", "scale_masses"]
 
@@ -45,11 +45,11 @@ def exact_deflections(
     robot
         The robot.
     q
-        ``(6,)`` commanded joint angles (rad).
+        ``(nq,)`` commanded joint angles (rad).
     wrench
         ``(6,)`` load at the flange origin in base axes (N, N·m), as applied at ``q``.
     compliances
-        ``(6,)`` joint compliances (rad/(N·m)), ``compliances[1] = 1/K_theta2^0``.
+        ``(nq,)`` joint compliances (rad/(N·m)), ``compliances[1] = 1/K_theta2^0``.
     compensator
         The spring compensator of joint 2.
     points_in_flange, unloaded_positions
@@ -57,9 +57,9 @@ def exact_deflections(
     load_point
         Flange-frame point where the load's force acts (a hanging mass); None: flange origin, dead load.
     """
-    zero = np.zeros(6)
-    unloaded = q + equilibrium(robot, q, compliances, zero, compensator=compensator, load_point=load_point)
-    loaded = q + equilibrium(robot, q, compliances, wrench, compensator=compensator, load_point=load_point)
+    arm = ElasticArm.linear(robot, compliances, compensator=compensator, load_point=load_point)
+    unloaded = q + arm.equilibrium(q, np.zeros(6))
+    loaded = q + arm.equilibrium(q, wrench)
     if points_in_flange is None:
         points_in_flange = robot.point_in_flange(unloaded, unloaded_positions)
     return robot.point_position(loaded, points_in_flange) - robot.point_position(unloaded, points_in_flange)
@@ -92,7 +92,7 @@ def linearisation_offset(
     robot, campaign, equations
         The robot, the campaign and its equations.
     compliances
-        ``(6,)`` joint compliances (rad/(N·m)); joint 2's entry is not used.
+        ``(nq,)`` joint compliances (rad/(N·m)); joint 2's entry is not used.
     k2
         ``(m,)`` equivalent joint-2 compliance at each of the equations' q2 angles.
     compensator

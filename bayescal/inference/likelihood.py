@@ -59,19 +59,30 @@ class CompensatorBlock:
     spring that changes it by a fraction of a percent: in ``(K_theta2^0, K_c)``
     the posterior is a narrow curved ridge, in ``(K_ref, log K_c)`` nearly a
     product, which is what a Metropolis proposal needs.
+
+    With ``static`` (the exact model), the block also sets the coefficients
+    ``u(z) = [K_c - K_c*, K_c s0 - (K_c s0)*, gravity_scale - 1]`` of the
+    columns ``W`` that linearise the exact model's correction about the
+    spring ``static = [K_c*, (K_c s0)*]`` and the URDF's link weights: the
+    compensator's static torque, linear in ``K_c`` and ``K_c s0`` (eq 7), and
+    the arm's weight set the sag under which the loads act.  ``z`` then holds
+    ``gravity_scale`` after ``s0``, a factor on every link's mass with a
+    Gaussian prior of mean 1 and sd ``gravity_sd``.
     """
 
     q2: np.ndarray
     geometry: GeometryPrior
     q_ref: float
+    static: np.ndarray | None = None
+    gravity_sd: float = 0.0
 
     @property
     def ndim(self) -> int:
-        return 3 if self.geometry.fixed else 3 + len(GEOMETRY)
+        return self.n_adapted + (0 if self.geometry.fixed else len(GEOMETRY))
 
     @property
     def n_adapted(self) -> int:
-        return len(SPRING)
+        return len(SPRING) + (self.static is not None)
 
     @property
     def prior_mean(self) -> np.ndarray:
@@ -83,16 +94,29 @@ class CompensatorBlock:
 
     def names(self) -> list[str]:
         """Names of the coordinates of ``z``."""
-        return list(SPRING) + ([] if self.geometry.fixed else list(GEOMETRY))
+        gravity = ["gravity_scale"] if self.static is not None else []
+        return list(SPRING) + gravity + ([] if self.geometry.fixed else list(GEOMETRY))
 
     def _geometry(self, z: np.ndarray) -> np.ndarray:
-        return np.broadcast_to(self.geometry.mean, (z.shape[0], 4)) if self.geometry.fixed else z[:, 3:7]
+        a = self.n_adapted
+        return np.broadcast_to(self.geometry.mean, (z.shape[0], 4)) if self.geometry.fixed else z[:, a : a + 4]
+
+    def gravity_scale(self, z: np.ndarray) -> np.ndarray | None:
+        """``(c,)`` the link weights' scale, or None when the block has no static channel."""
+        return None if self.static is None else z[:, len(SPRING)]
+
+    def shift(self, z: np.ndarray) -> np.ndarray:
+        """``(c, 3)`` coefficients ``u(z)`` of the static columns (``(c, 0)`` without them)."""
+        if self.static is None:
+            return np.zeros((z.shape[0], 0))
+        K_c = np.exp(z[:, 1])
+        return np.column_stack([K_c - self.static[0], K_c * z[:, 2] - self.static[1], z[:, len(SPRING)] - 1.0])
 
     def _regressor(self, z: np.ndarray, q2: np.ndarray) -> np.ndarray:
         """``(c|1, m + 1, 3)`` eq-35 rows at ``q2`` and, last, at ``q_ref``."""
         if self.geometry.fixed:
             return (self._fixed_regressor if q2 is self.q2 else stiffness_regressor(np.append(q2, self.q_ref), *self.geometry.mean))[None]
-        g = z[:, 3:7]
+        g = self._geometry(z)
         return stiffness_regressor(np.append(q2, self.q_ref)[None, :], *(g[:, i, None] for i in range(4)))
 
     def stiffness(self, z: np.ndarray, q2: np.ndarray | None = None) -> np.ndarray:
@@ -127,15 +151,17 @@ class CompensatorBlock:
         The compliance is ``nan`` and the log prior ``-inf`` outside the support
         (``K_theta2^0 > 0``, ``0 < s0 < a + L``) or where the stiffness is not
         positive; the log prior is ``log K_c`` (the Jacobian of K_c's flat prior)
-        plus the geometry's log density.
+        plus the geometry's and the gravity scale's log densities.
         """
         if self.geometry.fixed:
             longest = self._longest
             log_prior = z[:, 1]
         else:
-            g = z[:, 3:7]
+            g = self._geometry(z)
             longest = np.hypot(g[:, 1], g[:, 2]) + g[:, 0]
             log_prior = z[:, 1] + self.geometry.log_density(g)
+        if self.static is not None:
+            log_prior = log_prior - 0.5 * ((z[:, len(SPRING)] - 1.0) / self.gravity_sd) ** 2
         C = self._regressor(z, self.q2)
         total = self._stiffness(z, C)
         ok = (self._spring(z, C)[:, 0] > 0) & (z[:, 2] > 0) & (z[:, 2] < longest)
@@ -163,12 +189,21 @@ def per_angle_posterior(equations: DeflectionEquations, free: np.ndarray) -> Con
     )
 
 
-def compensated_posterior(equations: DeflectionEquations, joints: tuple[int, ...], geometry: GeometryPrior) -> ConditionallyLinear:
+def compensated_posterior(
+    equations: DeflectionEquations,
+    joints: tuple[int, ...],
+    geometry: GeometryPrior,
+    static: tuple[np.ndarray, np.ndarray] | None = None,
+    gravity_sd: float = 0.0,
+) -> ConditionallyLinear:
     """Posterior with the compensator's joint-2 stiffness (eq 8).
 
     ``theta``: the compliances of ``joints`` (0-based, joint 2 excluded), then
-    ``K_ref, log K_c, s0`` (:class:`CompensatorBlock`, reference angle the campaign's median q2), then the geometry ``L, a_x, a_y, phi`` unless
-    its prior is fixed, then ``log sigma`` per noise group.
+    ``K_ref, log K_c, s0`` (:class:`CompensatorBlock`, reference angle the campaign's median q2), then
+    ``gravity_scale`` with ``static``, then the geometry ``L, a_x, a_y, phi`` unless
+    its prior is fixed, then ``log sigma`` per noise group.  ``static`` is the
+    linearisation point ``[K_c, K_c s0]`` (N/m, N) and the ``(n, 3)`` columns
+    ``W`` of the exact model's correction (:class:`CompensatorBlock`).
     """
     if COMPENSATED_JOINT in joints:
         raise ValueError("joint 2 is described by the compensator parameters, not by a free compliance")
@@ -179,5 +214,12 @@ def compensated_posterior(equations: DeflectionEquations, joints: tuple[int, ...
         n_groups=len(equations.group_names),
         b=equations.design[:, COMPENSATED_JOINT],
         level=equations.angle,
-        block=CompensatorBlock(equations.q2, geometry, q_ref=float(np.median(equations.q2))),
+        block=CompensatorBlock(
+            equations.q2,
+            geometry,
+            q_ref=float(np.median(equations.q2)),
+            static=None if static is None else static[0],
+            gravity_sd=gravity_sd,
+        ),
+        W=None if static is None else static[1],
     )

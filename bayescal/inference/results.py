@@ -17,19 +17,16 @@ from bayescal.sampling.gibbs import ConditionallyLinear
 from bayescal.sampling.summary import diagnostics
 from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
 
-__all__ = ["ElastostaticResults", "ElastostaticDraws", "PARAMETER_UNITS"]
+__all__ = ["ElastostaticResults", "ElastostaticDraws", "parameter_units", "COMPLIANCE_UNIT"]
 
-PARAMETER_UNITS = {
-    "k1": "urad/(N m)",
-    "k2": "urad/(N m)",
-    "k3": "urad/(N m)",
-    "k4": "urad/(N m)",
-    "k5": "urad/(N m)",
-    "k6": "urad/(N m)",
-    "K_c": "N/mm",
-    "s0": "mm",
-}
-"""The reported parameters and their units (k2 is ``1/K_theta2^0``, joint 2 without its compensator)."""
+COMPLIANCE_UNIT = "urad/(N m)"
+"""Unit of the joint compliances at the edges."""
+
+
+def parameter_units(n_joints: int) -> dict[str, str]:
+    """The reported parameters and their units: ``k1``..``k<n>`` (``k2`` is ``1/K_theta2^0``, joint 2
+    without its compensator), ``K_c`` and ``s0``."""
+    return {f"k{j + 1}": COMPLIANCE_UNIT for j in range(n_joints)} | {"K_c": "N/mm", "s0": "mm"}
 
 
 @dataclass(frozen=True)
@@ -49,6 +46,8 @@ class ElastostaticDraws:
         ``(chain, draw, groups)`` noise sd per group (m).
     geometry : numpy.ndarray or None
         ``(chain, draw, 4)``: ``L, a_x, a_y`` (m), ``phi`` (rad) when the geometry was sampled.
+    gravity : numpy.ndarray or None
+        ``(chain, draw)`` scale of the link masses, when the exact model sampled it.
     """
 
     compliances: dict[str, np.ndarray]
@@ -56,6 +55,7 @@ class ElastostaticDraws:
     k2: np.ndarray
     sigma: np.ndarray
     geometry: np.ndarray | None
+    gravity: np.ndarray | None = None
 
     @classmethod
     def compensated(cls, posterior: ConditionallyLinear, joints: tuple[int, ...], raw: np.ndarray) -> ElastostaticDraws:
@@ -66,12 +66,15 @@ class ElastostaticDraws:
         compliances = {f"k{j + 1}": raw[..., i] for i, j in enumerate(joints)}
         spring = block.spring(z.reshape(-1, block.ndim)).reshape(*raw.shape[:2], 3)
         compliances["k2"] = 1.0 / spring[..., 0]
+        gravity = block.gravity_scale(z.reshape(-1, block.ndim))
+        a = block.n_adapted
         return cls(
             compliances=compliances,
             spring=spring,
             k2=k2,
             sigma=np.exp(raw[..., p + block.ndim :]),
-            geometry=z[..., 3:7] if block.ndim > 3 else None,
+            geometry=z[..., a : a + 4] if block.ndim > a else None,
+            gravity=None if gravity is None else gravity.reshape(raw.shape[:2]),
         )
 
     @classmethod
@@ -121,14 +124,15 @@ class ElastostaticDraws:
         geometry = None
         if "L" in posterior:
             geometry = np.stack([values(name) * factor for name, factor in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG))], axis=-1)
-        return cls(compliances=compliances, spring=spring, k2=k2, sigma=values("sigma") * MM, geometry=geometry)
+        gravity = values("gravity_scale") if "gravity_scale" in posterior else None
+        return cls(compliances=compliances, spring=spring, k2=k2, sigma=values("sigma") * MM, geometry=geometry, gravity=gravity)
 
     def tree(self, equations: DeflectionEquations):
-        """The draws as a posterior DataTree in edge units (:data:`PARAMETER_UNITS`), ``k2_q2`` with its q2 in degrees."""
+        """The draws as a posterior DataTree in edge units (:func:`parameter_units`), ``k2_q2`` with its q2 in degrees."""
         from bayescal.sampling.summary import posterior_tree
 
         values: dict[str, np.ndarray] = {name: value / URAD_PER_NM for name, value in sorted(self.compliances.items())}
-        units = {name: PARAMETER_UNITS[name] for name in values}
+        units = {name: COMPLIANCE_UNIT for name in values}
         if self.spring is not None:
             values["K_c"] = self.spring[..., 1] / N_PER_MM
             values["s0"] = self.spring[..., 2] / MM
@@ -139,6 +143,9 @@ class ElastostaticDraws:
         units |= {"k2_q2": "urad/(N m)", "sigma": "mm"}
         dims = {"k2_q2": ["q2_deg"], "sigma": ["noise_group"]}
         coords = {"q2_deg": [f"{v:.3f}" for v in equations.q2[keep] / DEG], "noise_group": list(equations.group_names)}
+        if self.gravity is not None:
+            values["gravity_scale"] = self.gravity
+            units["gravity_scale"] = "1"
         if self.geometry is not None:
             for i, (name, unit, factor) in enumerate((("L", "mm", MM), ("a_x", "mm", MM), ("a_y", "mm", MM), ("phi", "deg", DEG))):
                 values[name] = self.geometry[..., i] / factor
@@ -153,7 +160,7 @@ class ElastostaticResults:
     Attributes
     ----------
     tree : xarray.DataTree
-        The posterior (edge units, see :data:`PARAMETER_UNITS`; ``k2_q2`` the
+        The posterior (edge units, see :func:`parameter_units`; ``k2_q2`` the
         equivalent joint-2 compliance at each campaign angle, ``sigma`` the noise
         per group in mm, and the geometry when it was sampled).
     identifiability : Identifiability
@@ -167,9 +174,9 @@ class ElastostaticResults:
     n_equations, n_rows : int
         Scalar equations (3 per campaign row) and campaign rows.
     residual_rms : float
-        RMS residual of the closed-form fit (m).
+        RMS residual (m) of the model at the posterior mean of its parameters.
     chi2_per_dof : float | None
-        Chi-square per degree of freedom against the nominal tracker noise.
+        Chi-square per degree of freedom of those residuals against the nominal tracker noise.
     nonlinearity : float
         Largest difference between the exact and the linear model's prediction (m).
     iterations : int
@@ -198,6 +205,11 @@ class ElastostaticResults:
     linear_closed_form: ClosedForm | None = None
     sampler_name: str = "gibbs"
 
+    @property
+    def parameter_units(self) -> dict[str, str]:
+        """The reported parameters and their units (:func:`parameter_units` for this robot's joints)."""
+        return parameter_units(self.closed_form.compliances.size)
+
     def save(self, path) -> None:
         """Write the posterior DataTree to NetCDF at ``path``."""
         from bayescal.sampling.summary import save
@@ -211,22 +223,29 @@ class ElastostaticResults:
         return summarize(self.tree)
 
     def parameters(self) -> dict[str, dict]:
-        """The CLI's ``parameters`` block: k1..k6, K_c, s0, each an estimate or ``{"identifiable": false, "reason"}``.
+        """The CLI's ``parameters`` block: k1..k<n>, K_c, s0, each an estimate or ``{"identifiable": false, "reason"}``.
 
-        A parameter is given as an estimate only when it is identifiable both
-        structurally and from these data (:attr:`Identifiability.not_identifiable`).
+        A parameter is given as an estimate (mean, sd, ``lo3``/``hi3`` = mean ∓ 3 sd,
+        ``q_lo3``/``q_hi3`` the central 99.73 % interval, unit) only when it is
+        identifiable both structurally and from these data
+        (:attr:`Identifiability.not_identifiable`); a flagged parameter that was
+        sampled carries its posterior summary under ``"posterior"``, for
+        inspection, not as an estimate.
         """
         from bayescal.sampling.summary import parameters_json
 
         summary = self.summary()
         reasons = self.identifiability.not_identifiable
-        known = parameters_json(summary.loc[[name for name in PARAMETER_UNITS if name in summary.index]])
+        units = self.parameter_units
+        known = parameters_json(summary.loc[[name for name in units if name in summary.index]])
         out: dict[str, dict] = {}
-        for name in PARAMETER_UNITS:
+        for name in units:
             if name in known and name not in reasons:
                 out[name] = known[name]
             else:
                 out[name] = {"identifiable": False, "reason": reasons.get(name, "not sampled")}
+                if name in known:
+                    out[name]["posterior"] = known[name]
         return out
 
     def weakly_determined(self) -> dict[str, dict]:
@@ -308,7 +327,7 @@ class ElastostaticResults:
         )
 
     def compliance_draws(self, q2: float, fill: np.ndarray | None = None) -> np.ndarray | None:
-        """``(S, 6)`` posterior draws of the compliances (rad/(N·m)) acting at joint angle ``q2``.
+        """``(S, nq)`` posterior draws of the compliances (rad/(N·m)) acting at joint angle ``q2``.
 
         Joint 2's entry is its equivalent compliance at ``q2`` (with the
         compensator).  A joint the campaign cannot identify takes its value from
@@ -317,7 +336,8 @@ class ElastostaticResults:
         campaign angle.
         """
         d = self.draws
-        missing = [j for j in range(6) if j != COMPENSATED_JOINT and f"k{j + 1}" not in d.compliances]
+        n_joints = self.closed_form.compliances.size
+        missing = [j for j in range(n_joints) if j != COMPENSATED_JOINT and f"k{j + 1}" not in d.compliances]
         if missing and fill is None:
             return None
         if d.spring is not None:
@@ -329,6 +349,6 @@ class ElastostaticResults:
             k2 = d.k2[..., match[0]].reshape(-1)
         columns = [
             k2 if j == COMPENSATED_JOINT else np.full(k2.size, fill[j]) if j in missing else d.compliances[f"k{j + 1}"].reshape(-1)
-            for j in range(6)
+            for j in range(n_joints)
         ]
         return np.column_stack(columns)

@@ -163,7 +163,9 @@ def predict_test_pose(
     rho0 = float(np.sqrt(np.trace(A0 @ cov @ A0.T)))
     reference = deflection.mean(axis=0) if truth is None else np.asarray(truth, dtype=float)
     assumed = {
-        f"k{j + 1}": float(draws[0, j]) for j in range(6) if j != COMPENSATED_JOINT and f"k{j + 1}" not in results.draws.compliances
+        f"k{j + 1}": float(draws[0, j])
+        for j in range(draws.shape[1])
+        if j != COMPENSATED_JOINT and f"k{j + 1}" not in results.draws.compliances
     }
     return TestPosePrediction(deflection=deflection, reference=reference, rho0=rho0, assumed=assumed)
 
@@ -190,7 +192,8 @@ def predict_cell_test_pose(results: ElastostaticResults, cell: Cell, *, truth: n
 def _unavailable(results: ElastostaticResults, q2: float, no_fill: bool) -> str:
     """Why the campaign cannot predict the test pose, naming the compliance that is missing."""
     reasons = results.identifiability.not_identifiable
-    missing = [f"k{j + 1}" for j in range(6) if j != COMPENSATED_JOINT and f"k{j + 1}" not in results.draws.compliances]
+    joints = range(results.closed_form.compliances.size)
+    missing = [f"k{j + 1}" for j in joints if j != COMPENSATED_JOINT and f"k{j + 1}" not in results.draws.compliances]
     if missing and no_fill:
         names = ", ".join(missing)
         return f"{names} not identified by the campaign ({reasons.get(missing[0], 'not sampled')}) and no nominal value given"

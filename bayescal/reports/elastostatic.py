@@ -25,11 +25,11 @@ from bayescal.cell.config import Cell, load_cell
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.exact import scale_masses
-from bayescal.inference.results import PARAMETER_UNITS, ElastostaticResults
+from bayescal.inference.results import ElastostaticResults
 from bayescal.inference.identifiability import grouped
 from bayescal.cell.plan import Plan, read_plan
 from bayescal.reports.plots import plot_joint2_compliance
-from bayescal.robot.stiffness import equilibrium
+from bayescal.robot.stiffness import ElasticArm
 from bayescal.reference import published
 from bayescal.inference.testpose import predict_cell_test_pose
 from bayescal.cell.tracker import TrackerNoise
@@ -216,7 +216,7 @@ def build_report(
         paper = published("IV").get(name)
         paper_cells = [paper[0], paper[1], f"{100 * paper[1] / paper[0]:.1f}%"] if paper else ["–", "–", "–"]
         if "mean" not in entry:
-            rows[name] = [PARAMETER_UNITS[name], "not identifiable", "", "", truth[name], "", *paper_cells]
+            rows[name] = [results.parameter_units[name], "not identifiable", "", "", truth[name], "", *paper_cells]
             continue
         width = 100 * 3 * entry["sd"] / abs(entry["mean"])
         inside = entry["lo3"] <= truth[name] <= entry["hi3"]
@@ -252,8 +252,9 @@ def build_report(
     sensitivity_frame.index.name = "parameter"
 
     test_pose = predict_cell_test_pose(results, cell)
-    loaded = cell.test_q + equilibrium(cell.robot, cell.test_q, cell.compliances, cell.test_wrench, compensator=cell.compensator, load_point=cell.test_point)
-    unloaded = cell.test_q + equilibrium(cell.robot, cell.test_q, cell.compliances, np.zeros(6), compensator=cell.compensator, load_point=cell.test_point)
+    arm = ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, load_point=cell.test_point)
+    loaded = cell.test_q + arm.equilibrium(cell.test_q, cell.test_wrench)
+    unloaded = cell.test_q + arm.equilibrium(cell.test_q, np.zeros(6))
     true_deflection = cell.robot.point_position(loaded, cell.test_point) - cell.robot.point_position(unloaded, cell.test_point)
     against_truth = dataclasses.replace(test_pose, reference=true_deflection)
     block = test_pose.to_json()
@@ -421,7 +422,8 @@ def _linearisation_section(cell: Cell, plan: Plan) -> list[str]:
         )
     n = runs[0]["n_equations"]
     upper = stats.chi2.ppf(0.999, dof) / dof
-    sag = np.array([equilibrium(cell.robot, q, cell.compliances, np.zeros(6), compensator=cell.compensator, load_point=cell.load_point) for q in plan.q])
+    arm = ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, load_point=cell.load_point)
+    sag = np.array([arm.equilibrium(q, np.zeros(6)) for q in plan.q])
     full = excess[("the twin", 1.0)]
     reduced = excess[("the twin", 0.1)]
     bare = excess[("without link weight and compensator", 1.0)], excess[("without link weight and compensator", 0.1)]

@@ -32,7 +32,7 @@ from bayescal.geometry.arcs import (
     read_arc_points,
 )
 from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler
-from bayescal.sampling.ensemble import Sampler
+from bayescal.sampling.protocol import Sampler
 from bayescal.reports.plots import plot_arc_fit, plot_eta_curves
 from bayescal.sampling.summary import ConvergenceWarning
 from bayescal.reference import REFERENCE_FILE, read_paper_reference
@@ -207,7 +207,7 @@ def write_geometry_report(
     sampler
         Sampler of the two posteriors of the data (default
         :func:`~bayescal.geometry.posterior.default_sampler`); the coverage
-        study always uses 2 ensembles of 400 + 400 steps.
+        study always uses 2 chains of 400 + 400 steps.
 
     Returns
     -------
@@ -282,8 +282,8 @@ def _report_text(points, points_path, reference, closed, concentric, rigid, summ
         "",
         "## Posterior (concentric cylinder markers, the paper's model)",
         "",
-        f"{d['n_chains']} independent emcee ensembles, {d['n_draws']} draws each: R-hat max {d['r_hat_max']:.4f}, "
-        f"ESS bulk min {d['ess_bulk_min']:.0f}, ESS tail min {d['ess_tail_min']:.0f}. "
+        f"Sampler: {concentric.tree.attrs['sampler']}. {d['n_chains']} chains × {d['n_draws']} draws: "
+        f"R-hat max {d['r_hat_max']:.4f}, ESS bulk min {d['ess_bulk_min']:.0f}, ESS tail min {d['ess_tail_min']:.0f}. "
         "`lo3`/`hi3` are mean ∓ 3 sd, the paper's ±3σ.",
         "",
         _markdown(summary[["mean", "sd", "lo3", "hi3", "r_hat", "ess_bulk", "unit"]], 4),
@@ -456,7 +456,7 @@ def _studies_section(arc_study: pd.DataFrame, coverage: pd.DataFrame) -> list[st
         f"{known['rmse_centre_mm'] / bound['rmse_centre_mm']:.3f}. Best of the geometric and hyper fits / known-angle: "
         f"L {best['rmse_L_mm'] / known['rmse_L_mm']:.2f}, centre {best['rmse_centre_mm'] / known['rmse_centre_mm']:.2f}.",
         "",
-        f"### Coverage of the posterior's mean ± k sd intervals ({n_rep} simulated campaigns, 2 ensembles of 400 + 400 steps each)",
+        f"### Coverage of the posterior's mean ± k sd intervals ({n_rep} simulated campaigns, 2 chains of 400 + 400 steps each)",
         "",
         _markdown(coverage.drop(columns=["n_rep"]), 3),
         "",

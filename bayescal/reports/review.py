@@ -30,7 +30,7 @@ from bayescal import __version__
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.inference.equations import deflection_noise
-from bayescal.inference.results import PARAMETER_UNITS, ElastostaticResults
+from bayescal.inference.results import ElastostaticResults
 from bayescal.inference.testpose import TestPosePrediction
 from bayescal.reference import published
 from bayescal.reports.figures import plot_error_distribution, plot_evidence, plot_pairs, plot_rank, plot_residuals
@@ -414,7 +414,7 @@ def _parameter_section(page: _Page, results: ElastostaticResults, facts: _Facts)
     for name, value in parameters.items():
         paper = table_iv.get(name, (math.nan, math.nan))
         row = {"mean": math.nan, "±3σ": math.nan, "±3σ [% of mean]": math.nan, "Table IV": paper[0], "Table IV ±3σ": paper[1]}
-        row |= {"Table IV ±3σ [%]": 100 * paper[1] / paper[0] if paper[0] else math.nan, "R-hat": math.nan, "unit": _unit(PARAMETER_UNITS[name])}
+        row |= {"Table IV ±3σ [%]": 100 * paper[1] / paper[0] if paper[0] else math.nan, "R-hat": math.nan, "unit": _unit(results.parameter_units[name])}
         if "mean" in value:
             row |= {"mean": value["mean"], "±3σ": value["hi3"] - value["mean"], "R-hat": summary.loc[name, "r_hat"]}
             row["±3σ [% of mean]"] = 100 * (value["hi3"] - value["mean"]) / abs(value["mean"])
@@ -486,8 +486,9 @@ def _convergence_section(page: _Page, inputs: ReviewInputs, facts: _Facts | None
     page.table("worst", frame, caption=f"Worst case over all variables; thresholds R-hat ≤ {R_HAT_LIMIT}, ESS ≥ {ESS_LIMIT}")
     if inputs.results is not None:
         tree = inputs.results.tree["posterior"]
-        names = [name for name in PARAMETER_UNITS if name in tree and name not in inputs.results.identifiability.reasons]
-        draws = {f"{name} [{_unit(PARAMETER_UNITS[name])}]": np.asarray(tree[name].values) for name in names}
+        units = inputs.results.parameter_units
+        names = [name for name in units if name in tree and name not in inputs.results.identifiability.reasons]
+        draws = {f"{name} [{_unit(units[name])}]": np.asarray(tree[name].values) for name in names}
         page.figure("rank_elastostatic", plot_rank(draws), "Rank plots of the elastostatic posterior: flat and overlapping when the chains mix.")
     if inputs.geometry is not None:
         tree = inputs.geometry["posterior"]
@@ -503,7 +504,7 @@ def _pairs_section(page: _Page, results: ElastostaticResults, seed: int) -> None
         return
     page.heading("pairs", "Posterior pairs")
     table_iv = published("IV")
-    labels = {name: f"{name} [{_unit(PARAMETER_UNITS[name])}]" for name in names}
+    labels = {name: f"{name} [{_unit(results.parameter_units[name])}]" for name in names}
     draws = {labels[name]: np.asarray(tree[name].values).ravel() for name in names}
     reference = {labels[n]: table_iv[n][0] for n in names if n in table_iv}
     page.record("correlation", pd.DataFrame(draws).corr().to_dict())

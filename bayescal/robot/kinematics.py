@@ -110,6 +110,11 @@ class Robot:
         point = np.asarray(point_in_flange, dtype=float)
         return point @ rotation.T + origin
 
+    def joint_origins(self, q) -> np.ndarray:
+        """(nq, 3) base-frame positions (m) of the joint frames' origins, in joint order."""
+        pin.forwardKinematics(self.model, self._data, self._q(q))
+        return np.array([self._data.oMi[j].translation for j in range(1, self.model.njoints)])
+
     def point_in_flange(self, q, point_in_base) -> np.ndarray:
         """Flange-frame coordinates (m) of a point given in the base frame: the inverse of :meth:`point_position`."""
         rotation, origin = self.flange_pose(q)

@@ -18,14 +18,15 @@ Cartesian stiffness at the loaded equilibrium.
 
 External loads are wrenches ``[f (N); m (N·m)]`` referred to the flange origin
 and expressed in the base axes.  By default the wrench is a dead load: it keeps
-its value in the base axes while the arm deflects.  When ``load_point`` is
-given, its force acts at that material point of the tool (a hanging mass, as
+its value in the base axes while the arm deflects.  When a ``load_point`` is
+given to :class:`ElasticArm`, its force acts at that material point of the tool (a hanging mass, as
 in the paper's experiments) and only the remaining couple stays fixed, which
 is the conservative load the twin applies.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
@@ -42,9 +43,7 @@ __all__ = [
     "LinearJoints",
     "compliance_design",
     "joint_stiffness",
-    "equilibrium",
-    "equilibrium_stiffness",
-    "cartesian_stiffness",
+    "ElasticArm",
 ]
 
 class EquilibriumError(RuntimeError):
@@ -144,155 +143,136 @@ class _Load:
         return np.einsum("r,rij->ij", self.generalized, hessian)
 
 
-def _joint_load(robot, q, theta, load, compensator, gravity):
-    """Torque carried by the joint springs and its derivative with respect to θ (the negated Hessian terms)."""
-    linked = q + theta
-    torque = load.torque(linked)
-    derivative = load.torque_derivative(linked)
-    if gravity:
-        torque = torque - robot.gravity_torque(linked)
-        derivative = derivative - robot.gravity_torque_derivative(linked)
-    if compensator is not None:
-        angle = float(linked[COMPENSATED_JOINT])
-        torque[COMPENSATED_JOINT] -= compensator.torque(angle)
-        derivative[COMPENSATED_JOINT, COMPENSATED_JOINT] -= compensator.stiffness(angle)
-    return torque, derivative
+@dataclass(frozen=True)
+class ElasticArm:
+    """The virtual-joint model of one robot: everything the static equilibrium depends on but the pose and the load.
 
-
-def equilibrium(
-    robot: Robot,
-    q,
-    compliances,
-    wrench,
-    *,
-    compensator: Compensator | None = None,
-    gravity: bool = True,
-    load_point=None,
-    joints: JointLaw | None = None,
-    tol: float = 1e-13,
-    max_iter: int = 30,
-) -> np.ndarray:
-    """Joint deflections ``θ`` (rad) of the loaded static equilibrium (eq 1), by Newton's method.
+    One object carries the robot, its joint springs, the compensator, the
+    links' weights and where a load's force acts, the way Pinocchio passes one
+    model object, instead of the same arguments threaded through every solver.
 
     Parameters
     ----------
     robot
-        The robot.
-    q
-        (nq,) commanded joint angles, rad.
-    compliances
-        (nq,) joint compliances ``k`` in rad/(N·m); ``compliances[1]`` excludes the compensator.
-    wrench
-        (6,) external wrench ``[f; m]`` at the flange origin, base axes, N and N·m, as
-        applied with the arm at ``q``.
+        The robot (kinematics and link masses).
+    joints
+        Deflection law of the joint springs (:class:`LinearJoints` for compliances
+        ``k`` in rad/(N·m); joint 2's excludes the compensator).
     compensator
         The gravity compensator acting on joint 2, if any.
     gravity
         Include the links' weights.
     load_point
-        (3,) flange-frame point (m) where the wrench's force acts and moves with the
-        tool; ``None`` keeps the whole wrench fixed at the flange origin.
-    joints
-        Deflection law of the joint springs; default linear with ``compliances``.
-    tol
-        Convergence threshold on the Newton step, rad.
-    max_iter
-        Largest number of Newton iterations.
-
-    Returns
-    -------
-    numpy.ndarray
-        (nq,) deflections; the links are at ``q + θ``.
-
-    Raises
-    ------
-    EquilibriumError
-        When Newton's method does not converge (e.g. a load beyond the arm's buckling
-        limit or a non-physical stiffness).
+        (3,) flange-frame point (m) where a wrench's force acts and moves with the
+        tool (a hanging mass); ``None`` keeps the whole wrench fixed at the flange origin.
     """
-    return _solve(robot, q, compliances, wrench, compensator, gravity, load_point, joints, tol, max_iter)[0]
 
+    robot: Robot
+    joints: JointLaw
+    compensator: Compensator | None = None
+    gravity: bool = True
+    load_point: np.ndarray | None = None
 
-def _solve(robot, q, compliances, wrench, compensator, gravity, load_point, joints, tol, max_iter):
-    q = np.asarray(q, dtype=float).reshape(robot.nq)
-    law = LinearJoints(compliances) if joints is None else joints
-    load = _Load(robot, q, wrench, load_point)
-    theta = np.zeros(robot.nq)
+    @classmethod
+    def linear(cls, robot: Robot, compliances, **options) -> ElasticArm:
+        """An arm with linear joint springs of compliances ``k`` (rad/(N·m)); ``options`` are the other fields."""
+        return cls(robot, LinearJoints(compliances), **options)
 
-    def residual(theta):
-        torque, derivative = _joint_load(robot, q, theta, load, compensator, gravity)
-        return theta - law.deflection(torque), torque, derivative
+    def equilibrium(self, q, wrench, *, tol: float = 1e-13, max_iter: int = 30) -> np.ndarray:
+        """Joint deflections ``θ`` (rad) of the loaded static equilibrium (eq 1), by Newton's method.
 
-    value, torque, derivative = residual(theta)
-    for _ in range(max_iter):
-        jacobian = np.eye(robot.nq) - law.slope(torque)[:, np.newaxis] * derivative
-        try:
-            step = -np.linalg.solve(jacobian, value)
-        except np.linalg.LinAlgError:
-            raise EquilibriumError("the linearised equilibrium is singular (the arm buckles under this load)") from None
-        # Backtracking keeps Newton stable on steep deflection laws such as a backlash dead band.
-        size = 1.0
-        while True:
-            candidate = residual(theta + size * step)
-            if np.linalg.norm(candidate[0]) < np.linalg.norm(value) or size < 1e-4:
-                break
-            size *= 0.5
-        theta = theta + size * step
-        value, torque, derivative = candidate
-        # The full Newton step, not the backtracked one, says whether the solve has settled.
-        if np.max(np.abs(step)) < tol or np.max(np.abs(value)) < tol:
-            return theta, torque, derivative, law
-    raise EquilibriumError(
-        f"Newton's method did not converge in {max_iter} iterations (last residual {np.max(np.abs(value)):.3g} rad)"
-    )
+        Parameters
+        ----------
+        q
+            (nq,) commanded joint angles, rad.
+        wrench
+            (6,) external wrench ``[f; m]`` at the flange origin, base axes, N and N·m, as
+            applied with the arm at ``q``.
+        tol
+            Convergence threshold on the Newton step, rad.
+        max_iter
+            Largest number of Newton iterations.
 
+        Returns
+        -------
+        numpy.ndarray
+            (nq,) deflections; the links are at ``q + θ``.
 
-def equilibrium_stiffness(
-    robot: Robot,
-    q,
-    compliances,
-    wrench,
-    *,
-    compensator: Compensator | None = None,
-    gravity: bool = True,
-    load_point=None,
-    joints: JointLaw | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Deflections ``θ`` and the joint-space stiffness ``K_θ - H_θθ`` (eq 3) at the loaded equilibrium.
+        Raises
+        ------
+        EquilibriumError
+            When Newton's method does not converge (e.g. a load beyond the arm's buckling
+            limit or a non-physical stiffness).
+        """
+        return self._solve(q, wrench, tol, max_iter)[0]
 
-    Arguments as for :func:`equilibrium`.  The stiffness is the derivative of the
-    spring torques minus the load and gravity torques with respect to the link
-    angles: the joint springs (with the compensator, eq 8) plus the Hessian terms
-    of the links' weights and of the external load.
-    """
-    theta, torque, derivative, law = _solve(
-        robot, q, compliances, wrench, compensator, gravity, load_point, joints, tol=1e-13, max_iter=30
-    )
-    return theta, np.diag(1.0 / law.slope(torque)) - derivative
+    def equilibrium_stiffness(self, q, wrench) -> tuple[np.ndarray, np.ndarray]:
+        """Deflections ``θ`` and the joint-space stiffness ``K_θ - H_θθ`` (eq 3) at the loaded equilibrium.
 
+        The stiffness is the derivative of the spring torques minus the load and
+        gravity torques with respect to the link angles: the joint springs (with
+        the compensator, eq 8) plus the Hessian terms of the links' weights and of
+        the external load.
+        """
+        theta, torque, derivative = self._solve(q, wrench, tol=1e-13, max_iter=30)
+        return theta, np.diag(1.0 / self.joints.slope(torque)) - derivative
 
-def cartesian_stiffness(
-    robot: Robot,
-    q,
-    compliances,
-    wrench,
-    *,
-    compensator: Compensator | None = None,
-    gravity: bool = True,
-    load_point=None,
-    joints: JointLaw | None = None,
-) -> np.ndarray:
-    """(6, 6) Cartesian stiffness ``K_C`` of eq 3 at the loaded equilibrium.
+    def cartesian_stiffness(self, q, wrench) -> np.ndarray:
+        """(6, 6) Cartesian stiffness ``K_C`` of eq 3 at the loaded equilibrium.
 
-    ``K_C`` maps a small displacement ``[δp; δφ]`` of the flange (m, rad, base axes)
-    to the increment of a dead wrench ``[δf; δm]`` at the flange origin that causes it.
-    Arguments as for :func:`equilibrium`.  For a robot with fewer than six joints the
-    inverse does not exist; use the compliance ``J (K_θ - H)⁻¹ Jᵀ`` instead.
-    """
-    q = np.asarray(q, dtype=float)
-    theta, stiffness = equilibrium_stiffness(
-        robot, q, compliances, wrench, compensator=compensator, gravity=gravity, load_point=load_point, joints=joints
-    )
-    jacobian = robot.flange_jacobian(q + theta)
-    compliance = jacobian @ np.linalg.solve(stiffness, jacobian.T)
-    return np.linalg.inv(compliance)
+        ``K_C`` maps a small displacement ``[δp; δφ]`` of the flange (m, rad, base axes)
+        to the increment of a dead wrench ``[δf; δm]`` at the flange origin that causes it.
+        For a robot with fewer than six joints the inverse does not exist; use the
+        compliance ``J (K_θ - H)⁻¹ Jᵀ`` instead.
+        """
+        q = np.asarray(q, dtype=float)
+        theta, stiffness = self.equilibrium_stiffness(q, wrench)
+        jacobian = self.robot.flange_jacobian(q + theta)
+        return np.linalg.inv(jacobian @ np.linalg.solve(stiffness, jacobian.T))
+
+    def _joint_load(self, q: np.ndarray, theta: np.ndarray, load: _Load) -> tuple[np.ndarray, np.ndarray]:
+        """Torque carried by the joint springs and its derivative with respect to θ (the negated Hessian terms)."""
+        linked = q + theta
+        torque = load.torque(linked)
+        derivative = load.torque_derivative(linked)
+        if self.gravity:
+            torque = torque - self.robot.gravity_torque(linked)
+            derivative = derivative - self.robot.gravity_torque_derivative(linked)
+        if self.compensator is not None:
+            angle = float(linked[COMPENSATED_JOINT])
+            torque[COMPENSATED_JOINT] -= self.compensator.torque(angle)
+            derivative[COMPENSATED_JOINT, COMPENSATED_JOINT] -= self.compensator.stiffness(angle)
+        return torque, derivative
+
+    def _solve(self, q, wrench, tol: float, max_iter: int):
+        robot, law = self.robot, self.joints
+        q = np.asarray(q, dtype=float).reshape(robot.nq)
+        load = _Load(robot, q, wrench, self.load_point)
+        theta = np.zeros(robot.nq)
+
+        def residual(theta):
+            torque, derivative = self._joint_load(q, theta, load)
+            return theta - law.deflection(torque), torque, derivative
+
+        value, torque, derivative = residual(theta)
+        for _ in range(max_iter):
+            jacobian = np.eye(robot.nq) - law.slope(torque)[:, np.newaxis] * derivative
+            try:
+                step = -np.linalg.solve(jacobian, value)
+            except np.linalg.LinAlgError:
+                raise EquilibriumError("the linearised equilibrium is singular (the arm buckles under this load)") from None
+            # Backtracking keeps Newton stable on steep deflection laws such as a backlash dead band.
+            size = 1.0
+            while True:
+                candidate = residual(theta + size * step)
+                if np.linalg.norm(candidate[0]) < np.linalg.norm(value) or size < 1e-4:
+                    break
+                size *= 0.5
+            theta = theta + size * step
+            value, torque, derivative = candidate
+            # The full Newton step, not the backtracked one, says whether the solve has settled.
+            if np.max(np.abs(step)) < tol or np.max(np.abs(value)) < tol:
+                return theta, torque, derivative
+        raise EquilibriumError(
+            f"Newton's method did not converge in {max_iter} iterations (last residual {np.max(np.abs(value)):.3g} rad)"
+        )

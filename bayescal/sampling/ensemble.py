@@ -1,11 +1,14 @@
-"""emcee's affine-invariant ensemble behind the sampler protocol of :mod:`bayescal.sampling.protocol`."""
+"""emcee's affine-invariant ensemble behind the sampler protocol of :mod:`bayescal.sampling.protocol`.
+
+emcee is imported when an ensemble first samples: with ``scipy.stats``,
+which it imports, that takes over a second.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import emcee
 import numpy as np
 
 from bayescal.sampling.protocol import LogProb
@@ -54,6 +57,20 @@ class EnsembleSampler:
         n = self.n_walkers if self.n_walkers is not None else max(16, 2 * ndim + 2)
         return n + n % 2
 
+    def describe(self, ndim: int) -> str:
+        """One line naming the sampler and its settings, for a posterior file's attributes."""
+        if self.moves is None:
+            names = "StretchMove"
+        else:
+            entries = self.moves if isinstance(self.moves, (list, tuple)) else [self.moves]
+            names = ", ".join(
+                f"{type(entry[0]).__name__} {entry[1]:g}" if isinstance(entry, tuple) else type(entry).__name__ for entry in entries
+            )
+        return (
+            f"emcee, {self.n_chains} independent ensembles of {self.walkers_for(ndim)} walkers, "
+            f"{self.n_tune} tuning + {self.n_draws} kept steps, thin {self.thin}, moves {names}"
+        )
+
     def sample(self, log_prob: LogProb, start: np.ndarray, scale: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Sample ``exp(log_prob)``.
 
@@ -78,6 +95,8 @@ class EnsembleSampler:
         scale = np.broadcast_to(np.asarray(scale, dtype=float), start.shape)
         if not np.isfinite(log_prob(start)):
             raise ValueError("the log-posterior is not finite at the starting point")
+        import emcee
+
         ndim = start.size
         n_walkers = self.walkers_for(ndim)
         chains = []

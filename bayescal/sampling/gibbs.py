@@ -4,7 +4,7 @@ The deflection model of a calibration campaign is linear in the joint
 compliances ``k`` once the noise levels and a small nonlinear block ``z`` (the
 compensator's spring and geometry) are given::
 
-    y_i = X_i · k + b_i f(z)[level_i] + e_i,      e_i ~ N(0, sigma_g(i)^2),
+    y_i = X_i · k + b_i f(z)[level_i] + W_i · u(z) + e_i,      e_i ~ N(0, sigma_g(i)^2),
 
 with ``k >= 0`` under a flat prior, a Jeffreys prior on each noise variance and
 the block's own prior on ``z``.  :class:`ConditionallyLinear` describes such a
@@ -71,6 +71,9 @@ class NonlinearBlock(Protocol):
         """At ``(c, ndim)`` points: the ``(c, m)`` coefficients of ``b`` at each level (``nan`` outside the
         support) and the ``(c,)`` log prior density up to a constant, trailing Gaussian included (``-inf`` outside)."""
 
+    def shift(self, z: np.ndarray) -> np.ndarray:
+        """``(c, r)`` coefficients ``u(z)`` of the columns ``W`` at ``(c, ndim)`` points (``r = 0`` without ``W``)."""
+
 
 @dataclass(frozen=True)
 class ConditionallyLinear:
@@ -95,6 +98,9 @@ class ConditionallyLinear:
         observation's level in ``f(z)``; None without a block.
     block
         The nonlinear block, or None.
+    W
+        ``(n, r)`` columns whose coefficients ``u(z)`` the block also sets
+        (:meth:`NonlinearBlock.shift`); None: none.
     """
 
     y: np.ndarray
@@ -104,6 +110,7 @@ class ConditionallyLinear:
     b: np.ndarray | None = None
     level: np.ndarray | None = None
     block: NonlinearBlock | None = None
+    W: np.ndarray | None = None
     _stats: _Sufficient = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -112,6 +119,8 @@ class ConditionallyLinear:
             raise ValueError("y, X and group must describe the same observations")
         if (self.block is None) != (self.b is None) or (self.b is None) != (self.level is None):
             raise ValueError("b, level and block go together")
+        if self.W is not None and (self.block is None or self.W.shape[0] != n):
+            raise ValueError("W needs a block and one row per observation")
         object.__setattr__(self, "_stats", _Sufficient.of(self))
 
     @property
@@ -129,6 +138,18 @@ class ConditionallyLinear:
         """Length of ``theta``."""
         return self.n_linear + self.n_block + self.n_groups
 
+    def residual(self, theta: np.ndarray) -> np.ndarray:
+        """``(n,)`` observations less the model's prediction at ``theta`` (``nan`` outside the block's support)."""
+        theta = np.asarray(theta, dtype=float)
+        p, d = self.n_linear, self.n_block
+        fit = self.X @ theta[:p]
+        if self.block is not None:
+            z = theta[None, p : p + d]
+            fit = fit + self.b * self.block.evaluate(z)[0][0][self.level]
+            if self.W is not None:
+                fit = fit + self.W @ self.block.shift(z)[0]
+        return self.y - fit
+
     def __call__(self, theta: np.ndarray) -> float:
         theta = np.asarray(theta, dtype=float)
         p, d = self.n_linear, self.n_block
@@ -143,6 +164,8 @@ class ConditionallyLinear:
             if not np.all(np.isfinite(f)) or not np.isfinite(prior):
                 return -np.inf
             fit = fit + self.b * f[self.level]
+            if self.W is not None:
+                fit = fit + self.W @ self.block.shift(z[None])[0]
         ssr = np.bincount(self.group, weights=(self.y - fit) ** 2, minlength=self.n_groups)
         counts = self._stats.counts
         return float(np.sum(-counts * log_sigma - 0.5 * ssr * np.exp(-2.0 * log_sigma))) + prior
@@ -159,6 +182,10 @@ class _Sufficient:
     XtB: np.ndarray
     ytB: np.ndarray
     BtB: np.ndarray
+    XtW: np.ndarray
+    ytW: np.ndarray
+    WtW: np.ndarray
+    BtW: np.ndarray
 
     @classmethod
     def of(cls, model: ConditionallyLinear) -> _Sufficient:
@@ -169,12 +196,16 @@ class _Sufficient:
         XtB = np.zeros((G, X.shape[1], m))
         ytB = np.zeros((G, m))
         BtB = np.zeros((G, m))
+        W = np.zeros((y.size, 0)) if model.W is None else model.W
+        BtW = np.zeros((G, m, W.shape[1]))
         for g, r in enumerate(rows):
             if m:
                 for j in range(X.shape[1]):
                     XtB[g, j] = np.bincount(model.level[r], weights=X[r, j] * model.b[r], minlength=m)
                 ytB[g] = np.bincount(model.level[r], weights=y[r] * model.b[r], minlength=m)
                 BtB[g] = np.bincount(model.level[r], weights=model.b[r] ** 2, minlength=m)
+                for j in range(W.shape[1]):
+                    BtW[g, :, j] = np.bincount(model.level[r], weights=model.b[r] * W[r, j], minlength=m)
         return cls(
             counts=np.array([r.sum() for r in rows], dtype=float),
             XtX=np.stack([X[r].T @ X[r] for r in rows]),
@@ -183,26 +214,36 @@ class _Sufficient:
             XtB=XtB,
             ytB=ytB,
             BtB=BtB,
+            XtW=np.stack([X[r].T @ W[r] for r in rows]),
+            ytW=np.stack([y[r] @ W[r] for r in rows]),
+            WtW=np.stack([W[r].T @ W[r] for r in rows]),
+            BtW=BtW,
         )
 
     def precision(self, sigma2: np.ndarray) -> np.ndarray:
         """``(c, p, p)`` precision of ``k`` given the variances ``(c, G)``."""
         return np.einsum("cg,gij->cij", 1.0 / sigma2, self.XtX)
 
-    def rhs(self, f: np.ndarray, sigma2: np.ndarray) -> np.ndarray:
-        """``(c, p)`` ``sum_g X_g'(y_g - B_g f) / sigma_g^2``."""
-        Xtr = self.Xty[None] - np.einsum("gpm,cm->cgp", self.XtB, f)
-        return np.einsum("cgp,cg->cp", Xtr, 1.0 / sigma2)
+    def Xtr(self, f: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """``(c, G, p)`` ``X_g'(y_g - B_g f - W_g u)``."""
+        return self.Xty[None] - np.einsum("gpm,cm->cgp", self.XtB, f) - np.einsum("gpr,cr->cgp", self.XtW, u)
 
-    def rtr(self, f: np.ndarray) -> np.ndarray:
-        """``(c, G)`` ``|y_g - B_g f|^2``."""
-        return self.yty[None] - 2.0 * f @ self.ytB.T + (f**2) @ self.BtB.T
+    def rhs(self, f: np.ndarray, u: np.ndarray, sigma2: np.ndarray) -> np.ndarray:
+        """``(c, p)`` ``sum_g X_g'(y_g - B_g f - W_g u) / sigma_g^2``."""
+        return np.einsum("cgp,cg->cp", self.Xtr(f, u), 1.0 / sigma2)
 
-    def ssr(self, k: np.ndarray, f: np.ndarray) -> np.ndarray:
-        """``(c, G)`` residual sums of squares at ``k`` ``(c, p)`` and block values ``f`` ``(c, m)``."""
-        Xtr = self.Xty[None] - np.einsum("gpm,cm->cgp", self.XtB, f)
+    def rtr(self, f: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """``(c, G)`` ``|y_g - B_g f - W_g u|^2``."""
+        value = self.yty[None] - 2.0 * f @ self.ytB.T + (f**2) @ self.BtB.T
+        if u.shape[1]:
+            value = value - 2.0 * u @ self.ytW.T + 2.0 * np.einsum("cm,gmr,cr->cg", f, self.BtW, u)
+            value = value + np.einsum("cr,grs,cs->cg", u, self.WtW, u)
+        return value
+
+    def ssr(self, k: np.ndarray, f: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """``(c, G)`` residual sums of squares at ``k`` ``(c, p)``, block values ``f`` ``(c, m)`` and shifts ``u`` ``(c, r)``."""
         quadratic = np.einsum("ci,gij,cj->cg", k, self.XtX, k)
-        return np.maximum(self.rtr(f) - 2.0 * np.einsum("cgp,cp->cg", Xtr, k) + quadratic, 0.0)
+        return np.maximum(self.rtr(f, u) - 2.0 * np.einsum("cgp,cp->cg", self.Xtr(f, u), k) + quadratic, 0.0)
 
 
 class _Collapsed:
@@ -216,11 +257,12 @@ class _Collapsed:
         """``(c,)`` values at ``z`` ``(c, d)``, variances ``(c|1, G)`` and k's conditional covariance ``(c|1, p, p)``."""
         block = self.model.block
         f, log_prior = block.evaluate(z)
+        u = block.shift(z)
         bad = ~np.all(np.isfinite(f), axis=1) | ~np.isfinite(log_prior)
         f = np.where(bad[:, None], 0.0, f)
-        value = -0.5 * np.sum(self.stats.rtr(f) / sigma2, axis=1)
+        value = -0.5 * np.sum(self.stats.rtr(f, u) / sigma2, axis=1)
         if self.model.n_linear:
-            rhs = self.stats.rhs(f, np.broadcast_to(sigma2, (f.shape[0], sigma2.shape[-1])))
+            rhs = self.stats.rhs(f, u, np.broadcast_to(sigma2, (f.shape[0], sigma2.shape[-1])))
             value = value + 0.5 * np.einsum("cp,cp->c", rhs, (covariance @ rhs[..., None])[..., 0])
         return np.where(bad, -np.inf, value + np.where(bad, 0.0, log_prior))
 
@@ -321,13 +363,13 @@ class GibbsSampler:
                     proposal = proposal.refit(np.array(history[len(history) // 2 :]))
                 z = _block_step(collapsed, proposal, trailing, z, sigma2, covariance, rng)
                 history.append(z[:, : proposal.center.shape[1]])
-                f = model.block.evaluate(z)[0]
+                f, u = model.block.evaluate(z)[0], model.block.shift(z)
             else:
-                f = np.zeros((C, 0))
+                f, u = np.zeros((C, 0)), np.zeros((C, 0))
             if p:
-                mean = (covariance @ stats.rhs(f, sigma2)[..., None])[..., 0]
+                mean = (covariance @ stats.rhs(f, u, sigma2)[..., None])[..., 0]
                 k = _positive_gaussian(mean, covariance, k, rng)
-            sigma2 = 0.5 * stats.ssr(k, f) / rng.gamma(0.5 * stats.counts, size=(C, G))
+            sigma2 = 0.5 * stats.ssr(k, f, u) / rng.gamma(0.5 * stats.counts, size=(C, G))
             if step >= self.n_tune:
                 draws[:, step - self.n_tune] = np.concatenate([k, z, 0.5 * np.log(sigma2)], axis=1)
         return draws

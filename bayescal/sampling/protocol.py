@@ -9,6 +9,12 @@ structure it knows (the Gibbs sampler takes
 callable log-posteriors too), so one model can be sampled by either.  Models
 take a sampler as an argument, the way emcee takes its moves, and never ask
 which one they were given.
+
+A target with a true attribute ``vectorized`` also takes a batch ``(n, ndim)``
+and returns ``(n,)`` values; samplers that can use batches then evaluate it
+once per batch (see :func:`bayescal.sampling.independence.evaluate`).  A
+sampler may offer ``describe(ndim)``, a one-line account of its settings for
+result files.
 """
 
 from __future__ import annotations

@@ -54,7 +54,7 @@ class Effect:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.magnitude) and self.magnitude >= 0):
-            raise InputError(f"effect '{self.name}' needs a finite magnitude >= 0 in {self.unit}, got {self.magnitude:g}", source="--effect")
+            raise ValueError(f"effect '{self.name}' needs a finite magnitude >= 0 in {self.unit}, got {self.magnitude:g}")
 
     def compensator(self, compensator: Compensator | None) -> Compensator | None:
         """The compensator the twin uses."""
@@ -281,7 +281,7 @@ class Outliers(Effect):
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.magnitude > 1:
-            raise InputError(f"effect 'outliers' needs a fraction between 0 and 1, got {self.magnitude:g}", source="--effect")
+            raise ValueError(f"effect 'outliers' needs a fraction between 0 and 1, got {self.magnitude:g}")
 
     def corrupt(self, measured: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         hit = rng.random(len(measured)) < self.magnitude
@@ -297,17 +297,26 @@ EFFECTS: dict[str, type[Effect]] = {
 """The effects by name, in the order the twin applies them (the dead band wraps the hardening law)."""
 
 
-def parse_effect(text: str) -> Effect:
-    """Build an effect from ``NAME`` (default magnitude) or ``NAME=magnitude``."""
+def parse_effect(text: str, source: str | None = None) -> Effect:
+    """Build an effect from ``NAME`` (default magnitude) or ``NAME=magnitude``.
+
+    Raises
+    ------
+    InputError
+        An unknown name or an invalid magnitude, naming ``source`` (where the text came from).
+    """
     name, _, value = text.partition("=")
     name = name.strip()
     if name not in EFFECTS:
-        raise InputError(f"unknown effect '{name}'; expected one of {', '.join(EFFECTS)}", source="--effect")
+        raise InputError(f"unknown effect '{name}'; expected one of {', '.join(EFFECTS)}", source=source)
     cls = EFFECTS[name]
     if not value.strip():
         return cls(cls.default)
     try:
         magnitude = float(value)
     except ValueError:
-        raise InputError(f"effect '{name}' needs a number in {cls.unit}, got '{value}'", source="--effect") from None
-    return cls(magnitude)
+        raise InputError(f"effect '{name}' needs a number in {cls.unit}, got '{value}'", source=source) from None
+    try:
+        return cls(magnitude)
+    except ValueError as error:
+        raise InputError(str(error), source=source) from None

@@ -20,7 +20,7 @@ from bayescal.cell.config import Cell
 from bayescal.twin.effects import EFFECTS, Effect
 from bayescal.errors import InputError
 from bayescal.cell.plan import Plan
-from bayescal.robot.stiffness import EquilibriumError, LinearJoints, equilibrium
+from bayescal.robot.stiffness import ElasticArm, EquilibriumError, LinearJoints
 
 __all__ = ["DigitalTwin"]
 
@@ -41,7 +41,7 @@ class DigitalTwin:
         names = [effect.name for effect in effects]
         for name in names:
             if names.count(name) > 1:
-                raise InputError(f"effect '{name}' is given more than once", source="--effect")
+                raise ValueError(f"effect '{name}' is given more than once")
         order = list(EFFECTS)
         self.cell = cell
         self.effects = tuple(sorted(effects, key=lambda effect: order.index(effect.name)))
@@ -50,22 +50,12 @@ class DigitalTwin:
         for effect in self.effects:
             compensator = effect.compensator(compensator)
             law = effect.joints(law, cell.robot)
-        self.compensator = compensator
-        self.joint_law = law
+        self.arm = ElasticArm(cell.robot, law, compensator=compensator, load_point=cell.load_point)
         self.marker_names = tuple(cell.markers)
         self._points = np.array([cell.markers[name] for name in self.marker_names])
 
     def _deflections(self, q, wrench) -> np.ndarray:
-        return equilibrium(
-            self.cell.robot,
-            q,
-            self.cell.compliances,
-            wrench,
-            compensator=self.compensator,
-            gravity=True,
-            load_point=self.cell.load_point,
-            joints=self.joint_law,
-        )
+        return self.arm.equilibrium(q, wrench)
 
     def positions(self, q, mass: float) -> tuple[np.ndarray, np.ndarray]:
         """Exact marker positions (m, base frame, in :attr:`marker_names` order) unloaded and loaded with ``mass`` kg."""
@@ -91,7 +81,7 @@ class DigitalTwin:
         the flange origin with the arm at its commanded angles.
         """
         if repeats < 1:
-            raise InputError(f"expected at least 1 repeat, got {repeats}", source="--repeats")
+            raise ValueError(f"expected at least 1 repeat, got {repeats}")
         masses = plan.masses(self.cell.load_mass)
         n_markers = len(self.marker_names)
         rows = {"config": [], "repeat": [], "marker": [], "q": [], "wrench": [], "p0": [], "p1": []}

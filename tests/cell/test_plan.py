@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from bayescal.errors import InputError
-from bayescal.cell.plan import read_plan
+from bayescal.cell.plan import read_plan, write_plan
 
 DATA = Path(__file__).resolve().parents[2] / "data"
 
@@ -74,3 +74,11 @@ def test_a_joint_column_the_robot_lacks_is_rejected(tmp_path, robot):
     path.write_text("# seven joints\nq1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,q7_deg\n0,-45,30,0,20,0,0\n")
     with pytest.raises(InputError, match=r"p.csv:2, column 'q7_deg': the plan has a column q7_deg but the robot .* has 6 joints"):
         read_plan(path, robot)
+def test_written_plan_reads_back(tmp_path, robot):
+    plan = read_plan(DATA / "table3_plan.csv", robot)
+    path = tmp_path / "plan.csv"
+    write_plan(plan, path, comments=["a provenance note"])
+    again = read_plan(path, robot)
+    assert path.read_text().startswith("# a provenance note\nq1_deg,")
+    np.testing.assert_allclose(again.q, plan.q, atol=0.0005 * np.pi / 180)
+    np.testing.assert_array_equal(again.load_kg, plan.load_kg)

@@ -55,6 +55,8 @@ def test_json_output_has_every_parameter_with_units(capsys, json_run):
     assert payload["identifiability"]["structural"] == ["k1"]
     assert parameters["K_c"]["identifiable"] is False and "includes 0" in parameters["K_c"]["reason"]
     assert payload["weakly_determined"]["K_c"]["unit"] == "N/mm" and "mean" in payload["weakly_determined"]["s0"]
+    assert parameters["K_c"]["posterior"]["q_lo3"] < parameters["K_c"]["posterior"]["q_hi3"]
+    assert "k1" in parameters and "posterior" not in parameters["k1"]
     assert all("mean" in entry for entry in payload["k2_per_angle"].values())
     assert payload["test_pose"]["residual_error_mm"]["rms"] > 0
     assert "all loads are parallel" in err

@@ -1,4 +1,7 @@
 import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -128,3 +131,18 @@ def test_non_numeric_draws_is_a_usage_error_on_one_line(capsys):
     assert main(["geometry", TABLE1, "--draws", "abc"]) == 2
     err = capsys.readouterr().err
     assert "argument --draws: expected a whole number >= 1, got 'abc'" in err and len(err.strip().splitlines()) == 1
+
+
+def test_the_command_imports_no_heavy_library_it_does_not_use(tmp_path):
+    # ArviZ's statistics, emcee and SciPy (through scipy.stats) cost about 2 s of start-up, Pinocchio
+    # (through the simulate parser) a few tenths: longer than the whole fit.
+    script = (
+        "import sys\n"
+        "from bayescal.cli import main\n"
+        f"main(['geometry', {TABLE1!r}, '--json', '--posterior', {str(tmp_path / 'g.nc')!r}])\n"
+        "print(sorted(m for m in ('arviz', 'arviz_base', 'arviz_stats', 'emcee', 'scipy', 'pinocchio', 'matplotlib') if m in sys.modules))\n"
+    )
+    root = str(Path(__file__).resolve().parents[2])
+    environment = {**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True, env=environment)
+    assert done.stdout.strip().splitlines()[-1] == "[]"

@@ -61,7 +61,9 @@ def test_effects_and_seed_change_the_file(main, tmp_path, capsys):
 @pytest.mark.parametrize(
     "extra, message",
     [
-        (["--effect", "wobble"], "unknown effect 'wobble'"),
+        (["--effect", "wobble"], "--effect: unknown effect 'wobble'"),
+        (["--effect", "backlash", "--effect", "backlash=0.01"], "--effect: effect 'backlash' is given more than once"),
+        (["--effect", "outliers=2"], "--effect: effect 'outliers' needs a fraction between 0 and 1"),
         (["--repeats", "0"], "argument --repeats: expected a whole number >= 1, got 0"),
         (["--seed", "-1"], "argument --seed: expected a whole number >= 0"),
     ],
@@ -109,3 +111,10 @@ def test_no_equilibrium_exits_2_naming_the_plan_line(main, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "plan.csv:3" in err and "no static equilibrium under 500 kg" in err and len(err.splitlines()) == 1
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_help_lists_the_effects_with_their_defaults(capsys):
+    assert cli.main(["simulate", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "plant an effect, repeatable: compensator:" in text
+    assert "outliers: a few gross tracker errors" in text

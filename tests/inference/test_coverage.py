@@ -1,26 +1,17 @@
 """Frequentist coverage of the posterior intervals: truth drawn from a prior, data simulated, intervals checked.
 
-The fast tests use linear-Gaussian problems and, loosely, a few Table III
-campaigns on the digital twin; the slow ones simulate many Table III campaigns
-on the twin (nonlinear, distance-dependent tracker noise) with parameters drawn
-around Table IV and identify them with the exact model.
+Linear-Gaussian problems with both samplers; the coverage of the full
+identification on twin campaigns unlike the config is tested with its study,
+in tests/studies/test_coverage.py.
 """
 
-from pathlib import Path
-import dataclasses
-import warnings
-
-
 import numpy as np
-import pytest
 from scipy import stats
 
-from bayescal.sampling.gibbs import GibbsSampler
 from bayescal.inference.equations import DeflectionEquations
 from bayescal.inference.likelihood import per_angle_posterior
 from bayescal.sampling.ensemble import EnsembleSampler
-
-DATA = Path(__file__).resolve().parents[2] / "data"
+from bayescal.sampling.gibbs import GibbsSampler
 
 LEVELS = np.array([1.0, 2.0, 3.0])
 NOMINAL = 2 * stats.norm.cdf(LEVELS) - 1  # 0.6827, 0.9545, 0.9973
@@ -77,64 +68,3 @@ def test_emcee_intervals_cover_at_nominal_rates():
         draws = sampler.sample(posterior, start, np.full(6, 0.05), rng)[0, :, :3]
         hits.append(covered(draws, truth))
     assert_nominal(np.concatenate(hits))
-
-
-def assert_plausible(hits: np.ndarray) -> None:
-    """Loose check for few campaigns: each level's hit count inside the central 99.9 % of its binomial distribution.
-
-    Checks from one campaign are correlated, so only a gross miscalibration (for
-    instance sds off by a factor 1.5) is expected to fail it.
-    """
-    n = hits.shape[0]
-    count = hits.sum(axis=0)
-    low, high = stats.binom.ppf(0.0005, n, NOMINAL), stats.binom.ppf(0.9995, n, NOMINAL)
-    assert np.all((low <= count) & (count <= high)), (count, low, high)
-
-
-def twin_coverage(sampler: str, campaigns: int, seed: int, sizes: dict | None = None) -> np.ndarray:
-    from bayescal.cell.config import load_cell
-    from bayescal.inference.elastostatic import ElastostaticModel
-    from bayescal.cell.plan import read_plan
-    from bayescal.twin.simulator import DigitalTwin
-    from bayescal.units import MM, N_PER_MM, URAD_PER_NM
-
-    cell = load_cell(DATA / "kr270.toml")
-    plan = read_plan(DATA / "table3_plan.csv", cell.robot)
-    rng = np.random.default_rng(seed)
-    sizes = sizes or dict(n_chains=4, n_tune=300, n_draws=400)
-    samplers = {"gibbs": GibbsSampler(**sizes), "emcee": EnsembleSampler(n_chains=sizes["n_chains"], n_tune=1000, n_draws=max(sizes["n_draws"] // 4, 1))}
-    model = ElastostaticModel.from_cell(cell, sampler=samplers[sampler])
-    hits = []
-    for _ in range(campaigns):
-        compliances = cell.compliances * rng.uniform(0.9, 1.1, 6)
-        spring = cell.compensator.K_c * rng.uniform(0.7, 1.3), cell.compensator.s0 * rng.uniform(0.95, 1.05)
-        truth_cell = dataclasses.replace(cell, compliances=compliances, compensator=cell.compensator.geometry.with_spring(*spring))
-        campaign = DigitalTwin(truth_cell).simulate(plan, 3, rng)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            results = model.fit(campaign, rng)
-        # The posterior summary, not parameters(): K_c and s0 are reported as not identifiable
-        # from these data, but their intervals must still be honest.
-        summary = results.summary()
-        truth = {f"k{j + 1}": compliances[j] / URAD_PER_NM for j in range(1, 6)}
-        truth |= {"K_c": spring[0] / N_PER_MM, "s0": spring[1] / MM}
-        for name, value in truth.items():
-            hits.append(np.abs(value - summary.loc[name, "mean"]) <= LEVELS * summary.loc[name, "sd"])
-    return np.array(hits)
-
-
-def test_exact_model_gibbs_intervals_are_not_grossly_miscalibrated_on_twin_campaigns():
-    # 10 nonlinear twin campaigns, 7 parameters each (k2..k6, K_c, s0) pooled.
-    hits = twin_coverage("gibbs", 10, 31, dict(n_chains=2, n_tune=150, n_draws=300))
-    assert hits.shape == (70, 3)
-    assert_plausible(hits)
-
-
-@pytest.mark.slow
-def test_exact_model_gibbs_coverage_on_twin_campaigns():
-    assert_nominal(twin_coverage("gibbs", 40, 21))
-
-
-@pytest.mark.slow
-def test_exact_model_emcee_coverage_on_twin_campaigns():
-    assert_nominal(twin_coverage("emcee", 15, 22))

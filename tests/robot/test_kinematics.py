@@ -138,3 +138,13 @@ def test_prismatic_joints_are_rejected(tmp_path):
     (tmp_path / "slide.urdf").write_text(urdf[:first] + 'type="prismatic"' + urdf[first + len('type="revolute"'):])
     with pytest.raises(InputError, match="is prismatic; every joint must be revolute"):
         Robot.from_urdf(tmp_path / "slide.urdf")
+
+
+def test_joint_origins_end_at_the_flange_joint(robot):
+    q = np.radians([30.0, -60.0, 40.0, 10.0, -20.0, 50.0])
+    origins = robot.joint_origins(q)
+    _, flange = robot.flange_pose(q)
+    assert origins.shape == (robot.nq, 3)
+    # The flange frame sits at the A6 origin (data/robots/kr270.urdf).
+    np.testing.assert_allclose(origins[-1], flange, atol=1e-12)
+    np.testing.assert_allclose(origins[0], [0.0, 0.0, 0.75], atol=1e-12)

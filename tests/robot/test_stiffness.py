@@ -54,13 +54,13 @@ def test_compliance_design_is_eq_31(robot):
 def test_small_loads_follow_the_linear_model(robot):
     point = np.array([0.2, -0.05, 0.0866])
     wrench = np.array([3.0, -2.0, -10.0, 0.5, 0.2, -0.3])
-    theta = st.equilibrium(robot, Q, K, wrench, gravity=False)
+    theta = st.ElasticArm.linear(robot, K, gravity=False).equilibrium(Q, wrench)
     nonlinear = robot.point_position(Q + theta, point) - robot.point_position(Q, point)
     linear = st.compliance_design(robot, Q, point, wrench) @ K
     np.testing.assert_allclose(nonlinear, linear, rtol=1e-4, atol=1e-12)
     # and the full load differs from the linear model at second order only
     big = 250.0 * wrench
-    theta = st.equilibrium(robot, Q, K, big, gravity=False)
+    theta = st.ElasticArm.linear(robot, K, gravity=False).equilibrium(Q, big)
     nonlinear = robot.point_position(Q + theta, point) - robot.point_position(Q, point)
     linear = st.compliance_design(robot, Q, point, big) @ K
     assert np.linalg.norm(nonlinear - linear) < 0.02 * np.linalg.norm(linear)
@@ -69,7 +69,7 @@ def test_small_loads_follow_the_linear_model(robot):
 
 def test_equilibrium_satisfies_eq_1(robot):
     wrench = np.array([200.0, -300.0, -2600.0, 50.0, -80.0, 120.0])
-    theta = st.equilibrium(robot, Q, K, wrench, compensator=COMPENSATOR)
+    theta = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).equilibrium(Q, wrench)
     linked = Q + theta
     torque = robot.flange_jacobian(linked).T @ wrench - robot.gravity_torque(linked)
     torque[1] -= COMPENSATOR.torque(linked[1])
@@ -80,23 +80,23 @@ def test_equilibrium_satisfies_eq_1(robot):
 def test_newton_converges_in_a_few_iterations(robot):
     wrench = np.array([0.0, 0.0, -2700.0, 0.0, 0.0, 0.0])
     with pytest.raises(st.EquilibriumError):
-        st.equilibrium(robot, Q, K, wrench, compensator=COMPENSATOR, max_iter=1)
-    theta = st.equilibrium(robot, Q, K, wrench, compensator=COMPENSATOR, max_iter=4, tol=1e-12)
-    settled = st.equilibrium(robot, Q, K, wrench, compensator=COMPENSATOR, max_iter=50, tol=1e-15)
+        st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).equilibrium(Q, wrench, max_iter=1)
+    theta = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).equilibrium(Q, wrench, max_iter=4, tol=1e-12)
+    settled = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).equilibrium(Q, wrench, max_iter=50, tol=1e-15)
     np.testing.assert_allclose(theta, settled, rtol=0, atol=1e-12)
 
 
 def test_cartesian_stiffness_matches_finite_differences(robot):
     wrench = np.array([200.0, -300.0, -2600.0, 50.0, -80.0, 120.0])
-    stiffness = st.cartesian_stiffness(robot, Q, K, wrench, compensator=COMPENSATOR)
-    base = st.equilibrium(robot, Q, K, wrench, compensator=COMPENSATOR)
+    stiffness = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).cartesian_stiffness(Q, wrench)
+    base = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).equilibrium(Q, wrench)
     steps = np.array([10.0, 10.0, 10.0, 3.0, 3.0, 3.0])
     numeric = np.zeros((6, 6))
     for i, h in enumerate(steps):
         e = np.zeros(6)
         e[i] = h
-        plus = st.equilibrium(robot, Q, K, wrench + e, compensator=COMPENSATOR)
-        minus = st.equilibrium(robot, Q, K, wrench - e, compensator=COMPENSATOR)
+        plus = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).equilibrium(Q, wrench + e)
+        minus = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).equilibrium(Q, wrench - e)
         numeric[:, i] = _flange_displacement(robot, Q, minus, plus) / (2 * h)
     compliance = np.linalg.inv(stiffness)
     np.testing.assert_allclose(compliance, numeric, rtol=1e-6, atol=1e-9 * np.abs(compliance).max())
@@ -113,9 +113,9 @@ def test_conservative_loads_give_a_symmetric_compliance(robot):
     load_point = np.array([0.25, 0.0, 0.2])
     rotation, _ = robot.flange_pose(Q)
     wrench[3:] = np.cross(rotation @ load_point, wrench[:3])
-    theta, joint = st.equilibrium_stiffness(robot, Q, K, wrench, compensator=COMPENSATOR, load_point=load_point)
+    theta, joint = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR, load_point=load_point).equilibrium_stiffness(Q, wrench)
     np.testing.assert_allclose(joint, joint.T, rtol=0, atol=1e-9 * np.abs(joint).max())
-    compliance = np.linalg.inv(st.cartesian_stiffness(robot, Q, K, wrench, compensator=COMPENSATOR, load_point=load_point))
+    compliance = np.linalg.inv(st.ElasticArm.linear(robot, K, compensator=COMPENSATOR, load_point=load_point).cartesian_stiffness(Q, wrench))
     np.testing.assert_allclose(compliance, compliance.T, atol=1e-9 * np.abs(compliance).max())
     # with the load at the load point, the loaded equilibrium is eq 1 for that point
     linked = Q + theta

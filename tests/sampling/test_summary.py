@@ -64,7 +64,7 @@ def test_rhat_flags_ensembles_stuck_in_different_places():
 def test_parameters_json_and_netcdf_round_trip(gaussian_tree, tmp_path):
     tree, _, _ = gaussian_tree
     block = parameters_json(summarize(tree, ["a"]))
-    assert set(block["a"]) == {"mean", "sd", "lo3", "hi3", "unit"}
+    assert set(block["a"]) == {"mean", "sd", "lo3", "hi3", "q_lo3", "q_hi3", "unit"}
     assert block["a"]["unit"] == "mm"
     path = tmp_path / "posterior.nc"
     save(tree, path)
@@ -100,3 +100,15 @@ def test_unconverged_posteriors_are_warned_about():
     warn_if_unconverged(good, what="x")  # silent
     with pytest.warns(ConvergenceWarning, match=r"the test posterior may not have converged \(R-hat 1.050 > 1.01, tail ESS 90 < 400\)"):
         warn_if_unconverged(good | {"r_hat_max": 1.05, "ess_tail_min": 90.0}, what="the test posterior")
+
+
+def test_summary_gives_the_central_interval_beside_mean_plus_minus_3_sd():
+    rng = np.random.default_rng(3)
+    skewed = rng.exponential(size=(4, 20000))
+    summary = summarize(posterior_tree({"x": skewed}, units={"x": "1"}))
+    row = summary.loc["x"]
+    # An exponential posterior: mean - 3 sd is negative, its 0.135 % quantile is not.
+    assert row["lo3"] < 0 < row["q_lo3"]
+    assert row["q_lo3"] == pytest.approx(-np.log(1 - 0.00135), rel=0.2)
+    assert row["q_hi3"] == pytest.approx(-np.log(0.00135), rel=0.05)
+    assert set(parameters_json(summary)["x"]) == {"mean", "sd", "lo3", "hi3", "q_lo3", "q_hi3", "unit"}

@@ -1,0 +1,96 @@
+"""``bayescal plan``: design a calibration plan (eqs 36-41), or score a given one."""
+
+from __future__ import annotations
+
+import argparse
+
+from ._command import CommandOutput, add_common_options
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "plan",
+        help="design a calibration plan for a cell, or score a given plan",
+        description=(
+            "Find the configurations and loads that make the robot most accurate at the cell's test pose "
+            "(Klimchik et al., eqs 38-41), or identify the compensator best, or maximise the information's "
+            "determinant; write the plan CSV and print the predicted rms error left at the test pose and "
+            "the predicted ±3σ width of every parameter. With --evaluate, score a given plan the same way."
+        ),
+    )
+    parser.add_argument("--config", required=True, help="cell TOML file (robot, stiffness, compensator, tool, tracker, test pose)")
+    parser.add_argument("--angles", type=int, default=5, help="distinct q2 angles (default 5, as Table III)")
+    parser.add_argument("--per-angle", type=int, default=3, help="configurations per q2 angle (default 3)")
+    parser.add_argument("--repeats", type=int, default=3, help="measurements of each configuration (default 3)")
+    parser.add_argument(
+        "--criterion",
+        choices=("test-pose", "compensator", "d-optimal"),
+        default="test-pose",
+        help="what to optimise: the rms error at the test pose (eqs 38-40), the ±3σ of K_c and s0, or log det of the information",
+    )
+    parser.add_argument(
+        "--model",
+        choices=("linear", "exact"),
+        default="exact",
+        help="model the search scores plans with: exact (default, the identification's, about 100 s) or linear (eq 31, about 25 s)",
+    )
+    parser.add_argument("--mass-kg", type=float, nargs=2, metavar=("LOW", "HIGH"), help="range of the hanging load (default: the cell's [design] mass_kg)")
+    parser.add_argument("--starts", type=int, default=None, help="random starts of the exchange algorithm (default 3)")
+    parser.add_argument("-o", "--output", help="plan CSV to write")
+    parser.add_argument("--evaluate", metavar="PLAN.csv", help="score this plan instead of designing one")
+    add_common_options(parser)
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> CommandOutput:
+    from pathlib import Path
+
+    from bayescal.cell.config import load_cell
+    from bayescal.cell.plan import read_plan
+    from bayescal.design.constraints import load_design_space
+    from bayescal.design.optimise import STARTS, PlanDesigner
+    from bayescal.errors import InputError
+
+    cell = load_cell(args.config)
+    space = load_design_space(cell, mass_range=None if args.mass_kg is None else tuple(args.mass_kg))
+    designer = PlanDesigner(cell, space, repeats=args.repeats, model=args.model)
+    if args.evaluate is not None:
+        plan = read_plan(args.evaluate, cell.robot)
+        prediction = designer.evaluate(plan, "exact")
+        payload = prediction.to_json() | {
+            "model": "exact",
+            "linear_model": designer.evaluate(plan, "linear").to_json(),
+            "plan": args.evaluate,
+            "configurations": len(plan),
+            "repeats": args.repeats,
+            "violations": designer.violations(plan),
+        }
+        table = prediction.summary()
+    else:
+        if args.output is None:
+            raise InputError("expected -o PLAN.csv (the plan to write) or --evaluate PLAN.csv", source="--output")
+        output = Path(args.output)
+        if not output.parent.is_dir():
+            raise InputError("the output directory does not exist", source=args.output)
+        starts = STARTS if args.starts is None else args.starts
+        if starts < 1:
+            raise InputError(f"expected at least 1 start, got {starts}", source="--starts")
+        design = designer.optimise(args.angles, args.per_angle, args.criterion, rng=args.seed, starts=starts, progress=True)
+        design.save(
+            output,
+            comments=(f"bayescal plan --config {args.config} --angles {args.angles} --per-angle {args.per_angle} --criterion {args.criterion} --seed {args.seed}",),
+        )
+        payload = design.to_json() | {"output": str(output)}
+        table = design.summary()
+    criterion = payload["criterion"]
+    lines = [
+        f"predicted rms error at the test pose after compensation: {'not predictable' if criterion is None else f'{criterion:.5f} mm'}",
+        table.to_string(float_format=lambda v: f"{v:.4g}"),
+    ]
+    for violation in payload.get("violations", []):
+        lines.append(f"configuration {violation['config']}: {violation['reason']}")
+    if "output" in payload:
+        lines.insert(0, f"wrote {payload['output']}: {payload['configurations']} configurations at q2 = {', '.join(f'{v:g}' for v in payload['q2_deg'])} deg")
+    return CommandOutput(payload=payload, text="\n".join(lines))

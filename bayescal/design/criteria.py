@@ -1,0 +1,424 @@
+"""How good a calibration plan is before it is measured: eqs 37-40 on the linearised compensated model.
+
+The identification's parameters are ``θ = [k1..k6, K_c, s0]`` (rad/(N·m), N/m,
+m), ``k2`` being joint 2 without its compensator.  Around the cell's nominal
+values, a marker's deflection in configuration ``q`` under the wrench ``F`` is
+``Δp ≈ A(q, F) k_eff(q2)`` (eq 31) with the equivalent joint-2 compliance
+``k_eff2 = 1/(1/k2 + K_c a L η(q2; s0))`` (eq 8); the chain rule through
+``k_eff2`` gives the rows of the design ``B`` in ``θ``.  With independent tracker
+noise of standard deviation ``σ(p)`` per coordinate (two readings per
+deflection), a configuration measured ``r`` times contributes
+``r Bᵀ W B`` (``W = 1/(2σ²)``) to the information matrix, and the plan's
+covariance is its inverse (eq 37, weighted).  This is the linear-Gaussian
+closed form the criteria of eqs 38-39 assume; the Bayesian identification's
+posterior agrees with it when the priors are wide and the model nearly linear.
+
+Everything here works in relative parameters ``u = θ/θ_nominal - 1`` so that
+the information matrix is well conditioned across rad/(N·m), N/m and m.
+
+Three criteria, all to be minimised:
+
+* ``test-pose``: ``ρ0² = trace(G0 cov G0ᵀ)`` (eqs 38-40), the mean squared
+  positioning error left at the cell's test pose ``(q0, F0)`` after compliance
+  compensation, with ``G0`` the test pose's eq-31 matrix through the same chain
+  rule, so joint 2's compliance at ``q0``'s q2 comes from the compensator model;
+* ``compensator``: the sum of the relative variances of ``K_c`` and ``s0``;
+* ``d-optimal``: ``-log det`` of the information matrix, as general-purpose
+  calibration toolboxes use it.
+
+Parameters no configuration of the plan excites (``k1`` under hanging loads,
+which exert no torque about the vertical A1 axis) are held at their nominal
+value: they are left out of the covariance, reported with NaN widths, and
+their uncertainty is not in ``ρ0`` (as in :func:`bayescal.inference.testpose.predict_cell_test_pose`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from dataclasses import replace
+
+from bayescal.cell.config import Cell
+from bayescal.reference import published
+from bayescal.robot.compensator import COMPENSATED_JOINT
+from bayescal.robot.stiffness import ElasticArm, compliance_design
+from bayescal.twin.simulator import DigitalTwin
+from bayescal.units import MM, N_PER_MM, URAD_PER_NM
+
+__all__ = [
+    "CRITERIA",
+    "ExactLinearisation",
+    "PlanPrediction",
+    "configuration_design",
+    "configuration_information",
+    "criterion_value",
+    "criterion_values",
+    "nominal_parameters",
+    "parameter_names",
+    "predict",
+    "solve_equilibrium",
+    "test_deflection",
+    "test_pose_design",
+    "with_parameters",
+]
+
+CRITERIA = ("test-pose", "compensator", "d-optimal")
+"""The criteria a plan can be optimised for."""
+
+UNEXCITED = 1e-18
+"""A parameter whose information is below this fraction of the largest is not excited by the plan
+(the square of the 1e-9 column-norm ratio of :mod:`bayescal.studies.precision`)."""
+
+SINGULAR = 1e-14
+"""Smallest eigenvalue, relative to the largest, of an information matrix that can still be inverted
+in double precision: below it the plan cannot separate the parameters (e.g. K_c and s0 from two q2 angles)."""
+
+
+def parameter_names(cell: Cell) -> list[str]:
+    """``k1..k<n>`` and, with a compensator, ``K_c`` and ``s0``."""
+    names = [f"k{j}" for j in range(1, cell.robot.nq + 1)]
+    return names + (["K_c", "s0"] if cell.compensator is not None else [])
+
+
+def nominal_parameters(cell: Cell) -> np.ndarray:
+    """(p,) the cell's parameter values, SI: rad/(N·m), then N/m and m."""
+    values = list(cell.compliances)
+    if cell.compensator is not None:
+        values += [cell.compensator.K_c, cell.compensator.s0]
+    return np.array(values, dtype=float)
+
+
+def _chain(cell: Cell, q2: float) -> tuple[np.ndarray, np.ndarray]:
+    """Compliances acting at joint angle ``q2`` and their (nq, p) derivatives in the relative parameters."""
+    k = cell.compliances
+    nominal = nominal_parameters(cell)
+    effective = k.copy()
+    chain = np.eye(cell.robot.nq, len(nominal))
+    compensator = cell.compensator
+    if compensator is not None:
+        j2 = COMPENSATED_JOINT
+        effective[j2] = 1.0 / (1.0 / k[j2] + compensator.stiffness(q2))
+        # K_c·a·L·η = C1·K_c + C2·s0·K_c (eq 35): derivatives C1 + s0·C2 in K_c and K_c·C2 in s0.
+        _, c1, c2 = compensator.regressor(q2)
+        chain[j2, j2] = effective[j2] ** 2 / k[j2] ** 2
+        chain[j2, -2] = -effective[j2] ** 2 * (c1 + compensator.s0 * c2)
+        chain[j2, -1] = -effective[j2] ** 2 * compensator.K_c * c2
+    return effective, chain * nominal[np.newaxis, :]
+
+
+def configuration_design(cell: Cell, q, wrench) -> tuple[np.ndarray, np.ndarray]:
+    """Design rows of one configuration and the noise of each.
+
+    Parameters
+    ----------
+    cell
+        The cell.
+    q
+        (nq,) joint angles, rad.
+    wrench
+        (6,) load at the flange origin, base axes, N and N·m.
+
+    Returns
+    -------
+    design : numpy.ndarray
+        (3·markers, p) derivatives of the markers' deflections (m) in the relative parameters,
+        rows in the cell's marker order.
+    sigma : numpy.ndarray
+        (3·markers,) standard deviation of each deflection coordinate (m): ``√2 σ(p)``.
+    """
+    q = np.asarray(q, dtype=float)
+    _, chain = _chain(cell, float(q[COMPENSATED_JOINT]))
+    points = list(cell.markers.values())
+    rows = [compliance_design(cell.robot, q, point, wrench) @ chain for point in points]
+    sigma = math.sqrt(2.0) * cell.tracker.sigma(cell.robot.point_position(q, np.array(points)))
+    return np.vstack(rows), np.repeat(sigma, 3)
+
+
+def configuration_information(cell: Cell, q, mass: float, repeats: int = 1, *, exact: ExactLinearisation | None = None) -> np.ndarray:
+    """(p, p) information ``r Bᵀ W B`` of one configuration loaded with ``mass`` kg, relative parameters.
+
+    ``exact``: take ``B`` from the exact model's linearisation instead of eq 31.
+    """
+    if exact is None:
+        design, sigma = configuration_design(cell, q, cell.load_wrench(q, mass))
+    else:
+        design, sigma = exact.configuration_design(q, mass)
+    weighted = design / sigma[:, np.newaxis]
+    return repeats * weighted.T @ weighted
+
+
+def test_pose_design(cell: Cell) -> np.ndarray:
+    """(3, p) derivative of the test point's deflection (m) under the test wrench in the relative parameters."""
+    _, chain = _chain(cell, float(cell.test_q[COMPENSATED_JOINT]))
+    return compliance_design(cell.robot, cell.test_q, cell.test_point, cell.test_wrench) @ chain
+
+
+test_pose_design.__test__ = False  # a library function, not a pytest test
+
+
+DIFFERENCE_STEP = 1e-4
+"""Relative step of the exact model's central differences: deflections are nearly linear in the
+parameters, so the truncation error (order step², relative) stays far below the solves' rounding."""
+
+
+def with_parameters(cell: Cell, theta: np.ndarray) -> Cell:
+    """``cell`` with the parameters ``theta`` = [k1..k<n>, K_c, s0] (SI)."""
+    nq = cell.robot.nq
+    compensator = cell.compensator
+    if compensator is not None:
+        compensator = replace(compensator, K_c=float(theta[nq]), s0=float(theta[nq + 1]))
+    return replace(cell, compliances=np.array(theta[:nq], dtype=float), compensator=compensator)
+
+
+def solve_equilibrium(cell: Cell, q, wrench, load_point) -> np.ndarray:
+    """(nq,) joint deflections (rad) of ``cell``'s arm at ``q`` under ``wrench``, its force acting at ``load_point``.
+
+    Raises :class:`~bayescal.robot.stiffness.EquilibriumError` when there is none.
+    """
+    return ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, load_point=load_point).equilibrium(q, wrench)
+
+
+def test_deflection(cell: Cell) -> np.ndarray:
+    """(3,) exact deflection (m) of the test point under the test wrench, its force acting at that point."""
+    robot = cell.robot
+    states = [solve_equilibrium(cell, cell.test_q, wrench, cell.test_point) for wrench in (np.zeros(6), cell.test_wrench)]
+    return robot.point_position(cell.test_q + states[1], cell.test_point) - robot.point_position(cell.test_q + states[0], cell.test_point)
+
+
+test_deflection.__test__ = False  # a library function, not a pytest test
+
+
+class ExactLinearisation:
+    """The exact model (the twin's loaded equilibrium with the links' weights and the compensator)
+    linearised about the cell's values by central differences, in relative parameters.
+
+    The compensator's static torque moves the unloaded and loaded equilibria, so
+    ``K_c`` and ``s0`` act on the deflections also through the arm's geometry,
+    which eq 31's design leaves out: on Table III the exact model predicts
+    K_c and s0 about 2.4 and 1.4 times more precisely than eq 31 (docs/design.md).
+    """
+
+    def __init__(self, cell: Cell) -> None:
+        self.cell = cell
+        nominal = nominal_parameters(cell)
+        self._twins = []
+        self._cells = []
+        for i in range(len(nominal)):
+            pair = []
+            for sign in (1.0, -1.0):
+                theta = nominal.copy()
+                theta[i] *= 1.0 + sign * DIFFERENCE_STEP
+                pair.append(with_parameters(cell, theta))
+            self._cells.append(pair)
+            self._twins.append([DigitalTwin(changed) for changed in pair])
+        self._nominal = DigitalTwin(cell)
+
+    def deflections(self, q, mass: float) -> np.ndarray:
+        """(markers, 3) noiseless deflections (m) at the cell's values."""
+        unloaded, loaded = self._nominal.positions(q, mass)
+        return loaded - unloaded
+
+    def configuration_design(self, q, mass: float) -> tuple[np.ndarray, np.ndarray]:
+        """Like :func:`configuration_design`, from the exact model; the noise is that of the two readings."""
+        columns = []
+        for plus, minus in self._twins:
+            moved = [np.subtract(*twin.positions(q, mass)[::-1]).ravel() for twin in (plus, minus)]
+            columns.append((moved[0] - moved[1]) / (2.0 * DIFFERENCE_STEP))
+        unloaded, loaded = self._nominal.positions(q, mass)
+        tracker = self.cell.tracker
+        sigma = np.sqrt(tracker.sigma(unloaded) ** 2 + tracker.sigma(loaded) ** 2)
+        return np.column_stack(columns), np.repeat(sigma, 3)
+
+    def test_design(self) -> np.ndarray:
+        """(3, p) derivatives of the test point's exact deflection (m) in the relative parameters."""
+        return np.column_stack(
+            [(test_deflection(plus) - test_deflection(minus)) / (2.0 * DIFFERENCE_STEP) for plus, minus in self._cells]
+        )
+
+
+@dataclass(frozen=True)
+class PlanPrediction:
+    """What a plan's information matrix predicts (relative parameters; SI where stated).
+
+    Attributes
+    ----------
+    names : list of str
+    nominal : numpy.ndarray
+        (p,) parameter values, SI.
+    excited : numpy.ndarray
+        (p,) bool, parameters the plan excites; the others are held at their nominal values.
+    covariance : numpy.ndarray
+        (p, p) covariance of the relative parameters; NaN rows and columns where not
+        excited, or everywhere when the plan cannot separate the excited ones.
+    rho0 : float
+        rms positioning error left at the test pose after compensation (eq 39), m; inf when the
+        plan cannot predict it.
+    log_det : float
+        log det of the excited block of the information matrix (relative parameters); -inf when singular.
+    """
+
+    names: list[str]
+    nominal: np.ndarray
+    excited: np.ndarray
+    covariance: np.ndarray
+    rho0: float
+    log_det: float
+
+    @property
+    def relative_sd(self) -> np.ndarray:
+        """(p,) standard deviation of each parameter as a fraction of its value (NaN where not excited)."""
+        return np.sqrt(np.diag(self.covariance))
+
+    def summary(self) -> pd.DataFrame:
+        """Predicted precision per parameter in the paper's units.
+
+        Columns ``value``, ``sd``, ``width_3sd_pct`` (3 sd in % of the value),
+        ``table_iv_pct`` (Klimchik et al., Table IV) and ``unit``.
+        """
+        factors = np.array([_unit(name)[0] for name in self.names])
+        sd = self.relative_sd * np.abs(self.nominal)
+        return pd.DataFrame(
+            {
+                "value": self.nominal * factors,
+                "sd": sd * factors,
+                "width_3sd_pct": 300.0 * self.relative_sd,
+                "table_iv_pct": [_table_iv_pct(name) for name in self.names],
+                "unit": [_unit(name)[1] for name in self.names],
+            },
+            index=pd.Index(self.names, name="parameter"),
+        )
+
+    def to_json(self) -> dict:
+        """``criterion`` (ρ0 in mm, null when not predictable) and each parameter's ±3σ width."""
+        table = self.summary()
+        return {
+            "criterion": _finite(self.rho0 / MM),
+            "criterion_unit": "mm rms at the test pose after compensation",
+            "log_det_information": _finite(self.log_det),
+            "parameters": {
+                name: {
+                    "value": float(row.value),
+                    "unit": row.unit,
+                    "sd": _finite(row.sd),
+                    "width_3sd": _finite(3.0 * row.sd),
+                    "width_3sd_pct": _finite(row.width_3sd_pct),
+                    "excited": bool(excited),
+                }
+                for (name, row), excited in zip(table.iterrows(), self.excited)
+            },
+        }
+
+
+def predict(cell: Cell, information: np.ndarray, *, test_design: np.ndarray | None = None) -> PlanPrediction:
+    """The covariance, ``ρ0`` and ``log det`` a plan's information matrix gives.
+
+    Parameters
+    ----------
+    cell
+        The cell (nominal parameters, test pose).
+    information
+        (p, p) sum of :func:`configuration_information` over the plan.
+    test_design
+        (3, p) :func:`test_pose_design` of ``cell``, when already computed.
+    """
+    names = parameter_names(cell)
+    p = len(names)
+    diagonal = np.diag(information)
+    excited = diagonal > UNEXCITED * max(diagonal.max(), 1e-300)
+    block = information[np.ix_(excited, excited)]
+    # Equilibrating the block keeps the eigenvalue test meaningful when one parameter dominates.
+    scale = 1.0 / np.sqrt(np.diag(block))
+    values, vectors = np.linalg.eigh(block * np.outer(scale, scale))
+    covariance = np.full((p, p), np.nan)
+    rho0, log_det = math.inf, -math.inf
+    if values.size and values[0] > SINGULAR * values[-1]:
+        inverse = (vectors / values) @ vectors.T * np.outer(scale, scale)
+        covariance[np.ix_(excited, excited)] = inverse
+        G0 = test_pose_design(cell) if test_design is None else test_design
+        rho0 = math.sqrt(max(float(np.trace(G0[:, excited] @ inverse @ G0[:, excited].T)), 0.0))
+        log_det = float(np.sum(np.log(values)) - 2.0 * np.sum(np.log(scale)))
+    return PlanPrediction(names=names, nominal=nominal_parameters(cell), excited=excited, covariance=covariance, rho0=rho0, log_det=log_det)
+
+
+def criterion_value(prediction: PlanPrediction, criterion: str) -> float:
+    """The number ``criterion`` minimises (inf for a plan that cannot deliver it).
+
+    ``test-pose``: ``ρ0`` (m); ``compensator``: the sum of the relative variances of
+    ``K_c`` and ``s0``; ``d-optimal``: ``-log det`` of the information matrix.
+    """
+    if criterion == "test-pose":
+        return prediction.rho0
+    if criterion == "compensator":
+        if "K_c" not in prediction.names:
+            raise ValueError("the compensator criterion needs a cell with a compensator")
+        variance = np.diag(prediction.covariance)[-2:]
+        return float(np.sum(variance)) if np.all(np.isfinite(variance)) else math.inf
+    if criterion == "d-optimal":
+        return -prediction.log_det
+    raise ValueError(f"unknown criterion {criterion!r}; expected one of {', '.join(CRITERIA)}")
+
+
+def criterion_values(cell: Cell, information: np.ndarray, criterion: str, *, test_design: np.ndarray | None = None) -> np.ndarray:
+    """:func:`criterion_value` of many information matrices at once, as the exchange algorithm needs.
+
+    Parameters
+    ----------
+    cell
+        The cell.
+    information
+        (n, p, p) information matrices (relative parameters).
+    criterion
+        One of :data:`CRITERIA`.
+    test_design
+        (3, p) :func:`test_pose_design` of ``cell``, when already computed.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n,) the criterion of each matrix (inf where it cannot be delivered).  The
+        parameters held at their nominal value are those no matrix of the batch
+        excites; a parameter only some matrices excite makes the others singular.
+    """
+    if criterion not in CRITERIA:
+        raise ValueError(f"unknown criterion {criterion!r}; expected one of {', '.join(CRITERIA)}")
+    diagonal = np.einsum("nii->ni", information)
+    excited = diagonal.max(axis=0) > UNEXCITED * max(diagonal.max(), 1e-300)
+    block = information[:, excited][:, :, excited]
+    scale = 1.0 / np.sqrt(np.maximum(np.einsum("nii->ni", block), 1e-300))
+    outer = scale[:, :, np.newaxis] * scale[:, np.newaxis, :]
+    values, vectors = np.linalg.eigh(block * outer)
+    usable = values[:, 0] > SINGULAR * values[:, -1]
+    safe = np.where(usable[:, np.newaxis], values, 1.0)
+    if criterion == "d-optimal":
+        return np.where(usable, -(np.sum(np.log(safe), axis=1) - 2.0 * np.sum(np.log(scale), axis=1)), np.inf)
+    inverse = (vectors / safe[:, np.newaxis, :]) @ vectors.transpose(0, 2, 1) * outer
+    if criterion == "compensator":
+        if cell.compensator is None:
+            raise ValueError("the compensator criterion needs a cell with a compensator")
+        return np.where(usable, inverse[:, -2, -2] + inverse[:, -1, -1], np.inf)
+    G0 = (test_pose_design(cell) if test_design is None else test_design)[:, excited]
+    squared = np.einsum("ij,njk,ik->n", G0, inverse, G0)
+    return np.where(usable, np.sqrt(np.maximum(squared, 0.0)), np.inf)
+
+
+def _unit(name: str) -> tuple[float, str]:
+    """Factor from SI to the paper's unit, and the unit's name."""
+    if name == "K_c":
+        return 1.0 / N_PER_MM, "N/mm"
+    if name == "s0":
+        return 1.0 / MM, "mm"
+    return 1.0 / URAD_PER_NM, "urad/(N m)"
+
+
+def _table_iv_pct(name: str) -> float:
+    value, half_width = published("IV").get(name, (np.nan, np.nan))
+    return 100.0 * half_width / value
+
+
+def _finite(value: float) -> float | None:
+    """JSON has no NaN or infinity: a value the plan cannot deliver is null."""
+    return float(value) if math.isfinite(value) else None

@@ -1,0 +1,487 @@
+"""Optimal calibration plans (eq 40 under the constraints of eq 41): exchange, then continuous refinement.
+
+A plan has ``angles`` distinct q2 angles with ``per_angle`` configurations
+each, as the paper's Table III (five angles, three configurations).  The
+optimiser
+
+1. draws a large set of feasible candidate configurations (:mod:`bayescal.design.constraints`)
+   on a grid of q2 angles, the other joints uniform within their limits, and
+   computes each one's information matrix (:mod:`bayescal.design.criteria`);
+2. from a random start, exchanges (Fedorov's idea, in the form of Cook and
+   Nachtsheim's coordinate exchange) one configuration for the best candidate
+   at the same q2, or moves a whole group to another q2 angle filled greedily,
+   until a full pass improves nothing;
+3. refines the best plan continuously: random steps on a group's q2 or on one
+   configuration's other joints, kept when the plan stays feasible and improves,
+   with a step that shrinks from a few degrees to a tenth of one;
+4. repeats 2-3 from several random starts and keeps the best.
+
+Every configuration carries the heaviest mass of the design's range: the
+information of a configuration grows as the square of its load.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import sys
+from collections import Counter
+from dataclasses import dataclass, field
+from os import PathLike
+
+import numpy as np
+import pandas as pd
+
+from bayescal.cell.config import Cell
+from bayescal.cell.plan import Plan, write_plan
+from bayescal.design.constraints import DesignSpace, Feasibility, load_design_space
+from bayescal.design.criteria import (
+    CRITERIA,
+    ExactLinearisation,
+    PlanPrediction,
+    configuration_information,
+    criterion_value,
+    criterion_values,
+    predict,
+    test_pose_design,
+)
+from bayescal.errors import InputError
+from bayescal.robot.compensator import COMPENSATED_JOINT
+from bayescal.units import DEG, MM
+
+__all__ = ["PlanDesign", "PlanDesigner"]
+
+ANGLE_STEP_DEG = 2.5
+"""Spacing (deg) of the candidates' q2 grid: finer than any plan's angle separation, and refined afterwards."""
+
+CANDIDATES_PER_ANGLE = 20
+"""Feasible candidate configurations drawn at each q2 of the grid (about 1100 on the KR-270)."""
+
+TRIES_PER_CANDIDATE = 60
+"""Random draws allowed per wanted candidate before a q2 angle is declared unusable
+(about one draw in ten is feasible in the KR-270 cell)."""
+
+STARTS = 3
+"""Random starts of the exchange; on the KR-270 their results differ by 1-3 % (docs/design.md)."""
+
+REFINE_STEPS = 200
+"""Proposals of the continuous refinement of each start."""
+
+REFINE_STEP_DEG = (3.0, 0.1)
+"""First and last standard deviation (deg) of the refinement's random steps."""
+
+MAX_PASSES = 20
+"""Exchange passes at most; on the KR-270 a start settles in 3 to 6."""
+
+
+class _Progress:
+    """A one-line progress bar on stderr."""
+
+    WIDTH = 30
+
+    def __init__(self, total: int, label: str, enabled: bool) -> None:
+        self.total, self.label, self.enabled, self.done = max(total, 1), label, enabled, 0
+
+    def step(self, note: str = "") -> None:
+        self.done += 1
+        if self.enabled:
+            filled = int(self.WIDTH * self.done / self.total)
+            bar = "#" * filled + "." * (self.WIDTH - filled)
+            sys.stderr.write(f"\r{self.label} [{bar}] {self.done}/{self.total} {note}".ljust(100))
+            sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.enabled:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+@dataclass(frozen=True)
+class PlanDesign:
+    """An optimised plan and what it is predicted to deliver.
+
+    Attributes
+    ----------
+    plan : Plan
+        ``angles × per_angle`` configurations, grouped by q2, with their loads.
+    criterion : str
+        What was minimised (one of :data:`bayescal.design.criteria.CRITERIA`).
+    prediction : PlanPrediction
+        The plan's predicted precision and test-pose error with the exact model
+        linearised (:class:`~bayescal.design.criteria.ExactLinearisation`), as the
+        identification's default model sees it.
+    linear : PlanPrediction
+        The same with eq 31's design (the paper's eqs 37-39).
+    model : str
+        The model the search used, ``"linear"`` or ``"exact"``.
+    repeats : int
+        Measurements per configuration the prediction assumes.
+    starts : list of float
+        The criterion reached from each random start (after refinement).
+    candidates : int
+        Size of the candidate set.
+    seed : int or None
+        The seed the optimisation ran with, when given as an integer.
+    """
+
+    plan: Plan
+    criterion: str
+    prediction: PlanPrediction
+    linear: PlanPrediction
+    model: str
+    repeats: int
+    starts: list[float] = field(default_factory=list)
+    candidates: int = 0
+    seed: int | None = None
+
+    def summary(self) -> pd.DataFrame:
+        """Predicted precision per parameter (see :meth:`PlanPrediction.summary`)."""
+        return self.prediction.summary()
+
+    def to_json(self) -> dict:
+        """``criterion`` (ρ0, mm), the optimised criterion, the plan's angles and each parameter's ±3σ width."""
+        q2 = np.unique(np.round(self.plan.q[:, COMPENSATED_JOINT] / DEG, 3))
+        return self.prediction.to_json() | {
+            "model": "exact",
+            "linear_model": self.linear.to_json(),
+            "optimised_for": self.criterion,
+            "search_model": self.model,
+            "criterion_value": _finite(criterion_value(self.prediction, self.criterion)),
+            "configurations": len(self.plan),
+            "repeats": self.repeats,
+            "q2_deg": [float(v) for v in q2],
+            "load_kg": sorted({float(m) for m in self.plan.masses(0.0)}),
+            "starts": [_finite(v) for v in self.starts],
+            "candidates": self.candidates,
+            "seed": self.seed,
+        }
+
+    def save(self, path: str | PathLike[str], *, comments: tuple[str, ...] = ()) -> None:
+        """Write the plan in the format of ``data/table3_plan.csv``."""
+        rho0 = self.prediction.rho0
+        note = f"predicted rms error at the test pose after compensation {rho0 / MM:.5f} mm" if math.isfinite(rho0) else ""
+        write_plan(self.plan, path, comments=(f"plan optimised for the {self.criterion} criterion, {self.repeats} repeats; {note}",) + tuple(comments))
+
+
+class PlanDesigner:
+    """Designs calibration plans for a cell.
+
+    Parameters
+    ----------
+    cell
+        The cell: robot, tool, tracker noise, nominal stiffness, test pose.
+    space
+        Admissible loads and geometric limits; default :func:`load_design_space` of the cell.
+    repeats
+        Measurements of each configuration (the paper: 3).
+    model
+        The model the search scores plans with: ``"exact"``
+        (:class:`~bayescal.design.criteria.ExactLinearisation`, the identification's default model) or
+        ``"linear"`` (eq 31, about 70 times faster per configuration, but on the KR-270 its
+        test-pose optimum leaves 1.4 times the exact model's error, docs/design.md).
+    """
+
+    def __init__(self, cell: Cell, space: DesignSpace | None = None, *, repeats: int = 3, model: str = "exact") -> None:
+        if repeats < 1:
+            raise InputError(f"expected at least 1 repeat, got {repeats}", source="--repeats")
+        if model not in ("linear", "exact"):
+            raise InputError(f"unknown model '{model}'; expected linear or exact", source="--model")
+        cell.robot.check_limits(cell.test_q, source=cell.source)
+        self.cell = cell
+        self.space = load_design_space(cell) if space is None else space
+        self.repeats = repeats
+        self.model = model
+        self.exact = ExactLinearisation(cell)
+        self._exact_test_design = self.exact.test_design()
+        self.feasibility = Feasibility(cell, self.space)
+        self.mass = self.space.mass_range[1]
+        self._test_design = test_pose_design(cell)
+        robot = cell.robot
+        j2 = COMPENSATED_JOINT
+        self.q2_range = (float(robot.lower[j2]), float(robot.upper[j2]))
+
+    # ----------------------------------------------------------------- scoring
+
+    def information(self, q, mass: float, model: str | None = None) -> np.ndarray:
+        """(p, p) information of one configuration measured :attr:`repeats` times (default: the search's model)."""
+        exact = self.exact if (model or self.model) == "exact" else None
+        return configuration_information(self.cell, q, mass, self.repeats, exact=exact)
+
+    def evaluate(self, plan: Plan, model: str = "exact") -> PlanPrediction:
+        """The prediction for any plan (its own masses, or the cell's load where it has none)."""
+        information = sum(self.information(q, m, model) for q, m in zip(plan.q, plan.masses(self.cell.load_mass)))
+        design = self._exact_test_design if model == "exact" else self._test_design
+        return predict(self.cell, information, test_design=design)
+
+    def violations(self, plan: Plan) -> list[dict]:
+        """The configurations of ``plan`` (numbered from 1) that break a constraint, and why."""
+        found = []
+        for number, (q, mass) in enumerate(zip(plan.q, plan.masses(self.cell.load_mass)), start=1):
+            reason = self.feasibility.violation(q, mass)
+            if reason is not None:
+                found.append({"config": number, "reason": reason})
+        return found
+
+    def _scores(self, information: np.ndarray, criterion: str) -> np.ndarray:
+        design = self._exact_test_design if self.model == "exact" else self._test_design
+        return criterion_values(self.cell, information, criterion, test_design=design)
+
+    def _score(self, information: np.ndarray, criterion: str) -> float:
+        return float(self._scores(information[np.newaxis], criterion)[0])
+
+    # ----------------------------------------------------------------- requests
+
+    def max_angles(self) -> int:
+        """Most distinct q2 angles the joint range allows at the design's separation."""
+        low, high = self.q2_range
+        return int(math.floor((high - low) / self.space.min_separation + 1e-9)) + 1
+
+    def _check_request(self, angles: int, per_angle: int, criterion: str, *, scored: bool = True) -> None:
+        if criterion not in CRITERIA:
+            raise InputError(f"unknown criterion '{criterion}'; expected one of {', '.join(CRITERIA)}", source="--criterion")
+        if angles < 1 or per_angle < 1:
+            raise InputError(f"expected at least 1 angle and 1 configuration per angle, got {angles} and {per_angle}", source="--angles")
+        if angles > self.max_angles():
+            low, high = (math.degrees(v) for v in self.q2_range)
+            raise InputError(
+                f"{angles} q2 angles do not fit in the joint range {low:.0f} to {high:.0f} deg at "
+                f"{math.degrees(self.space.min_separation):.0f} deg apart (at most {self.max_angles()})",
+                source="--angles",
+            )
+        # every criterion inverts the information in K_θ2^0, K_c and s0, singular below three angles
+        if self.cell.compensator is not None and angles < 3 and scored:
+            raise InputError(
+                f"the compensator's K_θ2^0, K_c and s0 need at least 3 distinct q2 angles, got {angles}", source="--angles"
+            )
+
+    # ----------------------------------------------------------------- candidates
+
+    def _grid(self) -> np.ndarray:
+        low, high = self.q2_range
+        count = int(math.floor((high - low) / (ANGLE_STEP_DEG * DEG) + 1e-9)) + 1
+        return np.linspace(low, low + (count - 1) * ANGLE_STEP_DEG * DEG, count)
+
+    def _random_configuration(self, q2: float, rng: np.random.Generator, tries: int, reasons: Counter) -> np.ndarray | None:
+        robot = self.cell.robot
+        for _ in range(tries):
+            q = rng.uniform(robot.lower, robot.upper)
+            q[COMPENSATED_JOINT] = q2
+            reason = self.feasibility.violation(q, self.mass)
+            if reason is None:
+                return q
+            # angles removed, so that "marker M1 faces 97 deg away" and "... 120 deg away" count together
+            reasons[re.sub(r" -?\d+(\.\d+)? deg", "", reason.split(" (")[0])] += 1
+        return None
+
+    def candidates(self, rng: np.random.Generator, *, per_angle: int = CANDIDATES_PER_ANGLE, progress: bool = False):
+        """Feasible candidates on the q2 grid: (n, nq) configurations, their grid index and information.
+
+        Raises
+        ------
+        InputError
+            When no configuration is feasible (e.g. a tracker that sees no marker).
+        """
+        grid = self._grid()
+        configurations, index, reasons = [], [], Counter()
+        bar = _Progress(len(grid), "plan: candidates", progress)
+        for g, q2 in enumerate(grid):
+            for _ in range(per_angle):
+                q = self._random_configuration(q2, rng, TRIES_PER_CANDIDATE, reasons)
+                if q is None:
+                    break
+                configurations.append(q)
+                index.append(g)
+            bar.step()
+        bar.close()
+        if not configurations:
+            common = reasons.most_common(1)[0][0] if reasons else "no draws"
+            raise InputError(f"no feasible configuration found in the cell (most frequent reason: {common})", source=self.cell.source)
+        configurations = np.array(configurations)
+        information = np.array([self.information(q, self.mass) for q in configurations])
+        return grid, configurations, np.array(index), information
+
+    def random_plan(self, angles: int, per_angle: int, rng: np.random.Generator) -> Plan:
+        """A random feasible plan: ``angles`` q2 values uniform over the range and apart, random other joints."""
+        self._check_request(angles, per_angle, "d-optimal", scored=False)
+        low, high = self.q2_range
+        reasons: Counter = Counter()
+        for _ in range(100):
+            q2 = np.sort(rng.uniform(low, high, size=angles))
+            if angles > 1 and np.min(np.diff(q2)) < self.space.min_separation:
+                continue
+            rows = []
+            for value in q2:
+                for _ in range(per_angle):
+                    q = self._random_configuration(float(value), rng, TRIES_PER_CANDIDATE * 10, reasons)
+                    if q is None:
+                        break
+                    rows.append(q)
+            if len(rows) == angles * per_angle:
+                return self._plan(np.array(rows))
+        raise InputError(f"no random feasible plan with {angles} angles found (most frequent reason: {reasons.most_common(1)})", source="--angles")
+
+    def _plan(self, q: np.ndarray) -> Plan:
+        return Plan(q=q, load_kg=np.full(len(q), self.mass), lines=np.zeros(len(q), dtype=int), source="optimised")
+
+    # ----------------------------------------------------------------- optimisation
+
+    def optimise(
+        self,
+        angles: int = 5,
+        per_angle: int = 3,
+        criterion: str = "test-pose",
+        rng: np.random.Generator | int | None = None,
+        *,
+        starts: int = STARTS,
+        refine_steps: int = REFINE_STEPS,
+        candidates_per_angle: int = CANDIDATES_PER_ANGLE,
+        candidates: tuple | None = None,
+        progress: bool = False,
+    ) -> PlanDesign:
+        """The best plan found for ``criterion`` (module docstring for the algorithm).
+
+        Parameters
+        ----------
+        angles
+            Distinct q2 angles.
+        per_angle
+            Configurations at each angle.
+        criterion
+            ``"test-pose"`` (eqs 38-40), ``"compensator"`` or ``"d-optimal"``.
+        rng
+            Random generator or seed; the same seed gives the same plan.
+        starts
+            Random starts of the exchange.
+        refine_steps
+            Proposals of the continuous refinement of each start (0: exchange only).
+        candidates_per_angle
+            Candidate configurations at each q2 of the grid.
+        candidates
+            A candidate set from :meth:`candidates` to reuse (studies that design many plans).
+        progress
+            Draw a progress bar on stderr.
+
+        Raises
+        ------
+        InputError
+            For a request no plan can meet: an unknown criterion, more angles than the
+            joint range allows, too few angles for the compensator, no feasible configuration.
+        """
+        self._check_request(angles, per_angle, criterion)
+        seed = rng if isinstance(rng, int) else None
+        rng = np.random.default_rng(rng)
+        if candidates is None:
+            candidates = self.candidates(rng, per_angle=candidates_per_angle, progress=progress)
+        grid, configurations, index, information = candidates
+        available = [np.flatnonzero(index == g) for g in range(len(grid))]
+        usable = np.array([len(c) >= per_angle for c in available])
+        if np.count_nonzero(usable) < angles:
+            raise InputError(f"only {np.count_nonzero(usable)} q2 angles have {per_angle} feasible configurations, {angles} requested", source="--angles")
+        bar = _Progress(starts, f"plan: {criterion}", progress)
+        best, scores = None, []
+        for _ in range(starts):
+            groups = self._start(grid, usable, available, angles, per_angle, rng)
+            groups = self._exchange(groups, grid, usable, available, information, criterion)
+            q = np.array([configurations[c] for group in groups for c in group[1]])
+            q, score = self._refine(q, angles, per_angle, criterion, rng, refine_steps)
+            scores.append(score)
+            if best is None or score < best[1]:
+                best = (q, score)
+            bar.step(f"best {best[1]:.4g}")
+        bar.close()
+        plan = self._plan(best[0])
+        return PlanDesign(
+            plan=plan,
+            criterion=criterion,
+            prediction=self.evaluate(plan, "exact"),
+            linear=self.evaluate(plan, "linear"),
+            model=self.model,
+            repeats=self.repeats,
+            starts=scores,
+            candidates=len(configurations),
+            seed=seed,
+        )
+
+    def _separated(self, values: list[float]) -> bool:
+        values = np.sort(values)
+        return len(values) < 2 or bool(np.min(np.diff(values)) >= self.space.min_separation - 1e-12)
+
+    def _start(self, grid, usable, available, angles, per_angle, rng):
+        for _ in range(1000):
+            chosen = rng.choice(np.flatnonzero(usable), size=angles, replace=False)
+            if self._separated(list(grid[chosen])):
+                return [(int(g), list(rng.choice(available[g], size=per_angle, replace=False))) for g in chosen]
+        raise InputError(f"no {angles} q2 angles {math.degrees(self.space.min_separation):.0f} deg apart have feasible configurations", source="--angles")
+
+    def _exchange(self, groups, grid, usable, available, information, criterion):
+        def total(groups):
+            return sum(information[c] for _, members in groups for c in members)
+
+        current = self._score(total(groups), criterion)
+        for _ in range(MAX_PASSES):
+            improved = False
+            for g in range(len(groups)):
+                # one configuration for another at the same q2
+                for slot in range(len(groups[g][1])):
+                    angle, members = groups[g]
+                    pool = np.setdiff1d(available[angle], members)
+                    if not pool.size:
+                        continue
+                    base = total(groups) - information[members[slot]]
+                    scores = self._scores(base + information[pool], criterion)
+                    best = int(np.argmin(scores))
+                    if scores[best] < current - 1e-12 * abs(current):
+                        members[slot], current, improved = int(pool[best]), float(scores[best]), True
+                # the whole group to another q2, filled greedily
+                others = [grid[a] for h, (a, _) in enumerate(groups) if h != g]
+                rest = total(groups[:g] + groups[g + 1 :])
+                for angle in np.flatnonzero(usable):
+                    if angle == groups[g][0] or not self._separated(others + [grid[angle]]):
+                        continue
+                    members, partial = [], rest.copy()
+                    for _ in range(len(groups[g][1])):
+                        pool = np.setdiff1d(available[angle], members)
+                        choice = int(pool[np.argmin(self._scores(partial + information[pool], criterion))])
+                        members.append(choice)
+                        partial = partial + information[choice]
+                    score = self._score(partial, criterion)
+                    if score < current - 1e-12 * abs(current):
+                        groups[g], current, improved = (int(angle), members), score, True
+                        rest = total(groups[:g] + groups[g + 1 :])
+            if not improved:
+                break
+        return groups
+
+    def _refine(self, q: np.ndarray, angles: int, per_angle: int, criterion: str, rng: np.random.Generator, steps: int):
+        robot = self.cell.robot
+        j2 = COMPENSATED_JOINT
+        q = q.copy()
+        parts = np.array([self.information(row, self.mass) for row in q])
+        current = self._score(parts.sum(axis=0), criterion)
+        first, last = (v * DEG for v in REFINE_STEP_DEG)
+        others = [j for j in range(robot.nq) if j != j2]
+        for step in range(steps):
+            size = first * (last / first) ** (step / max(steps - 1, 1))
+            proposal = q.copy()
+            if rng.random() < 0.3:
+                group = int(rng.integers(angles))
+                rows = np.arange(group * per_angle, (group + 1) * per_angle)
+                proposal[rows, j2] += rng.normal() * size
+                if not self._separated(list(proposal[::per_angle, j2])):
+                    continue
+            else:
+                rows = np.array([int(rng.integers(len(q)))])
+                proposal[rows[0], others] += rng.normal(size=len(others)) * size
+            if any(self.feasibility.violation(proposal[r], self.mass) is not None for r in rows):
+                continue
+            trial = parts.copy()
+            for r in rows:
+                trial[r] = self.information(proposal[r], self.mass)
+            score = self._score(trial.sum(axis=0), criterion)
+            if score < current:
+                q, parts, current = proposal, trial, score
+        return q, current
+
+
+def _finite(value: float) -> float | None:
+    return float(value) if math.isfinite(value) else None

@@ -1,0 +1,73 @@
+"""Tests of ``bayescal plan``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+import bayescal.cli as cli
+from bayescal.cell.plan import read_plan
+from bayescal.cell.config import load_cell
+
+DATA = Path(__file__).resolve().parents[2] / "data"
+
+PLAN, CONFIG = str(DATA / "table3_plan.csv"), str(DATA / "kr270.toml")
+
+
+@pytest.fixture
+def main(monkeypatch):
+    # only this subcommand: the test does not depend on the others being importable
+    monkeypatch.setattr(cli, "COMMANDS", ("plan",))
+    return cli.main
+
+
+def test_evaluates_table_iii(main, capsys):
+    assert main(["plan", "--config", CONFIG, "--evaluate", PLAN, "--json"]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    assert 0.001 < payload["criterion"] < 0.05  # mm: micrometres left at the test pose
+    assert payload["parameters"]["k1"]["width_3sd_pct"] is None
+    assert 0.5 < payload["parameters"]["k2"]["width_3sd_pct"] < 5
+    assert payload["parameters"]["K_c"]["width_3sd_pct"] > 100  # not identifiable (README)
+    assert payload["linear_model"]["criterion"] > 0 and payload["configurations"] == 15
+    assert all(set(v) == {"config", "reason"} for v in payload["violations"])
+    assert main(["plan", "--config", CONFIG, "--evaluate", PLAN]) == 0
+    assert "predicted rms error at the test pose" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (["--angles", "40"], "--angles: 40 q2 angles do not fit in the joint range"),
+        (["--angles", "2"], "at least 3 distinct q2 angles"),
+        (["--mass-kg", "0", "0"], "mass range"),
+        (["--starts", "0"], "at least 1 start"),
+    ],
+)
+def test_infeasible_requests_exit_2_with_one_line(main, tmp_path, capsys, options, message):
+    assert main(["plan", "--config", CONFIG, "-o", str(tmp_path / "plan.csv")] + options) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "\n" not in err and err.startswith("bayescal plan: error:")
+    assert not (tmp_path / "plan.csv").exists()
+
+
+def test_a_test_pose_outside_the_joint_limits_exits_2(main, tmp_path, capsys):
+    text = (DATA / "kr270.toml").read_text().replace("q_deg = [0.0, -50.0, 80.0", "q_deg = [0.0, 50.0, 80.0")
+    (tmp_path / "robots").symlink_to(DATA / "robots")
+    (tmp_path / "cell.toml").write_text(text)
+    assert main(["plan", "--config", str(tmp_path / "cell.toml"), "-o", str(tmp_path / "plan.csv")]) == 2
+    assert "outside its limits" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_writes_a_plan_that_reads_back(main, tmp_path, capsys):
+    out = tmp_path / "plan.csv"
+    args = ["plan", "--config", CONFIG, "--angles", "4", "--per-angle", "2", "--model", "linear", "--starts", "1", "-o", str(out), "--json"]
+    assert main(args) == 0
+    payload = json.loads(capsys.readouterr().out)
+    plan = read_plan(out, load_cell(CONFIG).robot)
+    assert len(plan) == 8 and payload["configurations"] == 8 and payload["criterion"] > 0
+    first = out.read_bytes()
+    assert main(args) == 0
+    assert out.read_bytes() == first  # the same seed gives the same plan

@@ -1,0 +1,86 @@
+"""Tests of bayescal.design.optimise: the exchange and refinement of calibration plans."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bayescal.cell.plan import read_plan
+from bayescal.design.optimise import PlanDesigner
+from bayescal.errors import InputError
+
+SMALL = {"starts": 1, "refine_steps": 30, "candidates_per_angle": 3}
+"""A quick optimisation: enough to test the algorithm's contract, not its optimum."""
+
+
+@pytest.fixture(scope="module")
+def designer(cell):
+    return PlanDesigner(cell, model="linear")
+
+
+@pytest.fixture(scope="module")
+def design(designer):
+    return designer.optimise(4, 2, "test-pose", rng=5, **SMALL)
+
+
+def test_the_plan_has_the_requested_structure_and_is_feasible(design, designer):
+    q2 = design.plan.q[:, 1].reshape(4, 2)
+    assert np.all(q2 == q2[:, :1])  # each group shares its q2
+    assert np.min(np.diff(np.sort(q2[:, 0]))) >= designer.space.min_separation - 1e-12
+    assert designer.violations(design.plan) == []
+    np.testing.assert_array_equal(design.plan.load_kg, 280.0)  # the heaviest load of the range
+
+
+def test_the_same_seed_gives_the_same_plan(design, designer):
+    again = designer.optimise(4, 2, "test-pose", rng=5, **SMALL)
+    np.testing.assert_array_equal(again.plan.q, design.plan.q)
+
+
+def test_the_optimised_plan_beats_random_feasible_plans(design, designer):
+    rng = np.random.default_rng(2)
+    randoms = [designer.evaluate(designer.random_plan(4, 2, rng), "linear").rho0 for _ in range(5)]
+    assert design.linear.rho0 < min(randoms)
+
+
+def test_json_and_saved_plan(design, designer, tmp_path, cell):
+    payload = design.to_json()
+    assert payload["criterion"] == pytest.approx(design.prediction.rho0 / 1e-3)
+    assert payload["optimised_for"] == "test-pose" and payload["configurations"] == 8 and len(payload["q2_deg"]) == 4
+    assert set(payload["parameters"]) == {"k1", "k2", "k3", "k4", "k5", "k6", "K_c", "s0"}
+    path = tmp_path / "plan.csv"
+    design.save(path)
+    again = read_plan(path, cell.robot)
+    assert designer.evaluate(again).rho0 == pytest.approx(design.prediction.rho0, rel=1e-3)
+    assert list(design.summary().columns) == ["value", "sd", "width_3sd_pct", "table_iv_pct", "unit"]
+
+
+@pytest.mark.parametrize(
+    ("request_", "message"),
+    [
+        ({"angles": 40}, "do not fit in the joint range"),
+        ({"angles": 2}, "at least 3 distinct q2 angles"),
+        ({"angles": 2, "criterion": "d-optimal"}, "at least 3 distinct q2 angles"),
+        ({"criterion": "a-optimal"}, "unknown criterion"),
+        ({"per_angle": 0}, "at least 1 angle"),
+    ],
+)
+def test_infeasible_requests(designer, request_, message):
+    with pytest.raises(InputError, match=message):
+        designer.optimise(**({"angles": 5, "per_angle": 3} | request_), rng=0, **SMALL)
+
+
+def test_table_iii_is_scored_and_its_violations_listed(designer, plan):
+    prediction = designer.evaluate(plan, "linear")
+    assert math.isfinite(prediction.rho0)
+    # its q1 were chosen for the paper's tracker, which is not where the twin's is
+    assert len(designer.violations(plan)) > 0
+
+
+def test_a_tracker_that_sees_no_marker_is_refused(cell):
+    from dataclasses import replace
+
+    hidden = replace(cell, tracker=replace(cell.tracker, position=np.array([0.0, 0.0, 0.3])))  # inside the base
+    with pytest.raises(InputError, match=r"no feasible configuration found in the cell \(most frequent reason: "):
+        PlanDesigner(hidden, model="linear").optimise(5, 3, rng=0, **SMALL)

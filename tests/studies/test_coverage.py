@@ -1,0 +1,56 @@
+"""Coverage of the elastostatic intervals on twin campaigns unlike the config (studies.coverage)."""
+
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from bayescal.sampling.gibbs import GibbsSampler
+from bayescal.studies.coverage import elastostatic_coverage, random_plan
+
+LEVELS = np.array([1.0, 2.0, 3.0])
+NOMINAL = 2 * stats.norm.cdf(LEVELS) - 1  # 0.6827, 0.9545, 0.9973
+
+
+def hits(table) -> np.ndarray:
+    """(checks, 3): whether each truth lies within ±1, 2, 3 posterior sd of the mean."""
+    return np.abs(table["z"].to_numpy())[:, None] <= LEVELS[None, :]
+
+
+def test_random_plans_spread_q2_over_the_joint_range(cell):
+    plan = random_plan(cell, 6, 5, np.random.default_rng(0))
+    q2 = np.unique(plan.q[:, 1])
+    assert plan.q.shape == (30, 6) and q2.size == 6
+    assert np.all((plan.q >= cell.robot.lower) & (plan.q <= cell.robot.upper))
+    assert np.ptp(q2) > 0.5 * (cell.robot.upper[1] - cell.robot.lower[1])
+
+
+def test_intervals_are_not_grossly_miscalibrated_on_ten_campaigns(cell):
+    sampler = GibbsSampler(n_chains=2, n_tune=150, n_draws=300)
+    table = elastostatic_coverage(cell, 10, 5, sampler=sampler, angles=5, per_angle=3, executor=ThreadPoolExecutor(2))
+    assert set(table["parameter"]) >= {"k2", "k3", "k4", "k5", "k6", "K_c", "s0", "gravity_scale"}
+    counted = hits(table[table["identifiable"]])
+    n = counted.shape[0]
+    # Checks within one campaign are correlated: only a gross miscalibration (sds off by 1.5) should fail this.
+    low, high = stats.binom.ppf(0.0005, n, NOMINAL), stats.binom.ppf(0.9995, n, NOMINAL)
+    assert np.all((low <= counted.sum(axis=0)) & (counted.sum(axis=0) <= high)), (counted.sum(axis=0), low, high)
+
+
+@pytest.mark.slow
+def test_intervals_cover_at_nominal_rates_on_200_campaigns(cell):
+    # Parameters flagged not identifiable are counted apart: their intervals reflect the prior.
+    table = elastostatic_coverage(cell, 200, 21)
+    group = table[table["identifiable"]]
+    rates = hits(group).mean(axis=0)
+    tolerance = 4 * np.sqrt(NOMINAL * (1 - NOMINAL) / len(group)) + 1.0 / len(group)
+    assert np.all(np.abs(rates - NOMINAL) <= tolerance), (rates, NOMINAL, tolerance)
+
+
+@pytest.mark.slow
+def test_intervals_cover_with_the_cells_distance_dependent_noise(cell):
+    table = elastostatic_coverage(cell, 60, 22, noise_um=None)
+    group = table[table["identifiable"]]
+    rates = hits(group).mean(axis=0)
+    tolerance = 4 * np.sqrt(NOMINAL * (1 - NOMINAL) / len(group)) + 1.0 / len(group)
+    assert np.all(np.abs(rates - NOMINAL) <= tolerance), (rates, NOMINAL, tolerance)

@@ -1,0 +1,60 @@
+"""Tests of bayescal.studies.plans: the test-pose error a plan leaves over simulated campaigns."""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+
+from bayescal.studies.plans import CampaignModel, compare_plans, simulate_plan
+
+
+@pytest.fixture(scope="module")
+def model(cell, plan):
+    return CampaignModel.build(cell, plan, repeats=3)
+
+
+def test_results_do_not_depend_on_the_number_of_workers(cell, plan, model):
+    with ThreadPoolExecutor(1) as one, ThreadPoolExecutor(2) as two:
+        a = simulate_plan(cell, plan, campaigns=4, seed=7, executor=one, model=model)
+        b = simulate_plan(cell, plan, campaigns=4, seed=7, executor=two, model=model)
+    np.testing.assert_array_equal(a["errors"], b["errors"])
+    np.testing.assert_array_equal(a["parameter_errors"], b["parameter_errors"])
+    assert a["errors"].shape == (4, 3) and not a["excited"][0]
+
+
+def test_the_linearisation_reproduces_the_noiseless_campaign(cell, plan, model):
+    rows = len(plan) * len(cell.markers) * 3
+    assert model.design.shape == (rows, 8) and model.nominal_deflections.shape == (rows,)
+    # loaded deflections of a 250-280 kg mass are millimetres; the noise tens of micrometres
+    assert 1e-3 < np.abs(model.nominal_deflections).max() < 2e-2
+    q = plan.q[0]
+    points = cell.robot.point_position(q, np.array(list(cell.markers.values())))
+    # two readings per deflection, at positions a deflection apart
+    np.testing.assert_allclose(model.sigma[:9:3], np.sqrt(2) * cell.tracker.sigma(points), rtol=1e-3)
+
+
+@pytest.mark.slow
+def test_predicted_rho0_agrees_with_the_simulated_error(cell, plan):
+    # 300 campaigns: the rms over them is known to about 4 % (delta method)
+    scores, widths = compare_plans(cell, {"table III": plan}, campaigns=300, seed=11)
+    row = scores.loc["table III"]
+    assert abs(row.simulated_rms_mm - row.criterion_mm) < 3 * row.simulated_rms_se_mm + 0.05 * row.criterion_mm
+    identified = widths.loc["table III"].loc[["k2", "k3", "k4", "k5", "k6"]]
+    np.testing.assert_allclose(identified.simulated_width_3sd_pct, identified.predicted_width_3sd_pct, rtol=0.2)
+
+
+def test_the_paired_ratio_standard_error_matches_its_spread():
+    from bayescal.studies.plans import _paired_ratio
+
+    rng = np.random.default_rng(0)
+    draws = []
+    for _ in range(400):
+        first = rng.chisquare(3, 200)
+        draws.append(_paired_ratio(0.8 * first + 0.3 * rng.chisquare(3, 200), first))
+    ratios = np.array([d["rms_ratio_to_first"] for d in draws])
+    errors = np.array([d["rms_ratio_se"] for d in draws])
+    # 400 draws know the spread to about 4 %
+    assert errors.mean() == pytest.approx(ratios.std(ddof=1), rel=0.15)
+    assert _paired_ratio(ratios, ratios) == {"rms_ratio_to_first": 1.0, "rms_ratio_se": 0.0}
