@@ -78,7 +78,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         "campaign": args.campaign,
         "parameters": results.parameters(),
         "weakly_determined": results.weakly_determined(),
-        "k2_per_angle": _k2_per_angle(results),
+        "k2_per_angle": {f"{angle:.3f} deg": entry for angle, entry in _k2_by_angle(results).items()},
         "diagnostics": results.diagnostics() | {"seed": args.seed, "geometry": results.geometry.source},
         "identifiability": results.identifiability.to_json(),
         "test_pose": test_pose.to_json(),
@@ -90,18 +90,21 @@ def run(args: argparse.Namespace) -> CommandOutput:
     return CommandOutput(payload=_finite(payload), text=_text(results, test_pose, args))
 
 
-def _k2_per_angle(results) -> dict:
+def _k2_by_angle(results) -> dict[float, dict]:
+    """The equivalent joint-2 compliance at each campaign angle, keyed by q2 (deg): its posterior or why it has none."""
+    from bayescal.inference.identifiability import label_angle
+
     summary = results.summary()
     reasons = results.identifiability.not_identifiable
     out = {}
     for name in results.identifiability.names:
-        if not name.startswith("k2_q2["):
+        angle = label_angle(name)
+        if angle is None:
             continue
-        key = f"{name[6:-1]} deg"
         if name in reasons or name not in summary.index:
-            out[key] = {"identifiable": False, "reason": reasons[name]}
+            out[angle] = {"identifiable": False, "reason": reasons[name]}
         else:
-            out[key] = {field: float(summary.loc[name, field]) for field in ("mean", "sd", "lo3", "hi3")} | {"unit": "urad/(N m)"}
+            out[angle] = {field: float(summary.loc[name, field]) for field in ("mean", "sd", "lo3", "hi3")} | {"unit": "urad/(N m)"}
     return out
 
 
@@ -121,10 +124,16 @@ def _finite(value):
 def _text(results, test_pose, args) -> str:
     import textwrap
 
-    from bayescal.reference import published
+    import pandas as pd
+
     from bayescal.inference.identifiability import grouped
+    from bayescal.reference import beside_published
 
     parameters = results.parameters()
+    estimates = pd.DataFrame(
+        {name: (entry.get("mean", math.nan), entry.get("sd", math.nan)) for name, entry in parameters.items()}, index=["mean", "sd"]
+    ).T
+    paper = beside_published(estimates, "IV")
     units = results.parameter_units
     reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in units}
     lines = [
@@ -133,15 +142,17 @@ def _text(results, test_pose, args) -> str:
         "",
         f"{'parameter':<10}{'unit':<12}{'mean':>10}{'±3σ':>10}{'width':>8}   | {'Table IV':>9}{'±3σ':>8}{'width':>8}",
     ]
-    for name, entry in parameters.items():
-        reference = published("IV").get(name)
-        paper = f"{reference[0]:>9.4g}{reference[1]:>8.3g}{100 * reference[1] / reference[0]:>7.1f}%" if reference else f"{'–':>9}"
+    for name, row in paper.iterrows():
+        published = (
+            f"{row['published']:>9.4g}{row['published_half_width_3sd']:>8.3g}{row['published_width_pct']:>7.1f}%"
+            if math.isfinite(row["published"])
+            else f"{'–':>9}"
+        )
         unit = units[name]
-        if "mean" in entry:
-            width = 100 * 3 * entry["sd"] / abs(entry["mean"]) if entry["mean"] else math.inf
-            lines.append(f"{name:<10}{unit:<12}{entry['mean']:>10.4g}{3 * entry['sd']:>10.3g}{width:>7.1f}%   | {paper}")
+        if "mean" in parameters[name]:
+            lines.append(f"{name:<10}{unit:<12}{row['mean']:>10.4g}{row['half_width_3sd']:>10.3g}{row['width_3sd_pct']:>7.1f}%   | {published}")
         else:
-            lines.append(f"{name:<10}{unit:<12}{'not identifiable':>28}   | {paper}")
+            lines.append(f"{name:<10}{unit:<12}{'not identifiable':>28}   | {published}")
     lines.append("Intervals are mean ± 3 sd, widths 3 sd / |mean| (Table IV: Klimchik et al.).")
     if reasons:
         lines += ["", "Not identifiable:"]
@@ -152,8 +163,8 @@ def _text(results, test_pose, args) -> str:
             listed = ", ".join(weak)
             lines.append(f"  The posterior of {listed} is kept in the DataTree and in the JSON's weakly_determined block.")
     per_angle = [
-        f"  q2 = {float(angle.split()[0]):>8.2f} deg  {entry['mean']:.4g} ± {entry['hi3'] - entry['mean']:.2g} urad/(N m)"
-        for angle, entry in _k2_per_angle(results).items()
+        f"  q2 = {angle:>8.2f} deg  {entry['mean']:.4g} ± {entry['hi3'] - entry['mean']:.2g} urad/(N m)"
+        for angle, entry in _k2_by_angle(results).items()
         if "mean" in entry
     ]
     if per_angle:

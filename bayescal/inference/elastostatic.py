@@ -43,7 +43,7 @@ from bayescal.errors import InputError, NotIdentifiableWarning
 from bayescal.inference.closedform import ClosedForm, check_regression, closed_form
 from bayescal.inference.equations import DeflectionEquations, check_campaign, deflection_equations, deflection_noise
 from bayescal.inference.exact import linearisation_offset, scale_masses
-from bayescal.inference.identifiability import Identifiability, analyse, grouped, practical_reasons
+from bayescal.inference.identifiability import Identifiability, analyse, grouped, label_angle, practical_reasons
 from bayescal.inference.likelihood import compensated_posterior, per_angle_posterior
 from bayescal.inference.priors import GeometryPrior, config_geometry
 from bayescal.inference.results import ElastostaticDraws, ElastostaticResults, parameter_units
@@ -196,7 +196,7 @@ class ElastostaticModel:
             ident = check_regression(ident, equations.per_angle_columns(), equations.q2, self.geometry.mean)
         _check_determined(campaign, equations, ident)
         if announce:
-            for names, reason in grouped({k: v for k, v in ident.reasons.items() if not k.startswith("k2_q2[")}):
+            for names, reason in grouped({k: v for k, v in ident.reasons.items() if label_angle(k) is None}):
                 warnings.warn(f"{_listed(names)} not identifiable: {reason}", NotIdentifiableWarning, stacklevel=3)
             if ident.ill_conditioned:
                 warnings.warn(
@@ -359,7 +359,7 @@ class ElastostaticModel:
         # s0's prior is flat on (0, a + L): its sd is the width over sqrt(12).
         prior_sd: dict[str, float | None] = {name: None for name in parameter_units(equations.n_joints) if name != "s0"}
         prior_sd["s0"] = (math.hypot(a_x, a_y) + L) / math.sqrt(12.0) / MM
-        prior_sd |= {name: None for name in summary.index if name.startswith("k2_q2[")}
+        prior_sd |= {name: None for name in summary.index if label_angle(name) is not None}
         context = {}
         if "K_c" in summary.index:
             context["K_c"] = self._compensator_context(equations, ident, cf, summary.loc["k2", "mean"] * URAD_PER_NM)

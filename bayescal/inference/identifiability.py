@@ -43,6 +43,8 @@ from bayescal.robot.compensator import COMPENSATED_JOINT
 __all__ = [
     "Identifiability",
     "analyse",
+    "angle_label",
+    "label_angle",
     "practical_reasons",
     "grouped",
     "RANK_TOLERANCE",
@@ -124,9 +126,19 @@ class Identifiability:
         }
 
 
+_ANGLE_PREFIX, _ANGLE_SUFFIX = "k2_q2[", "]"
+
+
 def angle_label(q2: float) -> str:
     """Name of the joint-2 compliance at ``q2`` (rad), as in the posterior summary: ``k2_q2[-25.240]`` (deg)."""
-    return f"k2_q2[{math.degrees(q2):.3f}]"
+    return f"{_ANGLE_PREFIX}{math.degrees(q2):.3f}{_ANGLE_SUFFIX}"
+
+
+def label_angle(name: str) -> float | None:
+    """The q2 (deg) of a per-angle name made by :func:`angle_label`; ``None`` for any other parameter name."""
+    if not (name.startswith(_ANGLE_PREFIX) and name.endswith(_ANGLE_SUFFIX)):
+        return None
+    return float(name[len(_ANGLE_PREFIX) : -len(_ANGLE_SUFFIX)])
 
 
 def analyse(

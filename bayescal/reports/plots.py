@@ -10,12 +10,13 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+import pandas as pd
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
 
 from bayescal.robot.compensator import Compensator, CompensatorGeometry
 from bayescal.geometry.arcs import LEVER_MARKER, GeometryFit, MarkerPoints
-from bayescal.units import DEG, MM
+from bayescal.units import DEG, MM, UM, URAD_PER_NM
 
 __all__ = ["plot_eta_curves", "plot_arc_fit", "plot_joint2_compliance"]
 
@@ -109,11 +110,11 @@ def plot_arc_fit(
     residuals = fit.lever.residuals[:, :2]
     order = np.argsort(q1)
     for column, label in enumerate(("x", "y")):
-        lever_ax.plot(q1[order] / DEG, residuals[order, column] / 1e-6, "o-", label=f"P1 {label}")
+        lever_ax.plot(q1[order] / DEG, residuals[order, column] / UM, "o-", label=f"P1 {label}")
     lever_ax.axhline(0.0, color="0.6", lw=0.8)
     lever_ax.set_xlabel("q2 [deg]")
     lever_ax.set_ylabel("residual [μm]")
-    lever_ax.set_title(f"P1, known-angle fit (rms {fit.residuals_rms[LEVER_MARKER] / 1e-6:.0f} μm)", fontsize=9)
+    lever_ax.set_title(f"P1, known-angle fit (rms {fit.residuals_rms[LEVER_MARKER] / UM:.0f} μm)", fontsize=9)
     lever_ax.legend(fontsize=8)
 
     models = {"concentric (radial)": {name: fit.cylinder.residuals[name] for name in points.cylinder_markers}}
@@ -123,7 +124,7 @@ def plot_arc_fit(
             q, _ = points.of(name)
             order = np.argsort(q)
             values = np.asarray(by_marker[name])[order]
-            cylinder_ax.plot(q[order] / DEG, values / 1e-6, style, color=f"C{k}", label=f"{name} {label}")
+            cylinder_ax.plot(q[order] / DEG, values / UM, style, color=f"C{k}", label=f"{name} {label}")
     cylinder_ax.axhline(0.0, color="0.6", lw=0.8)
     cylinder_ax.set_xlabel("q2 [deg]")
     cylinder_ax.set_ylabel("residual [μm]")
@@ -133,51 +134,44 @@ def plot_arc_fit(
 
 
 def plot_joint2_compliance(
-    q2: ArrayLike,
-    draws: ArrayLike,
+    band: pd.DataFrame,
     angles: ArrayLike,
     per_angle_mean: ArrayLike,
     per_angle_sd: ArrayLike,
     own: float | None = None,
-    truth: ArrayLike | None = None,
 ) -> Figure:
     """Joint 2's equivalent compliance against q2 with its posterior band (the paper's Fig. 7).
 
     Parameters
     ----------
-    q2
-        ``(n,)`` joint angles in rad.
-    draws
-        ``(S, n)`` posterior draws of the equivalent compliance at ``q2``, rad/(N·m).
+    band
+        Indexed by ``q2_deg``, columns ``low_urad_per_Nm``, ``median_urad_per_Nm``,
+        ``high_urad_per_Nm`` and, for simulations, ``truth_urad_per_Nm``
+        (:func:`~bayescal.studies.precision.equivalent_compliance_band`).
     angles, per_angle_mean, per_angle_sd
         The campaign's q2 angles (rad) and the per-angle estimates (rad/(N·m)) of eq 33,
         drawn with ±3 sd bars.
     own
-        The compliance of joint 2 without its compensator (1/K_theta2^0), drawn dashed.
-    truth
-        ``(n,)`` the true curve, for simulations.
+        The compliance of joint 2 without its compensator (1/K_theta2^0, rad/(N·m)), drawn dashed.
     """
-    scale = 1e6  # rad/(N·m) to μrad/(N·m)
-    q2_deg = np.asarray(q2, dtype=float) / DEG
-    draws = np.asarray(draws, dtype=float) * scale
-    low, mid, high = np.quantile(draws, [0.00135, 0.5, 0.99865], axis=0)
+    q2_deg = band.index.to_numpy(dtype=float)
     figure = Figure(figsize=(6.4, 4.2), layout="constrained")
     ax = figure.add_subplot()
-    ax.fill_between(q2_deg, low, high, color="C0", alpha=0.25, lw=0, label="posterior 99.73 % band")
-    ax.plot(q2_deg, mid, color="C0", lw=1.6, label="posterior median")
+    ax.fill_between(q2_deg, band["low_urad_per_Nm"], band["high_urad_per_Nm"], color="C0", alpha=0.25, lw=0, label="posterior 99.73 % band")
+    ax.plot(q2_deg, band["median_urad_per_Nm"], color="C0", lw=1.6, label="posterior median")
     ax.errorbar(
         np.asarray(angles, dtype=float) / DEG,
-        np.asarray(per_angle_mean, dtype=float) * scale,
-        yerr=3 * np.asarray(per_angle_sd, dtype=float) * scale,
+        np.asarray(per_angle_mean, dtype=float) / URAD_PER_NM,
+        yerr=3 * np.asarray(per_angle_sd, dtype=float) / URAD_PER_NM,
         fmt="o",
         color="C1",
         capsize=3,
         label="per-angle estimate ±3σ (eq 33)",
     )
-    if truth is not None:
-        ax.plot(q2_deg, np.asarray(truth, dtype=float) * scale, color="k", lw=1.0, ls=":", label="truth")
+    if "truth_urad_per_Nm" in band:
+        ax.plot(q2_deg, band["truth_urad_per_Nm"], color="k", lw=1.0, ls=":", label="truth")
     if own is not None:
-        ax.axhline(own * scale, color="0.4", lw=1.0, ls="--", label="without compensator (1/K_θ2^0)")
+        ax.axhline(own / URAD_PER_NM, color="0.4", lw=1.0, ls="--", label="without compensator (1/K_θ2^0)")
     ax.set_xlabel("q2 [deg]")
     ax.set_ylabel("equivalent joint-2 compliance [μrad/(N·m)]")
     ax.set_title("Joint 2 with its gravity compensator (eq 8)", fontsize=9)

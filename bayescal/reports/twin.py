@@ -11,31 +11,36 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+import pandas as pd
 
 from bayescal.cell.config import Cell, load_cell
 from bayescal.twin.effects import EFFECTS
 from bayescal.cell.plan import Plan, read_plan
-from bayescal.robot.compensator import COMPENSATED_JOINT
+from bayescal.studies.balance import gravity_balance
+from bayescal.studies.precision import design_precision, effect_detectability, table_iv_width_ratio
 from bayescal.tables import markdown_table
-from bayescal.studies.precision import design_precision, effect_detectability
 from bayescal.twin.simulator import DigitalTwin
+from bayescal.units import MM, UM
 
 __all__ = ["render_report", "main"]
 
 
-def _balance(cell: Cell) -> str:
-    compensator = cell.compensator
-    rows = []
-    for q2_deg in (0.0, -25.24, -56.9, -90.0, -99.85, -120.0, -140.0):
-        q = np.zeros(cell.robot.nq)
-        q[COMPENSATED_JOINT] = math.radians(q2_deg)
-        q[COMPENSATED_JOINT + 1] = -q[COMPENSATED_JOINT]  # forearm horizontal
-        gravity = cell.robot.gravity_torque(q)[COMPENSATED_JOINT]
-        spring = -compensator.torque(q[COMPENSATED_JOINT])
-        ratio = compensator.stiffness(q[COMPENSATED_JOINT]) * cell.compliances[COMPENSATED_JOINT]
-        rows.append(
-            [f"{q2_deg:g}", f"{gravity:.0f}", f"{spring:.0f}", f"{gravity - spring:.0f}", f"{1000 * compensator.s(q[1]):.1f}", f"{100 * ratio:.3f}"]
-        )
+BALANCE_TABLE_Q2_DEG = (0.0, -25.24, -56.9, -90.0, -99.85, -120.0, -140.0)
+"""Joint-2 angles of the balance table: Table III's q2 angles with the range's ends and middle."""
+
+
+def _balance(balance: pd.DataFrame) -> str:
+    rows = [
+        [
+            f"{q2:g}",
+            f"{row['weight_torque_Nm']:.0f}",
+            f"{row['compensator_torque_Nm']:.0f}",
+            f"{row['residual_torque_Nm']:.0f}",
+            f"{row['spring_length_mm']:.1f}",
+            f"{row['compensator_share_pct']:.3f}",
+        ]
+        for q2, row in balance.iterrows()
+    ]
     return markdown_table(
         ["q2 (deg)", "g2: drive torque without compensator (N·m)", "-M_c (N·m)", "residual drive torque (N·m)", "s (mm)", "K_c·a·L·η / K_θ2^0 (%)"],
         rows,
@@ -45,8 +50,8 @@ def _balance(cell: Cell) -> str:
 def render_report(cell: Cell, plan: Plan, *, repeats: int = 3, seed: int = 1) -> str:
     """The Markdown report for ``cell`` measured on ``plan`` (see the module documentation)."""
     campaign = DigitalTwin(cell).simulate(plan, repeats, np.random.default_rng(seed))
-    sigma = cell.tracker.sigma(np.vstack([campaign.p0, campaign.p1])) * 1e6
-    deflection = np.linalg.norm(campaign.displacement, axis=1) * 1e3
+    sigma = cell.tracker.sigma(np.vstack([campaign.p0, campaign.p1])) / UM
+    deflection = np.linalg.norm(campaign.displacement, axis=1) / MM
     precision = design_precision(cell, plan, repeats)
     n = campaign.n_equations
     threshold = math.sqrt(2 * n)
@@ -58,7 +63,7 @@ def render_report(cell: Cell, plan: Plan, *, repeats: int = 3, seed: int = 1) ->
         "",
         f"Campaign: {len(plan)} configurations x {repeats} repeats x {len(cell.markers)} markers = {n} equations. "
         f"Tracker noise per coordinate: {sigma.min():.1f} to {sigma.max():.1f} μm "
-        f"(factor {cell.tracker.factor:g} x ({cell.tracker.U0 * 1e6:g} μm + {cell.tracker.U1 * 1e6:g} μm/m x distance)). "
+        f"(factor {cell.tracker.factor:g} x ({cell.tracker.U0 / UM:g} μm + {cell.tracker.U1 / UM:g} μm/m x distance)). "
         f"Marker deflections under the load: {deflection.min():.2f} to {deflection.max():.2f} mm (seed {seed}).",
         "",
     ]
@@ -71,7 +76,7 @@ def render_report(cell: Cell, plan: Plan, *, repeats: int = 3, seed: int = 1) ->
             "supplies -M_c; the residual is left to the drive. The last column is the compensator's "
             "share of the joint-2 stiffness (eq 8).",
             "",
-            _balance(cell),
+            _balance(gravity_balance(cell, BALANCE_TABLE_Q2_DEG)),
             "",
         ]
     rows = []
@@ -82,9 +87,7 @@ def render_report(cell: Cell, plan: Plan, *, repeats: int = 3, seed: int = 1) ->
             rows.append(
                 [name, f"{row['value']:g} {row['unit']}", f"{row['sd']:.3g}", f"{row['width_3sd_pct']:.2f}", _fmt(row["table_iv_pct"])]
             )
-    widths = precision["width_3sd_pct"]
-    ks = [name for name in ("k2", "k3", "k4", "k5", "k6") if name in widths and not math.isnan(widths[name])]
-    ratio = math.exp(np.mean([math.log(widths[name] / precision.loc[name, "table_iv_pct"]) for name in ks]))
+    ks, ratio = table_iv_width_ratio(precision)
     out += [
         "## Linear-model precision (eq 37) against Table IV",
         "",

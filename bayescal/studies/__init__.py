@@ -1,6 +1,16 @@
 """Studies: what a plan, a campaign or a model can deliver, each a function returning a table.
 
-``precision`` holds the eq-37 precision of a plan and the detectability of planted effects,
-``plans`` the test-pose error plans leave over simulated campaigns, and ``angles`` what
-each extra q2 angle buys.
+Every Monte-Carlo or precision study lives here, named after what it computes;
+the reports render their tables and word their claims from them.  ``precision``
+holds the eq-37 precision of a plan, effect detectability, the compensator's
+precision after a fit and the band of Fig. 7; ``balance`` the compensator
+against the arm's weight; ``linearisation`` the linear model's misfit on
+nonlinear campaigns; ``sensitivity`` the exact model's dependence on its
+assumed masses and spring; ``testpose`` the twin's truth at the test pose;
+``arc_fit`` and ``geometry_coverage`` the geometry fits and posterior on
+simulated Table I campaigns; ``cylinder_markers`` what Table I's cylinder
+markers fix; ``elastostatic_coverage`` the identification's intervals on twin
+campaigns unlike the config; ``plans`` the test-pose error plans leave over
+simulated campaigns and ``angles`` what each extra q2 angle buys;
+``parallel`` runs any of them on an executor.
 """

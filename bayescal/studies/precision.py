@@ -1,29 +1,46 @@
-"""What a plan can identify, before any campaign is measured: precision and effect detectability.
+"""What a plan can identify: precision and effect detectability.
 
 :func:`design_precision` gives the precision the linear identification model
 (Klimchik et al., eqs 30-37) can reach on a plan with the cell's tracker noise,
 and :func:`effect_detectability` how far a planted effect stands above the
-tracker noise once the joint model has absorbed what it can.  Both return plain
+tracker noise once the joint model has absorbed what it can.  After a fit,
+:func:`compensator_precision` carries the per-angle joint-2 compliances to the
+compensator's ``K_c`` and ``s0`` (eq 34) and says how much more precise they
+would have to be for Table IV's widths, and
+:func:`equivalent_compliance_band` how precisely the posterior knows joint 2's
+equivalent compliance over its range (the paper's Fig. 7).  All return plain
 tables for the reports to render.
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from bayescal.cell.config import Cell
 from bayescal.cell.plan import Plan
-from bayescal.reference import published
-from bayescal.robot.compensator import COMPENSATED_JOINT
+from bayescal.inference.identifiability import label_angle
+from bayescal.reference import published_width_pct, width_3sd_pct
+from bayescal.robot.compensator import COMPENSATED_JOINT, CompensatorGeometry
 from bayescal.robot.stiffness import compliance_design
 from bayescal.twin.effects import Effect
 from bayescal.twin.simulator import DigitalTwin
-from bayescal.units import MM, N_PER_MM, URAD_PER_NM
+from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
 
-__all__ = ["design_precision", "effect_detectability"]
+if TYPE_CHECKING:
+    from bayescal.inference.results import ElastostaticResults
+
+__all__ = ["BAND_POINTS", "CompensatorPrecision", "compensator_precision", "design_precision", "effect_detectability", "equivalent_compliance_band", "table_iv_width_ratio"]
+
+
+BAND_POINTS = 60
+"""Joint-2 angles at which :func:`equivalent_compliance_band` evaluates the posterior, evenly over the joint's range."""
+
+THREE_SIGMA_TAILS = (0.00135, 0.99865)
+"""Lower and upper quantiles of the posterior's 99.73 % band, the paper's ±3σ content."""
 
 
 def _linear_model_names(cell: Cell) -> list[str]:
@@ -103,12 +120,30 @@ def design_precision(cell: Cell, plan: Plan, repeats: int = 3) -> pd.DataFrame:
         {
             "value": truth * factors,
             "sd": sd * factors,
-            "width_3sd_pct": 300.0 * sd / np.abs(truth),
-            "table_iv_pct": [_table_iv_width_percent(name) for name in names],
+            "width_3sd_pct": width_3sd_pct(truth, sd),
+            "table_iv_pct": [published_width_pct("IV", name) for name in names],
             "unit": [units[name] for name in names],
         },
         index=pd.Index(names, name="parameter"),
     )
+
+
+def table_iv_width_ratio(precision: pd.DataFrame) -> tuple[list[str], float]:
+    """Geometric mean of the width ratios of :func:`design_precision` to Table IV over the excited joint compliances.
+
+    Returns
+    -------
+    tuple
+        The joint compliances compared (those the plan excites and Table IV lists)
+        and the geometric mean of their ``width_3sd_pct / table_iv_pct``.
+    """
+    compared = [
+        name
+        for name, row in precision.iterrows()
+        if name.startswith("k") and np.isfinite(row["width_3sd_pct"]) and np.isfinite(row["table_iv_pct"])
+    ]
+    ratios = precision.loc[compared, "width_3sd_pct"] / precision.loc[compared, "table_iv_pct"]
+    return compared, float(np.exp(np.mean(np.log(ratios))))
 
 
 def effect_detectability(cell: Cell, plan: Plan, effect: Effect | None, *, repeats: int = 3, seed: int = 0) -> dict[str, float]:
@@ -158,6 +193,110 @@ def effect_detectability(cell: Cell, plan: Plan, effect: Effect | None, *, repea
     }
 
 
-def _table_iv_width_percent(name: str) -> float:
-    value, half_width = published("IV").get(name, (np.nan, np.nan))
-    return 100.0 * half_width / value
+@dataclass(frozen=True)
+class CompensatorPrecision:
+    """The precision :func:`compensator_precision` finds for the compensator spring.
+
+    Attributes
+    ----------
+    per_angle
+        Indexed by ``q2_deg`` (the campaign's identifiable joint-2 angles),
+        columns ``compliance_urad_per_Nm`` (closed-form equivalent joint-2
+        compliance), ``width_3sd_pct`` (its eq-37 ±3σ in %) and
+        ``compensator_share_pct`` (``K_c·a·L·η / K_θ2^0`` of the cell's spring, eq 8).
+    spring
+        Indexed by parameter (``K_c``, ``s0``), columns ``width_3sd_pct``
+        (±3σ carried through eq 34), ``table_iv_width_pct`` and
+        ``needed_factor``: how many times more precise the per-angle
+        compliances must be for Table IV's width.
+    """
+
+    per_angle: pd.DataFrame
+    spring: pd.DataFrame
+
+    @property
+    def needed_per_angle_width_pct(self) -> float:
+        """The median per-angle ±3σ (%) that would give both of Table IV's compensator widths."""
+        return float(self.per_angle["width_3sd_pct"].median() / self.spring["needed_factor"].max())
+
+
+def compensator_precision(results: ElastostaticResults, cell: Cell) -> CompensatorPrecision:
+    """What the per-angle joint-2 compliances give for K_c and s0 through eq 34, and what Table IV's widths would need.
+
+    The covariance of the per-angle compliances (eq 37, from the closed form)
+    is carried to ``[K_theta2^0, K_c, s0 K_c]`` through the least squares of
+    eq 34 at the cell's spring, then to ``s0``; the relative ±3σ widths are
+    compared with Table IV's.  The required improvement of the per-angle
+    compliances is the ratio of the widths (they scale together with the noise).
+    """
+    cf = results.closed_form
+    ident = results.identifiability
+    kept = [name for name, keep in zip(ident.names, ident.identifiable) if keep]
+    joint2 = [name for name in ident.names if label_angle(name) is not None]
+    index = [i for i, name in enumerate(kept) if name in joint2]
+    angles = [joint2.index(kept[i]) for i in index]
+    k2 = cf.per_angle[index]
+    cov_k = cf.cov[np.ix_(index, index)]
+    # Stiffness K = 1/k: its covariance by the delta method.
+    jacobian = np.diag(-1.0 / k2**2)
+    cov_K = jacobian @ cov_k @ jacobian.T
+    compensator = cell.compensator
+    C = CompensatorGeometry(*results.geometry.mean).regressor(results.q2[angles])
+    projection = np.linalg.pinv(C)
+    cov_w = projection @ cov_K @ projection.T
+    Kc, s0 = compensator.K_c, compensator.s0
+    w = np.array([1.0 / cell.compliances[COMPENSATED_JOINT], Kc, s0 * Kc])
+    gradient_s0 = np.array([0.0, -w[2] / w[1] ** 2, 1.0 / w[1]])
+    width = {
+        "K_c": width_3sd_pct(Kc, np.sqrt(cov_w[1, 1])),
+        "s0": width_3sd_pct(s0, np.sqrt(gradient_s0 @ cov_w @ gradient_s0)),
+    }
+    table_iv = {name: published_width_pct("IV", name) for name in width}
+    per_angle = pd.DataFrame(
+        {
+            "compliance_urad_per_Nm": k2 / URAD_PER_NM,
+            "width_3sd_pct": width_3sd_pct(k2, np.sqrt(np.diag(cov_k))),
+            "compensator_share_pct": 100.0 * np.abs(compensator.stiffness(results.q2[angles])) * cell.compliances[COMPENSATED_JOINT],
+        },
+        index=pd.Index([label_angle(joint2[a]) for a in angles], name="q2_deg"),
+    )
+    spring = pd.DataFrame(
+        {
+            "width_3sd_pct": width,
+            "table_iv_width_pct": table_iv,
+            "needed_factor": {name: width[name] / table_iv[name] for name in width},
+        }
+    )
+    spring.index.name = "parameter"
+    return CompensatorPrecision(per_angle=per_angle, spring=spring)
+
+
+def equivalent_compliance_band(results: ElastostaticResults, cell: Cell, n_points: int = BAND_POINTS) -> pd.DataFrame:
+    """The posterior's 99.73 % band of joint 2's equivalent compliance over the joint's range, beside the cell's truth.
+
+    Every posterior draw of the spring (and of the compensator geometry, when
+    it was propagated) gives ``1/(K_θ2^0 + K_c·a·L·η(q2))`` (eq 8); the band is
+    its 0.135 % and 99.865 % quantiles at each angle.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Indexed by ``q2_deg`` (``n_points`` angles over the joint's limits),
+        columns ``low_urad_per_Nm``, ``median_urad_per_Nm``,
+        ``high_urad_per_Nm`` (the band), ``truth_urad_per_Nm`` (the cell's
+        compliance and spring) and ``half_width_pct`` (half the band in % of the median).
+    """
+    joint = COMPENSATED_JOINT
+    q2 = np.linspace(cell.robot.lower[joint], cell.robot.upper[joint], n_points)
+    truth = 1.0 / cell.compensator.joint_stiffness(q2, 1.0 / cell.compliances[joint])
+    low, median, high = np.quantile(results.equivalent_compliance(q2), [THREE_SIGMA_TAILS[0], 0.5, THREE_SIGMA_TAILS[1]], axis=0)
+    return pd.DataFrame(
+        {
+            "low_urad_per_Nm": low / URAD_PER_NM,
+            "median_urad_per_Nm": median / URAD_PER_NM,
+            "high_urad_per_Nm": high / URAD_PER_NM,
+            "truth_urad_per_Nm": truth / URAD_PER_NM,
+            "half_width_pct": 50.0 * (high - low) / median,
+        },
+        index=pd.Index(q2 / DEG, name="q2_deg"),
+    )

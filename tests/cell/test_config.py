@@ -4,16 +4,12 @@ from __future__ import annotations
 
 import math
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from bayescal.cell.config import load_cell
 from bayescal.errors import InputError
-
-DATA = Path(__file__).resolve().parents[2] / "data"
-
 
 
 def test_kr270_cell_in_si(cell):
@@ -49,9 +45,9 @@ def test_test_pose_wrench_is_the_tip_force(cell):
     np.testing.assert_allclose(cell.test_wrench[3:], np.cross(rotation @ cell.test_point, force), atol=1e-6)
 
 
-def _edited(tmp_path, old, new):
-    shutil.copytree(DATA / "robots", tmp_path / "robots")
-    text = (DATA / "kr270.toml").read_text()
+def _edited(data_dir, tmp_path, old, new):
+    shutil.copytree(data_dir / "robots", tmp_path / "robots")
+    text = (data_dir / "kr270.toml").read_text()
     assert old in text
     path = tmp_path / "cell.toml"
     path.write_text(text.replace(old, new))
@@ -62,33 +58,33 @@ def _line_of(path, needle):
     return next(i for i, line in enumerate(path.read_text().splitlines(), start=1) if line.startswith(needle))
 
 
-def test_bad_values_name_the_line_and_key(tmp_path):
-    path = _edited(tmp_path, "K_c_N_per_mm = 144.0", 'K_c_N_per_mm = "stiff"')
+def test_bad_values_name_the_line_and_key(tmp_path, data_dir):
+    path = _edited(data_dir, tmp_path, "K_c_N_per_mm = 144.0", 'K_c_N_per_mm = "stiff"')
     with pytest.raises(InputError) as caught:
         load_cell(path)
     assert f"cell.toml:{_line_of(path, 'K_c_N_per_mm')}" in str(caught.value)
     assert "compensator.K_c_N_per_mm" in str(caught.value) and "N/mm" in str(caught.value)
 
 
-def test_wrong_number_of_compliances(tmp_path):
-    path = _edited(tmp_path, "k_urad_per_Nm = [0.30, ", "k_urad_per_Nm = [")
+def test_wrong_number_of_compliances(tmp_path, data_dir):
+    path = _edited(data_dir, tmp_path, "k_urad_per_Nm = [0.30, ", "k_urad_per_Nm = [")
     with pytest.raises(InputError, match=r"joints.k_urad_per_Nm.*list of 6 numbers"):
         load_cell(path)
 
 
-def test_missing_urdf_and_test_pose_outside_limits(tmp_path):
-    path = _edited(tmp_path, 'urdf = "robots/kr270.urdf"', 'urdf = "robots/none.urdf"')
+def test_missing_urdf_and_test_pose_outside_limits(tmp_path, data_dir):
+    path = _edited(data_dir, tmp_path, 'urdf = "robots/kr270.urdf"', 'urdf = "robots/none.urdf"')
     with pytest.raises(InputError, match="robot.urdf"):
         load_cell(path)
-    path = _edited(tmp_path / "b", "q_deg = [0.0, -50.0", "q_deg = [0.0, 50.0")
+    path = _edited(data_dir, tmp_path / "b", "q_deg = [0.0, -50.0", "q_deg = [0.0, 50.0")
     with pytest.raises(InputError, match=r"test_pose.q_deg.*A2"):
         load_cell(path)
 
 
-def test_cell_without_compensator(tmp_path):
-    text = (DATA / "kr270.toml").read_text()
+def test_cell_without_compensator(tmp_path, data_dir):
+    text = (data_dir / "kr270.toml").read_text()
     start, end = text.index("[compensator]"), text.index("[tool]")
-    shutil.copytree(DATA / "robots", tmp_path / "robots")
+    shutil.copytree(data_dir / "robots", tmp_path / "robots")
     path = tmp_path / "plain.toml"
     path.write_text(text[:start] + text[end:])
     assert load_cell(path).compensator is None
@@ -101,8 +97,8 @@ def test_not_toml(tmp_path):
         load_cell(path)
 
 
-def test_unknown_flange_frame_names_the_flange_key(tmp_path):
-    path = _edited(tmp_path, 'flange = "flange"', 'flange = "tool0"')
+def test_unknown_flange_frame_names_the_flange_key(tmp_path, data_dir):
+    path = _edited(data_dir, tmp_path, 'flange = "flange"', 'flange = "tool0"')
     with pytest.raises(InputError, match=r"cell.toml:\d+, column 'robot.flange': the model has no frame named 'tool0'"):
         load_cell(path)
 

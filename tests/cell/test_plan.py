@@ -2,20 +2,15 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from bayescal.errors import InputError
 from bayescal.cell.plan import read_plan, write_plan
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 
-
-
-def test_table_iii(robot):
-    plan = read_plan(DATA / "table3_plan.csv", robot)
+def test_table_iii(robot, data_dir):
+    plan = read_plan(data_dir / "table3_plan.csv", robot)
     assert len(plan) == 15
     q2 = np.degrees(plan.q[:, 1]).reshape(5, 3)
     np.testing.assert_allclose(q2, np.repeat([[-0.01], [-25.24], [-56.9], [-99.85], [-140.0]], 3, axis=1))
@@ -74,8 +69,8 @@ def test_a_joint_column_the_robot_lacks_is_rejected(tmp_path, robot):
     path.write_text("# seven joints\nq1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,q7_deg\n0,-45,30,0,20,0,0\n")
     with pytest.raises(InputError, match=r"p.csv:2, column 'q7_deg': the plan has a column q7_deg but the robot .* has 6 joints"):
         read_plan(path, robot)
-def test_written_plan_reads_back(tmp_path, robot):
-    plan = read_plan(DATA / "table3_plan.csv", robot)
+def test_written_plan_reads_back(tmp_path, robot, data_dir):
+    plan = read_plan(data_dir / "table3_plan.csv", robot)
     path = tmp_path / "plan.csv"
     write_plan(plan, path, comments=["a provenance note"])
     again = read_plan(path, robot)

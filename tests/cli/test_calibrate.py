@@ -1,5 +1,4 @@
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,15 +12,16 @@ from bayescal.cell.plan import Plan, read_plan
 from bayescal.sampling.summary import load
 from bayescal.twin.simulator import DigitalTwin
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 
-CONFIG = str(DATA / "kr270.toml")
+@pytest.fixture(scope="module")
+def config_toml(data_dir):
+    return str(data_dir / "kr270.toml")
 
 
 @pytest.fixture(scope="module")
-def campaign_file(tmp_path_factory):
-    cell = load_cell(CONFIG)
-    plan = read_plan(DATA / "table3_plan.csv", cell.robot)
+def campaign_file(tmp_path_factory, config_toml, data_dir):
+    cell = load_cell(config_toml)
+    plan = read_plan(data_dir / "table3_plan.csv", cell.robot)
     campaign = DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(1))
     path = tmp_path_factory.mktemp("cli") / "campaign.csv"
     write_campaign(campaign, path, comments=["twin, Table III, seed 1"])
@@ -29,9 +29,9 @@ def campaign_file(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def json_run(campaign_file, tmp_path_factory):
+def json_run(campaign_file, tmp_path_factory, config_toml):
     posterior = tmp_path_factory.mktemp("post") / "posterior.nc"
-    return posterior, [str(campaign_file), "--config", CONFIG, "--json", "--draws", "100", "--posterior", str(posterior)]
+    return posterior, [str(campaign_file), "--config", config_toml, "--json", "--draws", "100", "--posterior", str(posterior)]
 
 
 def run(capsys, argv):
@@ -65,8 +65,8 @@ def test_json_output_has_every_parameter_with_units(capsys, json_run):
     assert tree["posterior"]["K_c"].attrs["units"] == "N/mm"
 
 
-def test_text_output_sets_the_estimates_beside_table_iv(capsys, campaign_file):
-    status, out, _ = run(capsys, [str(campaign_file), "--config", CONFIG, "--model", "linear", "--draws", "100"])
+def test_text_output_sets_the_estimates_beside_table_iv(capsys, campaign_file, config_toml):
+    status, out, _ = run(capsys, [str(campaign_file), "--config", config_toml, "--model", "linear", "--draws", "100"])
     assert status == 0
     assert "Table IV" in out and "linear model" in out
     rows = {line.split()[0]: line for line in out.splitlines() if line[:3] in ("k1 ", "k3 ", "K_c", "s0 ")}
@@ -81,7 +81,7 @@ def test_text_output_sets_the_estimates_beside_table_iv(capsys, campaign_file):
     assert "test pose" in out
 
 
-def test_one_q2_angle_warns_and_still_reports_the_rest(capsys, campaign_file, tmp_path):
+def test_one_q2_angle_warns_and_still_reports_the_rest(capsys, campaign_file, tmp_path, config_toml):
     campaign = read_campaign(campaign_file)
     rows = np.isclose(campaign.q[:, 1], campaign.q[0, 1])
     lines = campaign_file.read_text().splitlines()
@@ -90,7 +90,7 @@ def test_one_q2_angle_warns_and_still_reports_the_rest(capsys, campaign_file, tm
     kept += [line for line, keep in zip(data, rows) if keep]
     path = tmp_path / "one_angle.csv"
     path.write_text("\n".join(kept) + "\n")
-    status, out, err = run(capsys, [str(path), "--config", CONFIG, "--json", "--draws", "100"])
+    status, out, err = run(capsys, [str(path), "--config", config_toml, "--json", "--draws", "100"])
     assert status == 0
     payload = json.loads(out)
     assert payload["parameters"]["K_c"]["identifiable"] is False
@@ -108,29 +108,29 @@ def edit(campaign_file, tmp_path, change):
     return path
 
 
-def test_duplicated_row_is_an_error(capsys, campaign_file, tmp_path):
+def test_duplicated_row_is_an_error(capsys, campaign_file, tmp_path, config_toml):
     path = edit(campaign_file, tmp_path, lambda lines, first: lines + [lines[first]])
-    status, _, err = run(capsys, [str(path), "--config", CONFIG])
+    status, _, err = run(capsys, [str(path), "--config", config_toml])
     assert status == 2 and "already appears" in err
 
 
-def test_nan_is_an_error(capsys, campaign_file, tmp_path):
+def test_nan_is_an_error(capsys, campaign_file, tmp_path, config_toml):
     def nan(lines, first):
         fields = lines[first].split(",")
         fields[-1] = "nan"
         return lines[:first] + [",".join(fields)] + lines[first + 1 :]
 
-    status, _, err = run(capsys, [str(edit(campaign_file, tmp_path, nan)), "--config", CONFIG])
+    status, _, err = run(capsys, [str(edit(campaign_file, tmp_path, nan)), "--config", config_toml])
     assert status == 2 and "z1_mm" in err
 
 
-def test_implausible_deflection_is_an_error(capsys, campaign_file, tmp_path):
+def test_implausible_deflection_is_an_error(capsys, campaign_file, tmp_path, config_toml):
     def metres(lines, first):
         fields = lines[first].split(",")
         fields[-3] = str(float(fields[-3]) + 1000.0)  # a loaded x a metre away
         return lines[:first] + [",".join(fields)] + lines[first + 1 :]
 
-    status, _, err = run(capsys, [str(edit(campaign_file, tmp_path, metres)), "--config", CONFIG])
+    status, _, err = run(capsys, [str(edit(campaign_file, tmp_path, metres)), "--config", config_toml])
     assert status == 2 and "plausibly deflect" in err and "edited.csv:3" in err
 
 
@@ -143,19 +143,19 @@ def relabel(label):
     return change
 
 
-def test_unknown_marker_is_an_error(capsys, campaign_file, tmp_path):
-    status, _, err = run(capsys, [str(edit(campaign_file, tmp_path, relabel("M9"))), "--config", CONFIG])
+def test_unknown_marker_is_an_error(capsys, campaign_file, tmp_path, config_toml):
+    status, _, err = run(capsys, [str(edit(campaign_file, tmp_path, relabel("M9"))), "--config", config_toml])
     assert status == 2 and "unknown marker 'M9'" in err and "edited.csv:3, column 'marker'" in err
 
 
-def test_swapped_marker_labels_are_an_error(capsys, campaign_file, tmp_path):
+def test_swapped_marker_labels_are_an_error(capsys, campaign_file, tmp_path, config_toml):
     def swap(lines, first):
         a, b = lines[first].split(","), lines[first + 1].split(",")
         assert (a[14], b[14]) == ("M1", "M2")
         a[14], b[14] = b[14], a[14]
         return lines[:first] + [",".join(a), ",".join(b)] + lines[first + 2 :]
 
-    status, _, err = run(capsys, [str(edit(campaign_file, tmp_path, swap)), "--config", CONFIG])
+    status, _, err = run(capsys, [str(edit(campaign_file, tmp_path, swap)), "--config", config_toml])
     assert status == 2 and "mislabelled marker" in err and "column 'marker'" in err
 
 
@@ -186,10 +186,10 @@ def _perturbed_campaign(draw, lines):
 @pytest.mark.slow
 @settings(max_examples=25, deadline=None, database=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
-def test_random_perturbations_of_a_small_campaign_never_give_a_traceback(capsys, tmp_path, data):
+def test_random_perturbations_of_a_small_campaign_never_give_a_traceback(capsys, tmp_path, data, config_toml, data_dir):
     # Four Table III configurations, one repeat: the smallest campaign the linear model still calibrates in seconds.
-    cell = load_cell(CONFIG)
-    plan = read_plan(DATA / "table3_plan.csv", cell.robot)
+    cell = load_cell(config_toml)
+    plan = read_plan(data_dir / "table3_plan.csv", cell.robot)
     small = Plan(q=plan.q[[0, 3, 6, 9]], load_kg=plan.load_kg[[0, 3, 6, 9]], lines=plan.lines[[0, 3, 6, 9]])
     campaign = DigitalTwin(cell).simulate(small, 1, np.random.default_rng(3))
     valid = tmp_path / "valid.csv"
@@ -197,7 +197,7 @@ def test_random_perturbations_of_a_small_campaign_never_give_a_traceback(capsys,
     path = tmp_path / "perturbed.csv"
     path.write_text(data.draw(_perturbed_campaign(valid.read_text().splitlines())))
     before = path.read_bytes()
-    status, out, err = run(capsys, [str(path), "--config", CONFIG, "--model", "linear", "--draws", "100", "--json"])
+    status, out, err = run(capsys, [str(path), "--config", config_toml, "--model", "linear", "--draws", "100", "--json"])
     assert status in (0, 2)
     if status == 2:
         assert len(err.strip().splitlines()) == 1 and "Traceback" not in err

@@ -5,16 +5,21 @@ from __future__ import annotations
 import json
 import re
 import shutil
-from pathlib import Path
 
 import pytest
 
 import bayescal.cli as cli
 from bayescal.cell.campaign import read_campaign
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 
-PLAN, CONFIG = str(DATA / "table3_plan.csv"), str(DATA / "kr270.toml")
+@pytest.fixture
+def plan_csv(data_dir):
+    return str(data_dir / "table3_plan.csv")
+
+
+@pytest.fixture
+def config_toml(data_dir):
+    return str(data_dir / "kr270.toml")
 
 
 @pytest.fixture
@@ -24,9 +29,9 @@ def main(monkeypatch):
     return cli.main
 
 
-def test_writes_the_table_iii_campaign(main, tmp_path, capsys):
+def test_writes_the_table_iii_campaign(main, tmp_path, capsys, config_toml, plan_csv):
     out = tmp_path / "campaign.csv"
-    args = ["simulate", "--plan", PLAN, "--config", CONFIG, "--repeats", "3", "--seed", "1", "-o", str(out)]
+    args = ["simulate", "--plan", plan_csv, "--config", config_toml, "--repeats", "3", "--seed", "1", "-o", str(out)]
     assert main(args + ["--json"]) == 0
     payload = json.loads(capsys.readouterr().out)
     assert payload["rows"] == 135 and payload["equations"] == 405 and payload["configurations"] == 15
@@ -41,8 +46,8 @@ def test_writes_the_table_iii_campaign(main, tmp_path, capsys):
     assert out.read_bytes() == first
 
 
-def test_effects_and_seed_change_the_file(main, tmp_path, capsys):
-    base = ["simulate", "--plan", PLAN, "--config", CONFIG, "--repeats", "1"]
+def test_effects_and_seed_change_the_file(main, tmp_path, capsys, config_toml, plan_csv):
+    base = ["simulate", "--plan", plan_csv, "--config", config_toml, "--repeats", "1"]
     main(base + ["-o", str(tmp_path / "a.csv")])
     main(base + ["-o", str(tmp_path / "b.csv"), "--seed", "2"])
     capsys.readouterr()
@@ -68,41 +73,41 @@ def test_effects_and_seed_change_the_file(main, tmp_path, capsys):
         (["--seed", "-1"], "argument --seed: expected a whole number >= 0"),
     ],
 )
-def test_bad_options_exit_2(main, tmp_path, capsys, extra, message):
-    args = ["simulate", "--plan", PLAN, "--config", CONFIG, "-o", str(tmp_path / "x.csv")] + extra
+def test_bad_options_exit_2(main, tmp_path, capsys, extra, message, config_toml, plan_csv):
+    args = ["simulate", "--plan", plan_csv, "--config", config_toml, "-o", str(tmp_path / "x.csv")] + extra
     assert main(args) == 2
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1
 
 
-def test_plan_outside_limits_exit_2(main, tmp_path, capsys):
+def test_plan_outside_limits_exit_2(main, tmp_path, capsys, config_toml):
     plan = tmp_path / "plan.csv"
     plan.write_text("q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n0,-45,30,0,20,0\n0,-150,30,0,20,0\n")
-    assert main(["simulate", "--plan", str(plan), "--config", CONFIG, "-o", str(tmp_path / "x.csv")]) == 2
+    assert main(["simulate", "--plan", str(plan), "--config", config_toml, "-o", str(tmp_path / "x.csv")]) == 2
     err = capsys.readouterr().err.strip()
     assert "plan.csv:3" in err and "q2_deg" in err and len(err.splitlines()) == 1
     assert not (tmp_path / "x.csv").exists()
 
 
-def test_missing_output_directory_exit_2(main, tmp_path, capsys):
-    assert main(["simulate", "--plan", PLAN, "--config", CONFIG, "-o", str(tmp_path / "no" / "x.csv")]) == 2
+def test_missing_output_directory_exit_2(main, tmp_path, capsys, config_toml, plan_csv):
+    assert main(["simulate", "--plan", plan_csv, "--config", config_toml, "-o", str(tmp_path / "no" / "x.csv")]) == 2
     err = capsys.readouterr().err
     assert "-o: the output folder" in err and "does not exist" in err
 
 
-def test_a_load_the_arm_cannot_carry_exits_2_naming_the_plan_line(main, tmp_path, capsys):
+def test_a_load_the_arm_cannot_carry_exits_2_naming_the_plan_line(main, tmp_path, capsys, config_toml):
     plan = tmp_path / "plan.csv"
     plan.write_text("q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,load_kg\n0,-45,30,0,20,0,250\n0,-45,30,0,20,0,1e6\n")
-    assert main(["simulate", "--plan", str(plan), "--config", CONFIG, "-o", str(tmp_path / "x.csv")]) == 2
+    assert main(["simulate", "--plan", str(plan), "--config", config_toml, "-o", str(tmp_path / "x.csv")]) == 2
     err = capsys.readouterr().err.strip()
     assert "plan.csv:3, column 'load_kg'" in err and "more than the 540 kg the arm can plausibly carry" in err
     assert len(err.splitlines()) == 1
 
 
-def test_no_equilibrium_exits_2_naming_the_plan_line(main, tmp_path, capsys):
+def test_no_equilibrium_exits_2_naming_the_plan_line(main, tmp_path, capsys, data_dir):
     # Joints 10,000 times softer than the KR-270's: the arm folds under a load it could carry.
-    shutil.copytree(DATA / "robots", tmp_path / "robots")
-    text = (DATA / "kr270.toml").read_text()
+    shutil.copytree(data_dir / "robots", tmp_path / "robots")
+    text = (data_dir / "kr270.toml").read_text()
     config = tmp_path / "soft.toml"
     config.write_text(re.sub(r"k_urad_per_Nm = \[[^]]*\]", "k_urad_per_Nm = [3000, 3020, 4060, 30020, 33030, 23650]", text))
     plan = tmp_path / "plan.csv"

@@ -1,5 +1,4 @@
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,16 +16,12 @@ from bayescal.geometry.arcs import (
 from bayescal.reference import read_paper_reference
 from bayescal.units import DEG, MM
 
-DATA = Path(__file__).resolve().parents[2] / "data"
-
-TABLE1 = DATA / "table1_geometry.csv"
-REFERENCE = DATA / "paper_reference.csv"
 Q2 = np.array([-0.01, -30, -60, -90, -120, -145]) * DEG
 
 
 @pytest.fixture(scope="module")
-def table1():
-    return read_arc_points(TABLE1)
+def table1(data_dir):
+    return read_arc_points(data_dir / "table1_geometry.csv")
 
 
 @pytest.fixture(scope="module")
@@ -54,8 +49,8 @@ def test_known_angle_fit_on_table1_is_a_reflection_with_the_paper_radius(table1_
     assert lever.rms < 0.1 * MM
 
 
-def test_closed_form_a_x_is_inside_the_paper_interval(table1_fit):
-    reference = read_paper_reference(REFERENCE)
+def test_closed_form_a_x_is_inside_the_paper_interval(table1_fit, data_dir):
+    reference = read_paper_reference(data_dir / "paper_reference.csv")
     a_x = table1_fit.geometry.a_x / MM
     assert abs(a_x - reference.loc["a_x", "value"]) <= reference.loc["a_x", "ci3"]
     assert table1_fit.mirrored is False
@@ -246,9 +241,9 @@ def test_bad_input_gives_one_line_errors(tmp_path, rows, header, message):
     ("factor", "message"),
     [(1e-3, "are x_mm, y_mm in metres instead of mm?"), (1e3, "beyond any tracker's range (100 m): are x_mm, y_mm in another unit")],
 )
-def test_table1_in_another_unit_is_rejected(tmp_path, factor, message):
+def test_table1_in_another_unit_is_rejected(tmp_path, data_dir, factor, message):
     # Table I in metres gave L = 0.185 mm beside the paper's 184.72 mm without a word.
-    lines = TABLE1.read_text().splitlines()
+    lines = (data_dir / "table1_geometry.csv").read_text().splitlines()
     scaled = [
         line if line.startswith(("#", "q2")) else ",".join([*line.split(",")[:2], *(f"{float(v) * factor:.8g}" for v in line.split(",")[2:])])
         for line in lines

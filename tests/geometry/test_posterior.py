@@ -1,5 +1,4 @@
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,18 +18,17 @@ from bayescal.geometry.posterior import (
     default_sampler,
     emcee_sampler,
 )
-from bayescal.reports.geometry import STUDY_SIGMA, coverage_study
 from bayescal.reference import read_paper_reference
+from bayescal.studies.arc_fit import TABLE_I_NOISE
+from bayescal.studies.geometry_coverage import coverage_study
 from bayescal.units import DEG, MM
-
-DATA = Path(__file__).resolve().parents[2] / "data"
 
 Q2 = np.array([-0.01, -30, -60, -90, -120, -145]) * DEG
 
 
 @pytest.fixture(scope="module")
-def table1():
-    return read_arc_points(DATA / "table1_geometry.csv")
+def table1(data_dir):
+    return read_arc_points(data_dir / "table1_geometry.csv")
 
 
 @pytest.fixture(scope="module")
@@ -43,9 +41,9 @@ def light(model="concentric"):
     return GeometryPosteriorModel(model, sampler=default_sampler(n_chains=2, n_tune=300, n_draws=200))
 
 
-def test_table1_meets_the_paper_and_converges(table1_posterior):
+def test_table1_meets_the_paper_and_converges(table1_posterior, data_dir):
     summary = table1_posterior.summary()
-    reference = read_paper_reference(DATA / "paper_reference.csv")
+    reference = read_paper_reference(data_dir / "paper_reference.csv")
     assert abs(summary.loc["L", "mean"] - 184.72) < 0.03
     assert abs(summary.loc["a_x", "mean"] - reference.loc["a_x", "value"]) <= reference.loc["a_x", "ci3"]
     # a_y differs from Table II by more than the paper's interval but stays inside ours.
@@ -113,7 +111,7 @@ def test_same_seed_same_draws(table1):
 
 def test_rigid_model_recovers_a_simulated_rigid_layout(table1):
     layout = MarkerLayout.from_fit(CompensatorGeometryModel().fit(table1), table1)
-    points = layout.simulate(Q2, STUDY_SIGMA, np.random.default_rng(11))
+    points = layout.simulate(Q2, TABLE_I_NOISE, np.random.default_rng(11))
     result = light("rigid").fit(points, rng=3)
     summary = result.summary()
     truth = {"L": layout.L / MM, "a_x": (layout.p2 - layout.p0)[0] / MM, "a_y": (layout.p2 - layout.p0)[1] / MM}
@@ -154,7 +152,7 @@ def test_intervals_cover_simulated_truth(table1):
     layout = MarkerLayout.from_fit(CompensatorGeometryModel().fit(table1), table1)
     model = GeometryPosteriorModel(sampler=default_sampler(n_chains=2, n_tune=200, n_draws=150))
     n_rep = 16
-    study = coverage_study(layout, Q2, STUDY_SIGMA, n_rep, model, np.random.default_rng(2024))
+    study = coverage_study(layout, Q2, TABLE_I_NOISE, n_rep, model, np.random.default_rng(2024))
     names = ["L", "a_x", "a_y"]
     assert abs(study.loc[names, "covered_1"].mean() - study.loc[names, "content_1"].mean()) < 0.2
     assert np.sum((1 - study.loc[names, "covered_3"]) * n_rep) <= 3
@@ -165,7 +163,7 @@ def test_intervals_cover_at_their_posterior_content(table1):
     layout = MarkerLayout.from_fit(CompensatorGeometryModel().fit(table1), table1)
     n_rep = 300
     model = GeometryPosteriorModel(sampler=default_sampler(n_chains=2, n_tune=400, n_draws=400))
-    study = coverage_study(layout, Q2, STUDY_SIGMA, n_rep, model, np.random.default_rng(7))
+    study = coverage_study(layout, Q2, TABLE_I_NOISE, n_rep, model, np.random.default_rng(7))
     for name in ("L", "a_x", "a_y", "p2_x", "p2_y", "p0_x", "p0_y", "phi"):
         for k in (1, 2, 3):
             rate = study.loc[name, f"content_{k}"]

@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bayescal.inference.identifiability import analyse, practical_reasons
+from bayescal.inference.identifiability import analyse, angle_label, label_angle, practical_reasons
 
 DEG = np.pi / 180
 
@@ -126,3 +126,12 @@ def test_each_confounded_parameter_names_only_its_own_partners():
     assert "combination of k3 with k4:" in result.reasons["k3"]
     assert "combination of k5 with k6:" in result.reasons["k5"]
     assert result.identifiable[:6].all()
+
+
+def test_per_angle_names_are_read_back_to_their_angle():
+    name = angle_label(np.radians(-25.24))
+    assert name == "k2_q2[-25.240]"
+    assert label_angle(name) == pytest.approx(-25.24)
+    assert label_angle(angle_label(-1e-4)) == pytest.approx(-0.006)
+    for other in ("k2", "K_c", "s0", "k2_q2", "sigma[P1]"):
+        assert label_angle(other) is None

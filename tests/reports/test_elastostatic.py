@@ -1,56 +1,81 @@
-import warnings
+"""Tests of bayescal.reports.elastostatic: the prose is worded from the numbers it is given."""
 
-import numpy as np
+from __future__ import annotations
+
+import pandas as pd
 import pytest
-from scipy import stats
 
-from bayescal.sampling.gibbs import GibbsSampler
-from bayescal.inference.elastostatic import ElastostaticModel
-from bayescal.reports.elastostatic import compensator_precision, linearisation_misfit, weightless
-from bayescal.studies.precision import design_precision
-from bayescal.twin.simulator import DigitalTwin
-from bayescal.units import UM
+from bayescal.reports.elastostatic import REDUCED, _estimates_table, _linearisation_section
+from bayescal.reference import beside_published
 
-
-def test_linear_model_misfit_at_8_um_is_the_linearisation(cell, plan):
-    full = linearisation_misfit(cell, plan, 8 * UM, seed=0)
-    assert full["n_equations"] == 405 and full["dof"] == 396
-    dof = full["dof"]
-    low, high = stats.chi2.ppf([0.001, 0.999], dof) / dof
-    # Noise alone would exceed `high` once in a thousand campaigns; the exact model fits like noise.
-    assert full["linear"] > high
-    assert low < full["exact"] < high
-    assert full["linear"] - full["exact"] > 0.15
-    # Loads and noise / 10: the second-order part of the misfit goes; what is left is within chi-square noise.
-    small = linearisation_misfit(cell, plan, 0.8 * UM, load_scale=0.1, seed=0)
-    assert low < small["linear"] < high
-    assert small["linear"] - small["exact"] < 0.1
-    # Same noise draws, scaled with the deflections: the exact model is exact at both scales.
-    assert small["exact"] == pytest.approx(full["exact"], rel=2e-3)
-
-
-def test_without_the_arms_weight_the_misfit_is_purely_second_order(cell, plan):
-    bare = weightless(cell)
-    assert np.allclose(bare.robot.gravity_torque(plan.q[0]), 0.0)
-    full = linearisation_misfit(bare, plan, 8 * UM, seed=0)
-    small = linearisation_misfit(bare, plan, 0.8 * UM, load_scale=0.1, seed=0)
-    excess_full = (full["linear"] - full["exact"]) * full["dof"]
-    excess_small = (small["linear"] - small["exact"]) * small["dof"]
-    assert excess_full > 50
-    assert abs(excess_small) < 0.05 * excess_full
+def summary(linear: float, exact: float, excess: float, gap_min: float, beyond: int) -> pd.Series:
+    """A misfit summary over 5 seeds of 405 equations, as studies.linearisation.misfit_summary gives it."""
+    return pd.Series(
+        {
+            "linear_mean": linear,
+            "linear_min": linear - 0.02,
+            "linear_max": linear + 0.02,
+            "exact_mean": exact,
+            "exact_min": exact - 0.03,
+            "exact_max": exact + 0.03,
+            "excess_chi2": excess,
+            "gap_min": gap_min,
+            "gap_max": gap_min + 0.1,
+            "noise_low": 0.79,
+            "noise_high": 1.234,
+            "linear_beyond": beyond,
+            "exact_beyond": 0,
+            "n_seeds": 5,
+            "n_equations": 405,
+            "dof": 396,
+        },
+        dtype=object,
+    )
 
 
-def test_compensator_precision_agrees_with_eq_37_and_names_the_gap_to_table_iv(cell, plan):
-    campaign = DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(1))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        results = ElastostaticModel.from_cell(cell, sampler=GibbsSampler(n_chains=2, n_tune=50, n_draws=100)).fit(campaign, 1)
-    precision = compensator_precision(results, cell)
-    eq37 = design_precision(cell, plan)
-    for name in ("K_c", "s0"):
-        assert precision["width_pct"][name] == pytest.approx(eq37.loc[name, "width_3sd_pct"], rel=0.25), name
-    # Table IV's compensator widths are out of this campaign's reach by more than an order of magnitude.
-    assert precision["needed_factor"]["K_c"] > 10 and precision["needed_factor"]["s0"] > 10
-    low, high = precision["share_pct"]
-    assert 0.03 < low < high < 0.3
-    assert precision["needed_per_angle_3sd_pct"] < high < precision["per_angle_3sd_pct"]
+def section(full: pd.Series, reduced: pd.Series, bare_reduced: pd.Series) -> str:
+    """The section for a linearisation study with these summaries (the weightless twin at full load as ``full``)."""
+    rows = {("cell", 1.0): full, ("cell", REDUCED): reduced, ("weightless", 1.0): full, ("weightless", REDUCED): bare_reduced}
+    study = pd.DataFrame.from_dict(
+        {key: pd.concat([row, pd.Series({"noise_um": 8 * key[1]}, dtype=object)]) for key, row in rows.items()}, orient="index"
+    )
+    study = study.astype(float)
+    study.index.names = ["twin", "load_scale"]
+    sag = pd.DataFrame({"sag_j1_mrad": [0.0], "sag_j2_mrad": [-0.58], "sag_j3_mrad": [0.33]})
+    return "\n".join(_linearisation_section(study, sag))
+
+
+def test_a_misfit_beyond_the_noise_is_called_the_linearisation():
+    text = section(summary(1.25, 0.99, 101.0, 0.21, 3), summary(1.04, 0.99, 17.0, 0.01, 0), summary(0.995, 0.99, 1.3, 0.0, 0))
+    assert "misfit is real (excess χ² ≈ 101" in text
+    assert "3 of 5 seeds beyond" in text and "dof = 396." in text
+    assert "on every seed 0.21–0.31 above" in text
+    assert "is that of noise: the misfit is the linearisation" in text
+    assert "about 1.26, is lower than the reported 1.3–1.4" in text  # 1 + 101 / 396
+    assert "does not fall to the reported 1.02 but keeps an excess χ² of about 17" in text
+    assert "a 78-fold drop, near the 100-fold" in text
+    assert "up to 0.58 mrad at joint 2 and 0.33 mrad at joint 3" in text
+    assert "| the twin | ×1 | 8 | 1.250 (1.230–1.270) | 0.990 (0.960–1.020) | 101.0 |" in text
+
+
+def test_a_misfit_within_the_noise_is_not_called_real():
+    text = section(summary(1.01, 1.0, 4.0, -0.01, 0), summary(1.0, 1.0, 0.5, -0.02, 0), summary(1.0, 1.0, 2.0, -0.02, 0))
+    assert "misfit is within the noise" in text
+    assert "the misfit is the linearisation" not in text
+    assert "over the seeds" in text and "on every seed" not in text
+    assert "falls to the reported 1.02 and keeps" in text
+    assert "far from the 100-fold" in text
+
+
+def test_estimates_sit_beside_table_iv_with_the_truth():
+    parameters = {
+        "k1": {"unit": "urad/(N m)"},
+        "k2": {"unit": "urad/(N m)", "mean": 0.3026, "sd": 0.0016, "lo3": 0.2978, "hi3": 0.3074},
+    }
+    paper = beside_published(pd.DataFrame({"mean": [float("nan"), 0.3026], "sd": [float("nan"), 0.0016]}, index=["k1", "k2"]), "IV")
+    table = _estimates_table(paper, parameters, {"k1": 0.3, "k2": 0.302})
+    assert list(table.loc["k1"]) == ["urad/(N m)", "not identifiable", "", "", 0.3, "", "–", "–", "–"]
+    k2 = table.loc["k2"]
+    assert k2["width"] == "1.6%" and k2["truth inside"] == "yes"
+    assert k2["Table IV"] == 0.302 and k2["Table IV width"] == "1.3%"
+    assert k2["±3σ"] == pytest.approx(0.0048)

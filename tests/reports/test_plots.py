@@ -1,17 +1,14 @@
-from pathlib import Path
-
 import numpy as np
+import pandas as pd
 
 from bayescal.robot.compensator import Compensator
 from bayescal.geometry.arcs import CompensatorGeometryModel, read_arc_points
 from bayescal.reports.plots import plot_arc_fit, plot_eta_curves
 from bayescal.units import DEG, MM
 
-TABLE1 = Path(__file__).resolve().parents[2] / "data" / "table1_geometry.csv"
 
-
-def test_eta_curves_plot_eq_9_for_each_s0(tmp_path):
-    points = read_arc_points(TABLE1)
+def test_eta_curves_plot_eq_9_for_each_s0(tmp_path, data_dir):
+    points = read_arc_points(data_dir / "table1_geometry.csv")
     geometry = CompensatorGeometryModel().fit(points).geometry
     s0_values = [0.0, 0.3, 0.458]
     figure = plot_eta_curves(geometry, s0_values, highlight=0.458)
@@ -26,8 +23,8 @@ def test_eta_curves_plot_eq_9_for_each_s0(tmp_path):
     assert (tmp_path / "eta.png").stat().st_size > 1000
 
 
-def test_arc_fit_figure_shows_points_and_residuals(tmp_path):
-    points = read_arc_points(TABLE1)
+def test_arc_fit_figure_shows_points_and_residuals(tmp_path, data_dir):
+    points = read_arc_points(data_dir / "table1_geometry.csv")
     fit = CompensatorGeometryModel().fit(points)
     extra = {"other": {name: np.zeros(6) for name in points.cylinder_markers}}
     figure = plot_arc_fit(points, fit, extra)
@@ -45,11 +42,13 @@ def test_arc_fit_figure_shows_points_and_residuals(tmp_path):
 def test_joint2_compliance_figure_has_band_points_and_lines(tmp_path):
     from bayescal.reports.plots import plot_joint2_compliance
 
-    q2 = np.linspace(-140, 0, 30) * DEG
-    rng = np.random.default_rng(0)
-    draws = 0.3e-6 * (1 + 0.01 * rng.standard_normal((500, 1))) * np.ones((1, q2.size))
+    q2_deg = np.linspace(-140, 0, 30)
+    band = pd.DataFrame(
+        {"low_urad_per_Nm": 0.294, "median_urad_per_Nm": 0.3, "high_urad_per_Nm": 0.306, "truth_urad_per_Nm": 0.3},
+        index=pd.Index(q2_deg, name="q2_deg"),
+    )
     angles = np.array([-140.0, -60.0, 0.0]) * DEG
-    figure = plot_joint2_compliance(q2, draws, angles, np.full(3, 0.3e-6), np.full(3, 1e-9), own=0.302e-6, truth=np.full(q2.size, 0.3e-6))
+    figure = plot_joint2_compliance(band, angles, np.full(3, 0.3e-6), np.full(3, 1e-9), own=0.302e-6)
     ax = figure.axes[0]
     assert len(ax.collections) >= 2  # the band and the error bars
     low, high = ax.get_ylim()

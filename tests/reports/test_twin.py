@@ -2,20 +2,15 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from bayescal.cell.config import load_cell
 from bayescal.cell.plan import read_plan
 from bayescal.studies.precision import design_precision
 from bayescal.reports.twin import main, render_report
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 
-
-
-def test_report_tables(tmp_path):
-    cell = load_cell(DATA / "kr270.toml")
-    plan = read_plan(DATA / "table3_plan.csv", cell.robot)
+def test_report_tables(tmp_path, data_dir):
+    cell = load_cell(data_dir / "kr270.toml")
+    plan = read_plan(data_dir / "table3_plan.csv", cell.robot)
     text = render_report(cell, plan)
     assert "405 equations" in text
     precision = design_precision(cell, plan)
@@ -27,5 +22,5 @@ def test_report_tables(tmp_path):
     spring = -cell.compensator.torque(0.0)
     assert f"| 0 | {gravity:.0f} | {spring:.0f} | {gravity - spring:.0f} |" in text
     out = tmp_path / "twin.md"
-    main(["--config", str(DATA / "kr270.toml"), "--plan", str(DATA / "table3_plan.csv"), "-o", str(out)])
+    main(["--config", str(data_dir / "kr270.toml"), "--plan", str(data_dir / "table3_plan.csv"), "-o", str(out)])
     assert out.read_text() == text

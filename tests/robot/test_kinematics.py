@@ -3,15 +3,12 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
-
-URDF = Path(__file__).resolve().parents[2] / "data" / "robots" / "kr270.urdf"
 
 
 def test_flange_at_zero_matches_the_series_geometry(robot):
@@ -97,11 +94,11 @@ def test_check_limits_names_the_joint(robot):
     assert "\n" not in message
 
 
-def test_bad_urdf_and_missing_flange(tmp_path):
+def test_bad_urdf_and_missing_flange(tmp_path, data_dir):
     with pytest.raises(InputError, match="not found"):
         Robot.from_urdf(tmp_path / "none.urdf")
     with pytest.raises(InputError, match="no frame named 'tool0'"):
-        Robot.from_urdf(URDF, flange="tool0")
+        Robot.from_urdf(data_dir / "robots" / "kr270.urdf", flange="tool0")
     broken = tmp_path / "broken.urdf"
     broken.write_text("<robot name='x'><link name='a'>")
     with pytest.raises(InputError, match="cannot read the URDF"):
@@ -132,8 +129,8 @@ def test_another_urdf_works_the_same_way(tmp_path):
         robot.check_limits([0, math.radians(150)])
 
 
-def test_prismatic_joints_are_rejected(tmp_path):
-    urdf = (Path(__file__).resolve().parents[2] / "data" / "robots" / "kr270.urdf").read_text()
+def test_prismatic_joints_are_rejected(tmp_path, data_dir):
+    urdf = (data_dir / "robots" / "kr270.urdf").read_text()
     first = urdf.index('type="revolute"')
     (tmp_path / "slide.urdf").write_text(urdf[:first] + 'type="prismatic"' + urdf[first + len('type="revolute"'):])
     with pytest.raises(InputError, match="is prismatic; every joint must be revolute"):

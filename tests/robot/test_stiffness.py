@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -12,7 +11,6 @@ import pytest
 from bayescal.robot.compensator import Compensator
 from bayescal.robot import stiffness as st
 
-URDF = Path(__file__).resolve().parents[2] / "data" / "robots" / "kr270.urdf"
 # Klimchik et al., Table IV (k2..k6) and a k1 estimate, rad/(N·m)
 K = np.array([0.30, 0.302, 0.406, 3.002, 3.303, 2.365]) * 1e-6
 # Table II geometry, phi from the Table I fit, K_c = 144 N/mm and s0 = 458 mm (Table IV)

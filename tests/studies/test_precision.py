@@ -1,16 +1,36 @@
-"""Tests of bayescal.studies.precision: the eq-37 precision of a plan and the detectability of planted effects."""
+"""Tests of bayescal.studies.precision: eq-37 precision, effect detectability, the compensator's precision and Fig. 7's band."""
 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import replace
 
 import numpy as np
+import pandas as pd
 import pytest
 
+from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.reference import published
-from bayescal.studies.precision import design_precision, effect_detectability
+from bayescal.studies.precision import (
+    compensator_precision,
+    design_precision,
+    effect_detectability,
+    equivalent_compliance_band,
+    table_iv_width_ratio,
+)
 from bayescal.twin.effects import parse_effect
+from bayescal.twin.simulator import DigitalTwin
+
+
+@pytest.fixture(scope="module")
+def results(cell, plan):
+    """A short exact-model fit of a Table III campaign on the twin."""
+    campaign = DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(1))
+    with warnings.catch_warnings():
+        # short chains on a campaign that cannot identify k1 and the spring
+        warnings.simplefilter("ignore")
+        return ElastostaticModel.from_cell(cell, n_chains=2, n_tune=50, n_draws=100, compare_linear=False).fit(campaign, 1)
 
 
 def test_design_precision_is_of_the_order_of_table_iv(cell, plan):
@@ -39,3 +59,44 @@ def test_detectability_separates_strong_and_weak_effects(cell, plan):
         result = effect_detectability(cell, plan, parse_effect(name))
         assert result["noncentrality"] > 2 * threshold, name
         assert result["rms_unexplained_um"] < result["rms_difference_um"]
+
+
+def test_width_ratio_to_table_iv_is_the_geometric_mean_over_the_excited_joints():
+    precision = pd.DataFrame(
+        {"width_3sd_pct": [np.nan, 2.0, 8.0, 500.0], "table_iv_pct": [np.nan, 1.0, 2.0, 20.0]}, index=["k1", "k2", "k3", "K_c"]
+    )
+    compared, ratio = table_iv_width_ratio(precision)
+    assert compared == ["k2", "k3"]  # k1 not excited, K_c not a joint compliance
+    assert ratio == pytest.approx(math.sqrt(2.0 * 4.0))
+
+
+def test_compensator_precision_agrees_with_eq_37_and_names_the_gap_to_table_iv(cell, plan, results):
+    precision = compensator_precision(results, cell)
+    eq37 = design_precision(cell, plan)
+    spring = precision.spring
+    for name in ("K_c", "s0"):
+        assert spring.loc[name, "width_3sd_pct"] == pytest.approx(eq37.loc[name, "width_3sd_pct"], rel=0.25), name
+        assert spring.loc[name, "table_iv_width_pct"] == pytest.approx(eq37.loc[name, "table_iv_pct"])
+    # Table IV's compensator widths are out of this campaign's reach by more than an order of magnitude.
+    assert (spring["needed_factor"] > 10).all()
+    share = precision.per_angle["compensator_share_pct"]
+    assert list(precision.per_angle.index) == pytest.approx(list(np.degrees(results.q2)))
+    assert 0.03 < share.min() < share.max() < 0.3
+    assert precision.needed_per_angle_width_pct < share.max() < precision.per_angle["width_3sd_pct"].median()
+
+
+def test_the_band_of_the_equivalent_compliance_is_the_posteriors_99_73_percent(cell, results):
+    band = equivalent_compliance_band(results, cell, n_points=7)
+    assert len(band) == 7 and band.index.name == "q2_deg"
+    assert band.index[0] == pytest.approx(np.degrees(cell.robot.lower[1])) and band.index[-1] == pytest.approx(np.degrees(cell.robot.upper[1]))
+    draws = results.equivalent_compliance(np.radians(band.index.to_numpy())) / 1e-6
+    # 0.135 % in each tail: the paper's ±3σ content
+    np.testing.assert_allclose(band["low_urad_per_Nm"], np.quantile(draws, 0.00135, axis=0))
+    np.testing.assert_allclose(band["high_urad_per_Nm"], np.quantile(draws, 0.99865, axis=0))
+    assert (band["low_urad_per_Nm"] < band["median_urad_per_Nm"]).all()
+    assert (band["median_urad_per_Nm"] < band["high_urad_per_Nm"]).all()
+    # the twin's truth: eq 8 with the cell's compliance and spring, about 0.3 μrad/(N·m)
+    assert band["truth_urad_per_Nm"].to_numpy() == pytest.approx(0.3, rel=0.02)
+    assert band["half_width_pct"].to_numpy() == pytest.approx(
+        (50 * (band["high_urad_per_Nm"] - band["low_urad_per_Nm"]) / band["median_urad_per_Nm"]).to_numpy()
+    )

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -20,9 +18,6 @@ from bayescal.twin.effects import (
 )
 from bayescal.errors import InputError
 from bayescal.robot.stiffness import LinearJoints
-
-DATA = Path(__file__).resolve().parents[2] / "data"
-
 
 
 def test_parse_names_defaults_and_magnitudes():

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,9 +10,6 @@ import pytest
 from bayescal.twin.effects import parse_effect
 from bayescal.robot.stiffness import ElasticArm, compliance_design
 from bayescal.twin.simulator import DigitalTwin
-
-DATA = Path(__file__).resolve().parents[2] / "data"
-
 
 
 @pytest.fixture(scope="module")

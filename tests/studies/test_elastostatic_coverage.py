@@ -1,4 +1,4 @@
-"""Coverage of the elastostatic intervals on twin campaigns unlike the config (studies.coverage)."""
+"""Coverage of the elastostatic intervals on twin campaigns unlike the config (studies.elastostatic_coverage)."""
 
 from concurrent.futures import ThreadPoolExecutor
 
@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 from bayescal.sampling.gibbs import GibbsSampler
-from bayescal.studies.coverage import elastostatic_coverage, random_plan
+from bayescal.studies.elastostatic_coverage import elastostatic_coverage, random_plan
 
 LEVELS = np.array([1.0, 2.0, 3.0])
 NOMINAL = 2 * stats.norm.cdf(LEVELS) - 1  # 0.6827, 0.9545, 0.9973
