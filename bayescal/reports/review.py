@@ -37,6 +37,7 @@ from bayescal.reports.figures import plot_error_distribution, plot_evidence, plo
 from bayescal.reports.plots import plot_eta_curves, plot_joint2_compliance
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, diagnostics, summarize
+from bayescal.studies.precision import equivalent_compliance_band
 from bayescal.studies.residuals import COVARIATES
 from bayescal.units import DEG, MM, UM, URAD_PER_NM
 
@@ -118,7 +119,7 @@ def render_review(inputs: ReviewInputs) -> dict[str, bytes]:
     if inputs.geometry is not None:
         _geometry_section(page, inputs.geometry, inputs.seed)
     if inputs.results is not None:
-        _compensator_section(page, inputs.results, inputs.cell, facts)
+        _compensator_section(page, inputs.results, inputs.cell)
         _data_section(page, inputs.results, inputs.campaign, inputs.cell)
         if inputs.residuals is not None:
             _residual_section(page, inputs.results, inputs.residuals, inputs.campaign, inputs.cell)
@@ -537,7 +538,7 @@ def _residual_section(page: _Page, results: ElastostaticResults, table: pd.DataF
     page.close()
 
 
-def _compensator_section(page: _Page, results: ElastostaticResults, cell: Cell, facts: _Facts) -> None:
+def _compensator_section(page: _Page, results: ElastostaticResults, cell: Cell) -> None:
     page.heading("compensator", "The compensator: η(q2) and joint 2's compliance")
     tree = results.tree["posterior"]
     mean = results.geometry.mean
@@ -554,28 +555,17 @@ def _compensator_section(page: _Page, results: ElastostaticResults, cell: Cell, 
         f"({'posterior mean' if 's0' in tree else 'the cell’s'}).",
     )
     if results.draws.spring is not None:
-        summary = facts.summary
-        per_angle = [name for name in summary.index if name.startswith("k2_q2[")]
-        angles = np.array([float(name[6:-1]) for name in per_angle]) * DEG
-        lo, hi = min(angles.min(), -150 * DEG), max(angles.max(), 0.0)
-        q2 = np.linspace(lo, hi, 121)
-        draws = results.equivalent_compliance(q2)
+        # The cell's compliance and spring are nominal values, not a truth, for measured data.
+        band = equivalent_compliance_band(results, cell).drop(columns="truth_urad_per_Nm")
         own = float(np.mean(1.0 / results.draws.spring[..., 0]))
+        closed = results.closed_form
         page.figure(
             "joint2_compliance",
-            plot_joint2_compliance(
-                q2,
-                draws,
-                angles,
-                summary.loc[per_angle, "mean"].to_numpy() * URAD_PER_NM,
-                summary.loc[per_angle, "sd"].to_numpy() * URAD_PER_NM,
-                own=own,
-            ),
+            plot_joint2_compliance(band, results.q2, closed.k2, closed.k2_sd, own=own),
             "Joint 2's equivalent compliance against q2 with its 99.73 % posterior band (the paper's Fig. 7), "
             "and without the compensator (dashed).",
         )
-        low, high = np.quantile(draws, [0.00135, 0.99865], axis=0) / URAD_PER_NM
-        page.record("joint2_compliance_band", {"q2_deg": q2 / DEG, "lo_urad_per_Nm": low, "hi_urad_per_Nm": high})
+        page.record("joint2_compliance_band", band.reset_index().to_dict(orient="list"))
         page.record("joint2_own_compliance_urad_per_Nm", own / URAD_PER_NM)
     else:
         page.paragraph("The campaign has fewer than three q2 angles: joint 2's compliance is known only at its own angles (table above).")
