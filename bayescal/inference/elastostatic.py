@@ -306,7 +306,13 @@ class ElastostaticModel:
         whitened = corrected.whitened()
         posterior, joints = self._posterior(whitened, ident, static)
         if (static is None) != (draws.gravity is None):
-            raise InputError("the posterior is not one of this model: the link-weight scale is sampled by the exact model only", source=campaign.source)
+            has = "has" if draws.gravity is not None else "lacks"
+            raise InputError(
+                f"the posterior {has} the link-weight scale 'gravity_scale', which the {self.model} model of this campaign "
+                f"{'does not sample' if draws.gravity is not None else 'samples'}: it comes from another model or an older "
+                "bayescal; calibrate again",
+                source=campaign.source,
+            )
         # The residuals at the posterior mean of the sampled coordinates, as fit computes them.
         residual = posterior.residual(_coordinates(posterior, joints, draws, whitened, ident).mean(axis=0))
         if corrected.scale is not None:

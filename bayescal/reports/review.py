@@ -630,13 +630,13 @@ def _generic(page: _Page, data: Mapping, prefix: str = "") -> None:
         if isinstance(value, Mapping) and value and all(isinstance(item, Mapping) for item in value.values()):
             frame = pd.DataFrame.from_dict(dict(value), orient="index")
             frame.index.name = key
-            page.table(prefix + key, frame, caption=key)
+            page.table(prefix + key, frame, caption=(prefix + key).replace(".", ": "))
         elif isinstance(value, Mapping):
             _generic(page, value, prefix=f"{prefix}{key}.")
         elif isinstance(value, list) and value and all(isinstance(item, Mapping) for item in value):
             frame = pd.DataFrame(value)
             frame.index.name = key
-            page.table(prefix + key, frame, caption=key)
+            page.table(prefix + key, frame, caption=(prefix + key).replace(".", ": "))
         elif isinstance(value, list):
             page.items([f"{key}: {_format(item)}" for item in value])
             page.record(prefix + key, value)

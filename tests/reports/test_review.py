@@ -112,12 +112,16 @@ def test_optional_files_are_rendered_known_keys_and_unknown_ones(report):
     assert numbers["critique"]["evidence"]["nonlinear_stiffness"]["delta_elpd"] == 6.5
     assert numbers["critique"]["gain.rho0_mm.values"] == {"before": 0.041, "after": 0.039}
     assert numbers["critique"]["gain.values"] == {"held_out_rows": 45}
-    assert numbers["plan"]["values"]["criterion_mm"] == 0.0412
-    assert numbers["plan"]["predicted_3sigma_percent"]["k2"]["optimised"] == 1.1
+    assert numbers["plan"]["values"]["criterion"] == 0.00697
+    assert numbers["plan"]["parameters"]["k2"]["width_3sd_pct"] == 1.04
+    assert numbers["plan"]["parameters"]["k1"]["sd"] is None
+    assert numbers["plan"]["linear_model.parameters"]["k2"]["sd"] == 0.00159
+    assert numbers["plan"]["violations"]["0"]["reason"] == "the hanging load would touch the floor"
     assert numbers["study"]["table"]["2"]["K_c_3sigma_percent"] == 120
     page = (report / HTML_FILE).read_text()
     assert "hand-written fixture" in page and "critique_evidence.png" in page
-    assert "Design criterion: criterion = rho0, criterion_mm = 0.0412" in page
+    assert "Design criterion: criterion = 0.00697, criterion_unit = mm rms at the test pose after compensation" in page
+    assert "linear_model: parameters" in page
 
 
 def test_sections_appear_only_for_what_was_given(short_calibration):
