@@ -117,7 +117,9 @@ def test_optional_files_are_rendered_known_keys_and_unknown_ones(report):
     assert numbers["plan"]["parameters"]["k1"]["sd"] is None
     assert numbers["plan"]["linear_model.parameters"]["k2"]["sd"] == 0.00159
     assert numbers["plan"]["violations"]["0"]["reason"] == "the hanging load would touch the floor"
-    assert numbers["study"]["table"]["2"]["K_c_3sigma_percent"] == 120
+    assert numbers["study"]["table"]["2"]["angles"] == 4
+    assert numbers["study"]["table"]["2"]["K_c_width_3sd_pct"] == pytest.approx(298.3866237879191)
+    assert numbers["study"]["table"]["0"]["k1_width_3sd_pct"] is None  # an empty cell: not excited
     page = (report / HTML_FILE).read_text()
     assert "hand-written fixture" in page and "critique_evidence.png" in page
     assert "Design criterion: criterion = 0.00697, criterion_unit = mm rms at the test pose after compensation" in page
