@@ -48,3 +48,33 @@ def campaign_csv(cell, plan, tmp_path_factory) -> Path:
     path = tmp_path_factory.mktemp("campaign") / "campaign.csv"
     write_campaign(campaign, path, comments=["twin, Table III, 1 repeat, seed 1"])
     return path
+
+
+@pytest.fixture(scope="session")
+def short_calibration(cell, campaign_csv, tmp_path_factory) -> dict[str, Path]:
+    """Posterior files of a short run of the whole job: the Table I geometry, then the ``campaign_csv`` calibration.
+
+    Small sampler sizes (2 chains of 100-150 draws) keep it to a few seconds; the
+    posteriors are too short to have converged, which the files' readers must show,
+    not hide.  Returns the paths ``geometry``, ``calibration``, ``campaign`` and ``config``.
+    """
+    import warnings
+
+    from bayescal.geometry.arcs import read_arc_points
+    from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler
+    from bayescal.inference.elastostatic import ElastostaticModel
+    from bayescal.inference.priors import posterior_geometry
+    from bayescal.cell.campaign import read_campaign
+    from bayescal.sampling.gibbs import GibbsSampler
+
+    folder = tmp_path_factory.mktemp("short_calibration")
+    paths = {"geometry": folder / "geometry.nc", "calibration": folder / "calibration.nc", "campaign": campaign_csv, "config": DATA / "kr270.toml"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        points = read_arc_points(DATA / "table1_geometry.csv")
+        GeometryPosteriorModel(sampler=default_sampler(n_chains=2, n_tune=150, n_draws=100)).fit(points, 0).save(paths["geometry"])
+        model = ElastostaticModel.from_cell(
+            cell, posterior_geometry(paths["geometry"]), sampler=GibbsSampler(n_chains=2, n_tune=100, n_draws=150)
+        )
+        model.fit(read_campaign(campaign_csv, cell=cell), 0).save(paths["calibration"])
+    return paths

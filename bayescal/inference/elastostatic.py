@@ -47,14 +47,14 @@ from bayescal.inference.identifiability import Identifiability, analyse, grouped
 from bayescal.inference.likelihood import compensated_posterior, per_angle_posterior
 from bayescal.inference.priors import GeometryPrior, config_geometry
 from bayescal.inference.results import ElastostaticDraws, ElastostaticResults, parameter_units
-from bayescal.robot.compensator import COMPENSATED_JOINT, CompensatorGeometry
+from bayescal.robot.compensator import COMPENSATED_JOINT, CompensatorGeometry, stiffness_regressor
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.gibbs import GibbsSampler
 from bayescal.sampling.protocol import Sampler
 from bayescal.sampling.summary import diagnostics, warn_if_unconverged
 from bayescal.units import MM, N_PER_MM, URAD_PER_NM
 
-__all__ = ["ElastostaticModel", "default_sampler"]
+__all__ = ["ElastostaticModel", "default_sampler", "restore_results"]
 
 GIBBS_TUNE = 300
 """Gibbs iterations discarded per chain: the proposal refits settle within a few hundred."""
@@ -220,6 +220,9 @@ class ElastostaticModel:
         corrected = replace(equations, y=equations.y - offset)
         static = self._static_columns(campaign, equations, cf) if self.model == "exact" and ident.compensator else None
         tree, draws, residual, n_free = self._sample(corrected.whitened(), ident, cf, rng, static)
+        tree.attrs.update(
+            {"model": self.model, "noise": self.noise, "sampler": type(self.sampler).__name__, "geometry": self.geometry.source}
+        )
         if corrected.scale is not None:
             residual = residual * corrected.scale
         practical = self._practical(tree, equations, ident, cf)
@@ -250,8 +253,87 @@ class ElastostaticModel:
             chi2_per_dof=chi2,
             nonlinearity=float(np.abs(offset).max(initial=0.0)),
             iterations=iterations,
+            residuals=residual.reshape(-1, 3),
             linear_closed_form=linear_cf,
             sampler_name=type(self.sampler).__name__,
+        )
+
+    def restore(self, campaign: Campaign, tree) -> ElastostaticResults:
+        """The results of an earlier :meth:`fit` of ``campaign`` from its saved posterior, without sampling again.
+
+        The closed forms, the identifiability and the residuals are recomputed from the
+        campaign (they are deterministic); the draws are the tree's.  The model must be
+        configured as the one that was fitted (same ``model``, ``noise`` and geometry prior).
+
+        Parameters
+        ----------
+        campaign
+            The campaign the posterior was computed from.
+        tree
+            The posterior DataTree (:meth:`ElastostaticResults.save` writes it).
+
+        Raises
+        ------
+        InputError
+            When the posterior does not belong to this campaign and model.
+        """
+        prepared = self._prepare(campaign, announce=False)
+        try:
+            draws = ElastostaticDraws.from_tree(tree, prepared.equations)
+        except (KeyError, ValueError) as exc:
+            raise InputError(f"the posterior is not one of this campaign and model: {exc}", source=campaign.source) from None
+        ident = prepared.identifiability
+        saved = set(np.flatnonzero(~np.all(np.isnan(draws.k2), axis=(0, 1))).tolist())
+        expected = set(range(prepared.equations.q2.size)) if draws.spring is not None else {
+            angle for (_, angle), keep in zip(prepared.equations.per_angle_columns(), ident.identifiable) if angle is not None and keep
+        }
+        if saved != expected:
+            raise InputError(
+                f"the posterior is not one of this campaign: it has joint-2 compliances at {len(saved)} q2 angles, "
+                f"the campaign identifies them at {len(expected)}",
+                source=campaign.source,
+            )
+        if prepared.identifiability.compensator != (draws.spring is not None):
+            raise InputError(
+                "the posterior is not one of this campaign: "
+                f"it {'has' if draws.spring is not None else 'lacks'} the compensator's K_c and s0, which the campaign "
+                f"{'does not determine' if draws.spring is not None else 'determines'}",
+                source=campaign.source,
+            )
+        equations, _, linear_cf, offset, cf, iterations = prepared
+        corrected = replace(equations, y=equations.y - offset)
+        static = self._static_columns(campaign, equations, cf) if self.model == "exact" and ident.compensator else None
+        whitened = corrected.whitened()
+        posterior, joints = self._posterior(whitened, ident, static)
+        if (static is None) != (draws.gravity is None):
+            has = "has" if draws.gravity is not None else "lacks"
+            raise InputError(
+                f"the posterior {has} the link-weight scale 'gravity_scale', which the {self.model} model of this campaign "
+                f"{'does not sample' if draws.gravity is not None else 'samples'}: it comes from another model or an older "
+                "bayescal; calibrate again",
+                source=campaign.source,
+            )
+        # The residuals at the posterior mean of the sampled coordinates, as fit computes them.
+        residual = posterior.residual(_coordinates(posterior, joints, draws, whitened, ident).mean(axis=0))
+        if corrected.scale is not None:
+            residual = residual * corrected.scale
+        return ElastostaticResults(
+            tree=tree,
+            identifiability=replace(ident, practical=self._practical(tree, equations, ident, cf)),
+            closed_form=cf,
+            model=self.model,
+            q2=equations.q2,
+            draws=draws,
+            geometry=self.geometry,
+            n_equations=equations.n,
+            n_rows=len(campaign),
+            residual_rms=float(np.sqrt(np.mean(residual**2))),
+            chi2_per_dof=self._chi2_per_dof(campaign, residual, posterior.ndim - posterior.n_groups),
+            nonlinearity=float(np.abs(offset).max(initial=0.0)),
+            iterations=iterations,
+            residuals=residual.reshape(-1, 3),
+            linear_closed_form=linear_cf,
+            sampler_name=str(tree.attrs.get("sampler", "not recorded")),
         )
 
     def chi2_per_dof(self, campaign: Campaign) -> float | None:
@@ -370,14 +452,20 @@ class ElastostaticModel:
         K0 = float(np.mean(1.0 / cf.k2[known] - compensator.stiffness(q2[known])))
         return np.array([K0, Kc, s0])
 
+    def _posterior(self, equations: DeflectionEquations, ident: Identifiability, static=None):
+        """The posterior density of the (whitened) equations and, in the compensated model, the joints it samples."""
+        if ident.compensator:
+            joints = tuple(j for j in range(equations.n_joints) if j != COMPENSATED_JOINT and f"k{j + 1}" not in ident.reasons)
+            return compensated_posterior(equations, joints, self.geometry, static, GRAVITY_SD), joints
+        return per_angle_posterior(equations, ident.identifiable), None
+
     def _sample(self, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm, rng, static=None):
         """The posterior tree, its draws, the residuals (whitened) at the posterior mean and the number of parameters
         other than the noise levels."""
         sd = np.sqrt(np.diag(cf.cov))
         log_sigma_scale = np.full(cf.sigma.size, LOG_SIGMA_SCALE)
+        posterior, joints = self._posterior(equations, ident, static)
         if ident.compensator:
-            joints = tuple(j for j in range(equations.n_joints) if j != COMPENSATED_JOINT and f"k{j + 1}" not in ident.reasons)
-            posterior = compensated_posterior(equations, joints, self.geometry, static, GRAVITY_SD)
             geometry = np.empty(0) if self.geometry.fixed else self.geometry.mean
             gravity = np.ones(int(static is not None))
 
@@ -405,12 +493,56 @@ class ElastostaticModel:
             raw = self.sampler.sample(posterior, start, scale, rng)
             draws = ElastostaticDraws.compensated(posterior, joints, raw)
         else:
-            posterior = per_angle_posterior(equations, ident.identifiable)
             start = np.concatenate([cf.per_angle, np.log(cf.sigma)])
             raw = self.sampler.sample(posterior, start, np.concatenate([sd, log_sigma_scale]), rng)
             draws = ElastostaticDraws.per_angle(equations, ident.identifiable, raw)
         residual = posterior.residual(raw.reshape(-1, raw.shape[-1]).mean(axis=0))
         return draws.tree(equations), draws, residual, posterior.ndim - posterior.n_groups
+
+
+def _coordinates(posterior, joints: tuple[int, ...] | None, draws: ElastostaticDraws, equations: DeflectionEquations, ident: Identifiability) -> np.ndarray:
+    """``(S, ndim)`` the sampler's coordinates ``[k, z, log sigma]`` of saved draws: the inverse of
+    :meth:`ElastostaticDraws.compensated` and :meth:`ElastostaticDraws.per_angle`."""
+    sigma = np.log(draws.sigma.reshape(-1, draws.sigma.shape[-1]))
+    if joints is None:
+        columns = [c for c, keep in zip(equations.per_angle_columns(), ident.identifiable) if keep]
+        values = [draws.compliances[f"k{j + 1}"].reshape(-1) if a is None else draws.k2[..., a].reshape(-1) for j, a in columns]
+        return np.column_stack([*values, sigma])
+    block = posterior.block
+    K0, K_c, s0 = (draws.spring[..., i].reshape(-1) for i in range(3))
+    geometry = block.geometry.mean[None, :] if draws.geometry is None else draws.geometry.reshape(-1, 4)
+    reference = stiffness_regressor(block.q_ref, *(geometry[:, i] for i in range(4)))
+    z = [reference[..., 0] * K0 + reference[..., 1] * K_c + reference[..., 2] * s0 * K_c, np.log(K_c), s0]
+    if draws.gravity is not None:
+        z.append(draws.gravity.reshape(-1))
+    if not block.geometry.fixed:
+        z.extend(geometry.T)
+    k = [draws.compliances[f"k{j + 1}"].reshape(-1) for j in joints]
+    return np.column_stack([*k, *np.broadcast_arrays(*z), sigma])
+
+
+def restore_results(cell: Cell, campaign: Campaign, tree, geometry: GeometryPrior | None = None) -> ElastostaticResults:
+    """The results of a saved calibration: :meth:`ElastostaticModel.restore` with the model the tree was fitted with.
+
+    Parameters
+    ----------
+    cell
+        The calibration cell of the fit.
+    campaign
+        The campaign of the fit.
+    tree
+        The saved posterior; its ``model`` and ``noise`` attributes choose the model
+        (files without them: the exact model, and the noise groups' names tell the noise model).
+    geometry
+        The geometry prior of the fit (``None``: the cell's, as :meth:`ElastostaticModel.from_cell`).
+    """
+    attrs = tree.attrs
+    model = str(attrs.get("model", "exact"))
+    if model not in ("exact", "linear"):
+        raise InputError(f"the posterior's model attribute is {model!r}, expected 'exact' or 'linear'", source=campaign.source)
+    groups = tuple(str(v) for v in tree["posterior"]["noise_group"].values) if "noise_group" in tree["posterior"].coords else ()
+    noise = str(attrs.get("noise", "axis" if groups == ("x", "y", "z") else "marker"))
+    return ElastostaticModel.from_cell(cell, geometry, model=model, noise=noise).restore(campaign, tree)
 
 
 def _check_determined(campaign: Campaign, equations: DeflectionEquations, ident: Identifiability) -> None:

@@ -90,6 +90,43 @@ class ElastostaticDraws:
                 k2[..., angle] = raw[..., i]
         return cls(compliances=compliances, spring=None, k2=k2, sigma=np.exp(raw[..., len(columns) :]), geometry=None)
 
+    @classmethod
+    def from_tree(cls, tree, equations: DeflectionEquations) -> ElastostaticDraws:
+        """The draws a saved posterior holds: the inverse of :meth:`tree` for the campaign of ``equations``.
+
+        Raises
+        ------
+        ValueError
+            When the tree's ``k2_q2`` angles or noise groups are not those of ``equations``
+            (the posterior was computed from another campaign or noise model).
+        """
+        posterior = tree["posterior"]
+
+        def values(name: str) -> np.ndarray:
+            return np.asarray(posterior[name].values, dtype=float)
+
+        if "k2_q2" not in posterior or "sigma" not in posterior:
+            raise ValueError("the posterior has no 'k2_q2' or 'sigma' variable: it is not an elastostatic posterior")
+        angles = [f"{v:.3f}" for v in equations.q2 / DEG]
+        saved = [str(v) for v in posterior["q2_deg"].values]
+        if not set(saved) <= set(angles):
+            raise ValueError(f"its q2 angles ({', '.join(saved)} deg) are not the campaign's ({', '.join(angles)} deg)")
+        groups = tuple(str(v) for v in posterior["noise_group"].values)
+        if groups != equations.group_names:
+            raise ValueError(f"its noise groups ({', '.join(groups)}) are not the campaign's ({', '.join(equations.group_names)})")
+        chains_draws = values("sigma").shape[:2]
+        k2 = np.full((*chains_draws, equations.q2.size), np.nan)
+        k2[..., [angles.index(a) for a in saved]] = values("k2_q2") * URAD_PER_NM
+        compliances = {f"k{j}": values(f"k{j}") * URAD_PER_NM for j in range(1, 7) if f"k{j}" in posterior}
+        spring = None
+        if "K_c" in posterior:
+            spring = np.stack([1.0 / compliances["k2"], values("K_c") * N_PER_MM, values("s0") * MM], axis=-1)
+        geometry = None
+        if "L" in posterior:
+            geometry = np.stack([values(name) * factor for name, factor in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG))], axis=-1)
+        gravity = values("gravity_scale") if "gravity_scale" in posterior else None
+        return cls(compliances=compliances, spring=spring, k2=k2, sigma=values("sigma") * MM, geometry=geometry, gravity=gravity)
+
     def tree(self, equations: DeflectionEquations):
         """The draws as a posterior DataTree in edge units (:func:`parameter_units`), ``k2_q2`` with its q2 in degrees."""
         from bayescal.sampling.summary import posterior_tree
@@ -144,6 +181,9 @@ class ElastostaticResults:
         Largest difference between the exact and the linear model's prediction (m).
     iterations : int
         Relinearisations of the exact model.
+    residuals : numpy.ndarray
+        ``(N, 3)`` residual of each campaign row's deflection after the closed-form fit
+        (eqs 33-34, with the exact model's correction when used), base axes, m.
     linear_closed_form : ClosedForm | None
         Estimates of eqs 33-34 without the exact model's correction.
     """
@@ -161,6 +201,7 @@ class ElastostaticResults:
     chi2_per_dof: float | None = None
     nonlinearity: float = 0.0
     iterations: int = 0
+    residuals: np.ndarray = field(default_factory=lambda: np.empty((0, 3)), repr=False)
     linear_closed_form: ClosedForm | None = None
     sampler_name: str = "gibbs"
 

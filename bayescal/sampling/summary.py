@@ -203,8 +203,13 @@ def save(tree: xr.DataTree, path: str | PathLike[str]) -> None:
 
 
 def load(path: str | PathLike[str]) -> xr.DataTree:
-    """Read a tree written by :func:`save`."""
-    return xr.open_datatree(path, engine="netcdf4").load()
+    """Read a tree written by :func:`save`, wholly into memory, and close the file.
+
+    An open file would stay shared by every tree read from the same path: the
+    first of them to be garbage-collected closes it under the others.
+    """
+    with xr.open_datatree(path, engine="netcdf4") as tree:
+        return tree.load()
 
 
 def _elements(values: xr.DataArray):

@@ -221,3 +221,45 @@ def test_a_tracker_model_that_does_not_describe_the_data_is_warned(cell, campaig
         warnings.simplefilter("always")
         honest.fit(campaign)
     assert not [w for w in caught if "tracker noise" in str(w.message)]
+
+
+def test_restore_gives_back_the_fitted_results_from_the_saved_posterior(cell, campaign, results, tmp_path):
+    from bayescal.inference.elastostatic import restore_results
+    from bayescal.inference.testpose import predict_cell_test_pose
+    from bayescal.sampling.summary import load
+
+    results.save(tmp_path / "posterior.nc")
+    tree = load(tmp_path / "posterior.nc")
+    assert tree.attrs["model"] == "exact" and tree.attrs["noise"] == "axis" and tree.attrs["sampler"] == "GibbsSampler"
+    restored = restore_results(cell, campaign, tree)
+    assert restored.parameters() == results.parameters()
+    assert restored.identifiability.not_identifiable == results.identifiability.not_identifiable
+    assert restored.chi2_per_dof == pytest.approx(results.chi2_per_dof, rel=1e-12)
+    assert restored.residuals.shape == (len(campaign), 3)
+    np.testing.assert_allclose(restored.residuals, results.residuals, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(restored.equivalent_compliance(np.radians([-120.0, -10.0])), results.equivalent_compliance(np.radians([-120.0, -10.0])))
+    before, after = predict_cell_test_pose(results, cell).to_json(), predict_cell_test_pose(restored, cell).to_json()
+    assert after["residual_error_mm"] == pytest.approx(before["residual_error_mm"], rel=1e-9)
+
+
+def test_restore_refuses_the_posterior_of_another_campaign(cell, campaign, results):
+    from bayescal.inference.elastostatic import restore_results
+
+    fewer = np.flatnonzero(campaign.q[:, 1] > np.radians(-120.0))
+    other = dataclasses.replace(campaign, **{name: getattr(campaign, name)[fewer] for name in ("config", "repeat", "marker", "q", "wrench", "p0", "p1", "lines")})
+    with pytest.raises(InputError, match="not one of this campaign.*q2 angles"):
+        restore_results(cell, other, results.tree)
+    with pytest.raises(InputError, match="noise groups"):
+        ElastostaticModel.from_cell(cell, noise="marker").restore(campaign, results.tree)
+
+
+def test_restore_refuses_a_posterior_with_fewer_angles_than_the_campaign(cell, campaign, results):
+    from bayescal.inference.elastostatic import restore_results
+
+    fewer = np.flatnonzero(campaign.q[:, 1] > np.radians(-120.0))
+    other = dataclasses.replace(campaign, **{name: getattr(campaign, name)[fewer] for name in ("config", "repeat", "marker", "q", "wrench", "p0", "p1", "lines")})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        smaller = ElastostaticModel.from_cell(cell, sampler=GibbsSampler(n_chains=2, n_tune=50, n_draws=100)).fit(other, 0)
+    with pytest.raises(InputError, match="joint-2 compliances at 4 q2 angles, the campaign identifies them at 5"):
+        restore_results(cell, campaign, smaller.tree)

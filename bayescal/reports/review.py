@@ -1,0 +1,690 @@
+"""The calibration review: one page to read, trust and pass on.
+
+:func:`render_review` turns what a calibration produced (the geometry posterior,
+the elastostatic results restored from their posterior, the residual table, the
+test-pose prediction and, when they were run, a plan, a q2-angle study and a
+critique) into the files of a report folder: ``index.html`` with its figures
+as PNG files beside it, ``summary.md`` (the same tables and figures in
+Markdown) and ``numbers.json`` (every number the page shows, by section).  It
+renders what it is given and computes nothing a library function does not;
+sections appear only for what was run.  The plan, study and critique files
+are shown as they come: known keys in their own tables, any other key in a
+generic one.
+"""
+
+from __future__ import annotations
+
+import html
+import io
+import json
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from bayescal import __version__
+from bayescal.cell.campaign import Campaign
+from bayescal.cell.config import Cell
+from bayescal.inference.equations import deflection_noise
+from bayescal.inference.results import ElastostaticResults
+from bayescal.inference.testpose import TestPosePrediction
+from bayescal.reference import published
+from bayescal.reports.figures import plot_error_distribution, plot_evidence, plot_pairs, plot_rank, plot_residuals
+from bayescal.reports.plots import plot_eta_curves, plot_joint2_compliance
+from bayescal.robot.compensator import CompensatorGeometry
+from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, diagnostics, summarize
+from bayescal.studies.precision import equivalent_compliance_band
+from bayescal.studies.residuals import COVARIATES
+from bayescal.units import DEG, MM, UM, URAD_PER_NM
+
+__all__ = ["ReviewInputs", "render_review", "HTML_FILE", "MARKDOWN_FILE", "JSON_FILE"]
+
+HTML_FILE = "index.html"
+MARKDOWN_FILE = "summary.md"
+JSON_FILE = "numbers.json"
+FIGURE_DPI = 110
+"""Resolution of the PNG figures: a 6.4-inch figure is 700 pixels wide, sharp on a 1280-pixel page."""
+ETA_S0_MM = (300.0, 400.0, 500.0, 600.0)
+"""Spring free lengths (mm) of the η(q2) curves beside the identified one, spanning the paper's Fig. 3."""
+GEOMETRY_NAMES = ("L", "a_x", "a_y", "phi")
+"""The compensator geometry of Table II (and the lever angle phi, which it does not list)."""
+DISPLAY_UNITS = {"urad/(N m)": "μrad/(N·m)"}
+"""How the figures write the units the posterior files store in ASCII."""
+SIGNIFICANT = 4
+"""Significant digits of the numbers on the page (the JSON keeps every digit)."""
+
+
+@dataclass
+class ReviewInputs:
+    """What a review shows; every field but ``sources`` may be missing, and its section is then left out.
+
+    Attributes
+    ----------
+    sources : dict
+        What each input file is (e.g. ``"calibration posterior"``) and its path, listed at the top.
+    geometry : xarray.DataTree or None
+        The geometry posterior (``bayescal geometry --posterior``).
+    results : ElastostaticResults or None
+        The elastostatic identification (:func:`~bayescal.inference.elastostatic.restore_results`).
+    campaign, cell
+        The campaign and the cell of ``results`` (required with it).
+    residuals : pandas.DataFrame or None
+        :func:`~bayescal.studies.residuals.residual_table` of ``results``.
+    test_pose : TestPosePrediction or None
+        The prediction at the cell's test pose.
+    plan, critique : dict or None
+        The JSON printed by ``bayescal plan --json`` and ``bayescal critique --json``.
+    study : pandas.DataFrame or None
+        A q2-angle study table.
+    seed : int
+        Seed of the choice of draws shown in the pair plots.
+    """
+
+    sources: dict[str, str] = field(default_factory=dict)
+    geometry: Any = None
+    results: ElastostaticResults | None = None
+    campaign: Campaign | None = None
+    cell: Cell | None = None
+    residuals: pd.DataFrame | None = None
+    test_pose: TestPosePrediction | None = None
+    plan: dict | None = None
+    critique: dict | None = None
+    study: pd.DataFrame | None = None
+    seed: int = 0
+
+
+def render_review(inputs: ReviewInputs) -> dict[str, bytes]:
+    """The files of the report folder: name to content.
+
+    Returns
+    -------
+    dict
+        :data:`HTML_FILE`, :data:`MARKDOWN_FILE`, :data:`JSON_FILE` and one PNG per figure.
+    """
+    if inputs.results is not None and (inputs.campaign is None or inputs.cell is None):
+        raise ValueError("a review of elastostatic results needs their campaign and cell")
+    page = _Page("Calibration review")
+    facts = _Facts.of(inputs.results) if inputs.results is not None else None
+    _overview(page, inputs, facts)
+    # Results first, for the reader who stops after the first screen; then what they rest on.
+    if inputs.results is not None:
+        _parameter_section(page, inputs.results, facts)
+        _identifiability_section(page, inputs.results, facts)
+    if inputs.test_pose is not None:
+        _test_pose_section(page, inputs.test_pose, inputs.cell)
+    if inputs.geometry is not None:
+        _geometry_section(page, inputs.geometry, inputs.seed)
+    if inputs.results is not None:
+        _compensator_section(page, inputs.results, inputs.cell)
+        _data_section(page, inputs.results, inputs.campaign, inputs.cell)
+        if inputs.residuals is not None:
+            _residual_section(page, inputs.results, inputs.residuals, inputs.campaign, inputs.cell)
+    if inputs.critique is not None:
+        _critique_section(page, inputs.critique, inputs.sources.get("critique", ""))
+    _convergence_section(page, inputs, facts)
+    if inputs.results is not None:
+        _pairs_section(page, inputs.results, inputs.seed)
+    if inputs.plan is not None:
+        _plan_section(page, inputs.plan, inputs.sources.get("plan", ""))
+    if inputs.study is not None:
+        _study_section(page, inputs.study, inputs.sources.get("q2-angle study", ""))
+    return page.files()
+
+
+@dataclass(frozen=True)
+class _Facts:
+    """The summaries of the elastostatic results that several sections show, computed once (each is an ESS pass)."""
+
+    summary: pd.DataFrame
+    parameters: dict
+    diagnostics: dict
+
+    @classmethod
+    def of(cls, results: ElastostaticResults) -> _Facts:
+        return cls(summary=results.summary(), parameters=results.parameters(), diagnostics=results.diagnostics())
+
+
+# ---------------------------------------------------------------------------- page
+class _Page:
+    """HTML, Markdown, JSON and figures written side by side, so that they show the same numbers."""
+
+    def __init__(self, title: str) -> None:
+        self.title = title
+        self.html: list[str] = []
+        self.markdown: list[str] = [f"# {title}", ""]
+        self.numbers: dict[str, Any] = {}
+        self.figures: dict[str, bytes] = {}
+        self.contents: list[tuple[str, str]] = []
+        self.section = ""
+
+    def heading(self, key: str, title: str) -> None:
+        self.section = key
+        self.numbers.setdefault(key, {})
+        self.contents.append((key, title))
+        self.html.append(f'<section id="{key}"><h2>{html.escape(title)}</h2>')
+        self.markdown += [f"## {title}", ""]
+
+    def close(self) -> None:
+        self.html.append("</section>")
+
+    def paragraph(self, text: str, *, css: str = "") -> None:
+        attribute = f' class="{css}"' if css else ""
+        self.html.append(f"<p{attribute}>{html.escape(text)}</p>")
+        self.markdown += [text, ""]
+
+    def items(self, lines: Sequence[str]) -> None:
+        self.html.append("<ul>" + "".join(f"<li>{html.escape(line)}</li>" for line in lines) + "</ul>")
+        self.markdown += [f"- {line}" for line in lines] + [""]
+
+    def record(self, key: str, value: Any) -> None:
+        self.numbers[self.section][key] = _plain(value)
+
+    def table(self, key: str, frame: pd.DataFrame, *, caption: str = "") -> None:
+        """A table on the page and in the Markdown, and its values under ``key`` in the JSON."""
+        frame = frame.copy()
+        index = frame.index.name or ""
+        self.record(key, {str(name): row for name, row in frame.to_dict(orient="index").items()})
+        header = [index, *map(str, frame.columns)]
+        rows = [[str(name), *(_format(value) for value in row)] for name, row in zip(frame.index, frame.itertuples(index=False))]
+        numeric = [[False, *(_is_number(value) for value in row)] for row in frame.itertuples(index=False)]
+        # A paragraph, not a <caption>: a caption wraps to the width of a narrow table.
+        caption_html = f'<p class="caption">{html.escape(caption)}</p>' if caption else ""
+        self.html.append(
+            f"{caption_html}<table><thead><tr>"
+            + "".join(f"<th>{html.escape(h)}</th>" for h in header)
+            + "</tr></thead><tbody>"
+            + "".join(
+                "<tr>" + "".join(f'<td{" class=num" if n else ""}>{html.escape(c)}</td>' for c, n in zip(row, kinds)) + "</tr>"
+                for row, kinds in zip(rows, numeric)
+            )
+            + "</tbody></table>"
+        )
+        if caption:
+            self.markdown += [f"*{caption}*", ""]
+        escape = lambda text: text.replace("|", "\\|")  # noqa: E731
+        self.markdown += ["| " + " | ".join(map(escape, header)) + " |", "|" + "---|" * len(header)]
+        self.markdown += ["| " + " | ".join(map(escape, row)) + " |" for row in rows] + [""]
+
+    def figure(self, name: str, figure: Figure, caption: str) -> None:
+        buffer = io.BytesIO()
+        figure.savefig(buffer, format="png", dpi=FIGURE_DPI)
+        self.figures[f"{name}.png"] = buffer.getvalue()
+        alt = html.escape(caption, quote=True)
+        self.html.append(f'<figure><img src="{name}.png" alt="{alt}"><figcaption>{html.escape(caption)}</figcaption></figure>')
+        self.markdown += [f"![{caption}]({name}.png)", ""]
+
+    def files(self) -> dict[str, bytes]:
+        toc = "".join(f'<li><a href="#{key}">{html.escape(title)}</a></li>' for key, title in self.contents)
+        document = _HTML_TEMPLATE.format(title=html.escape(self.title), version=__version__, toc=toc, body="\n".join(self.html))
+        numbers = json.dumps(self.numbers, indent=2, allow_nan=False, ensure_ascii=False) + "\n"
+        return {
+            HTML_FILE: document.encode(),
+            MARKDOWN_FILE: ("\n".join(self.markdown).rstrip() + "\n").encode(),
+            JSON_FILE: numbers.encode(),
+            **self.figures,
+        }
+
+
+_HTML_TEMPLATE = """<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<title>{title}</title>
+<style>
+body {{ font-family: system-ui, sans-serif; max-width: 1120px; margin: 1.5em auto; padding: 0 1em; color: #222; line-height: 1.45; }}
+h1 {{ margin-bottom: 0.2em; }}
+h2 {{ border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 1.8em; }}
+table {{ border-collapse: collapse; margin: 0.8em 0; font-size: 0.9em; }}
+p.caption {{ font-style: italic; margin: 1em 0 0.3em 0; }}
+th, td {{ border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }}
+td.num {{ text-align: right; font-variant-numeric: tabular-nums; }}
+td {{ max-width: 38em; }}
+thead {{ background: #f0f0f0; }}
+figure {{ margin: 1em 0; }}
+figure img {{ max-width: 100%; height: auto; border: 1px solid #ddd; }}
+figcaption {{ font-size: 0.9em; color: #444; }}
+.verdict {{ font-size: 1.1em; font-weight: 600; padding: 0.5em 0.8em; background: #eef4fb; border-left: 4px solid #3a78c2; }}
+.warning {{ padding: 0.5em 0.8em; background: #fff4e0; border-left: 4px solid #d08a00; }}
+nav ul {{ columns: 2; }}
+footer {{ margin-top: 3em; font-size: 0.8em; color: #666; }}
+</style>
+</head>
+<body>
+<h1>{title}</h1>
+<nav><ul>{toc}</ul></nav>
+{body}
+<footer>Written by bayescal {version}. Equation, table and figure numbers are those of Klimchik et al.,
+<i>Identification of geometrical and elastostatic parameters of heavy industrial robots</i>.</footer>
+</body>
+</html>
+"""
+
+
+def _plain(value: Any) -> Any:
+    """JSON values: numpy scalars to Python, NaN and infinity to null."""
+    if isinstance(value, Mapping):
+        return {str(key): _plain(item) for key, item in value.items()}
+    if isinstance(value, list | tuple | np.ndarray):
+        return [_plain(item) for item in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _unit(unit: str) -> str:
+    return DISPLAY_UNITS.get(unit, unit)
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool | np.bool_)
+
+
+def _format(value: Any) -> str:
+    if value is None or (isinstance(value, float | np.floating) and not math.isfinite(value)):
+        return "–"
+    if isinstance(value, bool | np.bool_):
+        return "yes" if value else "no"
+    if isinstance(value, int | np.integer):
+        return str(value)
+    if isinstance(value, float | np.floating):
+        return f"{value:.{SIGNIFICANT}g}"
+    if isinstance(value, Mapping | list | tuple):
+        return json.dumps(_plain(value), ensure_ascii=False)
+    return str(value)
+
+
+# ---------------------------------------------------------------------------- sections
+def _overview(page: _Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
+    page.heading("overview", "Overview")
+    lines = []
+    results = inputs.results
+    if results is not None:
+        parameters = facts.parameters
+        known = [name for name, value in parameters.items() if "mean" in value]
+        unknown = [name for name, value in parameters.items() if "mean" not in value]
+        lines.append(f"Identified from the campaign: {', '.join(known) or 'nothing'}; not identifiable: {', '.join(unknown) or 'none'}.")
+        page.record("identified", known)
+        page.record("not_identifiable", unknown)
+        report = facts.diagnostics
+        page.record("elastostatic_diagnostics", {key: report[key] for key in ("r_hat_max", "ess_bulk_min", "ess_tail_min", "chi2_per_dof")})
+        converged = report["r_hat_max"] <= R_HAT_LIMIT and min(report["ess_bulk_min"], report["ess_tail_min"]) >= ESS_LIMIT
+        lines.append(
+            f"Elastostatic posterior: R-hat ≤ {report['r_hat_max']:.3f}, ESS ≥ {min(report['ess_bulk_min'], report['ess_tail_min']):.0f} "
+            f"({'converged' if converged else f'NOT converged by the thresholds R-hat ≤ {R_HAT_LIMIT}, ESS ≥ {ESS_LIMIT}'})."
+        )
+        if report["chi2_per_dof"] is not None:
+            lines.append(f"Fit against the tracker's noise model: χ²/dof = {report['chi2_per_dof']:.3f} (1 when the model describes the data).")
+    if inputs.test_pose is not None and inputs.test_pose.available:
+        error = inputs.test_pose.to_json()["residual_error_mm"]
+        page.record("test_pose_error_mm", {"rms": error["rms"], "q99.73": error["q99.73"]})
+        lines.append(
+            f"Positioning error left at the test pose after compensation: rms {error['rms'] / (UM / MM):.1f} μm, "
+            f"99.73 % of draws below {error['q99.73'] / (UM / MM):.1f} μm."
+        )
+    if inputs.critique is not None and "verdict" in inputs.critique:
+        lines.append(f"Critique: {inputs.critique['verdict']}.")
+    page.items(lines or ["No posterior was given: only the files below are shown."])
+    page.table("inputs", pd.DataFrame({"file": list(inputs.sources.values())}, index=pd.Index(list(inputs.sources), name="input")))
+    page.close()
+
+
+def _range(values: np.ndarray) -> tuple[float, float]:
+    return float(np.min(values)), float(np.max(values))
+
+
+def _data_section(page: _Page, results: ElastostaticResults, campaign: Campaign, cell: Cell) -> None:
+    page.heading("data", "The data")
+    counts = {
+        "rows": len(campaign),
+        "configurations": int(np.unique(campaign.config).size),
+        "repeats per configuration": int(np.unique(campaign.repeat).size),
+        "markers": int(np.unique(campaign.marker).size),
+        "scalar equations": results.n_equations,
+        "distinct q2 angles": int(results.q2.size),
+    }
+    page.table("counts", pd.DataFrame({"value": list(counts.values())}, index=pd.Index(list(counts), name="campaign")))
+    noise = deflection_noise(cell.tracker, campaign) / UM
+    ranges = {f"q{j + 1} [deg]": _range(campaign.q[:, j] / DEG) for j in range(campaign.q.shape[1])}
+    ranges["load force |f| [N]"] = _range(np.linalg.norm(campaign.wrench[:, :3], axis=1))
+    ranges["load moment |m| [N·m]"] = _range(np.linalg.norm(campaign.wrench[:, 3:], axis=1))
+    ranges["marker deflection [mm]"] = _range(np.linalg.norm(campaign.displacement, axis=1) / MM)
+    ranges["tracker noise sd per deflection coordinate [μm]"] = _range(noise)
+    frame = pd.DataFrame(ranges, index=["min", "max"]).T
+    frame.index.name = "quantity"
+    page.table("ranges", frame)
+    tracker = cell.tracker
+    page.record("tracker", {"factor": tracker.factor, "U0_um": tracker.U0 / UM, "U1_um_per_m": tracker.U1 / UM, "position_mm": tracker.position / MM})
+    page.paragraph(
+        f"Tracker model of the cell: sd = {tracker.factor:g} × ({tracker.U0 / UM:g} μm + {tracker.U1 / UM:g} μm/m × distance) "
+        f"per coordinate, tracker at ({', '.join(f'{v / MM:.0f}' for v in tracker.position)}) mm; a deflection is the "
+        "difference of two readings. Noise per group that the data show (posterior mean):"
+    )
+    sigma = summarize(results.tree, ["sigma"])
+    frame = pd.DataFrame({"sd [μm]": sigma["mean"].to_numpy() * MM / UM}, index=pd.Index([n[6:-1] for n in sigma.index], name="noise group"))
+    page.table("noise_by_group", frame)
+    page.close()
+
+
+def _geometry_section(page: _Page, tree, seed: int) -> None:
+    page.heading("geometry", "Compensator geometry beside Table II")
+    observed = tree["observed_data"] if "observed_data" in tree.children else None
+    if observed is not None and "q2_deg" in observed:
+        q2 = np.asarray(observed["q2_deg"].values, dtype=float)
+        page.record("points", {"count": q2.size, "q2_angles": int(np.unique(q2).size), "q2_min_deg": q2.min(), "q2_max_deg": q2.max()})
+        page.paragraph(
+            f"{q2.size} tracker points at {np.unique(q2).size} q2 angles from {q2.min():g} to {q2.max():g} deg "
+            f"({tree.attrs.get('source', 'source not recorded')}); model: {tree.attrs.get('model', 'not recorded')}."
+        )
+    names = [name for name in GEOMETRY_NAMES if name in tree["posterior"]]
+    summary = summarize(tree, names)
+    table_ii = published("II")
+    frame = pd.DataFrame(
+        {
+            "mean": summary["mean"],
+            "±3σ": 3 * summary["sd"],
+            "Table II": [table_ii[n][0] if n in table_ii else math.nan for n in names],
+            "Table II ±3σ": [table_ii[n][1] if n in table_ii else math.nan for n in names],
+            "difference in posterior sd": [
+                (summary.loc[n, "mean"] - table_ii[n][0]) / summary.loc[n, "sd"] if n in table_ii else math.nan for n in names
+            ],
+            "R-hat": summary["r_hat"],
+            "ESS bulk": summary["ess_bulk"],
+            "unit": [_unit(u) for u in summary["unit"]],
+        },
+        index=pd.Index(names, name="parameter"),
+    )
+    page.table("parameters", frame, caption="Posterior mean and ±3σ half-width beside Klimchik et al., Table II")
+    draws = {f"{name} [{summary.loc[name, 'unit']}]": np.asarray(tree["posterior"][name].values).ravel() for name in names}
+    reference = {f"{n} [{summary.loc[n, 'unit']}]": table_ii[n][0] for n in names if n in table_ii}
+    page.record("correlation", pd.DataFrame(draws).corr().to_dict())
+    page.figure("geometry_pairs", plot_pairs(draws, reference=reference, reference_label="Table II", seed=seed), "Geometry posterior: pairs of L, a_x, a_y, phi; dashed: Table II.")
+    page.close()
+
+
+def _parameter_section(page: _Page, results: ElastostaticResults, facts: _Facts) -> None:
+    page.heading("parameters", "Elastostatic parameters beside Table IV")
+    summary, parameters = facts.summary, facts.parameters
+    table_iv = published("IV")
+    rows = {}
+    for name, value in parameters.items():
+        paper = table_iv.get(name, (math.nan, math.nan))
+        row = {"mean": math.nan, "±3σ": math.nan, "±3σ [% of mean]": math.nan, "Table IV": paper[0], "Table IV ±3σ": paper[1]}
+        row |= {"Table IV ±3σ [%]": 100 * paper[1] / paper[0] if paper[0] else math.nan, "R-hat": math.nan, "unit": _unit(results.parameter_units[name])}
+        if "mean" in value:
+            row |= {"mean": value["mean"], "±3σ": value["hi3"] - value["mean"], "R-hat": summary.loc[name, "r_hat"]}
+            row["±3σ [% of mean]"] = 100 * (value["hi3"] - value["mean"]) / abs(value["mean"])
+        row["identifiable"] = "mean" in value
+        rows[name] = row
+    frame = pd.DataFrame.from_dict(rows, orient="index")
+    frame.index.name = "parameter"
+    page.table(
+        "parameters",
+        frame,
+        caption="k1..k6 in μrad/(N·m) (k2 without the compensator), K_c in N/mm, s0 in mm; "
+        "not identifiable parameters have no estimate (see the next section)",
+    )
+    per_angle = summary.loc[[name for name in summary.index if name.startswith("k2_q2[")]]
+    if not per_angle.empty:
+        frame = pd.DataFrame(
+            {
+                "mean": per_angle["mean"].to_numpy(),
+                "±3σ": 3 * per_angle["sd"].to_numpy(),
+                "±3σ [% of mean]": 300 * (per_angle["sd"] / per_angle["mean"].abs()).to_numpy(),
+            },
+            index=pd.Index([f"{float(name[6:-1]):g}" for name in per_angle.index], name="q2 [deg]"),
+        )
+        page.table("k2_per_angle", frame, caption="Equivalent joint-2 compliance (with the compensator) at each campaign angle, μrad/(N·m)")
+    page.close()
+
+
+def _identifiability_section(page: _Page, results: ElastostaticResults, facts: _Facts) -> None:
+    page.heading("identifiability", "What the data cannot identify, and why")
+    ident = results.identifiability
+    page.paragraph(
+        f"Design of eq 30 with one joint-2 column per q2 angle: rank {ident.rank} of {ident.identifiable.size} columns, "
+        f"condition number {ident.condition_number:.3g} (unit columns)."
+    )
+    reasons = {name: reason for name, reason in ident.not_identifiable.items() if not name.startswith("k2_q2[")}
+    page.record("rank", ident.rank)
+    page.record("condition_number", ident.condition_number)
+    if reasons:
+        kind = {name: "from these data" if name in ident.practical else "structural" for name in reasons}
+        frame = pd.DataFrame({"kind": kind, "reason": reasons})
+        frame.index.name = "parameter"
+        page.table("not_identifiable", frame)
+        weak = [name for name in ident.practical if name in facts.summary.index]
+        if weak:
+            frame = facts.summary.loc[weak, ["mean", "lo3", "hi3", "unit"]].assign(unit=lambda f: f["unit"].map(_unit))
+            frame.index.name = "parameter"
+            page.table("weakly_determined", frame, caption="Their posterior, kept for inspection only: it mostly reflects the prior")
+    else:
+        page.paragraph("Every parameter of the model is identified by this campaign.")
+    page.close()
+
+
+def _convergence_section(page: _Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
+    posteriors = {}
+    if inputs.geometry is not None:
+        posteriors["geometry"] = inputs.geometry
+    if inputs.results is not None:
+        posteriors["elastostatic"] = inputs.results.tree
+    if not posteriors:
+        return
+    page.heading("convergence", "Convergence diagnostics")
+    rows = {}
+    for name, tree in posteriors.items():
+        report = facts.diagnostics if name == "elastostatic" else diagnostics(tree)
+        rows[name] = {key: report[key] for key in ("r_hat_max", "ess_bulk_min", "ess_tail_min", "n_chains", "n_draws")}
+        rows[name]["sampler"] = str(tree.attrs.get("sampler", "not recorded"))
+    frame = pd.DataFrame.from_dict(rows, orient="index")
+    frame.index.name = "posterior"
+    page.table("worst", frame, caption=f"Worst case over all variables; thresholds R-hat ≤ {R_HAT_LIMIT}, ESS ≥ {ESS_LIMIT}")
+    if inputs.results is not None:
+        tree = inputs.results.tree["posterior"]
+        units = inputs.results.parameter_units
+        names = [name for name in units if name in tree and name not in inputs.results.identifiability.reasons]
+        draws = {f"{name} [{_unit(units[name])}]": np.asarray(tree[name].values) for name in names}
+        page.figure("rank_elastostatic", plot_rank(draws), "Rank plots of the elastostatic posterior: flat and overlapping when the chains mix.")
+    if inputs.geometry is not None:
+        tree = inputs.geometry["posterior"]
+        draws = {f"{name} [{tree[name].attrs.get('units', '')}]": np.asarray(tree[name].values) for name in GEOMETRY_NAMES if name in tree}
+        page.figure("rank_geometry", plot_rank(draws, columns=4), "Rank plots of the geometry posterior.")
+    page.close()
+
+
+def _pairs_section(page: _Page, results: ElastostaticResults, seed: int) -> None:
+    tree = results.tree["posterior"]
+    names = [name for name in ("K_c", "s0", "k2", "k3") if name in tree]
+    if len(names) < 2:
+        return
+    page.heading("pairs", "Posterior pairs")
+    table_iv = published("IV")
+    labels = {name: f"{name} [{_unit(results.parameter_units[name])}]" for name in names}
+    draws = {labels[name]: np.asarray(tree[name].values).ravel() for name in names}
+    reference = {labels[n]: table_iv[n][0] for n in names if n in table_iv}
+    page.record("correlation", pd.DataFrame(draws).corr().to_dict())
+    page.figure(
+        "pairs_elastostatic",
+        plot_pairs(draws, reference=reference, reference_label="Table IV", seed=seed),
+        "Pairs of K_c, s0, k2 (joint 2 without compensator) and k3, with their correlation ρ; dashed: Table IV.",
+    )
+    page.close()
+
+
+def _residual_section(page: _Page, results: ElastostaticResults, table: pd.DataFrame, campaign: Campaign, cell: Cell) -> None:
+    page.heading("residuals", "Residuals")
+    page.paragraph(
+        f"Residuals of the closed-form fit (eqs 33-34{', after the exact model’s correction' if results.model == 'exact' else ''}): "
+        f"rms {results.residual_rms / UM:.1f} μm per coordinate, "
+        + (f"χ²/dof {results.chi2_per_dof:.3f} against the tracker model." if results.chi2_per_dof is not None else "no tracker model.")
+    )
+    page.record("residual_rms_um", results.residual_rms / UM)
+    page.record("chi2_per_dof", results.chi2_per_dof)
+    noise = deflection_noise(cell.tracker, campaign) / UM
+    page.figure(
+        "residuals",
+        plot_residuals(table, COVARIATES, noise_um=noise),
+        "Residual of each deflection coordinate against the covariates; grey: ±3σ of the tracker model for that row.",
+    )
+    worst = table.nlargest(5, "normalised")[["config", "repeat", "marker", "q2_deg", "residual_um", "normalised"]]
+    worst.index = pd.Index([f"line {int(campaign.lines[i])}" if campaign.lines[i] else str(i) for i in worst.index], name="row")
+    page.table("largest", worst, caption="The five rows with the largest residual in units of the tracker noise")
+    page.close()
+
+
+def _compensator_section(page: _Page, results: ElastostaticResults, cell: Cell) -> None:
+    page.heading("compensator", "The compensator: η(q2) and joint 2's compliance")
+    tree = results.tree["posterior"]
+    mean = results.geometry.mean
+    if "L" in tree:
+        mean = np.array([float(tree[name].mean()) * factor for name, factor in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG))])
+    geometry = CompensatorGeometry(*mean)
+    s0 = float(tree["s0"].mean()) * MM if "s0" in tree else cell.compensator.s0
+    values = sorted({*(v * MM for v in ETA_S0_MM), s0})
+    page.record("eta_s0_mm", {"curves": [v / MM for v in values], "highlighted": s0 / MM})
+    page.figure(
+        "eta",
+        plot_eta_curves(geometry, values, highlight=s0),
+        f"η(q2) of eq 9 for several spring free lengths (the paper's Fig. 3); thick: s0 = {s0 / MM:.0f} mm "
+        f"({'posterior mean' if 's0' in tree else 'the cell’s'}).",
+    )
+    if results.draws.spring is not None:
+        # The cell's compliance and spring are nominal values, not a truth, for measured data.
+        band = equivalent_compliance_band(results, cell).drop(columns="truth_urad_per_Nm")
+        own = float(np.mean(1.0 / results.draws.spring[..., 0]))
+        closed = results.closed_form
+        page.figure(
+            "joint2_compliance",
+            plot_joint2_compliance(band, results.q2, closed.k2, closed.k2_sd, own=own),
+            "Joint 2's equivalent compliance against q2 with its 99.73 % posterior band (the paper's Fig. 7), "
+            "and without the compensator (dashed).",
+        )
+        page.record("joint2_compliance_band", band.reset_index().to_dict(orient="list"))
+        page.record("joint2_own_compliance_urad_per_Nm", own / URAD_PER_NM)
+    else:
+        page.paragraph("The campaign has fewer than three q2 angles: joint 2's compliance is known only at its own angles (table above).")
+    page.close()
+
+
+def _test_pose_section(page: _Page, prediction: TestPosePrediction, cell: Cell | None) -> None:
+    page.heading("test_pose", "Error at the test pose")
+    if not prediction.available:
+        page.paragraph(f"Not available: {prediction.reason}.", css="warning")
+        page.close()
+        return
+    if cell is not None:
+        page.record("pose", {"q_deg": cell.test_q / DEG, "force_N": cell.test_wrench[:3], "moment_Nm": cell.test_wrench[3:]})
+        page.paragraph(
+            f"Test pose q = ({', '.join(f'{v / DEG:g}' for v in cell.test_q)}) deg, wrench f = "
+            f"({', '.join(f'{v:g}' for v in cell.test_wrench[:3])}) N, m = ({', '.join(f'{v:g}' for v in cell.test_wrench[3:])}) N·m. "
+            "The compensation applies the posterior-mean deflection; what is left is the spread of the draws about it."
+        )
+    numbers = prediction.to_json()
+    frame = pd.DataFrame.from_dict(numbers["deflection_mm"], orient="index")
+    frame.loc["|δ|"] = numbers["deflection_norm_mm"]
+    frame.index.name = "deflection [mm]"
+    page.table("deflection_mm", frame)
+    error = pd.DataFrame({"value [mm]": numbers["residual_error_mm"]})
+    error.index.name = "error left"
+    page.table("residual_error_mm", error)
+    if numbers["assumed"]:
+        page.items([f"{name} held at the cell's {value['value']:.4g} {_unit(value['unit'])}: {value['note']}" for name, value in numbers["assumed"].items()])
+        page.record("assumed", numbers["assumed"])
+    error_mm = numbers["residual_error_mm"]
+    to_um = MM / UM
+    page.figure(
+        "test_pose_error",
+        plot_error_distribution(
+            prediction.errors / UM, rms_um=error_mm["rms"] * to_um, q95_um=error_mm["q95"] * to_um, q9973_um=error_mm["q99.73"] * to_um
+        ),
+        "Distribution over the posterior of the positioning error left at the test pose.",
+    )
+    page.close()
+
+
+def _plan_section(page: _Page, plan: Mapping, source: str) -> None:
+    page.heading("plan", "Experiment plan")
+    if source:
+        page.paragraph(f"From {source}.")
+    criteria = {key: value for key, value in plan.items() if key.startswith("criterion") and not isinstance(value, Mapping | list)}
+    if criteria:
+        page.paragraph("Design criterion: " + ", ".join(f"{key} = {_format(value)}" for key, value in criteria.items()), css="verdict")
+    _generic(page, plan)
+    page.close()
+
+
+def _generic(page: _Page, data: Mapping, prefix: str = "") -> None:
+    """Any JSON: scalars in one table, a mapping of mappings or a list of mappings as a table each, the rest as text."""
+    scalars = {key: value for key, value in data.items() if not isinstance(value, Mapping | list)}
+    if scalars:
+        frame = pd.DataFrame({"value": [_format(v) for v in scalars.values()]}, index=pd.Index(list(scalars), name="key"))
+        page.table(prefix + "values", frame, caption=prefix.rstrip(".").replace(".", ": "))
+        page.record(prefix + "values", scalars)
+    for key, value in data.items():
+        if isinstance(value, Mapping) and value and all(isinstance(item, Mapping) for item in value.values()):
+            frame = pd.DataFrame.from_dict(dict(value), orient="index")
+            frame.index.name = key
+            page.table(prefix + key, frame, caption=(prefix + key).replace(".", ": "))
+        elif isinstance(value, Mapping):
+            _generic(page, value, prefix=f"{prefix}{key}.")
+        elif isinstance(value, list) and value and all(isinstance(item, Mapping) for item in value):
+            frame = pd.DataFrame(value)
+            frame.index.name = key
+            page.table(prefix + key, frame, caption=(prefix + key).replace(".", ": "))
+        elif isinstance(value, list):
+            page.items([f"{key}: {_format(item)}" for item in value])
+            page.record(prefix + key, value)
+
+
+def _study_section(page: _Page, study: pd.DataFrame, source: str) -> None:
+    page.heading("study", "q2-angle study")
+    if source:
+        page.paragraph(f"From {source}.")
+    frame = study.copy()
+    frame.index = pd.Index([str(i) for i in frame.index], name=frame.index.name or "row")
+    page.table("table", frame)
+    page.close()
+
+
+def _critique_section(page: _Page, critique: Mapping, source: str) -> None:
+    page.heading("critique", "Critique of the model")
+    if source:
+        page.paragraph(f"From {source}.")
+    if "verdict" in critique:
+        page.paragraph(f"Verdict: {critique['verdict']}", css="verdict")
+        page.record("verdict", critique["verdict"])
+    causes = critique.get("causes")
+    if isinstance(causes, list) and causes and not all(isinstance(item, Mapping) for item in causes):
+        page.paragraph("Likely causes:")
+        page.items([_format(cause) for cause in causes])
+        page.record("causes", causes)
+    elif causes is not None:
+        _generic(page, {"causes": causes})
+    evidence = critique.get("evidence")
+    if isinstance(evidence, Mapping) and evidence and all(isinstance(v, Mapping) for v in evidence.values()):
+        frame = pd.DataFrame.from_dict(dict(evidence), orient="index")
+        frame.index.name = "candidate"
+        page.table("evidence", frame, caption="Evidence per candidate effect")
+        usable = [name for name, row in evidence.items() if _finite_number(row.get("delta_elpd")) and _finite_number(row.get("se"))]
+        if usable:
+            page.figure(
+                "critique_evidence",
+                plot_evidence(usable, [evidence[n]["delta_elpd"] for n in usable], [evidence[n]["se"] for n in usable]),
+                "Δelpd of each candidate effect over the calibrated model, ±2 standard errors.",
+            )
+    elif evidence is not None:
+        _generic(page, {"evidence": evidence})
+    rest = {key: value for key, value in critique.items() if key not in ("verdict", "causes", "evidence")}
+    if rest:
+        _generic(page, rest)
+    page.close()
+
+
+def _finite_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
