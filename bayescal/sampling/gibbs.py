@@ -45,6 +45,8 @@ REFITS = (0.2, 0.4, 0.6, 0.8)
 draws so far, so that it follows the posterior where the Laplace fit is poor."""
 START_SPREAD = 0.3
 """sd of the log-normal dispersion of the chains' initial noise variances around the start."""
+START_TRIES = 100
+"""Draws from the proposal tried per chain for a start inside the support before starting at the caller's point."""
 HESSIAN_STEP = 0.05
 """Finite-difference step of the Laplace Hessian, in units of the caller's ``scale``."""
 
@@ -427,8 +429,13 @@ def _accept(z, current, candidate, value, log_ratio, rng):
     return np.where(accept[:, None], candidate, z), np.where(accept, value, current)
 
 
-def _finite_start(proposal: _Proposal, collapsed, z, sigma2, covariance, rng, tries: int = 1000) -> np.ndarray:
-    """Each chain's adapted coordinates drawn from the proposal, redrawn until the posterior is finite there."""
+def _finite_start(proposal: _Proposal, collapsed, z, sigma2, covariance, rng, tries: int = START_TRIES) -> np.ndarray:
+    """Each chain's adapted coordinates drawn from the proposal, redrawn until the posterior is finite there.
+
+    A chain whose draws keep missing the support (a Laplace fit gone wide on a
+    posterior that is far from Gaussian) starts at the caller's start ``z``
+    itself; the proposal refits of the tuning phase then take over.
+    """
     a = proposal.center.shape[1]
     start = z.copy()
     pending = np.ones(z.shape[0], dtype=bool)
@@ -437,7 +444,10 @@ def _finite_start(proposal: _Proposal, collapsed, z, sigma2, covariance, rng, tr
         pending &= ~np.isfinite(collapsed(start, sigma2, covariance))
         if not pending.any():
             return start[:, :a]
-    raise ValueError("could not start the chains where the posterior is finite: the start is far from the posterior")
+    start[pending] = z[pending]
+    if not np.all(np.isfinite(collapsed(start, sigma2, covariance))):
+        raise ValueError("the posterior is not finite at the start: start the chains inside the support")
+    return start[:, :a]
 
 
 def _laplace(collapsed: _Collapsed, z0: np.ndarray, scale: np.ndarray, sigma2: np.ndarray, adapted: int, chains: int) -> _Proposal:
