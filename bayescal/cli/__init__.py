@@ -22,7 +22,7 @@ from bayescal.errors import InputError
 
 __all__ = ["main"]
 
-COMMANDS = ("geometry", "simulate", "calibrate")
+COMMANDS = ("geometry", "simulate", "calibrate", "critique")
 
 
 class _Parser(argparse.ArgumentParser):
