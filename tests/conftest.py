@@ -48,3 +48,27 @@ def campaign_csv(cell, plan, tmp_path_factory) -> Path:
     path = tmp_path_factory.mktemp("campaign") / "campaign.csv"
     write_campaign(campaign, path, comments=["twin, Table III, 1 repeat, seed 1"])
     return path
+
+
+def random_plan(cell, n: int, rng):
+    """A plan of ``n`` random configurations inside the KR-270's working range, loads of 200-300 kg.
+
+    The ranges keep the arm in front of the robot with the wrist away from its
+    singularity (|q5| > 20 deg), as a user's own plan would; they are not Table III's.
+    """
+    import numpy as np
+
+    from bayescal.cell.plan import Plan
+    from bayescal.units import DEG
+
+    low = np.array([-90.0, -140.0, -20.0, -170.0, 20.0, -170.0]) * DEG
+    high = np.array([90.0, -10.0, 110.0, 170.0, 110.0, 170.0]) * DEG
+    q = rng.uniform(low, high, size=(n, 6))
+    q[:, 4] *= rng.choice([-1.0, 1.0], size=n)
+    return Plan(q=q, load_kg=rng.uniform(200.0, 300.0, size=n), lines=np.zeros(n, dtype=int), source="random plan")
+
+
+@pytest.fixture(scope="session")
+def make_random_plan():
+    """``make_random_plan(cell, n, rng)``: random feasible configurations (see :func:`random_plan`)."""
+    return random_plan

@@ -73,7 +73,8 @@ def _text(results, figures: list[str]) -> str:
         f"{before['position_error_rms_mm'] * 1000:.1f} -> {after['position_error_rms_mm'] * 1000:.1f} um",
         f"test pose: the classical model's prediction differs from the extended one's by "
         f"{results.test_pose['classical_error_mm'] * 1000:.1f} um",
-        f"rule: a cause is named when ΔELPD > {results.rule['z']:g} SE and > {results.rule['floor_nats']:g} nats",
+        f"rule: a cause is named when ΔELPD > {results.rule['z']:g} SE and > {results.rule['floor_nats']:g} nats, "
+        f"or > {results.rule['decisive_nats']:g} nats",
     ]
     if figures:
         lines.append(f"figures: {', '.join(figures)}")

@@ -5,7 +5,8 @@
 base axis) and adds, greedily, the extension of
 :data:`~bayescal.critique.extensions.CATALOGUE` that best predicts held-out
 configurations, as long as its gain is clear of its uncertainty
-(:data:`DETECTION_Z` standard errors and :data:`DETECTION_FLOOR` nats).
+(:data:`DETECTION_Z` standard errors and :data:`DETECTION_FLOOR` nats, or
+:data:`DECISIVE_GAIN` nats whatever the standard error).
 When no extension passes any more, the residual offsets of
 :data:`~bayescal.critique.extensions.PROBES` are tried by the same rule: one
 that passes is a misfit the catalogue does not explain, reported as the
@@ -32,13 +33,17 @@ from bayescal.errors import InputError
 from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.units import DEG, MM
 
-__all__ = ["Critique", "CritiqueResults", "DETECTION_Z", "DETECTION_FLOOR", "UNEXPLAINED"]
+__all__ = ["Critique", "CritiqueResults", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED"]
 
 DETECTION_Z = 2.0
 """A cause is named only when its held-out gain exceeds this many standard errors of the difference."""
 DETECTION_FLOOR = 4.0
 """... and this many nats: below it a gain is within what chance fits of a few extra
 parameters give on null campaigns (measured: docs/critique.md)."""
+DECISIVE_GAIN = 25.0
+"""A held-out gain (nats) named whatever its standard error: the normal approximation of the
+SE fails when the gain sits in a few configurations (gross tracker errors hit a few
+readings; Sivula et al. 2020), and null campaigns never come near it (docs/critique.md)."""
 UNEXPLAINED = "unexplained"
 MIN_CONFIGURATIONS = 4
 """Fewest configurations a held-out comparison can rest on (the SE of the difference needs several)."""
@@ -190,7 +195,8 @@ def _residual_table(rows: Rows, y: np.ndarray, base: CrossValidation, final: Cro
 
 
 def _passes(comparison: Comparison) -> bool:
-    return comparison.delta_elpd > max(DETECTION_Z * comparison.se, DETECTION_FLOOR)
+    clear = comparison.delta_elpd > max(DETECTION_Z * comparison.se, DETECTION_FLOOR)
+    return clear or comparison.delta_elpd > DECISIVE_GAIN
 
 
 @dataclass
@@ -234,7 +240,7 @@ class CritiqueResults:
     n_equations: int
     residuals: pd.DataFrame
     source: str = ""
-    rule: dict = field(default_factory=lambda: {"z": DETECTION_Z, "floor_nats": DETECTION_FLOOR})
+    rule: dict = field(default_factory=lambda: {"z": DETECTION_Z, "floor_nats": DETECTION_FLOOR, "decisive_nats": DECISIVE_GAIN})
 
     @property
     def verdict(self) -> str:
@@ -282,7 +288,7 @@ class CritiqueResults:
                 "test_pose": self.test_pose,
             },
             "covariates": {name: c.to_json() | {"meaning": COVARIATES[name]} for name, c in self.probes.items()},
-            "rule": {"delta_elpd_over_se": DETECTION_Z, "floor_nats": DETECTION_FLOOR},
+            "rule": {"delta_elpd_over_se": DETECTION_Z, "floor_nats": DETECTION_FLOOR, "decisive_nats": DECISIVE_GAIN},
             "n_configurations": self.n_configs,
             "n_equations": self.n_equations,
             "campaign": self.source,
