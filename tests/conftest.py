@@ -72,3 +72,19 @@ def random_plan(cell, n: int, rng):
 def make_random_plan():
     """``make_random_plan(cell, n, rng)``: random feasible configurations (see :func:`random_plan`)."""
     return random_plan
+
+
+@pytest.fixture(scope="session")
+def twin_campaign(cell, plan):
+    """``twin_campaign(effects, seed, plan=None, cell=None, repeats=3)``: a campaign of the twin with effects planted."""
+    import numpy as np
+
+    from bayescal.twin.effects import parse_effect
+    from bayescal.twin.simulator import DigitalTwin
+
+    def make(effects=(), seed=0, plan_=None, cell_=None, repeats=3):
+        rng = np.random.default_rng(seed)
+        twin = DigitalTwin(cell_ or cell, [parse_effect(e) for e in effects])
+        return twin.simulate(plan_ or plan, repeats, rng)
+
+    return make

@@ -115,13 +115,13 @@ class Fit:
 
 
 def _wls(y, X, weight):
-    root = np.sqrt(weight)
-    # Columns scaled to unit norm, so that compliance and covariate columns (whose units differ
-    # by many orders of magnitude) meet a well-conditioned QR; X's columns are independent.
-    A = X * root[:, np.newaxis]
-    norm = np.linalg.norm(A, axis=0)
-    q, r = np.linalg.qr(A / norm)
-    return linalg.solve_triangular(r, q.T @ (y * root)) / norm
+    # Normal equations on unit-norm columns: compliance and covariate columns differ in units by
+    # many orders of magnitude, and independent_columns has bounded their collinearity.
+    A = X * weight[:, np.newaxis]
+    gram = X.T @ A
+    norm = np.sqrt(np.diag(gram))
+    factor = linalg.cho_factor(gram / np.outer(norm, norm))
+    return linalg.cho_solve(factor, (A.T @ y) / norm) / norm
 
 
 def fit(y: np.ndarray, X: np.ndarray, scale: np.ndarray, group: np.ndarray, *, robust: bool = False) -> Fit:
