@@ -30,6 +30,7 @@ from bayescal.critique.compare import Comparison, CrossValidation, compare, cros
 from bayescal.critique.covariates import COVARIATES, Rows, campaign_rows, pose_rows
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
 from bayescal.errors import InputError
+from bayescal.inference.elastostatic import check_campaign
 from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.units import DEG, MM
 
@@ -101,6 +102,8 @@ class Critique:
                 f"the campaign has {campaign.q.shape[1]} joint angles per row, the cell's robot {self.cell.robot.nq}",
                 source=campaign.source,
             )
+        robot = self.cell.robot
+        check_campaign(robot, campaign, np.array([robot.point_in_flange(q, p) for q, p in zip(campaign.q, campaign.p0)]))
         rows = campaign_rows(self.cell, campaign)
         y = rows.y.reshape(-1)
         scale = np.repeat(rows.noise, 3)
