@@ -102,9 +102,9 @@ class Critique:
                 f"the campaign has {campaign.q.shape[1]} joint angles per row, the cell's robot {self.cell.robot.nq}",
                 source=campaign.source,
             )
-        robot = self.cell.robot
-        check_campaign(robot, campaign, np.array([robot.point_in_flange(q, p) for q, p in zip(campaign.q, campaign.p0)]))
         rows = campaign_rows(self.cell, campaign)
+        # markers located on the tool at the measured unloaded pose, so that a sagging arm is no mislabelled marker
+        check_campaign(self.cell.robot, campaign, rows.point)
         y = rows.y.reshape(-1)
         scale = np.repeat(rows.noise, 3)
         group = np.tile(np.arange(3), len(rows))
