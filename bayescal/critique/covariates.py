@@ -114,6 +114,10 @@ class Rows:
         """The rows ``index``."""
         return Rows(**{name: getattr(self, name)[index] for name in self.__dataclass_fields__})
 
+    def extend(self, other: Rows) -> Rows:
+        """These rows followed by ``other``'s."""
+        return Rows(**{name: np.concatenate([getattr(self, name), getattr(other, name)]) for name in self.__dataclass_fields__})
+
 
 def _static_torque(cell: Cell, q: np.ndarray) -> np.ndarray:
     """Torque the joint springs carry with the arm unloaded at ``q``: minus gravity minus the compensator's moment."""

@@ -20,7 +20,8 @@ parameters where the physics allows:
     the load's moment at the flange (one rotational compliance).
 ``backlash``
     Each joint's link moves by a lost motion ``δ_j`` toward the sign of the torque
-    it carries: the deflection gains ``δ_j (sign τ_loaded - sign τ_unloaded)``.
+    it carries: the deflection gains ``δ_j (sign τ_loaded - sign τ_unloaded)``, the
+    sign smoothed over :data:`BACKLASH_PRELOAD` of the joint's largest load torque.
 ``nonlinear_stiffness``
     Each joint's deflection law gains a term in ``τ|τ|`` (a spring that stiffens
     or softens with torque), the torque being the weight's and the load's.
@@ -44,11 +45,15 @@ from bayescal.cell.config import Cell
 from bayescal.critique.covariates import COVARIATES, Rows
 from bayescal.robot.compensator import COMPENSATED_JOINT
 
-__all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "OUTLIER_DOF"]
+__all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "OUTLIER_DOF"]
 
 BEAM_MIN_LENGTH = 0.5
 """Shortest link (m, between consecutive joint origins) modelled as a beam: shorter links of an
 industrial arm (column offsets, wrist) are stocky castings whose bending is far below the joints'."""
+BACKLASH_PRELOAD = 0.05
+"""Torque, as a fraction of the largest load torque on the joint in the rows, over which a joint
+crosses its dead band: a joint preloaded by much less than the loads (a wrist under a light tool)
+does not sit firmly at one end of its lost motion, and ``sign τ`` would overstate its jump."""
 OUTLIER_DOF = 4.0
 """Degrees of freedom of the Student-t noise of ``outliers``: 4 is the usual robust choice
 (Lange, Little & Taylor 1989), heavy enough to discount gross errors, near-Gaussian otherwise."""
@@ -133,7 +138,9 @@ def _tool_compliance(rows: Rows, cell: Cell) -> np.ndarray:
 
 
 def _backlash(rows: Rows, cell: Cell) -> np.ndarray:
-    change = np.sign(rows.static_torque + rows.load_torque) - np.sign(rows.static_torque)
+    width = BACKLASH_PRELOAD * np.abs(rows.load_torque).max(axis=0)
+    width = np.where(width > 0, width, 1.0)
+    change = np.tanh((rows.static_torque + rows.load_torque) / width) - np.tanh(rows.static_torque / width)
     return rows.point_jacobian * change[:, np.newaxis, :]
 
 

@@ -162,7 +162,8 @@ class Critique:
             X = m.design(rows, cell)
             cv_columns = independent_columns(X)
             fitted = fit(y, X[:, cv_columns], scale, group, robust=m.robust)
-            X0 = m.design(test, cell)
+            # with the campaign's rows, so that columns scaled by the campaign (backlash) scale alike
+            X0 = m.design(rows.extend(test), cell)[-3:]
             mean = X0[:, cv_columns] @ fitted.beta
             # Joints the campaign does not excite (k1 under vertical loads) keep the cell's compliance.
             dropped = np.setdiff1d(np.arange(cell.robot.nq), cv_columns[cv_columns < cell.robot.nq])
