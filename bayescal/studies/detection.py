@@ -12,6 +12,7 @@ number of workers.
 
 from __future__ import annotations
 
+import threading
 import warnings
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor
@@ -24,8 +25,9 @@ import pandas as pd
 __all__ = ["detection_power", "power_threshold", "markdown_table"]
 
 
-@lru_cache(maxsize=4)
-def _setup(config: str, plan: str):
+@lru_cache(maxsize=16)
+def _setup(config: str, plan: str, thread: int):
+    """The cell and plan, one copy per thread: a robot's Pinocchio workspace is not shared between threads."""
     from bayescal.cell.config import load_cell
     from bayescal.cell.plan import read_plan
 
@@ -40,7 +42,7 @@ def _one(task: tuple) -> list[str]:
     from bayescal.twin.simulator import DigitalTwin
 
     config, plan_path, effects, repeats, seed = task
-    cell, plan = _setup(config, plan_path)
+    cell, plan = _setup(config, plan_path, threading.get_ident())
     rng = np.random.default_rng(seed)
     campaign = DigitalTwin(cell, [parse_effect(e) for e in effects]).simulate(plan, repeats, rng)
     with warnings.catch_warnings():

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from bayescal.critique.covariates import pose_rows
-from bayescal.critique.extensions import CATALOGUE, PROBES, base_columns
+from bayescal.critique.extensions import BACKLASH_PRELOAD, CATALOGUE, PROBES, base_columns
 from bayescal.twin.effects import LinkCompliance, ToolCompliance
 from bayescal.units import DEG, URAD_PER_NM
 
@@ -40,13 +40,17 @@ def test_tool_column_is_the_tilt_of_the_twins_mount(cell, q):
     assert column * 0.3 * URAD_PER_NM == pytest.approx(twin, rel=1e-9, abs=1e-12)
 
 
-def test_backlash_columns_move_only_joints_whose_torque_the_load_reverses(cell):
+def test_backlash_columns_jump_only_where_the_load_moves_a_joint_through_its_dead_band(cell):
     rows, _, _ = _rows(cell, POSES[0])
     columns = CATALOGUE["backlash"].columns(rows, cell)[0]
-    reversed_ = np.sign(rows.static_torque[0] + rows.load_torque[0]) != np.sign(rows.static_torque[0])
-    assert np.any(reversed_) and not np.all(reversed_)
-    assert np.all(np.linalg.norm(columns, axis=0)[~reversed_] == 0)
-    assert np.all(np.linalg.norm(columns, axis=0)[reversed_] > 0)
+    jump = np.linalg.norm(columns, axis=0) / np.linalg.norm(rows.point_jacobian[0], axis=0)
+    width = BACKLASH_PRELOAD * np.abs(rows.load_torque[0])
+    unloaded = np.abs(rows.static_torque[0]) < 1e-6 * width
+    held = (np.abs(rows.static_torque[0]) > 5 * width) & (np.sign(rows.static_torque[0]) == np.sign(rows.load_torque[0]))
+    assert np.any(unloaded) and np.any(held)
+    # a joint without preload goes from the middle of its dead band to one end; a preloaded one stays put
+    assert jump[unloaded] == pytest.approx(1.0)
+    assert np.all(jump[held] < 1e-3)
 
 
 def test_every_extension_and_probe_gives_three_equations_per_row(cell):
