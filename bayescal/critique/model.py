@@ -8,7 +8,9 @@ configurations, as long as its gain is clear of its uncertainty
 (:data:`DETECTION_Z` standard errors and :data:`DETECTION_FLOOR` nats, or
 :data:`DECISIVE_GAIN` nats whatever the standard error).
 When no extension passes any more, the residual offsets of
-:data:`~bayescal.critique.extensions.PROBES` are tried by the same rule: one
+:data:`~bayescal.critique.extensions.PROBES` are tried by the same rule
+(without the decisive branch, since their many free offsets can fit a few odd
+configurations): one
 that passes is a misfit the catalogue does not explain, reported as the
 cause ``unexplained`` with the covariate it follows.
 """
@@ -85,6 +87,12 @@ class Critique:
     catalogue: tuple[str, ...] = tuple(CATALOGUE)
     probes: tuple[str, ...] = tuple(PROBES)
 
+    def __post_init__(self) -> None:
+        for names, known in ((self.catalogue, CATALOGUE), (self.probes, PROBES)):
+            unknown = [name for name in names if name not in known]
+            if unknown:
+                raise ValueError(f"unknown candidate(s) {', '.join(unknown)}; expected some of {', '.join(known)}")
+
     def run(self, campaign: Campaign, rng: np.random.Generator | int | None = None) -> CritiqueResults:
         """Criticise the classical model on ``campaign``.
 
@@ -131,7 +139,7 @@ class Critique:
             causes.append(best)
             remaining = [e for e in remaining if e.name != best]
         probes = {name: compare(current, validate(model.plus(PROBES[name]))) for name in self.probes}
-        passing = [name for name, c in probes.items() if _passes(c)]
+        passing = [name for name, c in probes.items() if _passes(c, decisive=False)]
         covariate = max(passing, key=lambda name: probes[name].delta_elpd) if passing else None
         if covariate is not None:
             causes.append(UNEXPLAINED)
@@ -198,9 +206,10 @@ def _residual_table(rows: Rows, y: np.ndarray, base: CrossValidation, final: Cro
     )
 
 
-def _passes(comparison: Comparison) -> bool:
+def _passes(comparison: Comparison, decisive: bool = True) -> bool:
+    """The naming rule; ``decisive=False`` for the probes, whose many free offsets can fit a few odd configurations."""
     clear = comparison.delta_elpd > max(DETECTION_Z * comparison.se, DETECTION_FLOOR)
-    return clear or comparison.delta_elpd > DECISIVE_GAIN
+    return clear or (decisive and comparison.delta_elpd > DECISIVE_GAIN)
 
 
 @dataclass

@@ -73,7 +73,7 @@ def detection_power(
     n_seeds
         Campaigns per effect and magnitude.
     n_null
-        Campaigns without any effect (the false-alarm rate).
+        Campaigns without any effect (the false-alarm rate); 0 leaves that row out.
     repeats
         Repeats per configuration.
     seed
@@ -93,7 +93,7 @@ def detection_power(
     root = np.random.SeedSequence(seed)
     null_seeds, effect_seeds = root.spawn(2)
     shared = effect_seeds.spawn(n_seeds)
-    cases = [("none", 0.0, (), null_seeds.spawn(n_null))]
+    cases = [("none", 0.0, (), null_seeds.spawn(n_null))] if n_null else []
     for name, values in magnitudes.items():
         for magnitude in values:
             cases.append((name, float(magnitude), (f"{name}={magnitude!r}",), shared))

@@ -77,3 +77,12 @@ def test_too_few_configurations_is_an_input_error(cell, twin_campaign):
 def test_no_effect_is_adequate_in_at_least_95_percent_of_40_seeds(cell, twin_campaign):
     verdicts = [Critique(cell).run(twin_campaign(seed=1000 + seed)).verdict for seed in range(40)]
     assert verdicts.count("adequate") >= 38
+
+
+def test_a_narrower_catalogue_and_unknown_names(cell, twin_campaign):
+    with pytest.raises(ValueError, match="unknown candidate"):
+        Critique(cell, catalogue=("gearbox",))
+    # without backlash in the catalogue, a planted backlash is still a misfit (docs/critique.md: it is
+    # then attributed to the nearest candidate, the q2-dependent joint 2)
+    results = Critique(cell, catalogue=("compensator", "link_compliance", "tool_compliance")).run(twin_campaign(["backlash"], seed=9))
+    assert results.verdict == "misfit"
