@@ -32,7 +32,7 @@ from bayescal.critique.compare import Comparison, CrossValidation, compare, cros
 from bayescal.critique.covariates import COVARIATES, Rows, campaign_rows, pose_rows
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
 from bayescal.errors import InputError
-from bayescal.inference.elastostatic import check_campaign
+from bayescal.inference.equations import check_campaign
 from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.units import DEG, MM
 
