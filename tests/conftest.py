@@ -56,8 +56,6 @@ def random_plan(cell, n: int, rng):
     The ranges keep the arm in front of the robot with the wrist away from its
     singularity (|q5| > 20 deg), as a user's own plan would; they are not Table III's.
     """
-    import numpy as np
-
     from bayescal.cell.plan import Plan
     from bayescal.units import DEG
 
@@ -77,8 +75,6 @@ def make_random_plan():
 @pytest.fixture(scope="session")
 def twin_campaign(cell, plan):
     """``twin_campaign(effects, seed, plan=None, cell=None, repeats=3)``: a campaign of the twin with effects planted."""
-    import numpy as np
-
     from bayescal.twin.effects import parse_effect
     from bayescal.twin.simulator import DigitalTwin
 
