@@ -78,3 +78,39 @@ def short_calibration(cell, campaign_csv, tmp_path_factory) -> dict[str, Path]:
         )
         model.fit(read_campaign(campaign_csv, cell=cell), 0).save(paths["calibration"])
     return paths
+
+
+def random_plan(cell, n: int, rng):
+    """A plan of ``n`` random configurations inside the KR-270's working range, loads of 200-300 kg.
+
+    The ranges keep the arm in front of the robot with the wrist away from its
+    singularity (|q5| > 20 deg), as a user's own plan would; they are not Table III's.
+    """
+    from bayescal.cell.plan import Plan
+    from bayescal.units import DEG
+
+    low = np.array([-90.0, -140.0, -20.0, -170.0, 20.0, -170.0]) * DEG
+    high = np.array([90.0, -10.0, 110.0, 170.0, 110.0, 170.0]) * DEG
+    q = rng.uniform(low, high, size=(n, 6))
+    q[:, 4] *= rng.choice([-1.0, 1.0], size=n)
+    return Plan(q=q, load_kg=rng.uniform(200.0, 300.0, size=n), lines=np.zeros(n, dtype=int), source="random plan")
+
+
+@pytest.fixture(scope="session")
+def make_random_plan():
+    """``make_random_plan(cell, n, rng)``: random feasible configurations (see :func:`random_plan`)."""
+    return random_plan
+
+
+@pytest.fixture(scope="session")
+def twin_campaign(cell, plan):
+    """``twin_campaign(effects, seed, plan=None, cell=None, repeats=3)``: a campaign of the twin with effects planted."""
+    from bayescal.twin.effects import parse_effect
+    from bayescal.twin.simulator import DigitalTwin
+
+    def make(effects=(), seed=0, plan_=None, cell_=None, repeats=3):
+        rng = np.random.default_rng(seed)
+        twin = DigitalTwin(cell_ or cell, [parse_effect(e) for e in effects])
+        return twin.simulate(plan_ or plan, repeats, rng)
+
+    return make

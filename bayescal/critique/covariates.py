@@ -1,0 +1,251 @@
+"""What the critique knows about every measured deflection: kinematics, torques and the covariates a user would suspect.
+
+A campaign row is one marker, read unloaded and loaded in one repeat of one
+configuration; its deflection gives three scalar equations (x, y, z in the
+base axes).  :class:`Rows` holds, per row, what the models of
+:mod:`bayescal.critique.extensions` are built from (the marker's Jacobian,
+the joint torques of the load, of the arm's weight and of the compensator,
+the joint frames) and the covariates residuals are checked against
+(:data:`COVARIATES`).  Everything is evaluated at the commanded angles, as
+the linear model of eq 30 is.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from bayescal.cell.campaign import Campaign
+from bayescal.cell.config import Cell
+from bayescal.robot.compensator import COMPENSATED_JOINT
+
+__all__ = ["Rows", "campaign_rows", "pose_rows", "measured_pose", "COVARIATES"]
+
+POSE_MIN_MARKERS = 3
+"""Markers needed to fix the tool's pose (position and orientation)."""
+POSE_ITERATIONS = 10
+POSE_TOLERANCE = 1e-10
+"""Gauss-Newton on the pose stops when no joint moves by more than this, rad."""
+POSE_MAX_SAG = 0.15
+"""Largest sag (rad, about 9 deg) accepted between commanded and measured pose; beyond it the
+markers are not where the cell file puts them and the commanded pose is used."""
+
+COVARIATES = {
+    "q2": "the joint-2 angle",
+    "other joints": "the joint angles q1, q3..q6",
+    "torques": "the joint torques of the load",
+    "torque signs": "the signs of the joint torques under load",
+    "load": "the load's force (magnitude and direction)",
+    "reach": "the marker's distance from the base axis",
+    "marker": "which marker",
+    "lever": "the marker's position on the tool",
+    "tracker distance": "the marker's distance to the tracker",
+    "order": "the order of measurement",
+}
+"""The covariates a misfit is checked against, with what they mean."""
+
+
+@dataclass(frozen=True, eq=False)
+class Rows:
+    """Per-row kinematics and covariates (SI, base axes), N rows.
+
+    Attributes
+    ----------
+    y : numpy.ndarray
+        (N, 3) measured deflections, m (zeros for a pose to predict).
+    q : numpy.ndarray
+        (N, nq) commanded joint angles, rad.
+    wrench : numpy.ndarray
+        (N, 6) load at the flange origin, N and N·m.
+    point : numpy.ndarray
+        (N, 3) the marker in the flange frame, m.
+    position : numpy.ndarray
+        (N, 3) the marker unloaded, base frame, m.
+    point_jacobian : numpy.ndarray
+        (N, 3, nq) the marker's position Jacobian.
+    load_torque : numpy.ndarray
+        (N, nq) joint torques of the load ``J_F' w``, N·m.
+    static_torque : numpy.ndarray
+        (N, nq) torques the joint springs carry unloaded (the arm's weight and the
+        compensator's moment), N·m; loaded they carry ``static_torque + load_torque``.
+    frames : numpy.ndarray
+        (N, nq, 4, 4) placements of the joint frames in the base frame.
+    flange : numpy.ndarray
+        (N, 4, 4) placement of the flange frame.
+    config, repeat, order : numpy.ndarray of int
+        (N,) configuration, repeat and position in the measurement sequence.
+    marker : numpy.ndarray of str
+        (N,) marker names.
+    noise : numpy.ndarray
+        (N,) relative noise of each row's deflection (mean 1): the tracker's error at
+        the unloaded and loaded positions.
+    tracker_distance : numpy.ndarray
+        (N,) distance of the marker from the tracker, m.
+    """
+
+    y: np.ndarray
+    q: np.ndarray
+    wrench: np.ndarray
+    point: np.ndarray
+    position: np.ndarray
+    point_jacobian: np.ndarray
+    load_torque: np.ndarray
+    static_torque: np.ndarray
+    frames: np.ndarray
+    flange: np.ndarray
+    config: np.ndarray
+    repeat: np.ndarray
+    order: np.ndarray
+    marker: np.ndarray
+    noise: np.ndarray
+    tracker_distance: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.y)
+
+    @property
+    def design(self) -> np.ndarray:
+        """(N, 3, nq) eq 31 for every row: column ``j`` is the marker's displacement per unit compliance of joint ``j``."""
+        return self.point_jacobian * self.load_torque[:, np.newaxis, :]
+
+    def take(self, index: np.ndarray) -> Rows:
+        """The rows ``index``."""
+        return Rows(**{name: getattr(self, name)[index] for name in self.__dataclass_fields__})
+
+    def extend(self, other: Rows) -> Rows:
+        """These rows followed by ``other``'s."""
+        return Rows(**{name: np.concatenate([getattr(self, name), getattr(other, name)]) for name in self.__dataclass_fields__})
+
+
+def _static_torque(cell: Cell, q: np.ndarray) -> np.ndarray:
+    """Torque the joint springs carry with the arm unloaded at ``q``: minus gravity minus the compensator's moment."""
+    torque = -cell.robot.gravity_torque(q)
+    if cell.compensator is not None:
+        torque[COMPENSATED_JOINT] -= cell.compensator.torque(float(q[COMPENSATED_JOINT]))
+    return torque
+
+
+def _build(cell: Cell, q, wrench, point, position, y, config, repeat, marker, noise) -> Rows:
+    robot = cell.robot
+    n, nq = q.shape
+    jacobian = np.empty((n, 3, nq))
+    load_torque = np.empty((n, nq))
+    static = np.empty((n, nq))
+    frames = np.empty((n, nq, 4, 4))
+    flange = np.empty((n, 4, 4))
+    data = robot.model.createData()
+    cache: dict[bytes, tuple] = {}
+    for i in range(n):
+        key = q[i].tobytes() + wrench[i].tobytes()
+        if key not in cache:
+            pin.forwardKinematics(robot.model, data, q[i])
+            rotation, origin = robot.flange_pose(q[i])
+            cache[key] = (
+                robot.flange_jacobian(q[i]).T @ wrench[i],
+                _static_torque(cell, q[i]),
+                np.array([data.oMi[j + 1].homogeneous for j in range(nq)]),
+                np.block([[rotation, origin[:, np.newaxis]], [np.zeros((1, 3)), np.ones((1, 1))]]),
+            )
+        load_torque[i], static[i], frames[i], flange[i] = cache[key]
+        jacobian[i] = robot.point_jacobian(q[i], point[i])
+    # Order of measurement: configurations as first met in the file, then repeats.
+    first = {c: k for k, c in enumerate(dict.fromkeys(config.tolist()))}
+    order = np.array([first[c] for c in config.tolist()]) * (int(repeat.max()) + 1) + repeat
+    return Rows(
+        y=y,
+        q=q,
+        wrench=wrench,
+        point=point,
+        position=position,
+        point_jacobian=jacobian,
+        load_torque=load_torque,
+        static_torque=static,
+        frames=frames,
+        flange=flange,
+        config=config,
+        repeat=repeat,
+        order=np.unique(order, return_inverse=True)[1],
+        marker=marker,
+        noise=noise,
+        tracker_distance=np.linalg.norm(position - cell.tracker.position, axis=1),
+    )
+
+
+def measured_pose(cell: Cell, q, markers: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """Link angles (rad) that put the cell's ``markers`` at their unloaded ``positions``, from the commanded ``q``.
+
+    The arm sags under its weight and the compensator's moment before any load is
+    applied; the linear model of eq 30 is accurate about the pose the arm is
+    actually in, which three or more markers at known places on the tool fix.
+    Gauss-Newton, started at ``q``; ``q`` itself when the markers cannot fix the pose.
+
+    Parameters
+    ----------
+    markers
+        (k,) marker names.
+    positions
+        (k, 3) their unloaded readings, m.
+    """
+    q = np.asarray(q, dtype=float)
+    names = [str(m) for m in markers]
+    if len(set(names)) < POSE_MIN_MARKERS or any(name not in cell.markers for name in names):
+        return q
+    points = np.array([cell.markers[name] for name in names])
+    robot = cell.robot
+    estimate = q.copy()
+    for _ in range(POSE_ITERATIONS):
+        residual = (positions - robot.point_position(estimate, points)).reshape(-1)
+        jacobian = np.vstack([robot.point_jacobian(estimate, point) for point in points])
+        step, *_ = np.linalg.lstsq(jacobian, residual, rcond=None)
+        estimate = estimate + step
+        if np.max(np.abs(step)) < POSE_TOLERANCE:
+            break
+    # A pose far from the commanded one means markers that are not where the cell says.
+    return estimate if np.max(np.abs(estimate - q)) < POSE_MAX_SAG else q
+
+
+def campaign_rows(cell: Cell, campaign: Campaign) -> Rows:
+    """The rows of a campaign at the arm's measured unloaded poses (:func:`measured_pose`)."""
+    robot = cell.robot
+    q = np.asarray(campaign.q, dtype=float).copy()
+    for config in np.unique(campaign.config):
+        rows = np.flatnonzero(campaign.config == config)
+        names = campaign.marker[rows].astype(str)
+        unique = sorted(set(names))
+        mean = np.array([campaign.p0[rows[names == name]].mean(axis=0) for name in unique])
+        q[rows] = measured_pose(cell, q[rows[0]], np.array(unique), mean)
+    point = np.array([robot.point_in_flange(qi, p) for qi, p in zip(q, campaign.p0)])
+    sd = np.hypot(cell.tracker.sigma(campaign.p0), cell.tracker.sigma(campaign.p1))
+    return _build(
+        cell,
+        q,
+        np.asarray(campaign.wrench, dtype=float),
+        point,
+        np.asarray(campaign.p0, dtype=float),
+        campaign.displacement,
+        np.asarray(campaign.config, dtype=int),
+        np.asarray(campaign.repeat, dtype=int),
+        np.asarray(campaign.marker).astype(str),
+        sd / sd.mean(),
+    )
+
+
+def pose_rows(cell: Cell, q, wrench, point) -> Rows:
+    """One row for a tool ``point`` (flange frame, m) at the pose ``q`` (rad) under ``wrench``: for predictions."""
+    q = np.asarray(q, dtype=float).reshape(1, -1)
+    point = np.asarray(point, dtype=float).reshape(1, 3)
+    position = cell.robot.point_position(q[0], point)
+    return _build(
+        cell,
+        q,
+        np.asarray(wrench, dtype=float).reshape(1, 6),
+        point,
+        position,
+        np.zeros((1, 3)),
+        np.zeros(1, dtype=int),
+        np.ones(1, dtype=int),
+        np.array(["test"]),
+        np.ones(1),
+    )

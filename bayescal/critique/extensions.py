@@ -1,0 +1,221 @@
+"""The models the critique compares: the classical VJM model and what can be added to it.
+
+Every model here is linear in its parameters: the deflections are
+``y = X @ beta + noise``, three equations per campaign row.  The base model is
+the classical serial VJM of eq 30, one constant compliance per joint (joint 2
+without a compensator).  Each :class:`Extension` adds columns, in physical
+parameters where the physics allows:
+
+``compensator``
+    Joint 2's compliance varies with q2 as the spring compensator makes it (eq 8,
+    linearised about a constant: ``k2(q2) ≈ k2 + c1 C1(q2) + c2 C2(q2)`` with
+    ``C1, C2`` the columns of eq 35 for the cell's compensator geometry; a
+    quadratic in q2 when the cell has none).
+``link_compliance``
+    The arm's long links bend and twist as cantilevers loaded at their end by the
+    load's wrench (one bending and one torsional compliance per link); the tool
+    moves rigidly with the link's end.
+``tool_compliance``
+    The tool tilts on its mount about the two axes across the flange axis under
+    the load's moment at the flange (one rotational compliance).
+``backlash``
+    Each joint's link moves by a lost motion ``δ_j`` toward the sign of the torque
+    it carries: the deflection gains ``δ_j (sign τ_loaded - sign τ_unloaded)``, the
+    sign smoothed over :data:`BACKLASH_PRELOAD` of the joint's largest load torque.
+``nonlinear_stiffness``
+    Each joint's deflection law gains a term in ``τ|τ|`` (a spring that stiffens
+    or softens with torque), the torque being the weight's and the load's.
+``outliers``
+    Student-t tracker noise instead of Gaussian (no new columns).
+
+:data:`PROBES` are not physics but the covariates of
+:data:`~bayescal.critique.covariates.COVARIATES`, each in every base axis: a
+residual that one of them explains and no extension does is a misfit the
+catalogue cannot name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from bayescal.cell.config import Cell
+from bayescal.critique.covariates import COVARIATES, Rows
+from bayescal.robot.compensator import COMPENSATED_JOINT
+
+__all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "OUTLIER_DOF"]
+
+BEAM_MIN_LENGTH = 0.5
+"""Shortest link (m, between consecutive joint origins) modelled as a beam: shorter links of an
+industrial arm (column offsets, wrist) are stocky castings whose bending is far below the joints'."""
+BACKLASH_PRELOAD = 0.05
+"""Torque, as a fraction of the largest load torque on the joint in the rows, over which a joint
+crosses its dead band: a joint preloaded by much less than the loads (a wrist under a light tool)
+does not sit firmly at one end of its lost motion, and ``sign τ`` would overstate its jump."""
+OUTLIER_DOF = 4.0
+"""Degrees of freedom of the Student-t noise of ``outliers``: 4 is the usual robust choice
+(Lange, Little & Taylor 1989), heavy enough to discount gross errors, near-Gaussian otherwise."""
+
+
+@dataclass(frozen=True)
+class Extension:
+    """A term that can be added to the base model.
+
+    Attributes
+    ----------
+    name : str
+    description : str
+    columns : callable
+        ``columns(rows, cell)`` -> (N, 3, m) regressors of its m new parameters (m may be 0).
+    robust : bool
+        Whether it replaces the Gaussian noise by Student-t noise.
+    physical : bool
+        Whether it is a physical term that predicts at other poses (probes are not).
+    """
+
+    name: str
+    description: str
+    columns: Callable[[Rows, Cell], np.ndarray]
+    robust: bool = False
+    physical: bool = True
+
+
+def base_columns(rows: Rows, cell: Cell) -> np.ndarray:
+    """(N, 3, nq) the classical VJM model of eq 30: one constant compliance per joint."""
+    return rows.design
+
+
+def _compensator(rows: Rows, cell: Cell) -> np.ndarray:
+    q2 = rows.q[:, COMPENSATED_JOINT]
+    if cell.compensator is not None:
+        shape = cell.compensator.regressor(q2)[:, 1:]
+    else:
+        shape = np.column_stack([q2, q2**2])
+    return rows.design[:, :, COMPENSATED_JOINT, np.newaxis] * shape[:, np.newaxis, :]
+
+
+def _beams(cell: Cell, rows: Rows) -> list[tuple[int, int]]:
+    """(root, tip) joints, 0-based, of the links at least :data:`BEAM_MIN_LENGTH` long."""
+    origins = rows.frames[0, :, :3, 3]
+    lengths = np.linalg.norm(np.diff(origins, axis=0), axis=1)
+    return [(j, j + 1) for j in np.flatnonzero(lengths >= BEAM_MIN_LENGTH)]
+
+
+def _rigid(twist_p: np.ndarray, twist_r: np.ndarray, centre: np.ndarray, points: np.ndarray) -> np.ndarray:
+    return twist_p + np.cross(twist_r, points - centre)
+
+
+def _link_compliance(rows: Rows, cell: Cell) -> np.ndarray:
+    blocks = []
+    flange_origin = rows.flange[:, :3, 3]
+    force = rows.wrench[:, :3]
+    for root, tip in _beams(cell, rows):
+        start, end = rows.frames[:, root, :3, 3], rows.frames[:, tip, :3, 3]
+        length = np.linalg.norm(end - start, axis=1, keepdims=True)
+        axis = (end - start) / length
+        moment = rows.wrench[:, 3:] + np.cross(flange_origin - end, force)
+        # Cantilever with equal bending compliance in every plane through its axis:
+        # transverse force f and moment m at the tip give the tip twist below per unit 1/EI.
+        f_axial = np.sum(force * axis, axis=1, keepdims=True) * axis
+        m_axial = np.sum(moment * axis, axis=1, keepdims=True) * axis
+        f_t, m_t = force - f_axial, moment - m_axial
+        L = length
+        bend_p = L**3 / 3 * f_t + L**2 / 2 * np.cross(m_t, axis)
+        bend_r = L**2 / 2 * np.cross(axis, f_t) + L * m_t
+        blocks.append(_rigid(bend_p, bend_r, end, rows.position))
+        blocks.append(_rigid(np.zeros_like(end), m_axial * L, end, rows.position))
+    return np.stack(blocks, axis=-1) if blocks else np.zeros((len(rows), 3, 0))
+
+
+def _tool_compliance(rows: Rows, cell: Cell) -> np.ndarray:
+    rotation, origin = rows.flange[:, :3, :3], rows.flange[:, :3, 3]
+    flange_axis = rotation[:, :, 0]
+    moment = rows.wrench[:, 3:]
+    tilt = moment - np.sum(moment * flange_axis, axis=1, keepdims=True) * flange_axis
+    return np.cross(tilt, rows.position - origin)[:, :, np.newaxis]
+
+
+def _backlash(rows: Rows, cell: Cell) -> np.ndarray:
+    width = BACKLASH_PRELOAD * np.abs(rows.load_torque).max(axis=0)
+    width = np.where(width > 0, width, 1.0)
+    change = np.tanh((rows.static_torque + rows.load_torque) / width) - np.tanh(rows.static_torque / width)
+    return rows.point_jacobian * change[:, np.newaxis, :]
+
+
+def _nonlinear_stiffness(rows: Rows, cell: Cell) -> np.ndarray:
+    loaded = rows.static_torque + rows.load_torque
+    change = loaded * np.abs(loaded) - rows.static_torque * np.abs(rows.static_torque)
+    # Scaled by the largest torque so that the parameter is a compliance change at that torque.
+    scale = np.maximum(np.abs(loaded).max(axis=0), 1.0)
+    return rows.point_jacobian * (change / scale)[:, np.newaxis, :]
+
+
+def _no_columns(rows: Rows, cell: Cell) -> np.ndarray:
+    return np.zeros((len(rows), 3, 0))
+
+
+CATALOGUE: dict[str, Extension] = {
+    e.name: e
+    for e in (
+        Extension("compensator", "joint 2's compliance varies with q2 as a spring compensator makes it (eq 8)", _compensator),
+        Extension("link_compliance", "the long links bend and twist under the load", _link_compliance),
+        Extension("tool_compliance", "the tool tilts on its mount at the flange", _tool_compliance),
+        Extension("backlash", "lost motion in the joints where the load reverses their torque", _backlash),
+        Extension("nonlinear_stiffness", "joint stiffness that changes with the torque carried", _nonlinear_stiffness),
+        Extension("outliers", "heavy-tailed (Student-t) tracker errors", _no_columns, robust=True),
+    )
+}
+"""The physical extensions, named as the digital twin's effects."""
+
+
+def _per_axis(values: np.ndarray) -> np.ndarray:
+    """(N, 3, 3m): each of the m covariates as an offset along each base axis."""
+    values = np.asarray(values, dtype=float).reshape(len(values), -1)
+    eye = np.eye(3)
+    return (values[:, np.newaxis, :, np.newaxis] * eye[np.newaxis, :, np.newaxis, :]).reshape(len(values), 3, -1)
+
+
+def _standardised(values: np.ndarray) -> np.ndarray:
+    values = np.asarray(values, dtype=float).reshape(len(values), -1)
+    spread = values.std(axis=0)
+    return (values - values.mean(axis=0)) / np.where(spread > 0, spread, 1.0)
+
+
+def _probe(covariate: Callable[[Rows], np.ndarray]) -> Callable[[Rows, Cell], np.ndarray]:
+    def columns(rows: Rows, cell: Cell) -> np.ndarray:
+        # Residual offsets in mm-sized units so that every probe column has the deflections' scale.
+        return _per_axis(covariate(rows)) * np.abs(rows.y).mean()
+
+    return columns
+
+
+def _markers(rows: Rows) -> np.ndarray:
+    names = np.unique(rows.marker)
+    return (rows.marker[:, np.newaxis] == names[np.newaxis, :]).astype(float)
+
+
+def _q2(rows: Rows) -> np.ndarray:
+    q2 = rows.q[:, COMPENSATED_JOINT]
+    return np.column_stack([q2, q2**2])
+
+
+_COVARIATE_VALUES: dict[str, Callable[[Rows], np.ndarray]] = {
+    "q2": _q2,
+    "other joints": lambda rows: np.delete(rows.q, COMPENSATED_JOINT, axis=1),
+    "torques": lambda rows: rows.load_torque,
+    "torque signs": lambda rows: np.sign(rows.static_torque + rows.load_torque),
+    "load": lambda rows: rows.wrench[:, :3],
+    "reach": lambda rows: np.hypot(rows.position[:, 0], rows.position[:, 1]),
+    "marker": _markers,
+    "lever": lambda rows: rows.point,
+    "tracker distance": lambda rows: rows.tracker_distance,
+    "order": lambda rows: np.column_stack([rows.order, rows.order**2]).astype(float),
+}
+
+PROBES: dict[str, Extension] = {
+    name: Extension(name, f"residuals follow {COVARIATES[name]}", _probe(lambda rows, f=values: _standardised(f(rows))), physical=False)
+    for name, values in _COVARIATE_VALUES.items()
+}
+"""Residual offsets along each base axis that follow one covariate (not physics: for naming an unexplained misfit)."""

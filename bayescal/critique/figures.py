@@ -1,0 +1,61 @@
+"""Figures of a critique: held-out standardised residuals against the covariates, and the LOO-PIT."""
+
+from __future__ import annotations
+
+from os import PathLike
+from pathlib import Path
+
+import numpy as np
+
+from bayescal.critique.model import CritiqueResults
+
+__all__ = ["write_figures"]
+
+PLOTTED = {
+    "q2_deg": "q2 (deg)",
+    "order": "order of measurement",
+    "reach_mm": "reach (mm)",
+    "tracker_distance_mm": "distance to the tracker (mm)",
+}
+
+
+def write_figures(results: CritiqueResults, folder: str | PathLike[str]) -> list[Path]:
+    """Write ``residuals.png`` and ``loo_pit.png`` into ``folder`` (created if needed); return their paths."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    table = results.residuals
+    final = " + ".join(c for c in results.causes if c != "unexplained") or "classical"
+    figure, axes = plt.subplots(2, len(PLOTTED), figsize=(4 * len(PLOTTED), 6.5), sharey="row", squeeze=False)
+    for row, (column, label) in enumerate((("classical_z", "classical"), ("final_z", final))):
+        for ax, (covariate, name) in zip(axes[row], PLOTTED.items()):
+            for axis, colour in zip("xyz", ("C0", "C1", "C2")):
+                part = table[table["axis"] == axis]
+                ax.plot(part[covariate], part[column], ".", color=colour, ms=3, label=axis)
+            ax.axhline(0, color="k", lw=0.5)
+            ax.set_xlabel(name)
+        axes[row, 0].set_ylabel(f"held-out z, {label}")
+    axes[0, 0].legend(title="axis", fontsize=7)
+    figure.suptitle(f"{results.source}: verdict {results.verdict}, causes {results.causes or 'none'}")
+    figure.tight_layout()
+    residuals = folder / "residuals.png"
+    figure.savefig(residuals, dpi=120)
+    plt.close(figure)
+
+    figure, ax = plt.subplots(figsize=(5, 3.5))
+    bins = np.linspace(0, 1, 21)
+    ax.hist(table["classical_pit"], bins=bins, histtype="step", label="classical")
+    ax.hist(table["final_pit"], bins=bins, histtype="step", label=final)
+    ax.axhline(len(table) / (bins.size - 1), color="k", lw=0.5, ls="--")
+    ax.set_xlabel("LOO-PIT (leave one configuration out)")
+    ax.set_ylabel("equations")
+    ax.legend(fontsize=7)
+    figure.tight_layout()
+    pit = folder / "loo_pit.png"
+    figure.savefig(pit, dpi=120)
+    plt.close(figure)
+    return [residuals, pit]

@@ -1,0 +1,61 @@
+import json
+from pathlib import Path
+
+import pytest
+
+from bayescal.cell.campaign import write_campaign
+from bayescal.cli import main
+
+CONFIG = str(Path(__file__).resolve().parents[2] / "data" / "kr270.toml")
+
+
+@pytest.fixture(scope="module")
+def campaign_files(twin_campaign, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("critique")
+    paths = {}
+    for name, effects in (("plain", []), ("backlash", ["backlash"])):
+        paths[name] = folder / f"{name}.csv"
+        write_campaign(twin_campaign(effects, seed=2), paths[name], comments=[f"twin, Table III, {name}"])
+    return paths
+
+
+def run(capsys, argv):
+    status = main(["critique", *argv])
+    captured = capsys.readouterr()
+    return status, captured.out, captured.err
+
+
+def test_json_names_the_planted_cause_and_the_gain(capsys, campaign_files, tmp_path):
+    status, out, _ = run(capsys, [str(campaign_files["backlash"]), "--config", CONFIG, "--json", "--figures", str(tmp_path)])
+    assert status == 0
+    payload = json.loads(out)
+    assert payload["verdict"] == "misfit" and payload["causes"][0] == "backlash"
+    assert {"delta_elpd", "se"} <= set(payload["evidence"]["outliers"])
+    assert payload["gain"]["before"]["residual_rms_mm"] > payload["gain"]["after"]["residual_rms_mm"]
+    assert all(Path(path).is_file() for path in payload["figures"])
+
+
+def test_text_says_adequate_without_causes(capsys, campaign_files):
+    status, out, _ = run(capsys, [str(campaign_files["plain"]), "--config", CONFIG])
+    assert status == 0
+    assert "verdict: adequate" in out and "held-out gain" in out
+
+
+def test_same_seed_gives_the_same_output(capsys, campaign_files):
+    argv = [str(campaign_files["plain"]), "--config", CONFIG, "--json", "--seed", "3"]
+    assert run(capsys, argv)[1] == run(capsys, argv)[1]
+
+
+def test_bad_input_is_one_line_and_exit_2(capsys, campaign_files, tmp_path):
+    status, out, err = run(capsys, [str(tmp_path / "missing.csv"), "--config", CONFIG])
+    assert status == 2 and out == "" and len(err.strip().splitlines()) == 1 and "missing.csv" in err
+    lines = campaign_files["plain"].read_text().splitlines()
+    first = next(i for i, line in enumerate(lines) if not line.startswith("#")) + 1
+    fields = lines[first].split(",")
+    fields[-3] = str(float(fields[-3]) + 1000.0)
+    edited = tmp_path / "edited.csv"
+    edited.write_text("\n".join(lines[:first] + [",".join(fields)] + lines[first + 1 :]) + "\n")
+    status, _, err = run(capsys, [str(edited), "--config", CONFIG])
+    assert status == 2 and "plausibly deflect" in err and "edited.csv:3" in err
+    status, _, err = run(capsys, [str(campaign_files["plain"]), "--config", str(tmp_path / "none.toml")])
+    assert status == 2 and "none.toml" in err

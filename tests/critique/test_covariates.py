@@ -1,0 +1,37 @@
+import numpy as np
+import pytest
+
+from bayescal.critique.covariates import campaign_rows, measured_pose, pose_rows
+from bayescal.robot.stiffness import compliance_design
+from bayescal.twin.effects import parse_effect
+from bayescal.twin.simulator import DigitalTwin
+
+
+def test_measured_pose_recovers_the_sag_of_the_unloaded_arm(cell, plan):
+    # a stiffer compensator spring (x10) sags the arm by up to a degree before the load goes on
+    twin = DigitalTwin(cell, [parse_effect("compensator=10")])
+    q = plan.q[0]
+    sag = twin._deflections(q, np.zeros(6))
+    assert np.max(np.abs(sag)) > 0.01
+    names = np.array(list(cell.markers))
+    unloaded, _ = twin.positions(q, 0.0)
+    assert measured_pose(cell, q, names, unloaded) == pytest.approx(q + sag, abs=1e-9)
+    # two markers cannot fix the tool's orientation: the commanded pose is kept
+    assert np.array_equal(measured_pose(cell, q, names[:2], unloaded[:2]), q)
+
+
+def test_rows_carry_eq_31_and_the_measurement_order(cell, twin_campaign):
+    campaign = twin_campaign(seed=0)
+    rows = campaign_rows(cell, campaign)
+    assert len(rows) == len(campaign)
+    i = 7
+    expected = compliance_design(cell.robot, rows.q[i], rows.point[i], campaign.wrench[i])
+    assert rows.design[i] == pytest.approx(expected, rel=1e-12)
+    assert np.all(np.diff(rows.order[campaign.marker == "M1"]) == 1)
+    assert rows.noise.mean() == pytest.approx(1.0)
+
+
+def test_pose_rows_put_the_tool_point_at_the_test_pose(cell):
+    rows = pose_rows(cell, cell.test_q, cell.test_wrench, cell.test_point)
+    assert rows.position[0] == pytest.approx(cell.robot.point_position(cell.test_q, cell.test_point))
+    assert rows.load_torque[0] == pytest.approx(cell.robot.flange_jacobian(cell.test_q).T @ cell.test_wrench)
