@@ -15,13 +15,18 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	@touch $(STAMP)
 
-# The main job: the compensator geometry from the paper's Table I, then a Table III
-# campaign on the digital twin identified with that geometry posterior.
+# The main job: the compensator geometry from the paper's Table I, a Table III campaign
+# on the digital twin identified with that geometry posterior, a campaign designed for
+# the test pose, the critique of the model on the campaign, and the review page of all.
 demo: $(STAMP)
 	@mkdir -p build
 	$(BIN)/bayescal geometry data/table1_geometry.csv --posterior build/geometry_posterior.nc
 	$(BIN)/bayescal simulate --plan data/table3_plan.csv --config data/kr270.toml --repeats 3 --seed 1 -o build/campaign.csv
 	$(BIN)/bayescal calibrate build/campaign.csv --config data/kr270.toml --geometry build/geometry_posterior.nc --posterior build/elastostatic_posterior.nc
+	$(BIN)/bayescal plan --config data/kr270.toml --model linear -o build/plan.csv --json > build/plan.json
+	$(BIN)/bayescal critique build/campaign.csv --config data/kr270.toml --json > build/critique.json
+	$(BIN)/bayescal report --geometry build/geometry_posterior.nc --calibration build/elastostatic_posterior.nc \
+	    --campaign build/campaign.csv --config data/kr270.toml --plan build/plan.json --critique build/critique.json -o build/report
 
 # Regenerate the committed reports from the code and the data.
 reports: $(STAMP)
