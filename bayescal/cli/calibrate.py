@@ -33,8 +33,8 @@ def add_parser(subparsers) -> None:
     parser.add_argument(
         "--draws",
         type=whole_number(MIN_DRAWS, "fewer give no usable R-hat or effective sample size"),
-        default=1500,
-        help=f"kept draws per chain, at least {MIN_DRAWS} (default 1500)",
+        default=None,
+        help=f"kept draws per chain, at least {MIN_DRAWS} (default: the sampler's, 800 for gibbs)",
     )
     add_common_options(parser)
     parser.set_defaults(run=run)

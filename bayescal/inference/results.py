@@ -186,6 +186,8 @@ class ElastostaticResults:
         (eqs 33-34, with the exact model's correction when used), base axes, m.
     linear_closed_form : ClosedForm | None
         Estimates of eqs 33-34 without the exact model's correction.
+    summary_table : pandas.DataFrame | None
+        :meth:`summary`, once computed.
     """
 
     tree: object
@@ -203,6 +205,7 @@ class ElastostaticResults:
     iterations: int = 0
     residuals: np.ndarray = field(default_factory=lambda: np.empty((0, 3)), repr=False)
     linear_closed_form: ClosedForm | None = None
+    summary_table: pd.DataFrame | None = field(default=None, repr=False)
     sampler_name: str = "gibbs"
 
     @property
@@ -217,10 +220,13 @@ class ElastostaticResults:
         save(self.tree, path)
 
     def summary(self) -> pd.DataFrame:
-        """Mean, sd, ±3σ interval, R-hat, ESS and unit of every posterior variable."""
-        from bayescal.sampling.summary import summarize
+        """Mean, sd, ±3σ and central 99.73 % intervals, R-hat, ESS and unit of every posterior variable."""
+        if self.summary_table is None:
+            # R-hat and ESS of every variable take a good part of a second: computed once per results.
+            from bayescal.sampling.summary import summarize
 
-        return summarize(self.tree)
+            self.summary_table = summarize(self.tree)
+        return self.summary_table.copy()
 
     def parameters(self) -> dict[str, dict]:
         """The CLI's ``parameters`` block: k1..k<n>, K_c, s0, each an estimate or ``{"identifiable": false, "reason"}``.
@@ -262,7 +268,7 @@ class ElastostaticResults:
 
     def diagnostics(self) -> dict:
         """Convergence and fit diagnostics (the CLI's ``diagnostics`` block)."""
-        report = diagnostics(self.tree)
+        report = diagnostics(self.tree, self.summary())
         report |= {
             "model": self.model,
             "sampler": self.sampler_name,

@@ -47,6 +47,8 @@ START_SPREAD = 0.3
 """sd of the log-normal dispersion of the chains' initial noise variances around the start."""
 START_TRIES = 100
 """Draws from the proposal tried per chain for a start inside the support before starting at the caller's point."""
+GRADIENT_STEP = 1e-4
+"""Central-difference step of the mode search's gradient, in units of the caller's ``scale``."""
 HESSIAN_STEP = 0.05
 """Finite-difference step of the Laplace Hessian, in units of the caller's ``scale``."""
 
@@ -468,8 +470,20 @@ def _laplace(collapsed: _Collapsed, z0: np.ndarray, scale: np.ndarray, sigma2: n
         value = collapsed(points(x), sigma2, covariance)[0]
         return -value if np.isfinite(value) else 1e300
 
-    best = optimize.minimize(negative, np.zeros(adapted), method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-6, "maxiter": 4000})
-    best = optimize.minimize(negative, best.x, method="BFGS")
+    offsets = np.vstack([np.zeros(adapted), GRADIENT_STEP * np.eye(adapted), -GRADIENT_STEP * np.eye(adapted)])
+
+    def negative_and_gradient(x: np.ndarray) -> tuple[float, np.ndarray]:
+        # One batched evaluation gives the value and its central-difference gradient.
+        values = -collapsed(points(x + offsets), sigma2, covariance)
+        if not np.all(np.isfinite(values)):
+            return 1e300, np.zeros(adapted)
+        return float(values[0]), (values[1 : adapted + 1] - values[adapted + 1 :]) / (2 * GRADIENT_STEP)
+
+    best = optimize.minimize(negative_and_gradient, np.zeros(adapted), jac=True, method="BFGS")
+    if not (best.success and np.isfinite(best.fun) and best.fun < 1e300):
+        # Near the support's edge finite differences fail: a derivative-free search, then BFGS again.
+        best = optimize.minimize(negative, np.zeros(adapted), method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-6, "maxiter": 4000})
+        best = optimize.minimize(negative, best.x, method="BFGS")
     hessian = _hessian(lambda x: -collapsed(points(x), sigma2, covariance), best.x, HESSIAN_STEP)
     try:
         chol_x = np.linalg.cholesky(np.linalg.inv(hessian))

@@ -8,7 +8,6 @@ self-describing.  Intervals follow the paper: ``lo3``/``hi3`` are the mean
 
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Mapping, Sequence
 from datetime import datetime, timezone
@@ -151,14 +150,19 @@ def summarize(tree: xr.DataTree, var_names: Sequence[str] | None = None) -> pd.D
     return frame
 
 
-def diagnostics(tree: xr.DataTree) -> dict[str, float | int]:
-    """Worst-case convergence diagnostics over all posterior variables."""
-    posterior = tree["posterior"].to_dataset()
-    r_hat, bulk, tail = (_per_element(posterior, function) for function in (rhat, ess_bulk, ess_tail))
+def diagnostics(tree: xr.DataTree, summary: pd.DataFrame | None = None) -> dict[str, float | int]:
+    """Worst-case convergence diagnostics over all posterior variables.
+
+    ``summary`` is the tree's :func:`summarize` when the caller has it already:
+    R-hat and ESS are then not computed again.
+    """
+    posterior = tree["posterior"]
+    if summary is None:
+        summary = summarize(tree)
     return {
-        "r_hat_max": _worst(r_hat, max),
-        "ess_bulk_min": _worst(bulk, min),
-        "ess_tail_min": _worst(tail, min),
+        "r_hat_max": float(np.nanmax(summary["r_hat"])),
+        "ess_bulk_min": float(np.nanmin(summary["ess_bulk"])),
+        "ess_tail_min": float(np.nanmin(summary["ess_tail"])),
         "n_chains": int(posterior.sizes["chain"]),
         "n_draws": int(posterior.sizes["draw"]),
     }
@@ -234,7 +238,3 @@ def _per_element(dataset: xr.Dataset, function) -> dict[str, np.ndarray]:
     return out
 
 
-def _worst(values: dict[str, np.ndarray], pick) -> float:
-    values = np.concatenate([np.ravel(value) for value in values.values()])
-    finite = values[np.isfinite(values)]
-    return float(pick(finite)) if finite.size else math.nan
