@@ -47,10 +47,6 @@ START_SPREAD = 0.3
 """sd of the log-normal dispersion of the chains' initial noise variances around the start."""
 START_TRIES = 100
 """Draws from the proposal tried per chain for a start inside the support before starting at the caller's point."""
-GRADIENT_STEP = 1e-4
-"""Central-difference step of the mode search's gradient, in units of the caller's ``scale``."""
-HESSIAN_STEP = 0.05
-"""Finite-difference step of the Laplace Hessian, in units of the caller's ``scale``."""
 
 
 class NonlinearBlock(Protocol):
@@ -453,59 +449,31 @@ def _finite_start(proposal: _Proposal, collapsed, z, sigma2, covariance, rng, tr
 
 
 def _laplace(collapsed: _Collapsed, z0: np.ndarray, scale: np.ndarray, sigma2: np.ndarray, adapted: int, chains: int) -> _Proposal:
-    """Student-t proposal for the adapted coordinates at the mode of the collapsed posterior, with its Laplace covariance."""
-    from scipy import optimize
+    """Student-t proposal for the adapted coordinates at the mode of the collapsed posterior, with its Laplace covariance.
+
+    The mode and covariance come from :func:`~bayescal.sampling.independence.laplace`
+    (Newton steps on batched central differences).  Where the density is not
+    finite near the start (its support's edge), the proposal starts as
+    ``scale`` around the start and the tuning refits take over.
+    """
+    from bayescal.sampling.independence import laplace
 
     sigma2 = sigma2[None]
     covariance = _covariance(collapsed.stats, sigma2)
     unit = np.where(scale[:adapted] > 0, scale[:adapted], 1.0)
 
-    def points(x: np.ndarray) -> np.ndarray:
-        x = np.atleast_2d(x)
+    def log_prob(x: np.ndarray) -> np.ndarray:
         z = np.broadcast_to(z0, (x.shape[0], z0.size)).copy()
-        z[:, :adapted] += unit * x
-        return z
+        z[:, :adapted] = x
+        return collapsed(z, sigma2, covariance)
 
-    def negative(x: np.ndarray) -> float:
-        value = collapsed(points(x), sigma2, covariance)[0]
-        return -value if np.isfinite(value) else 1e300
-
-    offsets = np.vstack([np.zeros(adapted), GRADIENT_STEP * np.eye(adapted), -GRADIENT_STEP * np.eye(adapted)])
-
-    def negative_and_gradient(x: np.ndarray) -> tuple[float, np.ndarray]:
-        # One batched evaluation gives the value and its central-difference gradient.
-        values = -collapsed(points(x + offsets), sigma2, covariance)
-        if not np.all(np.isfinite(values)):
-            return 1e300, np.zeros(adapted)
-        return float(values[0]), (values[1 : adapted + 1] - values[adapted + 1 :]) / (2 * GRADIENT_STEP)
-
-    best = optimize.minimize(negative_and_gradient, np.zeros(adapted), jac=True, method="BFGS")
-    if not (best.success and np.isfinite(best.fun) and best.fun < 1e300):
-        # Near the support's edge finite differences fail: a derivative-free search, then BFGS again.
-        best = optimize.minimize(negative, np.zeros(adapted), method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-6, "maxiter": 4000})
-        best = optimize.minimize(negative, best.x, method="BFGS")
-    hessian = _hessian(lambda x: -collapsed(points(x), sigma2, covariance), best.x, HESSIAN_STEP)
+    log_prob.vectorized = True
     try:
-        chol_x = np.linalg.cholesky(np.linalg.inv(hessian))
-    except np.linalg.LinAlgError:
-        chol_x = np.eye(adapted)
-    center = z0[:adapted] + unit * best.x
-    chol = unit[:, None] * chol_x
+        center, cov = laplace(log_prob, z0[:adapted], unit)
+        chol = np.linalg.cholesky(cov)
+    except (ValueError, np.linalg.LinAlgError):
+        center, chol = z0[:adapted], np.diag(unit)
     return _Proposal(center=np.tile(center, (chains, 1)), chol=np.tile(chol, (chains, 1, 1)))
-
-
-def _hessian(f, x: np.ndarray, step: float) -> np.ndarray:
-    """Central-difference Hessian of ``f`` (batched: ``f`` maps ``(c, n)`` points to ``(c,)`` values) at ``x``."""
-    n = x.size
-    e = np.eye(n) * step
-    i, j = np.triu_indices(n)
-    corners = np.concatenate([x + e[i] + e[j], x + e[i] - e[j], x - e[i] + e[j], x - e[i] - e[j]])
-    values = f(corners).reshape(4, -1)
-    upper = (values[0] - values[1] - values[2] + values[3]) / (4 * step**2)
-    H = np.zeros((n, n))
-    H[i, j] = upper
-    H[j, i] = upper
-    return H
 
 
 def _positive_gaussian(mean: np.ndarray, covariance: np.ndarray, current: np.ndarray, rng: np.random.Generator) -> np.ndarray:
