@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from bayescal.units import MM
+
 from ._command import CommandOutput, add_common_options, check_output, whole_number, write_atomically
 
 # Table II's parameters, set beside ours in the text output.
@@ -74,7 +76,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         "cylinder_model": args.cylinder_model,
         "parameters": posterior.parameters_json(summary),
         "diagnostics": result.diagnostics,
-        "residuals_rms_mm": {name: value * 1e3 for name, value in result.residuals_rms.items()},
+        "residuals_rms_mm": {name: value / MM for name, value in result.residuals_rms.items()},
         "closed_form": {
             name: {"value": float(row["value"]), "unit": row["unit"]}
             for name, row in closed_table.iterrows()
@@ -121,7 +123,7 @@ def _text(args, summary, closed_table, result, reference) -> str:
             f"{row['r_hat']:7.3f}{closed}{paper}"
         )
     d = result.diagnostics
-    rms = ", ".join(f"{name} {value * 1e3:.3f}" for name, value in result.residuals_rms.items())
+    rms = ", ".join(f"{name} {value / MM:.3f}" for name, value in result.residuals_rms.items())
     sense = result.closed_form.lever
     lines += [
         "",

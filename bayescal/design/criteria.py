@@ -52,6 +52,7 @@ from bayescal.units import MM, N_PER_MM, URAD_PER_NM
 __all__ = [
     "CRITERIA",
     "ExactLinearisation",
+    "compliance_chain",
     "PlanPrediction",
     "configuration_design",
     "configuration_information",
@@ -92,12 +93,12 @@ def nominal_parameters(cell: Cell) -> np.ndarray:
     return np.array(values, dtype=float)
 
 
-def _chain(cell: Cell, q2: float) -> tuple[np.ndarray, np.ndarray]:
-    """Compliances acting at joint angle ``q2`` and their (nq, p) derivatives in the relative parameters."""
+def compliance_chain(cell: Cell, q2: float) -> tuple[np.ndarray, np.ndarray]:
+    """Compliances acting at joint angle ``q2`` (joint 2 with its compensator, eq 8) and their (nq, p)
+    derivatives in the parameters of :func:`parameter_names` (SI)."""
     k = cell.compliances
-    nominal = nominal_parameters(cell)
     effective = k.copy()
-    chain = np.eye(cell.robot.nq, len(nominal))
+    chain = np.eye(cell.robot.nq, len(parameter_names(cell)))
     compensator = cell.compensator
     if compensator is not None:
         j2 = COMPENSATED_JOINT
@@ -107,7 +108,7 @@ def _chain(cell: Cell, q2: float) -> tuple[np.ndarray, np.ndarray]:
         chain[j2, j2] = effective[j2] ** 2 / k[j2] ** 2
         chain[j2, -2] = -effective[j2] ** 2 * (c1 + compensator.s0 * c2)
         chain[j2, -1] = -effective[j2] ** 2 * compensator.K_c * c2
-    return effective, chain * nominal[np.newaxis, :]
+    return effective, chain
 
 
 def configuration_design(cell: Cell, q, wrench) -> tuple[np.ndarray, np.ndarray]:
@@ -131,7 +132,8 @@ def configuration_design(cell: Cell, q, wrench) -> tuple[np.ndarray, np.ndarray]
         (3·markers,) standard deviation of each deflection coordinate (m): ``√2 σ(p)``.
     """
     q = np.asarray(q, dtype=float)
-    _, chain = _chain(cell, float(q[COMPENSATED_JOINT]))
+    _, chain = compliance_chain(cell, float(q[COMPENSATED_JOINT]))
+    chain = chain * nominal_parameters(cell)[np.newaxis, :]
     points = list(cell.markers.values())
     rows = [compliance_design(cell.robot, q, point, wrench) @ chain for point in points]
     sigma = math.sqrt(2.0) * cell.tracker.sigma(cell.robot.point_position(q, np.array(points)))
@@ -153,7 +155,8 @@ def configuration_information(cell: Cell, q, mass: float, repeats: int = 1, *, e
 
 def test_pose_design(cell: Cell) -> np.ndarray:
     """(3, p) derivative of the test point's deflection (m) under the test wrench in the relative parameters."""
-    _, chain = _chain(cell, float(cell.test_q[COMPENSATED_JOINT]))
+    _, chain = compliance_chain(cell, float(cell.test_q[COMPENSATED_JOINT]))
+    chain = chain * nominal_parameters(cell)[np.newaxis, :]
     return compliance_design(cell.robot, cell.test_q, cell.test_point, cell.test_wrench) @ chain
 
 

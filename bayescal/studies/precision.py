@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from bayescal.design.criteria import compliance_chain, nominal_parameters, parameter_names
 from bayescal.cell.config import Cell
 from bayescal.cell.plan import Plan
 from bayescal.inference.identifiability import label_angle
@@ -28,7 +29,7 @@ from bayescal.robot.compensator import COMPENSATED_JOINT, CompensatorGeometry
 from bayescal.robot.stiffness import compliance_design
 from bayescal.twin.effects import Effect
 from bayescal.twin.simulator import DigitalTwin
-from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
+from bayescal.units import DEG, MM, N_PER_MM, UM, URAD_PER_NM
 
 if TYPE_CHECKING:
     from bayescal.inference.results import ElastostaticResults
@@ -43,35 +44,18 @@ THREE_SIGMA_TAILS = (0.00135, 0.99865)
 """Lower and upper quantiles of the posterior's 99.73 % band, the paper's ±3σ content."""
 
 
-def _linear_model_names(cell: Cell) -> list[str]:
-    names = [f"k{j}" for j in range(1, cell.robot.nq + 1)]
-    return names + (["K_c", "s0"] if cell.compensator is not None else [])
-
-
 def _linear_model(cell: Cell, plan: Plan, repeats: int):
     """Design of the linearised identification model, its true parameters and the noise of each equation.
 
     The parameters are ``k1..k6`` (rad/(N·m)) with, when the cell has a compensator,
     ``k2`` read as ``K_θ2^0`` through eq 8 and ``K_c`` (N/m) and ``s0`` (m) appended.
     """
-    robot, compensator, k = cell.robot, cell.compensator, cell.compliances
-    names = _linear_model_names(cell)
-    truth = list(k)
-    if compensator is not None:
-        truth += [compensator.K_c, compensator.s0]
+    robot = cell.robot
+    names, truth = parameter_names(cell), nominal_parameters(cell)
     blocks, sigmas, predicted = [], [], []
-    j2 = COMPENSATED_JOINT
     for q, mass in zip(plan.q, plan.masses(cell.load_mass)):
         wrench = cell.load_wrench(q, mass)
-        effective = k.copy()
-        chain = np.eye(robot.nq, len(names))
-        if compensator is not None:
-            effective[j2] = 1.0 / (1.0 / k[j2] + compensator.stiffness(q[j2]))
-            # K_c·a·L·η = C1·K_c + C2·s0·K_c (eq 35), so its derivatives in K_c and s0 are C1 + s0·C2 and K_c·C2.
-            _, c1, c2 = compensator.regressor(q[j2])
-            chain[j2, j2] = effective[j2] ** 2 / k[j2] ** 2
-            chain[j2, -2] = -effective[j2] ** 2 * (c1 + compensator.s0 * c2)
-            chain[j2, -1] = -effective[j2] ** 2 * compensator.K_c * c2
+        effective, chain = compliance_chain(cell, float(q[COMPENSATED_JOINT]))
         designs = [compliance_design(robot, q, point, wrench) for point in cell.markers.values()]
         noise = [np.sqrt(2.0) * cell.tracker.sigma(robot.point_position(q, point)) for point in cell.markers.values()]
         # the campaign's row order: repeat, then marker
@@ -80,7 +64,7 @@ def _linear_model(cell: Cell, plan: Plan, repeats: int):
                 blocks.append(design @ chain)
                 predicted.append(design @ effective)
                 sigmas.append(np.full(3, sigma))
-    return names, np.array(truth), np.vstack(blocks), np.concatenate(sigmas), np.concatenate(predicted)
+    return names, truth, np.vstack(blocks), np.concatenate(sigmas), np.concatenate(predicted)
 
 
 def _identifiable(design: np.ndarray, truth: np.ndarray) -> np.ndarray:
@@ -182,11 +166,11 @@ def effect_detectability(cell: Cell, plan: Plan, effect: Effect | None, *, repea
     target = difference / sigma
     solution, *_ = np.linalg.lstsq(weighted, target, rcond=None)
     residual = target - weighted @ solution
-    names = [name for name, keep in zip(_linear_model_names(cell), usable) if keep]
+    names = [name for name, keep in zip(parameter_names(cell), usable) if keep]
     return {
-        "rms_difference_um": float(np.sqrt(np.mean(difference**2)) / 1e-6),
-        "rms_unexplained_um": float(np.sqrt(np.mean((residual * sigma) ** 2)) / 1e-6),
-        "noise_sd_um": float(np.sqrt(np.mean(sigma**2)) / 1e-6),
+        "rms_difference_um": float(np.sqrt(np.mean(difference**2)) / UM),
+        "rms_unexplained_um": float(np.sqrt(np.mean((residual * sigma) ** 2)) / UM),
+        "noise_sd_um": float(np.sqrt(np.mean(sigma**2)) / UM),
         "noncentrality": float(residual @ residual),
         "n_equations": int(len(difference)),
         "parameter_shift_pct": {name: float(100.0 * value) for name, value in zip(names, solution)},
