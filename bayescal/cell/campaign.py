@@ -13,7 +13,11 @@ data, one row per marker per repeat per configuration::
   joints has columns ``q1_deg`` … ``q<n>_deg``;
 * the wrench is the one applied to the robot, referred to the origin of the
   ``flange`` frame and expressed in the base axes (N, N·m);
-* positions are in the robot base frame in mm, ``0`` unloaded and ``1`` loaded.
+* positions are in the robot base frame in mm, ``0`` unloaded and ``1`` loaded;
+* optional ``load_x_mm, load_y_mm, load_z_mm``: the point of the tool, in the
+  flange frame, where the load's force acts (a hanging mass); without them the
+  cell's tool load point is assumed.  A couple in the wrench beyond the force's
+  moment about the flange origin acts as a dead couple.
 
 Rows pair up when every row holds both its unloaded and its loaded position,
 no (config, repeat, marker) appears twice, and all rows of a configuration
@@ -42,10 +46,20 @@ from bayescal.units import DEG, MM
 if TYPE_CHECKING:
     from bayescal.cell.config import Cell
 
-__all__ = ["Campaign", "read_campaign", "write_campaign", "WRENCH_COLUMNS", "POSITION_COLUMNS", "MAX_LOAD_ARM", "check_wrench"]
+__all__ = [
+    "Campaign",
+    "read_campaign",
+    "write_campaign",
+    "WRENCH_COLUMNS",
+    "POSITION_COLUMNS",
+    "LOAD_POINT_COLUMNS",
+    "MAX_LOAD_ARM",
+    "check_wrench",
+]
 
 WRENCH_COLUMNS = ("fx_N", "fy_N", "fz_N", "mx_Nm", "my_Nm", "mz_Nm")
 POSITION_COLUMNS = ("x0_mm", "y0_mm", "z0_mm", "x1_mm", "y1_mm", "z1_mm")
+LOAD_POINT_COLUMNS = ("load_x_mm", "load_y_mm", "load_z_mm")
 _SAME_CONFIG_TOLERANCE = 1e-6
 """Largest difference (deg, N or N·m) between rows of one configuration still read as equal."""
 MAX_LOAD_ARM = 2.0
@@ -80,6 +94,9 @@ class Campaign:
         Line numbers in the source file (0 for a campaign not read from a file).
     source : str
         The file the campaign was read from, or a description.
+    load_point : numpy.ndarray or None, shape (N, 3)
+        Flange-frame point (m) where each row's load force acts; None: not given
+        (the cell's tool load point applies).
     """
 
     config: np.ndarray
@@ -91,10 +108,12 @@ class Campaign:
     p1: np.ndarray
     lines: np.ndarray
     source: str = "<memory>"
+    load_point: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.config)
         shapes = {
+            "load_point": (n, 3) if self.load_point is not None else (),
             "repeat": (n,),
             "marker": (n,),
             "wrench": (n, 6),
@@ -103,7 +122,7 @@ class Campaign:
             "lines": (n,),
         }
         for name, shape in shapes.items():
-            if np.shape(getattr(self, name)) != shape:
+            if getattr(self, name) is not None and np.shape(getattr(self, name)) != shape:
                 raise ValueError(f"Campaign.{name} has shape {np.shape(getattr(self, name))}, expected {shape}")
         if np.ndim(self.q) != 2 or len(self.q) != n:
             raise ValueError(f"Campaign.q has shape {np.shape(self.q)}, expected ({n}, nq)")
@@ -131,6 +150,9 @@ class Campaign:
         frame["marker"] = self.marker.astype(str)
         for name, values in zip(POSITION_COLUMNS, np.hstack([self.p0, self.p1]).T / MM):
             frame[name] = values
+        if self.load_point is not None:
+            for name, values in zip(LOAD_POINT_COLUMNS, self.load_point.T / MM):
+                frame[name] = values
         return frame
 
 
@@ -145,7 +167,7 @@ def write_campaign(campaign: Campaign, path: str | PathLike[str], *, comments: S
     frame = campaign.to_frame()
     decimals = {name: 6 for name in frame.columns if name.endswith("_deg")}
     decimals |= {name: 4 for name in WRENCH_COLUMNS}
-    decimals |= {name: 5 for name in POSITION_COLUMNS}
+    decimals |= {name: 5 for name in POSITION_COLUMNS + LOAD_POINT_COLUMNS}
     out = io.StringIO()
     out.writelines(f"# {line}\n" for comment in comments for line in str(comment).splitlines())
     writer = csv.writer(out, lineterminator="\n")
@@ -228,9 +250,9 @@ def read_campaign(
     columns |= {name: "number" for name in POSITION_COLUMNS}
     units = {name: "deg" for name in _joint_columns(n_joints)}
     units |= {name: "N" for name in WRENCH_COLUMNS[:3]} | {name: "N·m" for name in WRENCH_COLUMNS[3:]}
-    units |= {name: "mm" for name in POSITION_COLUMNS}
+    units |= {name: "mm" for name in POSITION_COLUMNS + LOAD_POINT_COLUMNS}
     try:
-        frame = read_table(path, columns, units=units)
+        frame = read_table(path, columns, optional={name: "number" for name in LOAD_POINT_COLUMNS}, units=units)
     except InputError as error:
         if error.column in POSITION_COLUMNS and error.what.startswith("missing value"):
             state = "unloaded" if error.column[1] == "0" else "loaded"
@@ -266,7 +288,16 @@ def read_campaign(
             )
         first_seen[key] = int(line)
 
-    shared = _joint_columns(n_joints) + list(WRENCH_COLUMNS)
+    given = [name for name in LOAD_POINT_COLUMNS if name in frame.columns]
+    if given and len(given) < len(LOAD_POINT_COLUMNS):
+        missing = next(name for name in LOAD_POINT_COLUMNS if name not in given)
+        raise InputError(
+            f"the campaign gives {', '.join(given)} but not {missing}: the load point needs all of "
+            f"{', '.join(LOAD_POINT_COLUMNS)}",
+            source=source,
+            column=missing,
+        )
+    shared = _joint_columns(n_joints) + list(WRENCH_COLUMNS) + given
     values = frame[shared].to_numpy(dtype=float)
     config = frame["config"].to_numpy(dtype=int)
     reference_row: dict[int, int] = {}
@@ -287,7 +318,7 @@ def read_campaign(
     if cell is not None:
         firsts = np.array(sorted(reference_row.values()))
         _check_angles(cell, values[firsts, :n_joints] * DEG, frame.index[firsts], source)
-        check_wrench(cell, values[firsts, n_joints:], frame.index[firsts], source)
+        check_wrench(cell, values[firsts, n_joints : n_joints + len(WRENCH_COLUMNS)], frame.index[firsts], source)
 
     positions = frame[list(POSITION_COLUMNS)].to_numpy(dtype=float) * MM
     if np.array_equal(positions[:, :3], positions[:, 3:]):
@@ -308,6 +339,7 @@ def read_campaign(
         p1=positions[:, 3:],
         lines=frame.index.to_numpy(dtype=int),
         source=source,
+        load_point=frame[given].to_numpy(dtype=float) * MM if given else None,
     )
 
 

@@ -42,7 +42,7 @@ from bayescal.cell.config import Cell
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError, NotIdentifiableWarning
 from bayescal.inference.closedform import ClosedForm, check_regression, closed_form
-from bayescal.inference.equations import DeflectionEquations, check_campaign, deflection_equations, deflection_noise
+from bayescal.inference.equations import DeflectionEquations, check_campaign, check_load_point, deflection_equations, deflection_noise
 from bayescal.inference.exact import linearisation_offset, scale_masses
 from bayescal.inference.identifiability import Identifiability, analyse, grouped, label_angle, practical_reasons
 from bayescal.inference.likelihood import compensated_posterior, per_angle_posterior
@@ -190,6 +190,8 @@ class ElastostaticModel:
             raise ValueError(f"model must be 'exact' or 'linear', got {self.model!r}")
         equations, torque, points = deflection_equations(self.robot, campaign, noise=self.noise, tracker=self.tracker)
         check_campaign(self.robot, campaign, points)
+        if announce:
+            check_load_point(self.robot, campaign, self.load_point)
         configs = np.unique(campaign.config, return_index=True)[1]
         ident = analyse(
             equations.whitened().per_angle_design(),

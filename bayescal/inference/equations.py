@@ -28,6 +28,8 @@ __all__ = [
     "deflection_equations",
     "deflection_noise",
     "check_campaign",
+    "check_load_point",
+    "COUPLE_TOLERANCE",
     "group_angles",
     "ANGLE_DECIMALS",
     "MAX_ANGLES",
@@ -43,6 +45,9 @@ MAX_MARKER_DISTANCE = 2.0
 MARKER_TOLERANCE = 10 * MM
 """How far a marker's position on the tool may scatter between rows (gravity sag and
 the exact model's correction move it by a few mm at most)."""
+COUPLE_TOLERANCE = 5.0
+"""Largest difference (N·m) between a wrench's couple and its force's moment at the load point taken as
+rounding: the moment of the KR-270's 2,650 N rated load over 2 mm of load point."""
 ANGLE_DECIMALS = 3
 """q2 angles equal when rounded to this many decimals of a degree are one angle of eq 34."""
 MAX_ANGLES = 16
@@ -261,6 +266,37 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray) -> None
                 UserWarning,
                 stacklevel=2,
             )
+
+
+def check_load_point(robot: Robot, campaign: Campaign, load_point: np.ndarray | None) -> None:
+    """Warn once when a wrench's couple is not the moment of its force at the load point.
+
+    The load point is the campaign's own (its ``load_*_mm`` columns) or else
+    ``load_point``.  A hanging mass exerts exactly the force's moment about
+    the flange origin; a couple beyond :data:`COUPLE_TOLERANCE` means the load
+    acts elsewhere, or the wrench holds a couple of its own.  The exact model
+    treats the remainder as a dead couple either way; the warning names the
+    largest discrepancy.
+    """
+    configs = np.unique(campaign.config, return_index=True)[1]
+    points = np.zeros((len(campaign), 3)) if load_point is None else np.broadcast_to(load_point, (len(campaign), 3))
+    if campaign.load_point is not None:
+        points = campaign.load_point
+    discrepancy = np.zeros(configs.size)
+    for index, row in enumerate(configs):
+        rotation, _ = robot.flange_pose(campaign.q[row])
+        force, couple = campaign.wrench[row, :3], campaign.wrench[row, 3:]
+        discrepancy[index] = np.linalg.norm(couple - np.cross(rotation @ points[row], force))
+    worst = int(np.argmax(discrepancy)) if discrepancy.size else 0
+    if discrepancy.size and discrepancy[worst] > COUPLE_TOLERANCE:
+        line = int(campaign.lines[configs[worst]])
+        warnings.warn(
+            f"{campaign.source}{f':{line}' if line else ''}: the wrench's couple differs by {discrepancy[worst]:.3g} N·m "
+            "from the moment of its force at the load point "
+            f"({'the campaign' if campaign.load_point is not None else 'the cell'}'s); the difference is taken as a dead couple",
+            UserWarning,
+            stacklevel=3,
+        )
 
 
 def _reject_largest(campaign: Campaign, vectors: np.ndarray, limit: float, suffix: str, message, columns=None) -> None:

@@ -98,7 +98,8 @@ def linearisation_offset(
     compensator
         The compensator whose static torque sets the unloaded and loaded equilibria.
     load_point
-        Flange-frame point where the load's force acts; None: flange origin, dead load.
+        Flange-frame point where the load's force acts when the campaign gives
+        none (its ``load_point`` columns take precedence); None: flange origin, dead load.
     """
     exact = np.empty((len(campaign), 3))
     row_angle = equations.angle[::3]
@@ -108,7 +109,13 @@ def linearisation_offset(
         k = np.array(compliances, dtype=float)
         k[COMPENSATED_JOINT] = compensator.own_compliance(q[COMPENSATED_JOINT], k2[row_angle[rows[0]]])
         exact[rows] = exact_deflections(
-            robot, q, campaign.wrench[rows[0]], k, compensator, unloaded_positions=campaign.p0[rows], load_point=load_point
+            robot,
+            q,
+            campaign.wrench[rows[0]],
+            k,
+            compensator,
+            unloaded_positions=campaign.p0[rows],
+            load_point=load_point if campaign.load_point is None else campaign.load_point[rows[0]],
         )
     per_row = np.repeat(np.asarray(compliances, dtype=float)[None, :], equations.n, axis=0)
     per_row[:, COMPENSATED_JOINT] = k2[equations.angle]

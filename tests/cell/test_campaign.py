@@ -284,3 +284,23 @@ def test_loaded_positions_equal_to_the_unloaded_ones_are_an_error(tmp_path):
 
     message = _error(_write_rows(tmp_path, copy_unloaded))
     assert "c.csv:2, column 'x1_mm'" in message and "were the unloaded columns copied" in message
+
+
+def test_the_load_point_columns_round_trip_and_must_come_together(tmp_path, cell, plan):
+    import dataclasses
+
+    import pandas as pd
+
+    from bayescal.twin.simulator import DigitalTwin
+
+    two = dataclasses.replace(plan, q=plan.q[:2], load_kg=plan.load_kg[:2], lines=plan.lines[:2])
+    campaign = DigitalTwin(cell).simulate(two, 1, np.random.default_rng(0))
+    with_point = dataclasses.replace(campaign, load_point=np.tile([0.1, -0.02, 0.3], (len(campaign), 1)))
+    path = tmp_path / "c.csv"
+    write_campaign(with_point, path)
+    np.testing.assert_allclose(read_campaign(path).load_point, with_point.load_point, atol=1e-8)
+
+    partial = tmp_path / "partial.csv"
+    pd.read_csv(path, comment="#").drop(columns=["load_z_mm"]).to_csv(partial, index=False)
+    with pytest.raises(InputError, match="column 'load_z_mm'.*the load point needs all of load_x_mm, load_y_mm, load_z_mm"):
+        read_campaign(partial)

@@ -263,3 +263,21 @@ def test_restore_refuses_a_posterior_with_fewer_angles_than_the_campaign(cell, c
         smaller = ElastostaticModel.from_cell(cell, sampler=GibbsSampler(n_chains=2, n_tune=50, n_draws=100)).fit(other, 0)
     with pytest.raises(InputError, match="joint-2 compliances at 4 q2 angles, the campaign identifies them at 5"):
         restore_results(cell, campaign, smaller.tree)
+
+
+def test_a_load_hanging_elsewhere_is_modelled_from_the_campaigns_load_point(cell, plan):
+    # The load hangs 150 mm from where the cell's tool says: the wrench's couple tells, and
+    # the campaign's load_*_mm columns give the exact model the right point.
+    elsewhere = cell.load_point + np.array([0.15, 0.05, 0.0])
+    quiet = dataclasses.replace(cell, tracker=dataclasses.replace(cell.tracker, factor=0.01))
+    campaign = DigitalTwin(dataclasses.replace(quiet, load_point=elsewhere)).simulate(plan, 1, np.random.default_rng(4))
+    model = ElastostaticModel.from_cell(quiet, sampler=GibbsSampler(n_chains=2, n_tune=100, n_draws=200))
+    with pytest.warns(UserWarning, match=r"the wrench's couple differs by \d+(\.\d+)? N·m from the moment of its force at the load point \(the cell's\)"):
+        blind = model.fit(campaign, 0)
+    told = dataclasses.replace(campaign, load_point=np.tile(elsewhere, (len(campaign), 1)))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        informed = model.fit(told, 0)
+    assert not [w for w in caught if "couple differs" in str(w.message)]
+    # Told where the load hangs, the fit reaches the tracker's noise; not told, it leaves twice its variance.
+    assert 0.8 < informed.chi2_per_dof < 1.25 < 1.6 < blind.chi2_per_dof
