@@ -159,10 +159,11 @@ def diagnostics(tree: xr.DataTree, summary: pd.DataFrame | None = None) -> dict[
     posterior = tree["posterior"]
     if summary is None:
         summary = summarize(tree)
+    # NaN (a variable whose chains never moved) propagates: it is the worst case, not a value to skip.
     return {
-        "r_hat_max": float(np.nanmax(summary["r_hat"])),
-        "ess_bulk_min": float(np.nanmin(summary["ess_bulk"])),
-        "ess_tail_min": float(np.nanmin(summary["ess_tail"])),
+        "r_hat_max": float(summary["r_hat"].max(skipna=False)),
+        "ess_bulk_min": float(summary["ess_bulk"].min(skipna=False)),
+        "ess_tail_min": float(summary["ess_tail"].min(skipna=False)),
         "n_chains": int(posterior.sizes["chain"]),
         "n_draws": int(posterior.sizes["draw"]),
     }

@@ -106,7 +106,8 @@ def elastostatic_coverage(
     pandas.DataFrame
         One row per campaign and parameter (``k2``..``k6``, ``K_c``, ``s0``,
         ``gravity_scale``): ``campaign``, ``parameter``, ``truth``, ``mean``,
-        ``sd`` (edge units), ``z`` = (truth - mean) / sd, ``identifiable``.
+        ``sd`` (edge units), ``z`` = (truth - mean) / sd, ``identifiable``, and the
+        fit's worst ``r_hat`` (NaN when a chain never moved).
     """
     rows = seeded_map(
         _one_campaign,
@@ -147,6 +148,7 @@ def _one_campaign(index: int, rng: np.random.Generator, *, cell, sampler, spread
         results = model.fit(campaign, rng)
     summary = results.summary()
     not_identifiable = results.identifiability.not_identifiable
+    r_hat = results.diagnostics()["r_hat_max"]
     values = {f"k{j + 1}": compliances[j] / URAD_PER_NM for j in range(cell.robot.nq) if j != 0}
     values |= {"K_c": spring[0] / N_PER_MM, "s0": spring[1] / MM, "gravity_scale": masses}
     out = []
@@ -163,6 +165,7 @@ def _one_campaign(index: int, rng: np.random.Generator, *, cell, sampler, spread
                 "sd": sd,
                 "z": (value - mean) / sd,
                 "identifiable": name not in not_identifiable,
+                "r_hat": r_hat,
             }
         )
     return out
