@@ -81,9 +81,12 @@ def _signed(value: float) -> str:
 
 
 def _table(frame: pd.DataFrame, digits: int = 4) -> str:
-    rows = [
-        [name, *(f"{v:.{digits}g}" if isinstance(v, float | np.floating) else v for v in row)] for name, row in frame.iterrows()
-    ]
+    def cell(value):
+        if isinstance(value, float | np.floating):
+            return "–" if np.isnan(value) else f"{value:.{digits}g}"
+        return value
+
+    rows = [[name, *(cell(v) for v in row)] for name, row in frame.iterrows()]
     return markdown_table([frame.index.name or "", *frame.columns], rows)
 
 
