@@ -77,6 +77,10 @@ class Robot:
         self._flange_id = model.getFrameId(flange)
         self._flange_frame = model.frames[self._flange_id]
 
+    def copy(self) -> Robot:
+        """The same robot with its own Pinocchio data: one per thread, since a data object holds each call's results."""
+        return Robot(self.model.copy(), flange=self.flange, source=self.source)
+
     @classmethod
     def from_urdf(cls, path: str | PathLike[str], *, flange: str = "flange") -> Robot:
         """Load a robot from a URDF file; ``flange`` names the tool frame (a link or fixed joint)."""

@@ -124,6 +124,8 @@ def elastostatic_coverage(
 
 
 def _one_campaign(index: int, rng: np.random.Generator, *, cell, sampler, spread, size, noise_um) -> list[dict]:
+    # Tasks may share a thread pool: each works on its own robot, whose Pinocchio data holds every call's results.
+    cell = dataclasses.replace(cell, robot=cell.robot.copy())
     factor = lambda width, n=None: rng.uniform(1.0 - width, 1.0 + width, n)  # noqa: E731
     compliances = cell.compliances * factor(spread.compliances, cell.robot.nq)
     spring = cell.compensator.K_c * factor(spread.K_c), cell.compensator.s0 * factor(spread.s0)

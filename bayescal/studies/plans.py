@@ -27,7 +27,6 @@ same noise streams (a paired comparison).
 
 from __future__ import annotations
 
-import copy
 import os
 from collections.abc import Mapping
 from concurrent.futures import Executor, ProcessPoolExecutor
@@ -119,7 +118,7 @@ def _campaign(model: CampaignModel, seed: np.random.SeedSequence) -> tuple[np.nd
     """One simulated campaign: the test point's error left (m) and the relative parameter errors."""
     truth_seed, noise_seed = seed.spawn(2)
     # A Robot keeps one Pinocchio data object: tasks on threads of one process must not share it.
-    cell = replace(model.cell, robot=copy.deepcopy(model.cell.robot))
+    cell = replace(model.cell, robot=model.cell.robot.copy())
     names = parameter_names(cell)
     spread = np.array([TRUTH_SPREAD["k"] if name.startswith("k") else TRUTH_SPREAD[name] for name in names])
     relative_truth = np.where(model.excited, np.random.default_rng(truth_seed).normal(size=len(names)) * spread, 0.0)
