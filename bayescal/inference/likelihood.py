@@ -92,11 +92,6 @@ class CompensatorBlock:
     def prior_cov(self) -> np.ndarray:
         return self.geometry.cov
 
-    def names(self) -> list[str]:
-        """Names of the coordinates of ``z``."""
-        gravity = ["gravity_scale"] if self.static is not None else []
-        return list(SPRING) + gravity + ([] if self.geometry.fixed else list(GEOMETRY))
-
     def _geometry(self, z: np.ndarray) -> np.ndarray:
         a = self.n_adapted
         return np.broadcast_to(self.geometry.mean, (z.shape[0], 4)) if self.geometry.fixed else z[:, a : a + 4]
