@@ -34,7 +34,7 @@ def add_parser(subparsers) -> None:
         "--draws",
         type=whole_number(MIN_DRAWS, "fewer give no usable R-hat or effective sample size"),
         default=None,
-        help=f"kept draws per chain, at least {MIN_DRAWS} (default: the sampler's, 800 for gibbs)",
+        help=f"kept draws per chain, at least {MIN_DRAWS} (default: the sampler's, 600 for gibbs, 800 for emcee)",
     )
     add_common_options(parser)
     parser.set_defaults(run=run)

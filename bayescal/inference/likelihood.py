@@ -27,7 +27,7 @@ in ``log sigma``); the compensator geometry ``(L, a_x, a_y, phi)`` Gaussian
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -75,6 +75,7 @@ class CompensatorBlock:
     q_ref: float
     static: np.ndarray | None = None
     gravity_sd: float = 0.0
+    _last_geometry: list = field(default_factory=lambda: [(None, None)], init=False, repr=False, compare=False)
 
     @property
     def ndim(self) -> int:
@@ -148,21 +149,37 @@ class CompensatorBlock:
         positive; the log prior is ``log K_c`` (the Jacobian of K_c's flat prior)
         plus the geometry's and the gravity scale's log densities.
         """
-        if self.geometry.fixed:
-            longest = self._longest
-            log_prior = z[:, 1]
-        else:
-            g = self._geometry(z)
-            longest = np.hypot(g[:, 1], g[:, 2]) + g[:, 0]
-            log_prior = z[:, 1] + self.geometry.log_density(g)
+        C, longest, log_prior = self._geometry_terms(z)
+        log_prior = log_prior + z[:, 1]
         if self.static is not None:
             log_prior = log_prior - 0.5 * ((z[:, len(SPRING)] - 1.0) / self.gravity_sd) ** 2
-        C = self._regressor(z, self.q2)
         total = self._stiffness(z, C)
         ok = (self._spring(z, C)[:, 0] > 0) & (z[:, 2] > 0) & (z[:, 2] < longest)
         positive = ok[:, None] & (total > 0)
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(positive, 1.0 / total, np.nan), np.where(ok, log_prior, -np.inf)
+
+    def _geometry_terms(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray | float, np.ndarray | float]:
+        """The eq-35 rows at the campaign's angles, the spring's longest length and the geometry's log prior at ``z``.
+
+        A sampler moves the spring and the geometry in separate steps, so most
+        calls repeat the previous call's geometry; the terms of the last geometry
+        are kept (as one tuple, so that threads sharing a block read a
+        consistent pair) and reused when it recurs.
+        """
+        if self.geometry.fixed:
+            return self._fixed_regressor[None], self._longest, 0.0
+        g = self._geometry(z)
+        key, terms = self._last_geometry[0]
+        if key is not None and key.shape == g.shape and np.array_equal(key, g):
+            return terms
+        terms = (
+            self._regressor(z, self.q2),
+            np.hypot(g[:, 1], g[:, 2]) + g[:, 0],
+            self.geometry.log_density(g),
+        )
+        self._last_geometry[0] = (g.copy(), terms)
+        return terms
 
     @cached_property
     def _fixed_regressor(self) -> np.ndarray:

@@ -37,7 +37,7 @@ T_DOF = 5.0
 """Degrees of freedom of the independence proposal: heavy enough tails to cover the posterior's."""
 T_INFLATION = 1.2
 """Scale of the independence proposal relative to the fitted covariance."""
-RANDOM_WALK_STEPS = 2
+RANDOM_WALK_STEPS = 3
 """Random-walk Metropolis steps per sweep after the independence step; they move chains the
 independence proposal leaves stuck in the tails."""
 REFITS = (0.2, 0.4, 0.6, 0.8)
@@ -173,77 +173,59 @@ class ConditionallyLinear:
 
 @dataclass(frozen=True)
 class _Sufficient:
-    """Per-group sums of a :class:`ConditionallyLinear` model: X'X, X'y, y'y and their block terms."""
+    """Per-group sums of a :class:`ConditionallyLinear` model: X'X, X'y, y'y and their terms in ``V = [B, W]``.
+
+    ``B`` spreads the block's column over its levels (row i has ``b_i`` in
+    column ``level_i``), so that ``B f + W u = V v`` with ``v = [f, u]``.
+    """
 
     counts: np.ndarray
     XtX: np.ndarray
     Xty: np.ndarray
     yty: np.ndarray
-    XtB: np.ndarray
-    ytB: np.ndarray
-    BtB: np.ndarray
-    XtW: np.ndarray
-    ytW: np.ndarray
-    WtW: np.ndarray
-    BtW: np.ndarray
+    XtV: np.ndarray
+    ytV: np.ndarray
+    VtV: np.ndarray
 
     @classmethod
     def of(cls, model: ConditionallyLinear) -> _Sufficient:
         G, X, y = model.n_groups, model.X, model.y
         rows = [model.group == g for g in range(G)]
         m = 0 if model.block is None else int(model.level.max(initial=-1)) + 1
-        # B spreads the scaled column over the levels: row i has b_i in column level_i.
-        XtB = np.zeros((G, X.shape[1], m))
-        ytB = np.zeros((G, m))
-        BtB = np.zeros((G, m))
-        W = np.zeros((y.size, 0)) if model.W is None else model.W
-        BtW = np.zeros((G, m, W.shape[1]))
-        for g, r in enumerate(rows):
-            if m:
-                for j in range(X.shape[1]):
-                    XtB[g, j] = np.bincount(model.level[r], weights=X[r, j] * model.b[r], minlength=m)
-                ytB[g] = np.bincount(model.level[r], weights=y[r] * model.b[r], minlength=m)
-                BtB[g] = np.bincount(model.level[r], weights=model.b[r] ** 2, minlength=m)
-                for j in range(W.shape[1]):
-                    BtW[g, :, j] = np.bincount(model.level[r], weights=model.b[r] * W[r, j], minlength=m)
+        B = np.zeros((y.size, m))
+        if m:
+            B[np.arange(y.size), model.level] = model.b
+        V = B if model.W is None else np.hstack([B, model.W])
         return cls(
             counts=np.array([r.sum() for r in rows], dtype=float),
             XtX=np.stack([X[r].T @ X[r] for r in rows]),
             Xty=np.stack([X[r].T @ y[r] for r in rows]),
             yty=np.array([y[r] @ y[r] for r in rows]),
-            XtB=XtB,
-            ytB=ytB,
-            BtB=BtB,
-            XtW=np.stack([X[r].T @ W[r] for r in rows]),
-            ytW=np.stack([y[r] @ W[r] for r in rows]),
-            WtW=np.stack([W[r].T @ W[r] for r in rows]),
-            BtW=BtW,
+            XtV=np.stack([X[r].T @ V[r] for r in rows]),
+            ytV=np.stack([y[r] @ V[r] for r in rows]),
+            VtV=np.stack([V[r].T @ V[r] for r in rows]),
         )
 
     def precision(self, sigma2: np.ndarray) -> np.ndarray:
         """``(c, p, p)`` precision of ``k`` given the variances ``(c, G)``."""
         return np.einsum("cg,gij->cij", 1.0 / sigma2, self.XtX)
 
-    def Xtr(self, f: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """``(c, G, p)`` ``X_g'(y_g - B_g f - W_g u)``."""
-        return self.Xty[None] - np.einsum("gpm,cm->cgp", self.XtB, f) - np.einsum("gpr,cr->cgp", self.XtW, u)
+    def Xtr(self, v: np.ndarray) -> np.ndarray:
+        """``(c, G, p)`` ``X_g'(y_g - V_g v)`` at the block's values ``v = [f, u]`` ``(c, m + r)``."""
+        return self.Xty[None] - np.einsum("gpm,cm->cgp", self.XtV, v)
 
-    def rhs(self, f: np.ndarray, u: np.ndarray, sigma2: np.ndarray) -> np.ndarray:
-        """``(c, p)`` ``sum_g X_g'(y_g - B_g f - W_g u) / sigma_g^2``."""
-        return np.einsum("cgp,cg->cp", self.Xtr(f, u), 1.0 / sigma2)
+    def rhs(self, v: np.ndarray, sigma2: np.ndarray) -> np.ndarray:
+        """``(c, p)`` ``sum_g X_g'(y_g - V_g v) / sigma_g^2``."""
+        return np.einsum("cgp,cg->cp", self.Xtr(v), 1.0 / sigma2)
 
-    def rtr(self, f: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """``(c, G)`` ``|y_g - B_g f - W_g u|^2``."""
-        value = self.yty[None] - 2.0 * f @ self.ytB.T + (f**2) @ self.BtB.T
-        if u.shape[1]:
-            value = value - 2.0 * u @ self.ytW.T + 2.0 * np.einsum("cm,gmr,cr->cg", f, self.BtW, u)
-            value = value + np.einsum("cr,grs,cs->cg", u, self.WtW, u)
-        return value
+    def rtr(self, v: np.ndarray) -> np.ndarray:
+        """``(c, G)`` ``|y_g - V_g v|^2``."""
+        return self.yty[None] - 2.0 * v @ self.ytV.T + np.einsum("cm,gmn,cn->cg", v, self.VtV, v)
 
-    def ssr(self, k: np.ndarray, f: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """``(c, G)`` residual sums of squares at ``k`` ``(c, p)``, block values ``f`` ``(c, m)`` and shifts ``u`` ``(c, r)``."""
+    def ssr(self, k: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``(c, G)`` residual sums of squares at ``k`` ``(c, p)`` and block values ``v`` ``(c, m + r)``."""
         quadratic = np.einsum("ci,gij,cj->cg", k, self.XtX, k)
-        return np.maximum(self.rtr(f, u) - 2.0 * np.einsum("cgp,cp->cg", self.Xtr(f, u), k) + quadratic, 0.0)
+        return np.maximum(self.rtr(v) - 2.0 * np.einsum("cgp,cp->cg", self.Xtr(v), k) + quadratic, 0.0)
 
 
 class _Collapsed:
@@ -259,10 +241,10 @@ class _Collapsed:
         f, log_prior = block.evaluate(z)
         u = block.shift(z)
         bad = ~np.all(np.isfinite(f), axis=1) | ~np.isfinite(log_prior)
-        f = np.where(bad[:, None], 0.0, f)
-        value = -0.5 * np.sum(self.stats.rtr(f, u) / sigma2, axis=1)
+        v = np.concatenate([np.where(bad[:, None], 0.0, f), u], axis=1)
+        value = -0.5 * np.sum(self.stats.rtr(v) / sigma2, axis=1)
         if self.model.n_linear:
-            rhs = self.stats.rhs(f, u, np.broadcast_to(sigma2, (f.shape[0], sigma2.shape[-1])))
+            rhs = self.stats.rhs(v, np.broadcast_to(sigma2, (f.shape[0], sigma2.shape[-1])))
             value = value + 0.5 * np.einsum("cp,cp->c", rhs, (covariance @ rhs[..., None])[..., 0])
         return np.where(bad, -np.inf, value + np.where(bad, 0.0, log_prior))
 
@@ -363,13 +345,13 @@ class GibbsSampler:
                     proposal = proposal.refit(np.array(history[len(history) // 2 :]))
                 z = _block_step(collapsed, proposal, trailing, z, sigma2, covariance, rng)
                 history.append(z[:, : proposal.center.shape[1]])
-                f, u = model.block.evaluate(z)[0], model.block.shift(z)
+                v = np.concatenate([model.block.evaluate(z)[0], model.block.shift(z)], axis=1)
             else:
-                f, u = np.zeros((C, 0)), np.zeros((C, 0))
+                v = np.zeros((C, 0))
             if p:
-                mean = (covariance @ stats.rhs(f, u, sigma2)[..., None])[..., 0]
+                mean = (covariance @ stats.rhs(v, sigma2)[..., None])[..., 0]
                 k = _positive_gaussian(mean, covariance, k, rng)
-            sigma2 = 0.5 * stats.ssr(k, f, u) / rng.gamma(0.5 * stats.counts, size=(C, G))
+            sigma2 = 0.5 * stats.ssr(k, v) / rng.gamma(0.5 * stats.counts, size=(C, G))
             if step >= self.n_tune:
                 draws[:, step - self.n_tune] = np.concatenate([k, z, 0.5 * np.log(sigma2)], axis=1)
         return draws
