@@ -14,25 +14,21 @@ generic one.
 
 from __future__ import annotations
 
-import html
-import io
-import json
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pandas as pd
-from matplotlib.figure import Figure
 
-from bayescal import __version__
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.inference.equations import deflection_noise
 from bayescal.inference.results import ElastostaticResults
 from bayescal.inference.testpose import TestPosePrediction
 from bayescal.reference import published
+from bayescal.reports.page import HTML_FILE, JSON_FILE, MARKDOWN_FILE, Page, finite_number, format_value, generic
 from bayescal.reports.figures import plot_error_distribution, plot_evidence, plot_pairs, plot_rank, plot_residuals
 from bayescal.reports.plots import plot_eta_curves, plot_joint2_compliance
 from bayescal.robot.compensator import CompensatorGeometry
@@ -43,19 +39,12 @@ from bayescal.units import DEG, MM, UM, URAD_PER_NM
 
 __all__ = ["ReviewInputs", "render_review", "HTML_FILE", "MARKDOWN_FILE", "JSON_FILE"]
 
-HTML_FILE = "index.html"
-MARKDOWN_FILE = "summary.md"
-JSON_FILE = "numbers.json"
-FIGURE_DPI = 110
-"""Resolution of the PNG figures: a 6.4-inch figure is 700 pixels wide, sharp on a 1280-pixel page."""
 ETA_S0_MM = (300.0, 400.0, 500.0, 600.0)
 """Spring free lengths (mm) of the η(q2) curves beside the identified one, spanning the paper's Fig. 3."""
 GEOMETRY_NAMES = ("L", "a_x", "a_y", "phi")
 """The compensator geometry of Table II (and the lever angle phi, which it does not list)."""
 DISPLAY_UNITS = {"urad/(N m)": "μrad/(N·m)"}
 """How the figures write the units the posterior files store in ASCII."""
-SIGNIFICANT = 4
-"""Significant digits of the numbers on the page (the JSON keeps every digit)."""
 
 
 @dataclass
@@ -107,7 +96,7 @@ def render_review(inputs: ReviewInputs) -> dict[str, bytes]:
     """
     if inputs.results is not None and (inputs.campaign is None or inputs.cell is None):
         raise ValueError("a review of elastostatic results needs their campaign and cell")
-    page = _Page("Calibration review")
+    page = Page("Calibration review")
     facts = _Facts.of(inputs.results) if inputs.results is not None else None
     _overview(page, inputs, facts)
     # Results first, for the reader who stops after the first screen; then what they rest on.
@@ -148,159 +137,12 @@ class _Facts:
         return cls(summary=results.summary(), parameters=results.parameters(), diagnostics=results.diagnostics())
 
 
-# ---------------------------------------------------------------------------- page
-class _Page:
-    """HTML, Markdown, JSON and figures written side by side, so that they show the same numbers."""
-
-    def __init__(self, title: str) -> None:
-        self.title = title
-        self.html: list[str] = []
-        self.markdown: list[str] = [f"# {title}", ""]
-        self.numbers: dict[str, Any] = {}
-        self.figures: dict[str, bytes] = {}
-        self.contents: list[tuple[str, str]] = []
-        self.section = ""
-
-    def heading(self, key: str, title: str) -> None:
-        self.section = key
-        self.numbers.setdefault(key, {})
-        self.contents.append((key, title))
-        self.html.append(f'<section id="{key}"><h2>{html.escape(title)}</h2>')
-        self.markdown += [f"## {title}", ""]
-
-    def close(self) -> None:
-        self.html.append("</section>")
-
-    def paragraph(self, text: str, *, css: str = "") -> None:
-        attribute = f' class="{css}"' if css else ""
-        self.html.append(f"<p{attribute}>{html.escape(text)}</p>")
-        self.markdown += [text, ""]
-
-    def items(self, lines: Sequence[str]) -> None:
-        self.html.append("<ul>" + "".join(f"<li>{html.escape(line)}</li>" for line in lines) + "</ul>")
-        self.markdown += [f"- {line}" for line in lines] + [""]
-
-    def record(self, key: str, value: Any) -> None:
-        self.numbers[self.section][key] = _plain(value)
-
-    def table(self, key: str, frame: pd.DataFrame, *, caption: str = "") -> None:
-        """A table on the page and in the Markdown, and its values under ``key`` in the JSON."""
-        frame = frame.copy()
-        index = frame.index.name or ""
-        self.record(key, {str(name): row for name, row in frame.to_dict(orient="index").items()})
-        header = [index, *map(str, frame.columns)]
-        rows = [[str(name), *(_format(value) for value in row)] for name, row in zip(frame.index, frame.itertuples(index=False))]
-        numeric = [[False, *(_is_number(value) for value in row)] for row in frame.itertuples(index=False)]
-        # A paragraph, not a <caption>: a caption wraps to the width of a narrow table.
-        caption_html = f'<p class="caption">{html.escape(caption)}</p>' if caption else ""
-        self.html.append(
-            f"{caption_html}<table><thead><tr>"
-            + "".join(f"<th>{html.escape(h)}</th>" for h in header)
-            + "</tr></thead><tbody>"
-            + "".join(
-                "<tr>" + "".join(f'<td{" class=num" if n else ""}>{html.escape(c)}</td>' for c, n in zip(row, kinds)) + "</tr>"
-                for row, kinds in zip(rows, numeric)
-            )
-            + "</tbody></table>"
-        )
-        if caption:
-            self.markdown += [f"*{caption}*", ""]
-        escape = lambda text: text.replace("|", "\\|")  # noqa: E731
-        self.markdown += ["| " + " | ".join(map(escape, header)) + " |", "|" + "---|" * len(header)]
-        self.markdown += ["| " + " | ".join(map(escape, row)) + " |" for row in rows] + [""]
-
-    def figure(self, name: str, figure: Figure, caption: str) -> None:
-        buffer = io.BytesIO()
-        figure.savefig(buffer, format="png", dpi=FIGURE_DPI)
-        self.figures[f"{name}.png"] = buffer.getvalue()
-        alt = html.escape(caption, quote=True)
-        self.html.append(f'<figure><img src="{name}.png" alt="{alt}"><figcaption>{html.escape(caption)}</figcaption></figure>')
-        self.markdown += [f"![{caption}]({name}.png)", ""]
-
-    def files(self) -> dict[str, bytes]:
-        toc = "".join(f'<li><a href="#{key}">{html.escape(title)}</a></li>' for key, title in self.contents)
-        document = _HTML_TEMPLATE.format(title=html.escape(self.title), version=__version__, toc=toc, body="\n".join(self.html))
-        numbers = json.dumps(self.numbers, indent=2, allow_nan=False, ensure_ascii=False) + "\n"
-        return {
-            HTML_FILE: document.encode(),
-            MARKDOWN_FILE: ("\n".join(self.markdown).rstrip() + "\n").encode(),
-            JSON_FILE: numbers.encode(),
-            **self.figures,
-        }
-
-
-_HTML_TEMPLATE = """<!DOCTYPE html>
-<html lang="en">
-<head>
-<meta charset="utf-8">
-<title>{title}</title>
-<style>
-body {{ font-family: system-ui, sans-serif; max-width: 1120px; margin: 1.5em auto; padding: 0 1em; color: #222; line-height: 1.45; }}
-h1 {{ margin-bottom: 0.2em; }}
-h2 {{ border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 1.8em; }}
-table {{ border-collapse: collapse; margin: 0.8em 0; font-size: 0.9em; }}
-p.caption {{ font-style: italic; margin: 1em 0 0.3em 0; }}
-th, td {{ border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }}
-td.num {{ text-align: right; font-variant-numeric: tabular-nums; }}
-td {{ max-width: 38em; }}
-thead {{ background: #f0f0f0; }}
-figure {{ margin: 1em 0; }}
-figure img {{ max-width: 100%; height: auto; border: 1px solid #ddd; }}
-figcaption {{ font-size: 0.9em; color: #444; }}
-.verdict {{ font-size: 1.1em; font-weight: 600; padding: 0.5em 0.8em; background: #eef4fb; border-left: 4px solid #3a78c2; }}
-.warning {{ padding: 0.5em 0.8em; background: #fff4e0; border-left: 4px solid #d08a00; }}
-nav ul {{ columns: 2; }}
-footer {{ margin-top: 3em; font-size: 0.8em; color: #666; }}
-</style>
-</head>
-<body>
-<h1>{title}</h1>
-<nav><ul>{toc}</ul></nav>
-{body}
-<footer>Written by bayescal {version}. Equation, table and figure numbers are those of Klimchik et al.,
-<i>Identification of geometrical and elastostatic parameters of heavy industrial robots</i>.</footer>
-</body>
-</html>
-"""
-
-
-def _plain(value: Any) -> Any:
-    """JSON values: numpy scalars to Python, NaN and infinity to null."""
-    if isinstance(value, Mapping):
-        return {str(key): _plain(item) for key, item in value.items()}
-    if isinstance(value, list | tuple | np.ndarray):
-        return [_plain(item) for item in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
 def _unit(unit: str) -> str:
     return DISPLAY_UNITS.get(unit, unit)
 
 
-def _is_number(value: Any) -> bool:
-    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool | np.bool_)
-
-
-def _format(value: Any) -> str:
-    if value is None or (isinstance(value, float | np.floating) and not math.isfinite(value)):
-        return "–"
-    if isinstance(value, bool | np.bool_):
-        return "yes" if value else "no"
-    if isinstance(value, int | np.integer):
-        return str(value)
-    if isinstance(value, float | np.floating):
-        return f"{value:.{SIGNIFICANT}g}"
-    if isinstance(value, Mapping | list | tuple):
-        return json.dumps(_plain(value), ensure_ascii=False)
-    return str(value)
-
-
 # ---------------------------------------------------------------------------- sections
-def _overview(page: _Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
+def _overview(page: Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
     page.heading("overview", "Overview")
     lines = []
     results = inputs.results
@@ -338,7 +180,7 @@ def _range(values: np.ndarray) -> tuple[float, float]:
     return float(np.min(values)), float(np.max(values))
 
 
-def _data_section(page: _Page, results: ElastostaticResults, campaign: Campaign, cell: Cell) -> None:
+def _data_section(page: Page, results: ElastostaticResults, campaign: Campaign, cell: Cell) -> None:
     page.heading("data", "The data")
     counts = {
         "rows": len(campaign),
@@ -371,7 +213,7 @@ def _data_section(page: _Page, results: ElastostaticResults, campaign: Campaign,
     page.close()
 
 
-def _geometry_section(page: _Page, tree, seed: int) -> None:
+def _geometry_section(page: Page, tree, seed: int) -> None:
     page.heading("geometry", "Compensator geometry beside Table II")
     observed = tree["observed_data"] if "observed_data" in tree.children else None
     if observed is not None and "q2_deg" in observed:
@@ -407,7 +249,7 @@ def _geometry_section(page: _Page, tree, seed: int) -> None:
     page.close()
 
 
-def _parameter_section(page: _Page, results: ElastostaticResults, facts: _Facts) -> None:
+def _parameter_section(page: Page, results: ElastostaticResults, facts: _Facts) -> None:
     page.heading("parameters", "Elastostatic parameters beside Table IV")
     summary, parameters = facts.summary, facts.parameters
     table_iv = published("IV")
@@ -443,7 +285,7 @@ def _parameter_section(page: _Page, results: ElastostaticResults, facts: _Facts)
     page.close()
 
 
-def _identifiability_section(page: _Page, results: ElastostaticResults, facts: _Facts) -> None:
+def _identifiability_section(page: Page, results: ElastostaticResults, facts: _Facts) -> None:
     page.heading("identifiability", "What the data cannot identify, and why")
     ident = results.identifiability
     page.paragraph(
@@ -468,7 +310,7 @@ def _identifiability_section(page: _Page, results: ElastostaticResults, facts: _
     page.close()
 
 
-def _convergence_section(page: _Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
+def _convergence_section(page: Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
     posteriors = {}
     if inputs.geometry is not None:
         posteriors["geometry"] = inputs.geometry
@@ -498,7 +340,7 @@ def _convergence_section(page: _Page, inputs: ReviewInputs, facts: _Facts | None
     page.close()
 
 
-def _pairs_section(page: _Page, results: ElastostaticResults, seed: int) -> None:
+def _pairs_section(page: Page, results: ElastostaticResults, seed: int) -> None:
     tree = results.tree["posterior"]
     names = [name for name in ("K_c", "s0", "k2", "k3") if name in tree]
     if len(names) < 2:
@@ -517,7 +359,7 @@ def _pairs_section(page: _Page, results: ElastostaticResults, seed: int) -> None
     page.close()
 
 
-def _residual_section(page: _Page, results: ElastostaticResults, table: pd.DataFrame, campaign: Campaign, cell: Cell) -> None:
+def _residual_section(page: Page, results: ElastostaticResults, table: pd.DataFrame, campaign: Campaign, cell: Cell) -> None:
     page.heading("residuals", "Residuals")
     page.paragraph(
         f"Residuals of the closed-form fit (eqs 33-34{', after the exact model’s correction' if results.model == 'exact' else ''}): "
@@ -538,7 +380,7 @@ def _residual_section(page: _Page, results: ElastostaticResults, table: pd.DataF
     page.close()
 
 
-def _compensator_section(page: _Page, results: ElastostaticResults, cell: Cell) -> None:
+def _compensator_section(page: Page, results: ElastostaticResults, cell: Cell) -> None:
     page.heading("compensator", "The compensator: η(q2) and joint 2's compliance")
     tree = results.tree["posterior"]
     mean = results.geometry.mean
@@ -572,7 +414,7 @@ def _compensator_section(page: _Page, results: ElastostaticResults, cell: Cell) 
     page.close()
 
 
-def _test_pose_section(page: _Page, prediction: TestPosePrediction, cell: Cell | None) -> None:
+def _test_pose_section(page: Page, prediction: TestPosePrediction, cell: Cell | None) -> None:
     page.heading("test_pose", "Error at the test pose")
     if not prediction.available:
         page.paragraph(f"Not available: {prediction.reason}.", css="warning")
@@ -608,41 +450,18 @@ def _test_pose_section(page: _Page, prediction: TestPosePrediction, cell: Cell |
     page.close()
 
 
-def _plan_section(page: _Page, plan: Mapping, source: str) -> None:
+def _plan_section(page: Page, plan: Mapping, source: str) -> None:
     page.heading("plan", "Experiment plan")
     if source:
         page.paragraph(f"From {source}.")
     criteria = {key: value for key, value in plan.items() if key.startswith("criterion") and not isinstance(value, Mapping | list)}
     if criteria:
-        page.paragraph("Design criterion: " + ", ".join(f"{key} = {_format(value)}" for key, value in criteria.items()), css="verdict")
-    _generic(page, plan)
+        page.paragraph("Design criterion: " + ", ".join(f"{key} = {format_value(value)}" for key, value in criteria.items()), css="verdict")
+    generic(page, plan)
     page.close()
 
 
-def _generic(page: _Page, data: Mapping, prefix: str = "") -> None:
-    """Any JSON: scalars in one table, a mapping of mappings or a list of mappings as a table each, the rest as text."""
-    scalars = {key: value for key, value in data.items() if not isinstance(value, Mapping | list)}
-    if scalars:
-        frame = pd.DataFrame({"value": [_format(v) for v in scalars.values()]}, index=pd.Index(list(scalars), name="key"))
-        page.table(prefix + "values", frame, caption=prefix.rstrip(".").replace(".", ": "))
-        page.record(prefix + "values", scalars)
-    for key, value in data.items():
-        if isinstance(value, Mapping) and value and all(isinstance(item, Mapping) for item in value.values()):
-            frame = pd.DataFrame.from_dict(dict(value), orient="index")
-            frame.index.name = key
-            page.table(prefix + key, frame, caption=(prefix + key).replace(".", ": "))
-        elif isinstance(value, Mapping):
-            _generic(page, value, prefix=f"{prefix}{key}.")
-        elif isinstance(value, list) and value and all(isinstance(item, Mapping) for item in value):
-            frame = pd.DataFrame(value)
-            frame.index.name = key
-            page.table(prefix + key, frame, caption=(prefix + key).replace(".", ": "))
-        elif isinstance(value, list):
-            page.items([f"{key}: {_format(item)}" for item in value])
-            page.record(prefix + key, value)
-
-
-def _study_section(page: _Page, study: pd.DataFrame, source: str) -> None:
+def _study_section(page: Page, study: pd.DataFrame, source: str) -> None:
     page.heading("study", "q2-angle study")
     if source:
         page.paragraph(f"From {source}.")
@@ -652,7 +471,7 @@ def _study_section(page: _Page, study: pd.DataFrame, source: str) -> None:
     page.close()
 
 
-def _critique_section(page: _Page, critique: Mapping, source: str) -> None:
+def _critique_section(page: Page, critique: Mapping, source: str) -> None:
     page.heading("critique", "Critique of the model")
     if source:
         page.paragraph(f"From {source}.")
@@ -662,16 +481,16 @@ def _critique_section(page: _Page, critique: Mapping, source: str) -> None:
     causes = critique.get("causes")
     if isinstance(causes, list) and causes and not all(isinstance(item, Mapping) for item in causes):
         page.paragraph("Likely causes:")
-        page.items([_format(cause) for cause in causes])
+        page.items([format_value(cause) for cause in causes])
         page.record("causes", causes)
     elif causes is not None:
-        _generic(page, {"causes": causes})
+        generic(page, {"causes": causes})
     evidence = critique.get("evidence")
     if isinstance(evidence, Mapping) and evidence and all(isinstance(v, Mapping) for v in evidence.values()):
         frame = pd.DataFrame.from_dict(dict(evidence), orient="index")
         frame.index.name = "candidate"
         page.table("evidence", frame, caption="Evidence per candidate effect")
-        usable = [name for name, row in evidence.items() if _finite_number(row.get("delta_elpd")) and _finite_number(row.get("se"))]
+        usable = [name for name, row in evidence.items() if finite_number(row.get("delta_elpd")) and finite_number(row.get("se"))]
         if usable:
             page.figure(
                 "critique_evidence",
@@ -679,12 +498,8 @@ def _critique_section(page: _Page, critique: Mapping, source: str) -> None:
                 "Δelpd of each candidate effect over the calibrated model, ±2 standard errors.",
             )
     elif evidence is not None:
-        _generic(page, {"evidence": evidence})
+        generic(page, {"evidence": evidence})
     rest = {key: value for key, value in critique.items() if key not in ("verdict", "causes", "evidence")}
     if rest:
-        _generic(page, rest)
+        generic(page, rest)
     page.close()
-
-
-def _finite_number(value: Any) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
