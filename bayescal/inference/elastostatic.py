@@ -69,6 +69,8 @@ parameters keep an autocorrelation time of a few iterations, which raises split 
 the chain length, and 24 × 300 draws gave R-hat 1.011-1.013.  On the Table III campaign 16 × 600 draws gave a
 smallest bulk ESS of 2,399-2,888 and R-hat ≤ 1.0095 (seeds 0-7), against 1,305-1,502 and R-hat ≤ 1.006 for
 8 × 800 with two random-walk steps a sweep, at about 60 % of its time."""
+EMCEE_CHAINS = 4
+"""emcee ensembles, each one chain of the result."""
 EMCEE_DRAWS = 200
 """emcee steps kept per walker by default."""
 EMCEE_TUNE = 1000
