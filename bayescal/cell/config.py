@@ -25,7 +25,7 @@ from bayescal.robot.kinematics import Robot
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.units import DEG, MM, N_PER_MM, UM, URAD_PER_NM
 
-__all__ = ["Cell", "load_cell", "OVERLOAD_FACTOR", "MIN_LOAD_FRACTION", "SCHEMA"]
+__all__ = ["Cell", "DesignLimits", "load_cell", "OVERLOAD_FACTOR", "MIN_LOAD_FRACTION", "SCHEMA"]
 
 OVERLOAD_FACTOR = 2.0
 """Largest plausible static load on the arm, as a multiple of the weight of its capacity.
@@ -64,6 +64,28 @@ Any other table or key is an error: a misspelt optional key (``factr``) would
 otherwise be ignored silently and its default used."""
 
 
+@dataclass(frozen=True)
+class DesignLimits:
+    """What the cell file's optional ``[design]`` table says of campaigns; ``None`` leaves the designer's default.
+
+    Attributes
+    ----------
+    mass_range : tuple of float or None
+        ``(low, high)`` masses (kg) that may hang at the load point (``mass_kg``).
+    acceptance : float or None
+        Largest incidence angle on a marker, rad (``acceptance_deg``, in (0, 90] deg).
+    floor_z : float or None
+        Floor height in the robot's base frame, m (``floor_z_mm``).
+    hanging_clearance : float or None
+        Height the load point keeps above the floor, m (``hanging_clearance_mm``).
+    """
+
+    mass_range: tuple[float, float] | None = None
+    acceptance: float | None = None
+    floor_z: float | None = None
+    hanging_clearance: float | None = None
+
+
 @dataclass(frozen=True, eq=False)
 class Cell:
     """Everything the digital twin and the identification need to know about a cell, in SI.
@@ -94,6 +116,8 @@ class Cell:
         The TOML file.
     payload_kg : float or None
         The robot's rated payload, kg (``robot.payload_kg``), when the file gives it.
+    design : DesignLimits
+        The ``[design]`` table: what campaigns of this cell may load and where they must keep clear.
     """
 
     robot: Robot
@@ -109,6 +133,7 @@ class Cell:
     test_point: np.ndarray
     source: str
     payload_kg: float | None = None
+    design: DesignLimits = DesignLimits()
 
     @property
     def capacity_weight(self) -> float:
@@ -257,6 +282,31 @@ def _check_urdf_xml(urdf: Path) -> None:
         raise InputError(f"not a URDF: the root element is <{root.tag}>, expected <robot>", source=urdf, line=1)
 
 
+def _design_limits(reader: _Reader) -> DesignLimits:
+    table = reader.table("design", required=False)
+    if table is None:
+        return DesignLimits()
+
+    def optional(key: str, unit: str, scale: float) -> float | None:
+        return reader.number("design", key, unit=unit) * scale if key in table else None
+
+    mass_range = None
+    if "mass_kg" in table:
+        low, high = reader.vector("design", "mass_kg", 2, unit="kg [low, high]")
+        if not 0 < low <= high:
+            reader.fail(f"expected masses 0 < low <= high in kg, got {low:g} to {high:g} (a campaign without load deflects nothing)", "design", "mass_kg")
+        mass_range = (float(low), float(high))
+    acceptance = optional("acceptance_deg", "deg", 1.0)
+    if acceptance is not None and not 0 < acceptance <= 90:
+        reader.fail(f"expected an angle in deg in (0, 90], got {acceptance:g}", "design", "acceptance_deg")
+    return DesignLimits(
+        mass_range=mass_range,
+        acceptance=None if acceptance is None else acceptance * DEG,
+        floor_z=optional("floor_z_mm", "mm", MM),
+        hanging_clearance=optional("hanging_clearance_mm", "mm", MM),
+    )
+
+
 def load_cell(path: str | PathLike[str]) -> Cell:
     """Read a cell TOML file (schema in ``docs/twin.md``) and convert it to SI.
 
@@ -354,6 +404,7 @@ def load_cell(path: str | PathLike[str]) -> Cell:
 
     test_wrench = reader.vector("test_pose", "wrench_N_Nm", 6, unit="N and N·m")
     cell = Cell(
+        design=_design_limits(reader),
         robot=robot,
         compliances=compliances,
         compensator=compensator,

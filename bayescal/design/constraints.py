@@ -23,9 +23,7 @@ orientations).  Both approximations are settings of :class:`DesignSpace`.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -33,7 +31,7 @@ from bayescal.cell.config import Cell
 from bayescal.errors import InputError
 from bayescal.design.criteria import solve_equilibrium
 from bayescal.robot.stiffness import EquilibriumError
-from bayescal.units import DEG, MM
+from bayescal.units import DEG
 
 __all__ = ["DesignSpace", "Feasibility", "load_design_space"]
 
@@ -101,51 +99,26 @@ class DesignSpace:
 
 
 def load_design_space(cell: Cell, *, mass_range: tuple[float, float] | None = None) -> DesignSpace:
-    """The design space of ``cell``: its TOML file's optional ``[design]`` table, else the defaults.
+    """The design space of ``cell``: its file's ``[design]`` table (:class:`~bayescal.cell.config.DesignLimits`), else the defaults.
 
-    ``[design]`` keys (all optional): ``mass_kg = [low, high]`` (default: the cell's
-    ``[load] mass_kg`` alone), ``acceptance_deg``, ``floor_z_mm``,
-    ``hanging_clearance_mm``.  ``mass_range`` (kg), e.g. from the command line,
-    overrides the file.
+    The mass range defaults to the cell's ``[load] mass_kg`` alone; ``mass_range``
+    (kg), e.g. from the command line, overrides the file.
 
     Raises
     ------
     InputError
-        Naming the file, line and key of a malformed entry, or an empty mass range.
+        For an empty or non-positive ``mass_range``.
     """
+    limits = cell.design
     source = cell.source
-    table: dict = {}
-    path = Path(source)
-    if path.is_file():
-        text = path.read_text(encoding="utf-8")
-        table = tomllib.loads(text).get("design", {})
-        lines = text.splitlines()
-    else:
-        lines = []
-
-    def fail(key: str, what: str):
-        line = next((n for n, raw in enumerate(lines, start=1) if raw.split("=")[0].strip() == key), None)
-        raise InputError(what, source=source, line=line, column=f"design.{key}")
-
-    def number(key: str, default: float) -> float:
-        value = table.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            fail(key, f"expected a number, got {value!r}")
-        return float(value)
-
-    masses = table.get("mass_kg", [cell.load_mass, cell.load_mass])
-    if not (isinstance(masses, list) and len(masses) == 2 and all(isinstance(m, (int, float)) and not isinstance(m, bool) for m in masses)):
-        fail("mass_kg", f"expected a list of 2 numbers in kg [low, high], got {masses!r}")
+    masses = limits.mass_range or (cell.load_mass, cell.load_mass)
     if mass_range is not None:
-        masses, source = list(mass_range), "--mass-kg"
-    acceptance = number("acceptance_deg", ACCEPTANCE_DEG)
-    if not 0 < acceptance <= 90:
-        fail("acceptance_deg", f"expected an angle in deg in (0, 90], got {acceptance:g}")
+        masses, source = mass_range, "--mass-kg"
     return DesignSpace(
         mass_range=(float(masses[0]), float(masses[1])),
-        acceptance=acceptance * DEG,
-        floor_z=number("floor_z_mm", FLOOR_Z / MM) * MM,
-        hanging_clearance=number("hanging_clearance_mm", HANGING_CLEARANCE / MM) * MM,
+        acceptance=ACCEPTANCE_DEG * DEG if limits.acceptance is None else limits.acceptance,
+        floor_z=FLOOR_Z if limits.floor_z is None else limits.floor_z,
+        hanging_clearance=HANGING_CLEARANCE if limits.hanging_clearance is None else limits.hanging_clearance,
         source=source,
     )
 

@@ -164,3 +164,24 @@ def test_a_urdf_that_is_not_one_gives_one_line(tmp_path, capfd, content, message
     with pytest.raises(InputError, match=message):
         load_cell(path)
     assert capfd.readouterr().err == ""  # the URDF parser did not get to print its own lines
+
+
+def test_the_design_table_is_read_in_si(cell):
+    assert cell.design.mass_range == (250.0, 280.0)
+    assert cell.design.acceptance == pytest.approx(math.radians(60.0))
+    assert cell.design.floor_z == 0.0
+
+
+@pytest.mark.parametrize(
+    "old, new, expected",
+    [
+        ("acceptance_deg = 60.0", "acceptance_deg = 120.0", r"an angle in deg in \(0, 90\]"),
+        ("mass_kg = [250.0, 280.0]", "mass_kg = [280.0, 250.0]", "0 < low <= high"),
+        ("mass_kg = [250.0, 280.0]", "mass_kg = 250.0", "a list of 2 numbers"),
+    ],
+)
+def test_a_malformed_design_table_names_its_line(tmp_path, data_dir, old, new, expected):
+    path = _edited(data_dir, tmp_path, old, new)
+    key = new.split(" =")[0]
+    with pytest.raises(InputError, match=rf"cell.toml:{_line_of(path, new)}, column 'design.{key}': expected .*{expected}"):
+        load_cell(path)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -22,13 +23,10 @@ def test_a_mass_range_of_zero_is_refused(cell):
         load_design_space(cell, mass_range=(0.0, 0.0))
 
 
-def test_a_malformed_design_table_names_its_line(tmp_path, cell, data_dir):
-    text = (data_dir / "kr270.toml").read_text().replace("acceptance_deg = 60.0", "acceptance_deg = 120.0")
-    path = tmp_path / "cell.toml"
-    path.write_text(text)
-    line = text.splitlines().index("acceptance_deg = 120.0") + 1
-    with pytest.raises(InputError, match=rf"cell.toml:{line}, column 'design.acceptance_deg'"):
-        load_design_space(replace(cell, source=str(path)))
+def test_the_design_limits_come_from_the_cell(cell):
+    limits = replace(cell.design, acceptance=math.radians(30.0), floor_z=0.2)
+    space = load_design_space(replace(cell, design=limits))
+    assert space.acceptance == pytest.approx(math.radians(30.0)) and space.floor_z == 0.2
 
 
 def test_segment_distance_matches_a_dense_sampling():
