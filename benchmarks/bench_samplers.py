@@ -45,11 +45,11 @@ def fit(cell, campaign, sampler: str) -> tuple[float, float, float, str, float]:
 
 
 def campaigns(cell, quick: bool):
-    plan = read_plan(DATA / "table3_plan.csv", cell.robot)
-    yield "Table III", DigitalTwin(cell).simulate(plan, REPEATS, np.random.default_rng(1))
+    table_iii = read_plan(DATA / "table3_plan.csv", cell.robot)
+    yield "Table III", DigitalTwin(cell).simulate(table_iii, REPEATS, np.random.default_rng(1))
     for factor in (10,) if quick else (10, 100):
         rng = np.random.default_rng(factor)
-        plan = random_plan(cell, ANGLES, len(plan.q) * factor // ANGLES, rng)
+        plan = random_plan(cell, ANGLES, len(table_iii.q) * factor // ANGLES, rng)
         yield f"{factor}x configurations", DigitalTwin(cell).simulate(plan, REPEATS, rng)
 
 
