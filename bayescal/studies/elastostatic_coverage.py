@@ -30,7 +30,7 @@ from bayescal.studies.parallel import seeded_map
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import MM, N_PER_MM, URAD_PER_NM
 
-__all__ = ["TruthSpread", "elastostatic_coverage", "random_plan"]
+__all__ = ["Truth", "TruthSpread", "elastostatic_coverage", "fit_against_truth", "random_plan"]
 
 LIMIT_MARGIN = 0.1
 """Fraction of each joint's range kept clear of its limits when drawing configurations."""
@@ -124,25 +124,73 @@ def elastostatic_coverage(
 
 
 def _one_campaign(index: int, rng: np.random.Generator, *, cell, sampler, spread, size, noise_um) -> list[dict]:
+    factor = lambda width, n=None: rng.uniform(1.0 - width, 1.0 + width, n)  # noqa: E731
+    truth = Truth(
+        compliances=cell.compliances * factor(spread.compliances, cell.robot.nq),
+        spring=(cell.compensator.K_c * factor(spread.K_c), cell.compensator.s0 * factor(spread.s0)),
+        masses=factor(spread.masses),
+    )
+    return [{"campaign": index} | row for row in fit_against_truth(cell, truth, rng, sampler=sampler, size=size, noise_um=noise_um)]
+
+
+@dataclasses.dataclass(frozen=True)
+class Truth:
+    """What the twin simulates where the cell only guesses: joint compliances (rad/(N·m)), the spring
+    ``(K_c (N/m), s0 (m))`` and a factor on every link's mass."""
+
+    compliances: np.ndarray
+    spring: tuple[float, float]
+    masses: float = 1.0
+
+
+def fit_against_truth(
+    cell: Cell,
+    truth: Truth,
+    rng: np.random.Generator,
+    *,
+    sampler: Sampler | None = None,
+    size: tuple[int, int, int] = (6, 5, 3),
+    noise_um: float | None = 8.0,
+) -> list[dict]:
+    """Simulate a random campaign with ``truth``, identify it with the model of the unchanged ``cell``.
+
+    Parameters
+    ----------
+    cell
+        The cell as the user knows it: the model is built from it.
+    truth
+        What the twin simulates instead of the cell's values.
+    rng
+        Source of the plan, the noise and the sampler's randomness.
+    sampler
+        The posterior sampler (default: the model's).
+    size
+        ``(angles, per_angle, repeats)`` of the random plan (:func:`random_plan`).
+    noise_um
+        Tracker noise sd per coordinate (μm) at every distance; None: the cell's tracker model.
+
+    Returns
+    -------
+    list of dict
+        Per parameter (``k2``..``k6``, ``K_c``, ``s0``, ``gravity_scale``) in edge units:
+        ``parameter``, ``truth``, ``mean``, ``sd``, ``z`` = (truth - mean) / sd,
+        ``identifiable``, and the fit's worst ``r_hat``.
+    """
     # Tasks may share a thread pool: each works on its own robot, whose Pinocchio data holds every call's results.
     cell = dataclasses.replace(cell, robot=cell.robot.copy())
-    factor = lambda width, n=None: rng.uniform(1.0 - width, 1.0 + width, n)  # noqa: E731
-    compliances = cell.compliances * factor(spread.compliances, cell.robot.nq)
-    spring = cell.compensator.K_c * factor(spread.K_c), cell.compensator.s0 * factor(spread.s0)
-    masses = factor(spread.masses)
     tracker = cell.tracker
     if noise_um is not None:
         # A tracker whose error does not grow with distance: U1 = 0, U0 scaled to the sd wanted.
         tracker = dataclasses.replace(tracker, U0=noise_um * 1e-6 / tracker.factor, U1=0.0)
-    truth = dataclasses.replace(
+    twin = dataclasses.replace(
         cell,
-        robot=scale_masses(cell.robot, masses),
-        compliances=compliances,
-        compensator=cell.compensator.geometry.with_spring(*spring),
+        robot=scale_masses(cell.robot, truth.masses),
+        compliances=truth.compliances,
+        compensator=cell.compensator.geometry.with_spring(*truth.spring),
         tracker=tracker,
     )
     plan = random_plan(cell, *size[:2], rng)
-    campaign = DigitalTwin(truth).simulate(plan, size[2], rng)
+    campaign = DigitalTwin(twin).simulate(plan, size[2], rng)
     options = {} if sampler is None else {"sampler": sampler}
     model = ElastostaticModel.from_cell(dataclasses.replace(cell, tracker=tracker), **options)
     with warnings.catch_warnings():
@@ -151,8 +199,8 @@ def _one_campaign(index: int, rng: np.random.Generator, *, cell, sampler, spread
     summary = results.summary()
     not_identifiable = results.identifiability.not_identifiable
     r_hat = results.diagnostics()["r_hat_max"]
-    values = {f"k{j + 1}": compliances[j] / URAD_PER_NM for j in range(cell.robot.nq) if j != 0}
-    values |= {"K_c": spring[0] / N_PER_MM, "s0": spring[1] / MM, "gravity_scale": masses}
+    values = {f"k{j + 1}": truth.compliances[j] / URAD_PER_NM for j in range(cell.robot.nq) if j != 0}
+    values |= {"K_c": truth.spring[0] / N_PER_MM, "s0": truth.spring[1] / MM, "gravity_scale": truth.masses}
     out = []
     for name, value in values.items():
         if name not in summary.index:
@@ -160,7 +208,6 @@ def _one_campaign(index: int, rng: np.random.Generator, *, cell, sampler, spread
         mean, sd = summary.loc[name, "mean"], summary.loc[name, "sd"]
         out.append(
             {
-                "campaign": index,
                 "parameter": name,
                 "truth": value,
                 "mean": mean,

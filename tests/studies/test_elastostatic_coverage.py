@@ -7,7 +7,8 @@ import pytest
 from scipy import stats
 
 from bayescal.sampling.gibbs import GibbsSampler
-from bayescal.studies.elastostatic_coverage import elastostatic_coverage, random_plan
+from bayescal.studies.elastostatic_coverage import Truth, elastostatic_coverage, fit_against_truth, random_plan
+from bayescal.units import MM, N_PER_MM
 
 LEVELS = np.array([1.0, 2.0, 3.0])
 NOMINAL = 2 * stats.norm.cdf(LEVELS) - 1  # 0.6827, 0.9545, 0.9973
@@ -54,3 +55,12 @@ def test_intervals_cover_with_the_cells_distance_dependent_noise(cell):
     rates = hits(group).mean(axis=0)
     tolerance = 4 * np.sqrt(NOMINAL * (1 - NOMINAL) / len(group)) + 1.0 / len(group)
     assert np.all(np.abs(rates - NOMINAL) <= tolerance), (rates, NOMINAL, tolerance)
+
+
+def test_a_spring_unlike_the_configs_is_found_from_near_noise_free_data(cell):
+    # the config says K_c = 144 N/mm and s0 = 458 mm; the twin's spring is 660 N/mm and 575 mm
+    truth = Truth(cell.compliances, (660.0 * N_PER_MM, 575.0 * MM))
+    rows = {row["parameter"]: row for row in fit_against_truth(cell, truth, np.random.default_rng(0), noise_um=0.3)}
+    for name in ("K_c", "s0"):
+        assert rows[name]["identifiable"] and abs(rows[name]["z"]) < 3.5, rows[name]
+    assert rows["K_c"]["sd"] < 0.01 * 660.0
