@@ -82,6 +82,11 @@ GRAVITY_SD = 0.2 / 3
 STATIC_STEPS = (0.05, 0.05, 0.05)
 """Finite-difference steps of the static columns: relative in K_c and K_c s0, absolute in the mass scale;
 the correction is linear in all three to well within this (the compensator torque is linear in K_c and K_c s0, eq 7)."""
+IMPLAUSIBLE_RATIO = 100.0
+"""Factor between the compliances a campaign implies and the config's beyond which the data are taken to be in
+another unit: joints of one robot model differ by tens of percent, a unit slip by 1000 (m, μm against mm)."""
+DETERMINED_FRACTION = 0.25
+"""Closed-form sd, as a fraction of the estimate, under which a compliance counts in the unit check."""
 CHI2_TOLERANCE = 2.0
 """chi2/dof of the fit against the config's tracker model beyond which (or below whose inverse) the tracker model
 is reported as not describing the data: with a few hundred equations chi2/dof has an sd below 0.1."""
@@ -223,6 +228,7 @@ class ElastostaticModel:
                     stacklevel=3,
                 )
         linear_cf = closed_form(equations.whitened(), ident, self.geometry.mean)
+        _check_scale(campaign, linear_cf, self.nominal_compliances)
         offset = np.zeros(equations.n)
         iterations = 0
         cf = linear_cf
@@ -572,6 +578,35 @@ def _check_determined(campaign: Campaign, equations: DeflectionEquations, ident:
             f"compliances and {len(equations.group_names)} noise levels: measure more markers or configurations",
             source=campaign.source,
         )
+
+
+def _check_scale(campaign: Campaign, cf: ClosedForm, nominal: np.ndarray) -> None:
+    """Reject a campaign whose well-determined compliances are all :data:`IMPLAUSIBLE_RATIO` times the config's, or negative.
+
+    A unit slip scales every deflection alike (positions in m or μm under an
+    ``_mm`` header) or flips its sign (the loaded and unloaded columns swapped);
+    and so does a wrench of the wrong sign; the compliances it implies are then
+    off by the same factor, which no real robot differs from its nominal values by.
+    """
+    sd = np.sqrt(np.diag(cf.cov))
+    ratios = np.array([value / nominal[joint] for value, (joint, _) in zip(cf.per_angle, cf.columns)])
+    determined = sd < DETERMINED_FRACTION * np.abs(cf.per_angle)
+    if not determined.any():
+        return
+    ratio = float(np.median(ratios[determined]))
+    if ratio <= 0:
+        what = (
+            "negative joint compliances: is the wrench's sign flipped (a hanging load has fz_N < 0), or are the unloaded "
+            "(x0_mm..z0_mm) and loaded (x1_mm..z1_mm) positions swapped?"
+        )
+    elif not 1 / IMPLAUSIBLE_RATIO < ratio < IMPLAUSIBLE_RATIO:
+        what = (
+            f"joint compliances {ratio:.3g} times the config's: are the positions in another unit than mm "
+            "(or the config's k_urad_per_Nm in another than μrad/(N·m))?"
+        )
+    else:
+        return
+    raise InputError(f"the campaign's deflections imply {what}", source=campaign.source)
 
 
 def _listed(names: list[str]) -> str:

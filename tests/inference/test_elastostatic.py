@@ -141,6 +141,16 @@ def test_implausible_deflections_are_rejected(cell, campaign):
         ElastostaticModel.from_cell(cell, **SMALL).fit(metres)
 
 
+def test_deflections_unlike_the_configs_compliances_name_a_unit_slip(cell, campaign):
+    flipped = dataclasses.replace(campaign, wrench=-campaign.wrench)
+    with pytest.raises(InputError, match="negative joint compliances: is the wrench's sign flipped"):
+        ElastostaticModel.from_cell(cell, **SMALL).fit(flipped)
+    # the config's compliances written in rad/(N·m) under the μrad/(N·m) key
+    wrong_unit = dataclasses.replace(cell, compliances=cell.compliances * 1e-6)
+    with pytest.raises(InputError, match=r"compliances [0-9.]+e\+0[56] times the config's"):
+        ElastostaticModel.from_cell(wrong_unit, **SMALL).fit(campaign)
+
+
 def test_parallel_loads_are_warned(cell, campaign):
     with pytest.warns(UserWarning, match="all loads are parallel"):
         ElastostaticModel.from_cell(cell, model="linear", sampler=GibbsSampler(n_chains=2, n_tune=20, n_draws=20)).fit(campaign)
