@@ -185,36 +185,50 @@ def _unit(angle: np.ndarray) -> np.ndarray:
 
 def _predict(theta: dict[str, float], q2: np.ndarray, marker: np.ndarray, sense: int, probe_z: np.ndarray | None) -> np.ndarray:
     """Predicted points (m), shape ``(n, 2)``, of markers ``marker`` at angles ``q2`` (rad)."""
-    get = theta.get
-    p2 = np.array([theta["p2_x"], theta["p2_y"]])
-    p0 = np.array([theta["p0_x"], theta["p0_y"]]) if "p0_x" in theta else None
-    lever_angle = theta["phi"] + sense * q2
-    lever = p2 + theta["L"] * _unit(lever_angle)
-    out = np.empty((q2.size, 2))
+    return _predict_many({name: np.array([value]) for name, value in theta.items()}, q2, marker, sense, probe_z)[0]
+
+
+def _predict_many(theta: dict[str, np.ndarray], q2: np.ndarray, marker: np.ndarray, sense: int, probe_z: np.ndarray | None) -> np.ndarray:
+    """Predictions ``(m, n, 2)`` for ``m`` parameter sets at once (each parameter an ``(m,)`` array): the Jacobians' batch."""
+
+    def get(name: str) -> np.ndarray | float:
+        return theta[name][:, np.newaxis] if name in theta else 0.0
+
+    p2_x, p2_y = get("p2_x"), get("p2_y")
+    lever_angle = get("phi") + sense * q2
+    lever_x = p2_x + get("L") * np.cos(lever_angle)
+    lever_y = p2_y + get("L") * np.sin(lever_angle)
+    x = np.zeros_like(lever_x)
+    y = np.zeros_like(lever_y)
     is_lever = marker == LEVER_MARKER
-    out[is_lever] = lever[is_lever]
+    x[:, is_lever], y[:, is_lever] = lever_x[:, is_lever], lever_y[:, is_lever]
     if probe_z is not None:
-        shift = get("probe_lever_radial", 0.0) * _unit(lever_angle) + get("probe_lever_tangential", 0.0) * _unit(lever_angle + np.pi / 2)
-        out[is_lever] += probe_z[is_lever, None] * shift[is_lever]
-    if p0 is not None and not np.all(is_lever):
-        spring = np.linalg.norm(lever - p0, axis=1)
-        extension = spring - np.linalg.norm(p2 - p0)
-        pivot = p0 + extension[:, None] * np.array([get("pivot_gx", 0.0), get("pivot_gy", 0.0)])
-        d = lever - pivot
-        direction = np.arctan2(d[:, 1], d[:, 0])
+        radial, tangential = get("probe_lever_radial"), get("probe_lever_tangential")
+        c, s = np.cos(lever_angle), np.sin(lever_angle)
+        x[:, is_lever] += (probe_z * (radial * c - tangential * s))[:, is_lever]
+        y[:, is_lever] += (probe_z * (radial * s + tangential * c))[:, is_lever]
+    if "p0_x" in theta and not np.all(is_lever):
+        p0_x, p0_y = get("p0_x"), get("p0_y")
+        extension = np.hypot(lever_x - p0_x, lever_y - p0_y) - np.hypot(p2_x - p0_x, p2_y - p0_y)
+        pivot_x = p0_x + extension * get("pivot_gx")
+        pivot_y = p0_y + extension * get("pivot_gy")
+        direction = np.arctan2(lever_y - pivot_y, lever_x - pivot_x)
         for name in np.unique(marker[~is_lever]):
             rows = marker == name
-            radius = theta[f"R[{name}]"] + get("slip_radius", 0.0) * extension[rows]
-            angle = direction[rows] + theta[f"delta[{name}]"] + get("slip_angle", 0.0) * extension[rows]
-            out[rows] = pivot[rows] + radius[:, None] * _unit(angle)
+            radius = get(f"R[{name}]") + get("slip_radius") * extension[:, rows]
+            angle = direction[:, rows] + get(f"delta[{name}]") + get("slip_angle") * extension[:, rows]
+            c, s = np.cos(angle), np.sin(angle)
+            x[:, rows] = pivot_x[:, rows] + radius * c
+            y[:, rows] = pivot_y[:, rows] + radius * s
             if probe_z is not None:
-                shift = get("probe_cylinder_radial", 0.0) * _unit(angle) + get("probe_cylinder_tangential", 0.0) * _unit(angle + np.pi / 2)
-                out[rows] += probe_z[rows, None] * shift
-    a, b = get("tilt_a", 0.0), get("tilt_b", 0.0)
-    if a or b:
-        projection = np.eye(2) - np.array([[a, b], [b, -a]])
-        out = p2 + (out - p2) @ projection.T
-    return out
+                radial, tangential = get("probe_cylinder_radial"), get("probe_cylinder_tangential")
+                x[:, rows] += probe_z[rows] * (radial * c - tangential * s)
+                y[:, rows] += probe_z[rows] * (radial * s + tangential * c)
+    if "tilt_a" in theta:
+        a, b = get("tilt_a"), get("tilt_b")
+        dx, dy = x - p2_x, y - p2_y
+        x, y = p2_x + (1 - a) * dx - b * dy, p2_y - b * dx + (1 + a) * dy
+    return np.stack([x, y], axis=-1)
 
 
 def _probe_covariate(name: str | None, q2: np.ndarray, reference: np.ndarray) -> np.ndarray | None:
@@ -271,7 +285,8 @@ class LayoutFit:
 
     def jacobian(self, q2: np.ndarray, marker: np.ndarray) -> np.ndarray:
         """``(2n, p)`` derivative of the flattened predictions by the parameters."""
-        return _jacobian(lambda t: self.predict_with(t, q2, marker).ravel(), self.theta)
+        z = _probe_covariate(self.spec.probe, q2, self.probe_reference)
+        return _jacobian(self.names, self.theta, lambda batch: _predict_many(batch, q2, marker, self.sense, z))
 
     def log_density(self, q2: np.ndarray, marker: np.ndarray, xy: np.ndarray) -> float:
         """Log predictive density of the points ``xy`` (m, ``(n, 2)``) of markers ``marker`` at ``q2``."""
@@ -311,13 +326,14 @@ class LayoutFit:
         return out
 
 
-def _jacobian(function: Callable[[np.ndarray], np.ndarray], theta: np.ndarray) -> np.ndarray:
-    columns = []
-    for j in range(theta.size):
-        step = np.zeros_like(theta)
-        step[j] = JACOBIAN_STEP
-        columns.append((function(theta + step) - function(theta - step)) / (2 * JACOBIAN_STEP))
-    return np.column_stack(columns)
+def _jacobian(names: list[str], theta: np.ndarray, predict_many: Callable[[dict[str, np.ndarray]], np.ndarray]) -> np.ndarray:
+    """``(2n, p)`` central-difference Jacobian of flattened predictions, all ``2p`` evaluations in one batch."""
+    p = theta.size
+    steps = JACOBIAN_STEP * np.eye(p)
+    batch = np.vstack([theta + steps, theta - steps])
+    values = predict_many({name: batch[:, j] for j, name in enumerate(names)})
+    values = values.reshape(2 * p, -1)
+    return ((values[:p] - values[p:]) / (2 * JACOBIAN_STEP)).T
 
 
 def _group_rows(marker: np.ndarray) -> dict[str, np.ndarray]:
@@ -360,10 +376,21 @@ def _fit(points: MarkerPoints, spec: _Spec, reference: np.ndarray) -> LayoutFit:
         theta = fixed | dict(zip(free, values))
         return (_predict(theta, q2[subset], marker[subset], sense, None if z is None else z[subset]) - xy[subset]).ravel()
 
+    def jacobian(values: np.ndarray, free: list[str], fixed: dict[str, float], subset: np.ndarray) -> np.ndarray:
+        m = 2 * len(free)
+        constant = {name: np.full(m, value) for name, value in fixed.items()}
+        return _jacobian(free, values, lambda batch: _predict_many(constant | batch, q2[subset], marker[subset], sense, None if z is None else z[subset]))
+
     def solve(free: list[str], fixed: dict[str, float], subset: np.ndarray, x0: dict[str, float], weight: np.ndarray | None = None) -> dict[str, float]:
         scale = 1.0 if weight is None else weight
+        fixed = {name: value for name, value in fixed.items() if name not in free}
         solution = least_squares(
-            lambda v: residual(v, free, fixed, subset) * scale, np.array([x0[name] for name in free]), method="lm", xtol=1e-12, ftol=1e-12
+            lambda v: residual(v, free, fixed, subset) * scale,
+            np.array([x0[name] for name in free]),
+            jac=lambda v: jacobian(v, free, fixed, subset) * (scale if np.ndim(scale) == 0 else scale[:, np.newaxis]),
+            method="lm",
+            xtol=1e-12,
+            ftol=1e-12,
         )
         return dict(zip(free, solution.x))
 
