@@ -52,6 +52,11 @@ current model:
   the same for every cylinder marker (they sit on one housing).  2 parameters:
   ``λ`` (dimensionless, reported in μm/mm) and ``ω`` (rad/m, reported in
   mdeg/mm).
+* ``joint_scale``: the lever turns by ``(1 + e) q2`` where q2 is read: a gain
+  error of the joint-2 angle, or a deflection of joint 2 growing with q2.
+  The cylinder markers follow the lever.  1 parameter ``e`` (dimensionless,
+  reported in %).  Added because a lever misfit that ``tilt`` explains could
+  come from the angles instead.
 * ``closed_loop``: no new parameter; all parameters estimated together from
   all markers (the loop P0-P1-P2 ties the cylinder markers' angles to the
   lever, so their points inform p2, L and phi too) instead of in two steps.
@@ -117,6 +122,7 @@ GEOMETRY_CATALOGUE = {
     "tilt": "the compensator plane tilted against the tracker's XY: arcs project as ellipses",
     "pivot_motion": "the pivot P0 moving in proportion to the spring force",
     "cylinder_slip": "cylinder markers' distance from P0 and angle from the cylinder axis varying with the spring length",
+    "joint_scale": "the lever turning by (1 + e) q2: a joint-2 angle scale error",
     "closed_loop": "all markers fitted jointly through the loop P0-P1-P2 instead of in two steps",
 }
 """The candidate extensions, by name, with what each models."""
@@ -169,6 +175,8 @@ class _Spec:
         rest = ["p0_x", "p0_y", *(f"R[{m}]" for m in cylinder), *(f"delta[{m}]" for m in cylinder)]
         if "tilt" in self.extensions:
             lever += ["tilt_a", "tilt_b"]
+        if "joint_scale" in self.extensions:
+            lever += ["joint_scale"]
         if "pivot_motion" in self.extensions:
             rest += ["pivot_gx", "pivot_gy"]
         if "cylinder_slip" in self.extensions:
@@ -195,7 +203,7 @@ def _predict_many(theta: dict[str, np.ndarray], q2: np.ndarray, marker: np.ndarr
         return theta[name][:, np.newaxis] if name in theta else 0.0
 
     p2_x, p2_y = get("p2_x"), get("p2_y")
-    lever_angle = get("phi") + sense * q2
+    lever_angle = get("phi") + sense * (1.0 + get("joint_scale")) * q2
     lever_x = p2_x + get("L") * np.cos(lever_angle)
     lever_y = p2_y + get("L") * np.sin(lever_angle)
     x = np.zeros_like(lever_x)
@@ -302,7 +310,12 @@ class LayoutFit:
         return float(total)
 
     def extension_parameters(self) -> dict[str, float]:
-        """The extensions' parameters in reporting units (keys name the unit)."""
+        """The extensions' parameters and their linearised sd in reporting units (keys name the unit).
+
+        ``tilt_deg`` and ``tilt_axis_deg`` (the in-plane axis, from the tracker's X, modulo 180°) with
+        ``tilt_anisotropy = 1 - cos t``; ``joint_scale_pct``; ``pivot_shift_{x,y}_um_per_mm`` (pivot shift
+        per mm of spring extension); ``slip_radius_um_per_mm`` and ``slip_angle_mdeg_per_mm``.
+        """
         theta = dict(zip(self.names, self.theta))
         sd = dict(zip(self.names, np.sqrt(np.diag(self.cov))))
         out: dict[str, float] = {}
@@ -313,6 +326,9 @@ class LayoutFit:
             # (a, b) points along twice the shortened direction; the tilt axis is across it.
             out["tilt_axis_deg"] = float((np.degrees(0.5 * np.arctan2(b, a)) + 90.0) % 180.0)
             out["tilt_anisotropy"] = 2.0 * amplitude
+        if "joint_scale" in theta:
+            out["joint_scale_pct"] = float(100.0 * theta["joint_scale"])
+            out["joint_scale_sd_pct"] = float(100.0 * sd["joint_scale"])
         if "pivot_gx" in theta:
             for axis in ("x", "y"):
                 key = f"pivot_g{axis}"
@@ -621,7 +637,8 @@ class GeometryCritiqueResults:
     probes : dict
         Each covariate probe's comparison against the final model.
     estimates : dict
-        Each candidate's own parameters fitted to all points at its last step (reporting units in the keys).
+        For each candidate, the extension parameters of the model with it (at its last step), fitted to
+        all points, in reporting units named in the keys.
     skipped : list of str
         Candidates not tried because they would leave a marker group fewer than :data:`MIN_DOF` degrees of freedom.
     base, final : AngleValidation

@@ -69,7 +69,7 @@ def test_geometry_json_has_the_critique_shape(capsys):
     assert status == 0
     payload = json.loads(out)
     assert payload["verdict"] in ("adequate", "misfit")
-    assert set(payload["evidence"]) == {"tilt", "pivot_motion", "cylinder_slip", "closed_loop"}
+    assert set(payload["evidence"]) == {"tilt", "pivot_motion", "cylinder_slip", "joint_scale", "closed_loop"}
     assert {"delta_elpd", "se", "step", "named"} <= set(payload["evidence"]["tilt"])
     assert {"delta_elpd", "se", "before", "after"} <= set(payload["gain"])
     assert payload["gain"]["held_out"] == "leave-one-angle-out"

@@ -47,6 +47,14 @@ def test_a_planted_effect_is_named_first(layout, angles, effect):
     assert results.causes[:1] == [effect]
 
 
+def test_an_effect_outside_the_catalogue_is_unexplained_and_follows_q2(layout, angles):
+    """A lever bending under the spring force: its misfit reaches the cylinder markers through the
+    lever's direction, so a cylinder extension may be named before it (docs/critique.md)."""
+    results = GeometryCritique().run(simulate_markers(layout, angles, np.random.default_rng(0), "lever_bending"))
+    assert results.verdict == "misfit" and results.causes[-1] == "unexplained"
+    assert results.unexplained_covariate == "q2_squared"
+
+
 def test_another_compensator_and_plan(layout):
     assert GeometryCritique().run(simulate_markers(OTHER_LAYOUT, OTHER_ANGLES, np.random.default_rng(3))).verdict == "adequate"
     found = GeometryCritique().run(simulate_markers(OTHER_LAYOUT, OTHER_ANGLES, np.random.default_rng(4), "pivot_motion"))

@@ -41,6 +41,16 @@ def test_pivot_motion_and_slip_leave_the_lever_and_move_the_cylinder_markers():
         assert np.all(np.linalg.norm(moved["P01"] - plain["P01"], axis=1) > 1e-5)
 
 
+def test_lever_bending_moves_the_lever_marker_along_its_arc_only():
+    plain, bent = _exact(), _exact("lever_bending")
+    assert np.allclose(bent["P01"], plain["P01"]) and np.allclose(bent["P02"], plain["P02"])
+    assert np.allclose(np.linalg.norm(bent["P1"] - LAYOUT.p2, axis=1), np.hypot(LAYOUT.L, np.linalg.norm(bent["P1"] - plain["P1"], axis=1)))
+
+
+def test_joint_scale_turns_every_marker_with_the_joint():
+    assert np.allclose(_exact("joint_scale", 0.01)["P02"], LAYOUT.positions(ANGLES * 1.01)["P02"])
+
+
 def test_slip_keeps_the_markers_on_their_circles():
     moved = _exact("cylinder_slip", 0.05)
     for name, (radius, _) in LAYOUT.cylinder.items():
