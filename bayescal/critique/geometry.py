@@ -322,7 +322,12 @@ class LayoutFit:
         if "tilt_a" in theta:
             a, b = theta["tilt_a"], theta["tilt_b"]
             amplitude = float(np.hypot(a, b))
-            out["tilt_deg"] = float(np.arccos(max(-1.0, 1.0 - 2.0 * amplitude)) / DEG)
+            tilt = float(np.arccos(max(-1.0, 1.0 - 2.0 * amplitude)))
+            out["tilt_deg"] = tilt / DEG
+            # linearised: t = arccos(1 - 2 hypot(a, b))
+            i, j = self.names.index("tilt_a"), self.names.index("tilt_b")
+            gradient = 2.0 / np.sin(tilt) * np.array([a, b]) / amplitude if amplitude > 0 else np.zeros(2)
+            out["tilt_sd_deg"] = float(np.sqrt(gradient @ self.cov[np.ix_([i, j], [i, j])] @ gradient) / DEG)
             # (a, b) points along twice the shortened direction; the tilt axis is across it.
             out["tilt_axis_deg"] = float((np.degrees(0.5 * np.arctan2(b, a)) + 90.0) % 180.0)
             out["tilt_anisotropy"] = 2.0 * amplitude
@@ -570,6 +575,7 @@ class GeometryCritique:
         causes: list[str] = []
         steps: list[dict[str, Comparison]] = []
         estimates: dict[str, dict[str, float]] = {}
+        leads: dict[str, tuple[str, Comparison]] = {}
         skipped: list[str] = []
         remaining = list(self.catalogue)
         while remaining:
@@ -590,6 +596,10 @@ class GeometryCritique:
             if not passing:
                 break
             best = max(passing, key=lambda name: evidence[name].delta_elpd)
+            others = [name for name in passing if name != best]
+            if others:
+                runner_up = max(others, key=lambda name: evidence[name].delta_elpd)
+                leads[best] = (runner_up, compare_elpd(trials[runner_up].elpd, trials[best].elpd))
             spec, current = spec.plus(best), trials[best]
             causes.append(best)
             remaining = [name for name in remaining if name != best]
@@ -609,6 +619,7 @@ class GeometryCritique:
             steps=steps,
             probes=probes,
             estimates=estimates,
+            leads=leads,
             skipped=sorted(set(skipped)),
             base=base,
             final=current,
@@ -639,6 +650,9 @@ class GeometryCritiqueResults:
     estimates : dict
         For each candidate, the extension parameters of the model with it (at its last step), fitted to
         all points, in reporting units named in the keys.
+    leads : dict
+        For each named cause that another candidate also passed at its step: that runner-up and the
+        held-out comparison of the cause against it (how clearly the data prefer one to the other).
     skipped : list of str
         Candidates not tried because they would leave a marker group fewer than :data:`MIN_DOF` degrees of freedom.
     base, final : AngleValidation
@@ -654,6 +668,7 @@ class GeometryCritiqueResults:
     steps: list[dict[str, Comparison]]
     probes: dict[str, Comparison]
     estimates: dict[str, dict[str, float]]
+    leads: dict[str, tuple[str, Comparison]]
     skipped: list[str]
     base: AngleValidation
     final: AngleValidation
@@ -696,6 +711,9 @@ class GeometryCritiqueResults:
                     "meaning": GEOMETRY_CATALOGUE[name],
                     "estimate": self.estimates.get(name, {}),
                 }
+                if name in self.leads:
+                    runner_up, lead = self.leads[name]
+                    evidence[name]["lead_over_runner_up"] = {"candidate": runner_up} | lead.to_json()
         payload = {
             "verdict": self.verdict,
             "causes": list(self.causes),
