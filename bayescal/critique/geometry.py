@@ -309,6 +309,38 @@ class LayoutFit:
             total += stats.multivariate_t.logpdf(xy[rows].ravel(), loc=mean[rows].ravel(), shape=shape, df=self.dof[group])
         return float(total)
 
+    def geometry(self) -> dict[str, float]:
+        """``L_mm, a_x_mm, a_y_mm, phi_deg`` of the fitted layout in the compensator's plane, each with its linearised sd.
+
+        The conventions of :class:`~bayescal.geometry.arcs.CompensatorGeometryModel` (y read as pointing
+        down when the lever turns counter-clockwise).  With a tilt, the layout's lengths are those of the
+        plane scaled by ``1 - r`` (``r = hypot(tilt_a, tilt_b)``, the isotropic part the projection's
+        parametrisation leaves to them), to first order in ``r``; they are divided by it here.
+        """
+        flip = -1.0 if self.sense == 1 else 1.0
+
+        def values(vector: np.ndarray) -> np.ndarray:
+            theta = dict(zip(self.names, vector))
+            scale = 1.0 / (1.0 - np.hypot(theta.get("tilt_a", 0.0), theta.get("tilt_b", 0.0)))
+            return np.array(
+                [
+                    theta["L"] * scale / MM,
+                    (theta["p2_x"] - theta["p0_x"]) * scale / MM,
+                    flip * (theta["p2_y"] - theta["p0_y"]) * scale / MM,
+                    flip * theta["phi"] / DEG,
+                ]
+            )
+
+        gradient = np.column_stack(
+            [(values(self.theta + step) - values(self.theta - step)) / (2 * JACOBIAN_STEP) for step in JACOBIAN_STEP * np.eye(self.theta.size)]
+        )
+        sd = np.sqrt(np.diag(gradient @ self.cov @ gradient.T))
+        out = {}
+        for name, value, spread in zip(("L_mm", "a_x_mm", "a_y_mm", "phi_deg"), values(self.theta), sd):
+            out[name] = float(value)
+            out[name.replace("_mm", "_sd_mm").replace("_deg", "_sd_deg")] = float(spread)
+        return out
+
     def extension_parameters(self) -> dict[str, float]:
         """The extensions' parameters and their linearised sd in reporting units (keys name the unit).
 
@@ -720,6 +752,7 @@ class GeometryCritiqueResults:
             "evidence": evidence,
             "gain": self.gain.to_json() | {"held_out": "leave-one-angle-out", "before": self.before, "after": self.after},
             "covariates": {name: c.to_json() | {"meaning": GEOMETRY_PROBES[name]} for name, c in self.probes.items()},
+            "geometry": {"two_step": self.base.full.geometry(), "final": self.final.full.geometry()},
             "noise_mm": {
                 "before": {group: self.base.full.sigma[group] / MM for group in _GROUPS},
                 "after": {group: self.final.full.sigma[group] / MM for group in _GROUPS},

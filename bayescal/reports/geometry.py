@@ -383,6 +383,23 @@ def _critique_section(critique: GeometryCritiqueResults, points_path) -> list[st
         _markdown(held, 3),
         "",
     ]
+    before, after = critique.base.full.geometry(), critique.final.full.geometry()
+    geometry = pd.DataFrame(
+        {
+            "two-step model": {name: before[f"{name}_mm"] for name in ("L", "a_x", "a_y")},
+            "two-step sd": {name: before[f"{name}_sd_mm"] for name in ("L", "a_x", "a_y")},
+            "final model": {name: after[f"{name}_mm"] for name in ("L", "a_x", "a_y")},
+            "final sd": {name: after[f"{name}_sd_mm"] for name in ("L", "a_x", "a_y")},
+        }
+    )
+    geometry.index.name = "parameter [mm]"
+    lines += [
+        "The geometry under both models (least squares, linearised sd; with a tilt, in the compensator's plane). "
+        "The final model's sds hold only if its extensions are right:",
+        "",
+        _markdown(geometry, 3),
+        "",
+    ]
     if estimates:
         lines += [
             "Extension parameters of the final model (all points): "

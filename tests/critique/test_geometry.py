@@ -73,9 +73,15 @@ def test_the_base_fit_is_the_closed_form_geometry_on_exact_points(layout, angles
 def test_a_planted_tilt_is_estimated(layout):
     angles = np.radians(np.linspace(-150.0, 10.0, 12))
     points = simulate_markers(layout, angles, np.random.default_rng(0), "tilt", 5 * DEG, sigma=0.005 * MM)
-    estimate = _fit(points, _Spec(("tilt",)), angles).extension_parameters()
-    assert estimate["tilt_deg"] == pytest.approx(5.0, abs=0.3)
+    fitted = _fit(points, _Spec(("tilt",)), angles)
+    estimate = fitted.extension_parameters()
+    assert estimate["tilt_deg"] == pytest.approx(5.0, abs=3 * estimate["tilt_sd_deg"])
     assert estimate["tilt_axis_deg"] == pytest.approx(60.0, abs=3.0)
+    # the geometry in the compensator's plane, not its projection
+    geometry = fitted.geometry()
+    assert geometry["L_mm"] == pytest.approx(layout.L / MM, abs=3 * geometry["L_sd_mm"])
+    assert geometry["a_x_mm"] == pytest.approx((layout.p2[0] - layout.p0[0]) / MM, abs=3 * geometry["a_x_sd_mm"])
+    assert abs(geometry["L_mm"] - layout.L / MM) < 0.01
 
 
 def test_held_out_predictive_covers_at_its_nominal_rate(layout, angles):
