@@ -25,7 +25,9 @@ def add_parser(subparsers) -> None:
         ),
     )
     parser.add_argument("campaign", nargs="?", help="campaign CSV (bayescal simulate writes one); not with --geometry")
-    parser.add_argument("--config", help="cell TOML file: robot URDF, compensator, tool markers, tracker, test pose; not with --geometry")
+    parser.add_argument(
+        "--config", help="cell TOML file: robot URDF, compensator, tool markers, tracker, test pose; not with --geometry"
+    )
     parser.add_argument(
         "--geometry",
         metavar="POINTS.csv",
@@ -97,7 +99,8 @@ def _geometry_text(results) -> str:
         f"residual rms per coordinate: lever {before['residual_rms_lever_mm']:.3f} -> {after['residual_rms_lever_mm']:.3f} mm, "
         f"cylinder {before['residual_rms_cylinder_mm']:.3f} -> {after['residual_rms_cylinder_mm']:.3f} mm",
         f"rule: a cause is named when ΔELPD > {results.rule['z']:g} SE and > {results.rule['floor_nats']:g} nats; "
-        f"with {results.n_angles} held-out angles the SE itself is uncertain by about {100 / (2 * (results.n_angles - 1)) ** 0.5:.0f} %",
+        f"with {results.n_angles} held-out angles the SE itself is uncertain by about "
+        f"{100 / (2 * (results.n_angles - 1)) ** 0.5:.0f} %",
     ]
     return "\n".join(lines)
 

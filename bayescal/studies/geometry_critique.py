@@ -184,7 +184,8 @@ def geometry_detection(
     """
     cases = [("none", None, n_null)] + [(effect, m, n_seeds) for effect, values in magnitudes.items() for m in values]
     seeds = np.random.SeedSequence(seed).generate_state(max(n_seeds, n_null))
-    tasks = [(layout, np.asarray(q2, dtype=float), None if e == "none" else e, m, sigma, int(s)) for e, m, n in cases for s in seeds[:n]]
+    q2 = np.asarray(q2, dtype=float)
+    tasks = [(layout, q2, None if e == "none" else e, m, sigma, int(s)) for e, m, n in cases for s in seeds[:n]]
     results = list((executor.map if executor is not None else map)(_one, tasks))
     rows, start = [], 0
     for effect, magnitude, n in cases:

@@ -135,5 +135,6 @@ def test_unknown_candidate_is_refused():
 
 @pytest.mark.slow
 def test_no_effect_is_adequate_in_at_least_95_percent_of_40_seeds(layout, angles):
-    verdicts = [GeometryCritique().run(simulate_markers(layout, angles, np.random.default_rng(1000 + seed))).verdict for seed in range(40)]
+    campaigns = (simulate_markers(layout, angles, np.random.default_rng(1000 + seed)) for seed in range(40))
+    verdicts = [GeometryCritique().run(points).verdict for points in campaigns]
     assert verdicts.count("adequate") >= 38
