@@ -93,6 +93,7 @@ extrapolations, where one angle can carry any gain.
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from os import PathLike
@@ -595,6 +596,8 @@ class GeometryCritique:
     def run(self, points: MarkerPoints) -> GeometryCritiqueResults:
         """Criticise the two-step model on ``points`` (see :func:`bayescal.geometry.arcs.read_arc_points`).
 
+        Points with z are criticised in (x, y), with a ``UserWarning``.
+
         Raises
         ------
         InputError
@@ -609,6 +612,8 @@ class GeometryCritique:
                     source=points.source,
                     column="q2_deg",
                 )
+        if points.dim == 3:
+            warnings.warn("the geometry critique is planar: it uses x and y and ignores z_mm", UserWarning, stacklevel=2)
         reference = np.unique(points.q2)
         spec = _Spec()
         base = current = _validate(points, spec, reference)

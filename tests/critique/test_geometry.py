@@ -128,6 +128,15 @@ def test_too_few_angles_is_an_input_error(layout):
         GeometryCritique().run(points)
 
 
+def test_z_is_ignored_with_a_warning(table_i):
+    from bayescal.geometry.arcs import MarkerPoints
+
+    xyz = np.column_stack([table_i.xyz, np.full(table_i.q2.size, 0.3)])
+    with pytest.warns(UserWarning, match="ignores z_mm"):
+        spatial = GeometryCritique().run(MarkerPoints.from_arrays(table_i.marker, table_i.q2, xyz))
+    assert spatial.causes == GeometryCritique().run(table_i).causes
+
+
 def test_unknown_candidate_is_refused():
     with pytest.raises(ValueError, match="unknown candidate"):
         GeometryCritique(catalogue=("tilt", "wobble"))
