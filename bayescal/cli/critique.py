@@ -21,7 +21,7 @@ def add_parser(subparsers) -> None:
             "(compensator, link_compliance, tool_compliance, backlash, nonlinear_stiffness, outliers) by their "
             "predictive density on held-out configurations, name the causes whose gain is clear of its "
             "uncertainty, and report the gain. With --geometry, criticise the planar two-step compensator-geometry "
-            "model on tracker arcs instead (tilt, pivot_motion, cylinder_slip, closed_loop; held-out joint angles)."
+            "model on tracker arcs instead (tilt, pivot_motion, cylinder_slip, joint_scale, closed_loop; held-out joint angles)."
         ),
     )
     parser.add_argument("campaign", nargs="?", help="campaign CSV (bayescal simulate writes one); not with --geometry")
