@@ -128,6 +128,15 @@ def test_too_few_angles_is_an_input_error(layout):
         GeometryCritique().run(points)
 
 
+def test_a_mirrored_tracker_frame_gives_the_same_critique(table_i):
+    from bayescal.geometry.arcs import MarkerPoints
+
+    mirrored = MarkerPoints.from_arrays(table_i.marker, table_i.q2, table_i.xyz * np.array([1.0, -1.0]))
+    a, b = GeometryCritique().run(table_i), GeometryCritique().run(mirrored)
+    assert a.causes == b.causes and a.gain.delta_elpd == pytest.approx(b.gain.delta_elpd, abs=1e-6)
+    assert a.to_json()["geometry"] == b.to_json()["geometry"]
+
+
 def test_z_is_ignored_with_a_warning(table_i):
     from bayescal.geometry.arcs import MarkerPoints
 
