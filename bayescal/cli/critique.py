@@ -1,4 +1,7 @@
-"""``bayescal critique``: what the classical VJM model gets wrong on a campaign, the likely cause, and the gain of fixing it."""
+"""``bayescal critique``: what the classical VJM model gets wrong on a campaign, the likely cause, and the gain of fixing it.
+
+With ``--geometry POINTS.csv`` the same for the compensator-geometry model on tracker arcs (Table I).
+"""
 
 from __future__ import annotations
 
@@ -17,11 +20,19 @@ def add_parser(subparsers) -> None:
             "Compare the classical serial VJM model (constant joint compliances, eq 30) with its extensions "
             "(compensator, link_compliance, tool_compliance, backlash, nonlinear_stiffness, outliers) by their "
             "predictive density on held-out configurations, name the causes whose gain is clear of its "
-            "uncertainty, and report the gain."
+            "uncertainty, and report the gain. With --geometry, criticise the planar two-step compensator-geometry "
+            "model on tracker arcs instead (tilt, pivot_motion, cylinder_slip, joint_scale, closed_loop; held-out joint angles)."
         ),
     )
-    parser.add_argument("campaign", help="campaign CSV (bayescal simulate writes one)")
-    parser.add_argument("--config", required=True, help="cell TOML file: robot URDF, compensator, tool markers, tracker, test pose")
+    parser.add_argument("campaign", nargs="?", help="campaign CSV (bayescal simulate writes one); not with --geometry")
+    parser.add_argument(
+        "--config", help="cell TOML file: robot URDF, compensator, tool markers, tracker, test pose; not with --geometry"
+    )
+    parser.add_argument(
+        "--geometry",
+        metavar="POINTS.csv",
+        help="criticise the compensator-geometry model on tracker points (q2_deg, marker, x_mm, y_mm) instead of a campaign",
+    )
     parser.add_argument("--figures", metavar="DIR", help="write the residual and LOO-PIT figures into this folder")
     add_common_options(parser)
     parser.set_defaults(run=run)
@@ -29,6 +40,15 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> CommandOutput:
     import numpy as np
+
+    from bayescal.errors import InputError
+
+    if args.geometry is not None:
+        if args.campaign is not None or args.config is not None or args.figures is not None:
+            raise InputError("--geometry takes the points file only: drop the campaign, --config and --figures", source="--geometry")
+        return _run_geometry(args)
+    if args.campaign is None or args.config is None:
+        raise InputError("expected a campaign CSV and --config CELL.toml, or --geometry POINTS.csv")
 
     from bayescal.cell.campaign import read_campaign
     from bayescal.cell.config import load_cell
@@ -46,6 +66,43 @@ def run(args: argparse.Namespace) -> CommandOutput:
     if figures:
         payload["figures"] = figures
     return CommandOutput(payload=payload, text=_text(results, figures))
+
+
+def _run_geometry(args: argparse.Namespace) -> CommandOutput:
+    from bayescal.critique.geometry import GeometryCritique
+    from bayescal.geometry.arcs import read_arc_points
+
+    results = GeometryCritique().run(read_arc_points(args.geometry))
+    return CommandOutput(payload=results.to_json() | {"seed": args.seed}, text=_geometry_text(results))
+
+
+def _geometry_text(results) -> str:
+    before, after = results.before, results.after
+    lines = [f"{results.source}: {results.n_points} points at {results.n_angles} joint angles, held out one angle at a time"]
+    if results.verdict == "adequate":
+        lines.append("verdict: adequate - no extension predicts held-out angles clearly better than the two-step model")
+    else:
+        lines.append(f"verdict: misfit - causes in order of gain: {', '.join(results.causes)}")
+    lines.append("")
+    lines.append(f"{'candidate':<16}{'step':>5}{'ΔELPD':>10}{'SE':>8}  named")
+    for name, entry in results.to_json()["evidence"].items():
+        lines.append(f"{name:<16}{entry['step']:>5}{entry['delta_elpd']:>10.1f}{entry['se']:>8.1f}  {'yes' if entry['named'] else ''}")
+    if results.unexplained_covariate is not None:
+        c = results.probes[results.unexplained_covariate]
+        lines.append(
+            f"unexplained: the residuals follow {results.unexplained_covariate} (ΔELPD {c.delta_elpd:.1f} ± {c.se:.1f} nats) "
+            "and no extension explains it"
+        )
+    lines += [
+        "",
+        f"held-out gain: ΔELPD {results.gain.delta_elpd:.1f} ± {results.gain.se:.1f} nats over {results.n_angles} angles; "
+        f"residual rms per coordinate: lever {before['residual_rms_lever_mm']:.3f} -> {after['residual_rms_lever_mm']:.3f} mm, "
+        f"cylinder {before['residual_rms_cylinder_mm']:.3f} -> {after['residual_rms_cylinder_mm']:.3f} mm",
+        f"rule: a cause is named when ΔELPD > {results.rule['z']:g} SE and > {results.rule['floor_nats']:g} nats; "
+        f"with {results.n_angles} held-out angles the SE itself is uncertain by about "
+        f"{100 / (2 * (results.n_angles - 1)) ** 0.5:.0f} %",
+    ]
+    return "\n".join(lines)
 
 
 def _text(results, figures: list[str]) -> str:

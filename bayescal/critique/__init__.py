@@ -1,5 +1,10 @@
-"""Model criticism: where the classical VJM model disagrees with a campaign, the likely cause, and the gain of fixing it."""
+"""Model criticism: where a model disagrees with the measurements, the likely cause, and the gain of fixing it.
 
+:class:`Critique` criticises the classical VJM model on a campaign; :class:`GeometryCritique` the planar
+compensator-geometry model on tracker arcs (Table I).
+"""
+
+from bayescal.critique.geometry import GeometryCritique, GeometryCritiqueResults
 from bayescal.critique.model import Critique, CritiqueResults
 
-__all__ = ["Critique", "CritiqueResults"]
+__all__ = ["Critique", "CritiqueResults", "GeometryCritique", "GeometryCritiqueResults"]

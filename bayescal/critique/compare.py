@@ -35,7 +35,7 @@ from scipy import linalg, special, stats
 
 from bayescal.critique.extensions import OUTLIER_DOF
 
-__all__ = ["Fit", "CrossValidation", "Comparison", "fit", "cross_validate", "compare", "independent_columns", "COLLINEAR_TOLERANCE"]
+__all__ = ["Fit", "CrossValidation", "Comparison", "fit", "cross_validate", "compare", "compare_elpd", "independent_columns", "COLLINEAR_TOLERANCE"]
 
 COLLINEAR_TOLERANCE = 1e-3
 """A column whose part not explained by the columns before it is below this fraction of its
@@ -249,7 +249,12 @@ class Comparison:
 
 def compare(a: CrossValidation, b: CrossValidation) -> Comparison:
     """Held-out comparison of ``b`` against ``a`` (fitted to the same equations)."""
-    difference = b.elpd - a.elpd
+    return compare_elpd(a.elpd, b.elpd)
+
+
+def compare_elpd(a: np.ndarray, b: np.ndarray) -> Comparison:
+    """Held-out comparison of model B against model A from their ``(K,)`` log predictive densities of the same K held-out units."""
+    difference = np.asarray(b, dtype=float) - np.asarray(a, dtype=float)
     k = difference.size
     se = float(np.sqrt(k * np.var(difference, ddof=1))) if k > 1 else float("inf")
     return Comparison(delta_elpd=float(difference.sum()), se=se, n_configs=k)

@@ -36,7 +36,7 @@ from bayescal.inference.equations import check_campaign
 from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.units import DEG, MM
 
-__all__ = ["Critique", "CritiqueResults", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED"]
+__all__ = ["Critique", "CritiqueResults", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED", "passes"]
 
 DETECTION_Z = 2.0
 """A cause is named only when its held-out gain exceeds this many standard errors of the difference."""
@@ -130,7 +130,7 @@ class Critique:
             trials = {e.name: (e, validate(model.plus(e))) for e in remaining}
             evidence = {name: compare(current, cv) for name, (_, cv) in trials.items()}
             steps.append(evidence)
-            passing = [name for name, c in evidence.items() if _passes(c)]
+            passing = [name for name, c in evidence.items() if passes(c)]
             if not passing:
                 break
             best = max(passing, key=lambda name: evidence[name].delta_elpd)
@@ -139,7 +139,7 @@ class Critique:
             causes.append(best)
             remaining = [e for e in remaining if e.name != best]
         probes = {name: compare(current, validate(model.plus(PROBES[name]))) for name in self.probes}
-        passing = [name for name, c in probes.items() if _passes(c, decisive=False)]
+        passing = [name for name, c in probes.items() if passes(c, decisive=False)]
         covariate = max(passing, key=lambda name: probes[name].delta_elpd) if passing else None
         if covariate is not None:
             causes.append(UNEXPLAINED)
@@ -206,7 +206,7 @@ def _residual_table(rows: Rows, y: np.ndarray, base: CrossValidation, final: Cro
     )
 
 
-def _passes(comparison: Comparison, decisive: bool = True) -> bool:
+def passes(comparison: Comparison, decisive: bool = True) -> bool:
     """The naming rule; ``decisive=False`` for the probes, whose many free offsets can fit a few odd configurations."""
     clear = comparison.delta_elpd > max(DETECTION_Z * comparison.se, DETECTION_FLOOR)
     return clear or (decisive and comparison.delta_elpd > DECISIVE_GAIN)

@@ -59,3 +59,41 @@ def test_bad_input_is_one_line_and_exit_2(capsys, campaign_files, tmp_path):
     assert status == 2 and "plausibly deflect" in err and "edited.csv:3" in err
     status, _, err = run(capsys, [str(campaign_files["plain"]), "--config", str(tmp_path / "none.toml")])
     assert status == 2 and "none.toml" in err
+
+
+TABLE_I = str(Path(__file__).resolve().parents[2] / "data" / "table1_geometry.csv")
+
+
+def test_geometry_json_has_the_critique_shape(capsys):
+    status, out, _ = run(capsys, ["--geometry", TABLE_I, "--json"])
+    assert status == 0
+    payload = json.loads(out)
+    assert payload["verdict"] in ("adequate", "misfit")
+    assert set(payload["evidence"]) == {"tilt", "pivot_motion", "cylinder_slip", "joint_scale", "closed_loop"}
+    assert {"delta_elpd", "se", "step", "named"} <= set(payload["evidence"]["tilt"])
+    assert {"delta_elpd", "se", "before", "after"} <= set(payload["gain"])
+    assert payload["gain"]["held_out"] == "leave-one-angle-out"
+
+
+def test_geometry_text(capsys):
+    status, out, _ = run(capsys, ["--geometry", TABLE_I])
+    assert status == 0 and "verdict:" in out and "held-out gain" in out and "6 joint angles" in out
+
+
+@pytest.mark.parametrize(
+    "argv, expected",
+    [
+        (["--geometry", "{tmp}/missing.csv"], "missing.csv"),
+        (["--geometry", TABLE_I, "--config", CONFIG], "--geometry takes the points file only"),
+        (["--geometry", "{tmp}/four.csv"], "at least 5"),
+        ([], "expected a campaign CSV and --config"),
+    ],
+)
+def test_geometry_bad_input_is_one_line_and_exit_2(capsys, tmp_path, argv, expected):
+    lines = Path(TABLE_I).read_text().splitlines()
+    keep = [line for line in lines if not line.startswith(("-120,", "-145,"))]
+    (tmp_path / "four.csv").write_text("\n".join(keep) + "\n")
+    before = Path(TABLE_I).read_text()
+    status, out, err = run(capsys, [arg.replace("{tmp}", str(tmp_path)) for arg in argv])
+    assert status == 2 and out == "" and len(err.strip().splitlines()) == 1 and expected in err, err
+    assert Path(TABLE_I).read_text() == before

@@ -67,3 +67,14 @@ def test_student_t_noise_wins_only_when_there_are_gross_errors():
     y[hit] += 30.0
     gaussian = cross_validate(y, X, scale, group, config)
     assert compare(gaussian, cross_validate(y, X, scale, group, config, robust=True)).delta_elpd > 25
+
+
+def test_compare_elpd_sums_the_differences_with_the_se_of_their_mean():
+    from bayescal.critique.compare import compare_elpd
+
+    a = np.array([-3.0, -2.0, -4.0, -1.0])
+    b = a + np.array([1.0, 2.0, 0.0, 1.0])
+    c = compare_elpd(a, b)
+    assert c.delta_elpd == pytest.approx(4.0)
+    assert c.se == pytest.approx(np.sqrt(4 * np.var([1.0, 2.0, 0.0, 1.0], ddof=1)))
+    assert c.n_configs == 4

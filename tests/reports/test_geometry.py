@@ -17,5 +17,7 @@ def test_report_is_written_with_figures(tmp_path, data_dir):
     assert "turn opposite ways" in text
     assert "far beyond P1's noise" in text
     assert "| a_y | " in text and "Binomial standard error" in text
+    # the model criticism: its verdict and the held-out residuals before and after
+    assert "## Model criticism" in text and "Verdict: **" in text and "| P01 | " in text
     assert (tmp_path / "geometry_arcs.png").stat().st_size > 1000
     assert (tmp_path / "geometry_eta.png").stat().st_size > 1000

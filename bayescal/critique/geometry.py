@@ -1,0 +1,788 @@
+"""Model criticism of the compensator-geometry model: what the planar arc model gets wrong on tracker points.
+
+``GeometryCritique().run(points)`` starts from the model the package identifies
+the compensator geometry with (:mod:`bayescal.geometry.arcs`) and compares it
+with physical extensions by how well each predicts the markers at a joint-2
+angle its fit did not see, with the rule of the elastostatic critique
+(:mod:`bayescal.critique.model`).
+
+**The marker layout.**  Every model predicts every marker at any q2 (SI, the
+tracker's (x, y)):
+
+* the lever marker ``P1 = p2 + L·[cos(phi + κ q2), sin(phi + κ q2)]`` (eq 10,
+  ``κ = ±1`` the arc's sense, fixed by the closed-form fit);
+* each cylinder marker ``P0k = p0 + R_k·[cos(θ + δ_k), sin(θ + δ_k)]``, ``θ``
+  the direction of the cylinder ``P1 - p0``: rigid on the cylinder at the
+  polar offset ``(R_k, δ_k)``, as :class:`~bayescal.geometry.arcs.MarkerLayout`.
+
+Parameters: ``p2`` (2, m), ``L`` (m), ``phi`` (rad), ``p0`` (2, m), ``R_k``
+(m) and ``δ_k`` (rad) per cylinder marker: 10 on Table I.
+
+**The base model** is the package's two-step identification: P1 alone by the
+known-angle arc fit (eqs 10-19), then the cylinder markers with the lever held
+fixed.  The paper's concentric step (eqs 20-24) leaves the cylinder markers'
+angles free and so cannot say where a marker will be at another q2; the base
+takes them from the lever as above, which is also how the package simulates
+Table-I-like campaigns, and fits ``p0, R_k, δ_k`` by least squares on the
+points (starting from the concentric fit).
+
+**Candidate extensions** (:data:`GEOMETRY_CATALOGUE`), each added to the
+current model:
+
+* ``tilt``: the compensator's plane is tilted against the tracker's XY by
+  ``t`` about an in-plane axis at angle ``psi``, so every arc projects as an
+  ellipse shortened by ``cos t`` across that axis.  The projection is
+  ``p ↦ p2 + (I - [[a, b], [b, -a]]) (p - p2)``: its isotropic part is a scale
+  the layout's lengths absorb, the anisotropic part ``(a, b) = (1 - cos t)/2
+  · (cos 2ψ', sin 2ψ')`` (``ψ' = psi + 90°``, the shortened direction) is
+  what the data can see.  2 parameters (dimensionless); reported as ``t`` and
+  ``psi`` in deg.
+* ``pivot_motion``: the pivot p0 moves under the spring force, whose
+  magnitude ``K_c (s - s0)`` is linear in the spring length ``s = |P1 - p0|``:
+  ``p0(q2) = p0 + (s - a) g`` with ``a = |p2 - p0|`` (the constant part
+  ``(a - s0) g`` is in ``p0``) and ``g`` a fixed direction and size of the
+  support's compliance in the tracker frame.  2 parameters (m of pivot shift
+  per m of spring length; reported in μm/mm).  A shift along the cylinder's own
+  axis is indistinguishable from the markers sliding along it, which
+  ``cylinder_slip`` models; ``g`` is fixed in the frame, so the two differ by
+  how the cylinder turns.
+* ``cylinder_slip``: the markers are not rigid on the cylinder: their
+  distance from p0 and their angle from the cylinder's direction vary
+  linearly with the spring length, ``R_k + λ (s - a)``, ``δ_k + ω (s - a)``,
+  the same for every cylinder marker (they sit on one housing).  2 parameters:
+  ``λ`` (dimensionless, reported in μm/mm) and ``ω`` (rad/m, reported in
+  mdeg/mm).
+* ``joint_scale``: the lever turns by ``(1 + e) q2`` where q2 is read: a gain
+  error of the joint-2 angle, or a deflection of joint 2 growing with q2.
+  The cylinder markers follow the lever.  1 parameter ``e`` (dimensionless,
+  reported in %).  Added because a lever misfit that ``tilt`` explains could
+  come from the angles instead.
+* ``closed_loop``: no new parameter; all parameters estimated together from
+  all markers (the loop P0-P1-P2 ties the cylinder markers' angles to the
+  lever, so their points inform p2, L and phi too) instead of in two steps.
+  Once named, every later model is fitted jointly.
+
+**Probes** (:data:`GEOMETRY_PROBES`): displacements of the lever marker and
+of the cylinder markers along their arcs' radius and tangent, linear in a
+standardised covariate (``q2``, or the square of q2's distance from the
+campaign's mean: ``q2_squared``), 4 parameters (m).  Not physics: they
+only name what a misfit that no extension explains follows.
+
+**Noise.** One σ per marker group (``lever``: P1; ``cylinder``: P0k), each
+with ``n_g - p_g`` degrees of freedom, ``p_g`` the parameters of the step
+that fits the group (the lever's and the tilt's for ``lever``, the rest for
+``cylinder``), ``σ_g² = SS_g / (n_g - p_g)``.
+
+**Held-out comparison** (leave-one-angle-out: every marker measured at one q2
+held out together): the predictive density of a held-out angle is, per marker
+group, a multivariate Student t with the group's degrees of freedom, located
+at the prediction, with scale ``σ_g² I + J Σ J'``: ``Σ`` the parameters'
+linearised (Laplace) covariance, propagated through the two steps for a
+two-step fit, ``J`` the prediction's Jacobian.  The groups' densities are
+multiplied (their correlation through the shared parameters, small beside the
+noise, is neglected).  ΔELPD and its SE are those of
+:func:`bayescal.critique.compare.compare_elpd` over the held-out angles.
+
+**Rule**: :data:`~bayescal.critique.model.DETECTION_Z` SE and
+:data:`~bayescal.critique.model.DETECTION_FLOOR` nats, greedy as the
+elastostatic critique, without its decisive branch: none of the candidates is
+about heavy tails, and with a handful of angles the held-out end angles are
+extrapolations, where one angle can carry any gain.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from os import PathLike
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+from scipy.optimize import least_squares
+
+from bayescal.critique.compare import Comparison, compare_elpd
+from bayescal.critique.model import DETECTION_FLOOR, DETECTION_Z, UNEXPLAINED, passes
+from bayescal.errors import InputError
+from bayescal.geometry.arcs import LEVER_MARKER, MarkerPoints, concentric_fit, known_angle_fit
+from bayescal.units import DEG, MM, UM
+
+__all__ = [
+    "GEOMETRY_CATALOGUE",
+    "GEOMETRY_PROBES",
+    "MIN_ANGLES",
+    "GeometryCritique",
+    "GeometryCritiqueResults",
+    "LayoutFit",
+]
+
+GEOMETRY_CATALOGUE = {
+    "tilt": "the compensator plane tilted against the tracker's XY: arcs project as ellipses",
+    "pivot_motion": "the pivot P0 moving in proportion to the spring force",
+    "cylinder_slip": "cylinder markers' distance from P0 and angle from the cylinder axis varying with the spring length",
+    "joint_scale": "the lever turning by (1 + e) q2: a joint-2 angle scale error",
+    "closed_loop": "all markers fitted jointly through the loop P0-P1-P2 instead of in two steps",
+}
+"""The candidate extensions, by name, with what each models."""
+
+GEOMETRY_PROBES = {
+    "q2": "an offset along the arcs' radius and tangent linear in q2",
+    "q2_squared": "an offset along the arcs' radius and tangent quadratic in q2 (about the campaign's mean angle)",
+}
+"""The covariates an unexplained misfit is checked against."""
+
+MIN_ANGLES = 5
+"""Fewest joint angles at which every marker must be measured: the held-out comparison fits
+each model to all angles but one, and a two-step base with a tilt needs 6 parameters for
+the lever's 2 coordinates per angle, leaving 2 degrees of freedom of its noise at 4 angles."""
+MIN_DOF = 2
+"""Fewest degrees of freedom a marker group's noise may be left with (its level then rests on at least
+two residual coordinates' worth of scatter). A candidate that leaves fewer in some fold is not tried."""
+JOINT_ITERATIONS = 3
+"""Reweightings of the joint fit by the groups' noise levels: on Table I (slip, tilt, jointly) the levels
+move by 6e-5 of themselves from the first to the second and by 1e-6 from the second to the third, then not at all."""
+JACOBIAN_STEP = 1e-7
+"""Central-difference step (m, rad or dimensionless) of the predictions' Jacobian.  On Table I the
+Jacobian with steps of 1e-6 and 1e-8 differs from this one by 1e-9 and 8e-9 of its largest entry."""
+
+_GROUPS = ("lever", "cylinder")
+JSON_DIGITS = 6
+"""Significant digits of the estimates and residual statistics in :meth:`GeometryCritiqueResults.to_json`
+(6 keep 1 μm on a 700 mm a_x)."""
+
+
+def _rounded(values: dict[str, float]) -> dict[str, float]:
+    return {key: float(f"{value:.{JSON_DIGITS}g}") for key, value in values.items()}
+
+
+# --------------------------------------------------------------------------- the models
+
+
+@dataclass(frozen=True)
+class _Spec:
+    """A model: its extensions (and probe) and whether it is fitted in two steps or jointly."""
+
+    extensions: tuple[str, ...] = ()
+    probe: str | None = None
+
+    @property
+    def joint(self) -> bool:
+        return "closed_loop" in self.extensions
+
+    def plus(self, extension: str) -> _Spec:
+        return _Spec(self.extensions + (extension,), self.probe)
+
+    def with_probe(self, probe: str) -> _Spec:
+        return _Spec(self.extensions, probe)
+
+    def names(self, cylinder: Sequence[str]) -> tuple[list[str], list[str]]:
+        """Parameter names of the lever step and of the cylinder step."""
+        lever = ["p2_x", "p2_y", "L", "phi"]
+        rest = ["p0_x", "p0_y", *(f"R[{m}]" for m in cylinder), *(f"delta[{m}]" for m in cylinder)]
+        if "tilt" in self.extensions:
+            lever += ["tilt_a", "tilt_b"]
+        if "joint_scale" in self.extensions:
+            lever += ["joint_scale"]
+        if "pivot_motion" in self.extensions:
+            rest += ["pivot_gx", "pivot_gy"]
+        if "cylinder_slip" in self.extensions:
+            rest += ["slip_radius", "slip_angle"]
+        if self.probe is not None:
+            lever += ["probe_lever_radial", "probe_lever_tangential"]
+            rest += ["probe_cylinder_radial", "probe_cylinder_tangential"]
+        return lever, rest
+
+
+def _predict(theta: dict[str, float], q2: np.ndarray, marker: np.ndarray, sense: int, probe_z: np.ndarray | None) -> np.ndarray:
+    """Predicted points (m), shape ``(n, 2)``, of markers ``marker`` at angles ``q2`` (rad)."""
+    return _predict_many({name: np.array([value]) for name, value in theta.items()}, q2, marker, sense, probe_z)[0]
+
+
+def _predict_many(
+    theta: dict[str, np.ndarray], q2: np.ndarray, marker: np.ndarray, sense: int, probe_z: np.ndarray | None
+) -> np.ndarray:
+    """Predictions ``(m, n, 2)`` for ``m`` parameter sets at once (each parameter an ``(m,)`` array): the Jacobians' batch."""
+
+    def get(name: str) -> np.ndarray | float:
+        return theta[name][:, np.newaxis] if name in theta else 0.0
+
+    p2_x, p2_y = get("p2_x"), get("p2_y")
+    lever_angle = get("phi") + sense * (1.0 + get("joint_scale")) * q2
+    lever_x = p2_x + get("L") * np.cos(lever_angle)
+    lever_y = p2_y + get("L") * np.sin(lever_angle)
+    x = np.zeros_like(lever_x)
+    y = np.zeros_like(lever_y)
+    is_lever = marker == LEVER_MARKER
+    x[:, is_lever], y[:, is_lever] = lever_x[:, is_lever], lever_y[:, is_lever]
+    if probe_z is not None:
+        radial, tangential = get("probe_lever_radial"), get("probe_lever_tangential")
+        c, s = np.cos(lever_angle), np.sin(lever_angle)
+        x[:, is_lever] += (probe_z * (radial * c - tangential * s))[:, is_lever]
+        y[:, is_lever] += (probe_z * (radial * s + tangential * c))[:, is_lever]
+    if "p0_x" in theta and not np.all(is_lever):
+        p0_x, p0_y = get("p0_x"), get("p0_y")
+        extension = np.hypot(lever_x - p0_x, lever_y - p0_y) - np.hypot(p2_x - p0_x, p2_y - p0_y)
+        pivot_x = p0_x + extension * get("pivot_gx")
+        pivot_y = p0_y + extension * get("pivot_gy")
+        direction = np.arctan2(lever_y - pivot_y, lever_x - pivot_x)
+        for name in np.unique(marker[~is_lever]):
+            rows = marker == name
+            radius = get(f"R[{name}]") + get("slip_radius") * extension[:, rows]
+            angle = direction[:, rows] + get(f"delta[{name}]") + get("slip_angle") * extension[:, rows]
+            c, s = np.cos(angle), np.sin(angle)
+            x[:, rows] = pivot_x[:, rows] + radius * c
+            y[:, rows] = pivot_y[:, rows] + radius * s
+            if probe_z is not None:
+                radial, tangential = get("probe_cylinder_radial"), get("probe_cylinder_tangential")
+                x[:, rows] += probe_z[rows] * (radial * c - tangential * s)
+                y[:, rows] += probe_z[rows] * (radial * s + tangential * c)
+    if "tilt_a" in theta:
+        a, b = get("tilt_a"), get("tilt_b")
+        dx, dy = x - p2_x, y - p2_y
+        x, y = p2_x + (1 - a) * dx - b * dy, p2_y - b * dx + (1 + a) * dy
+    return np.stack([x, y], axis=-1)
+
+
+def _probe_covariate(name: str | None, q2: np.ndarray, reference: np.ndarray) -> np.ndarray | None:
+    """The probe's covariate at ``q2``, standardised over the campaign's angles ``reference`` (rad)."""
+    if name is None:
+        return None
+    if name == "q2":
+        values, ref = q2, reference
+    else:
+        centre = reference.mean()
+        values, ref = (q2 - centre) ** 2, (reference - centre) ** 2
+    return (values - ref.mean()) / ref.std()
+
+
+@dataclass(frozen=True)
+class LayoutFit:
+    """A marker-layout model fitted to points.
+
+    Attributes
+    ----------
+    names : list of str
+        Parameter names, the lever step's first.
+    theta : numpy.ndarray
+        ``(p,)`` estimates, SI (m, rad, dimensionless, m/m, rad/m).
+    cov : numpy.ndarray
+        ``(p, p)`` their linearised covariance.
+    sigma : dict
+        Noise sd (m) per marker group, ``lever`` and ``cylinder``.
+    dof : dict
+        Degrees of freedom of each group's noise.
+    sense : int
+        The lever arc's sense (-1 clockwise as on Table I).
+    spec : _Spec
+    probe_reference : numpy.ndarray
+        The campaign's angles (rad) the probe covariate is standardised over.
+    """
+
+    names: list[str]
+    theta: np.ndarray
+    cov: np.ndarray
+    sigma: dict[str, float]
+    dof: dict[str, int]
+    sense: int
+    spec: _Spec
+    probe_reference: np.ndarray
+
+    def predict_with(self, theta: np.ndarray, q2: np.ndarray, marker: np.ndarray) -> np.ndarray:
+        z = _probe_covariate(self.spec.probe, q2, self.probe_reference)
+        return _predict(dict(zip(self.names, theta)), q2, marker, self.sense, z)
+
+    def predict(self, q2: np.ndarray, marker: np.ndarray) -> np.ndarray:
+        """Predicted points (m), ``(n, 2)``."""
+        return self.predict_with(self.theta, q2, marker)
+
+    def jacobian(self, q2: np.ndarray, marker: np.ndarray) -> np.ndarray:
+        """``(2n, p)`` derivative of the flattened predictions by the parameters."""
+        z = _probe_covariate(self.spec.probe, q2, self.probe_reference)
+        return _jacobian(self.names, self.theta, lambda batch: _predict_many(batch, q2, marker, self.sense, z))
+
+    def log_density(self, q2: np.ndarray, marker: np.ndarray, xy: np.ndarray) -> float:
+        """Log predictive density of the points ``xy`` (m, ``(n, 2)``) of markers ``marker`` at ``q2``."""
+        mean = self.predict(q2, marker)
+        J = self.jacobian(q2, marker).reshape(q2.size, 2, -1)
+        total = 0.0
+        for group, rows in _group_rows(marker).items():
+            if not rows.any():
+                continue
+            Jg = J[rows].reshape(-1, self.theta.size)
+            shape = self.sigma[group] ** 2 * np.eye(Jg.shape[0]) + Jg @ self.cov @ Jg.T
+            total += stats.multivariate_t.logpdf(xy[rows].ravel(), loc=mean[rows].ravel(), shape=shape, df=self.dof[group])
+        return float(total)
+
+    def geometry(self) -> dict[str, float]:
+        """``L_mm, a_x_mm, a_y_mm, phi_deg`` of the fitted layout in the compensator's plane, each with its linearised sd.
+
+        The conventions of :class:`~bayescal.geometry.arcs.CompensatorGeometryModel` (y read as pointing
+        down when the lever turns counter-clockwise).  With a tilt, the layout's lengths are those of the
+        plane scaled by ``1 - r`` (``r = hypot(tilt_a, tilt_b)``, the isotropic part the projection's
+        parametrisation leaves to them), to first order in ``r``; they are divided by it here.
+        """
+        flip = -1.0 if self.sense == 1 else 1.0
+
+        def values(vector: np.ndarray) -> np.ndarray:
+            theta = dict(zip(self.names, vector))
+            scale = 1.0 / (1.0 - np.hypot(theta.get("tilt_a", 0.0), theta.get("tilt_b", 0.0)))
+            return np.array(
+                [
+                    theta["L"] * scale / MM,
+                    (theta["p2_x"] - theta["p0_x"]) * scale / MM,
+                    flip * (theta["p2_y"] - theta["p0_y"]) * scale / MM,
+                    flip * theta["phi"] / DEG,
+                ]
+            )
+
+        steps = JACOBIAN_STEP * np.eye(self.theta.size)
+        gradient = np.column_stack([(values(self.theta + step) - values(self.theta - step)) / (2 * JACOBIAN_STEP) for step in steps])
+        sd = np.sqrt(np.diag(gradient @ self.cov @ gradient.T))
+        out = {}
+        for name, value, spread in zip(("L_mm", "a_x_mm", "a_y_mm", "phi_deg"), values(self.theta), sd):
+            out[name] = float(value)
+            out[name.replace("_mm", "_sd_mm").replace("_deg", "_sd_deg")] = float(spread)
+        return out
+
+    def extension_parameters(self) -> dict[str, float]:
+        """The extensions' parameters and their linearised sd in reporting units (keys name the unit).
+
+        ``tilt_deg`` and ``tilt_axis_deg`` (the in-plane axis, from the tracker's X, modulo 180°) with
+        ``tilt_anisotropy = 1 - cos t``; ``joint_scale_pct``; ``pivot_shift_{x,y}_um_per_mm`` (pivot shift
+        per mm of spring extension); ``slip_radius_um_per_mm`` and ``slip_angle_mdeg_per_mm``.
+        """
+        theta = dict(zip(self.names, self.theta))
+        sd = dict(zip(self.names, np.sqrt(np.diag(self.cov))))
+        out: dict[str, float] = {}
+        if "tilt_a" in theta:
+            a, b = theta["tilt_a"], theta["tilt_b"]
+            amplitude = float(np.hypot(a, b))
+            tilt = float(np.arccos(max(-1.0, 1.0 - 2.0 * amplitude)))
+            out["tilt_deg"] = tilt / DEG
+            # linearised: t = arccos(1 - 2 hypot(a, b))
+            i, j = self.names.index("tilt_a"), self.names.index("tilt_b")
+            gradient = 2.0 / np.sin(tilt) * np.array([a, b]) / amplitude if amplitude > 0 else np.zeros(2)
+            out["tilt_sd_deg"] = float(np.sqrt(gradient @ self.cov[np.ix_([i, j], [i, j])] @ gradient) / DEG)
+            # (a, b) points along twice the shortened direction; the tilt axis is across it.
+            out["tilt_axis_deg"] = float((np.degrees(0.5 * np.arctan2(b, a)) + 90.0) % 180.0)
+            out["tilt_anisotropy"] = 2.0 * amplitude
+        if "joint_scale" in theta:
+            out["joint_scale_pct"] = float(100.0 * theta["joint_scale"])
+            out["joint_scale_sd_pct"] = float(100.0 * sd["joint_scale"])
+        if "pivot_gx" in theta:
+            for axis in ("x", "y"):
+                key = f"pivot_g{axis}"
+                out[f"pivot_shift_{axis}_um_per_mm"] = float(theta[key] * MM / UM)
+                out[f"pivot_shift_{axis}_sd_um_per_mm"] = float(sd[key] * MM / UM)
+        if "slip_radius" in theta:
+            out["slip_radius_um_per_mm"] = float(theta["slip_radius"] * MM / UM)
+            out["slip_radius_sd_um_per_mm"] = float(sd["slip_radius"] * MM / UM)
+            out["slip_angle_mdeg_per_mm"] = float(theta["slip_angle"] * MM / DEG * 1e3)
+            out["slip_angle_sd_mdeg_per_mm"] = float(sd["slip_angle"] * MM / DEG * 1e3)
+        return out
+
+
+def _jacobian(names: list[str], theta: np.ndarray, predict_many: Callable[[dict[str, np.ndarray]], np.ndarray]) -> np.ndarray:
+    """``(2n, p)`` central-difference Jacobian of flattened predictions, all ``2p`` evaluations in one batch."""
+    p = theta.size
+    steps = JACOBIAN_STEP * np.eye(p)
+    batch = np.vstack([theta + steps, theta - steps])
+    values = predict_many({name: batch[:, j] for j, name in enumerate(names)})
+    values = values.reshape(2 * p, -1)
+    return ((values[:p] - values[p:]) / (2 * JACOBIAN_STEP)).T
+
+
+def _group_rows(marker: np.ndarray) -> dict[str, np.ndarray]:
+    lever = marker == LEVER_MARKER
+    return {"lever": lever, "cylinder": ~lever}
+
+
+def _start(points: MarkerPoints, spec: _Spec) -> tuple[dict[str, float], int]:
+    """Closed-form start (eqs 10-24, offsets as circular means) and the lever's sense."""
+    q1, p1 = points.of(LEVER_MARKER)
+    lever = known_angle_fit(q1, p1[:, :2])
+    cylinder = points.cylinder_markers
+    concentric = concentric_fit({name: points.of(name)[1][:, :2] for name in cylinder})
+    theta = {"p2_x": lever.centre[0], "p2_y": lever.centre[1], "L": lever.radius, "phi": lever.phi}
+    theta |= {"p0_x": concentric.centre[0], "p0_y": concentric.centre[1]}
+    for name in cylinder:
+        q2, xyz = points.of(name)
+        d_lever = lever.predict(q2) - concentric.centre
+        d = xyz[:, :2] - concentric.centre
+        relative = np.arctan2(d[:, 1], d[:, 0]) - np.arctan2(d_lever[:, 1], d_lever[:, 0])
+        theta[f"R[{name}]"] = concentric.radii[name]
+        theta[f"delta[{name}]"] = float(np.angle(np.mean(np.exp(1j * relative))))
+    lever_names, rest = spec.names(cylinder)
+    return {name: float(theta.get(name, 0.0)) for name in lever_names + rest}, lever.sense
+
+
+def _fit(points: MarkerPoints, spec: _Spec, reference: np.ndarray) -> LayoutFit:
+    """Fit ``spec`` to ``points``: in two steps (lever, then cylinder), or jointly once ``closed_loop`` is in."""
+    start, sense = _start(points, spec)
+    lever_names, rest = spec.names(points.cylinder_markers)
+    names = lever_names + rest
+    q2, marker, xy = points.q2, points.marker, points.xyz[:, :2]
+    z = _probe_covariate(spec.probe, q2, reference)
+    rows = _group_rows(marker)
+    dof = {"lever": 2 * int(rows["lever"].sum()) - len(lever_names), "cylinder": 2 * int(rows["cylinder"].sum()) - len(rest)}
+    if min(dof.values()) < MIN_DOF:
+        raise _TooFewDegrees
+
+    def residual(values: np.ndarray, free: list[str], fixed: dict[str, float], subset: np.ndarray) -> np.ndarray:
+        theta = fixed | dict(zip(free, values))
+        return (_predict(theta, q2[subset], marker[subset], sense, None if z is None else z[subset]) - xy[subset]).ravel()
+
+    def jacobian(values: np.ndarray, free: list[str], fixed: dict[str, float], subset: np.ndarray) -> np.ndarray:
+        m = 2 * len(free)
+        constant = {name: np.full(m, value) for name, value in fixed.items()}
+        z_subset = None if z is None else z[subset]
+        return _jacobian(free, values, lambda batch: _predict_many(constant | batch, q2[subset], marker[subset], sense, z_subset))
+
+    def solve(
+        free: list[str], fixed: dict[str, float], subset: np.ndarray, x0: dict[str, float], weight: np.ndarray | None = None
+    ) -> dict[str, float]:
+        scale = 1.0 if weight is None else weight
+        fixed = {name: value for name, value in fixed.items() if name not in free}
+        solution = least_squares(
+            lambda v: residual(v, free, fixed, subset) * scale,
+            np.array([x0[name] for name in free]),
+            jac=lambda v: jacobian(v, free, fixed, subset) * (scale if np.ndim(scale) == 0 else scale[:, np.newaxis]),
+            method="lm",
+            xtol=1e-12,
+            ftol=1e-12,
+        )
+        return dict(zip(free, solution.x))
+
+    theta = solve(lever_names, {name: start[name] for name in rest}, rows["lever"], start)
+    theta |= solve(rest, theta, rows["cylinder"], start)
+    sigma = _levels(theta, names, q2, marker, xy, sense, z, dof)
+    if spec.joint:
+        everything = np.ones(q2.size, dtype=bool)
+        for _ in range(JOINT_ITERATIONS):
+            weight = np.repeat(np.where(rows["lever"], 1.0 / sigma["lever"], 1.0 / sigma["cylinder"]), 2)
+            theta = solve(names, {}, everything, theta, weight)
+            sigma = _levels(theta, names, q2, marker, xy, sense, z, dof)
+    vector = np.array([theta[name] for name in names])
+    fitted = LayoutFit(names, vector, np.zeros((len(names), len(names))), sigma, dof, sense, spec, reference)
+    J = fitted.jacobian(q2, marker).reshape(q2.size, 2, -1)
+    J_lever = J[rows["lever"]].reshape(-1, len(names))
+    J_cylinder = J[rows["cylinder"]].reshape(-1, len(names))
+    cov = _covariance(J_lever, J_cylinder, sigma, len(lever_names), spec.joint)
+    return LayoutFit(names, vector, cov, sigma, dof, sense, spec, reference)
+
+
+class _TooFewDegrees(Exception):
+    """A model with more parameters than its marker groups' points allow."""
+
+
+def _levels(theta, names, q2, marker, xy, sense, z, dof) -> dict[str, float]:
+    residual = _predict(theta, q2, marker, sense, z) - xy
+    out = {}
+    for group, rows in _group_rows(marker).items():
+        out[group] = float(np.sqrt(np.sum(residual[rows] ** 2) / dof[group]))
+    return out
+
+
+def _covariance(J_lever: np.ndarray, J_cylinder: np.ndarray, sigma: dict[str, float], n_lever: int, joint: bool) -> np.ndarray:
+    """Linearised covariance of the parameters (lever step's first).
+
+    Jointly: the inverse of the weighted Gauss-Newton matrix.  In two steps: the
+    lever step's covariance from P1 alone, and the cylinder step's conditional
+    covariance plus the lever's propagated through ``dθ_cyl/dθ_lever``.
+    """
+    if joint:
+        information = J_lever.T @ J_lever / sigma["lever"] ** 2 + J_cylinder.T @ J_cylinder / sigma["cylinder"] ** 2
+        return np.linalg.pinv(information)
+    p = J_lever.shape[1]
+    A1 = J_lever[:, :n_lever]
+    lever_cov = sigma["lever"] ** 2 * np.linalg.pinv(A1.T @ A1)
+    A = J_cylinder[:, n_lever:]
+    B = J_cylinder[:, :n_lever]
+    inverse = np.linalg.pinv(A.T @ A)
+    D = -inverse @ A.T @ B
+    cov = np.zeros((p, p))
+    cov[:n_lever, :n_lever] = lever_cov
+    cov[n_lever:, n_lever:] = sigma["cylinder"] ** 2 * inverse + D @ lever_cov @ D.T
+    cov[n_lever:, :n_lever] = D @ lever_cov
+    cov[:n_lever, n_lever:] = cov[n_lever:, :n_lever].T
+    return cov
+
+
+# --------------------------------------------------------------------------- held-out comparison
+
+
+@dataclass(frozen=True)
+class AngleValidation:
+    """A model left-one-angle-out.
+
+    Attributes
+    ----------
+    angles : numpy.ndarray
+        ``(K,)`` the held-out joint angles (rad), in the order of ``elpd``.
+    elpd : numpy.ndarray
+        ``(K,)`` log predictive density of each angle's points with the model fitted to the others.
+    residual : numpy.ndarray
+        ``(n, 2)`` held-out residual of every point (measured minus predicted), m.
+    full : LayoutFit
+        The model fitted to all points.
+    """
+
+    angles: np.ndarray
+    elpd: np.ndarray
+    residual: np.ndarray
+    full: LayoutFit
+
+    @property
+    def total(self) -> float:
+        return float(self.elpd.sum())
+
+
+def _subset(points: MarkerPoints, keep: np.ndarray) -> MarkerPoints:
+    return MarkerPoints(points.marker[keep], points.q2[keep], points.xyz[keep], points.line[keep], points.source)
+
+
+def _validate(points: MarkerPoints, spec: _Spec, reference: np.ndarray) -> AngleValidation:
+    angles = np.unique(points.q2)
+    elpd = np.empty(angles.size)
+    residual = np.empty((points.q2.size, 2))
+    for k, angle in enumerate(angles):
+        out = points.q2 == angle
+        fitted = _fit(_subset(points, ~out), spec, reference)
+        held = points.xyz[out, :2]
+        elpd[k] = fitted.log_density(points.q2[out], points.marker[out], held)
+        residual[out] = held - fitted.predict(points.q2[out], points.marker[out])
+    return AngleValidation(angles, elpd, residual, _fit(points, spec, reference))
+
+
+def _residual_statistics(points: MarkerPoints, validation: AngleValidation) -> dict:
+    """Held-out residual rms (per coordinate, mm) per marker group and per marker."""
+    out = {}
+    for group, rows in _group_rows(points.marker).items():
+        out[f"residual_rms_{group}_mm"] = float(np.sqrt(np.mean(validation.residual[rows] ** 2)) / MM)
+    for name in points.markers:
+        rows = points.marker == name
+        out[f"residual_rms_{name}_mm"] = float(np.sqrt(np.mean(validation.residual[rows] ** 2)) / MM)
+    out["residual_rms_mm"] = float(np.sqrt(np.mean(validation.residual**2)) / MM)
+    return out
+
+
+# --------------------------------------------------------------------------- the critique
+
+
+@dataclass
+class GeometryCritique:
+    """Criticism of the planar two-step compensator-geometry model on tracker points.
+
+    Parameters
+    ----------
+    catalogue
+        The extensions to try, by name; default all of :data:`GEOMETRY_CATALOGUE`.
+    probes
+        The covariates an unexplained misfit is checked against; default all of :data:`GEOMETRY_PROBES`.
+    """
+
+    catalogue: tuple[str, ...] = tuple(GEOMETRY_CATALOGUE)
+    probes: tuple[str, ...] = tuple(GEOMETRY_PROBES)
+
+    def __post_init__(self) -> None:
+        for names, known in ((self.catalogue, GEOMETRY_CATALOGUE), (self.probes, GEOMETRY_PROBES)):
+            unknown = [name for name in names if name not in known]
+            if unknown:
+                raise ValueError(f"unknown candidate(s) {', '.join(unknown)}; expected some of {', '.join(known)}")
+
+    def run(self, points: MarkerPoints) -> GeometryCritiqueResults:
+        """Criticise the two-step model on ``points`` (see :func:`bayescal.geometry.arcs.read_arc_points`).
+
+        Points with z are criticised in (x, y), with a ``UserWarning``.
+
+        Raises
+        ------
+        InputError
+            When a marker is measured at fewer than :data:`MIN_ANGLES` joint angles.
+        """
+        for name in points.markers:
+            n = np.unique(points.of(name)[0]).size
+            if n < MIN_ANGLES:
+                raise InputError(
+                    f"marker {name} is measured at {n} joint angles; the critique holds out one angle at a time "
+                    f"and needs at least {MIN_ANGLES}",
+                    source=points.source,
+                    column="q2_deg",
+                )
+        if points.dim == 3:
+            warnings.warn("the geometry critique is planar: it uses x and y and ignores z_mm", UserWarning, stacklevel=2)
+        reference = np.unique(points.q2)
+        spec = _Spec()
+        base = current = _validate(points, spec, reference)
+        causes: list[str] = []
+        steps: list[dict[str, Comparison]] = []
+        estimates: dict[str, dict[str, float]] = {}
+        leads: dict[str, tuple[str, Comparison]] = {}
+        skipped: list[str] = []
+        remaining = list(self.catalogue)
+        while remaining:
+            trials = {}
+            for name in remaining:
+                try:
+                    trials[name] = _validate(points, spec.plus(name), reference)
+                except _TooFewDegrees:
+                    skipped.append(name)
+            remaining = [name for name in remaining if name in trials]
+            evidence = {name: compare_elpd(current.elpd, cv.elpd) for name, cv in trials.items()}
+            if not evidence:
+                break
+            steps.append(evidence)
+            for name, cv in trials.items():
+                estimates[name] = cv.full.extension_parameters()
+            passing = [name for name, c in evidence.items() if passes(c, decisive=False)]
+            if not passing:
+                break
+            best = max(passing, key=lambda name: evidence[name].delta_elpd)
+            others = [name for name in passing if name != best]
+            if others:
+                runner_up = max(others, key=lambda name: evidence[name].delta_elpd)
+                leads[best] = (runner_up, compare_elpd(trials[runner_up].elpd, trials[best].elpd))
+            spec, current = spec.plus(best), trials[best]
+            causes.append(best)
+            remaining = [name for name in remaining if name != best]
+        probes = {}
+        for name in self.probes:
+            try:
+                probes[name] = compare_elpd(current.elpd, _validate(points, spec.with_probe(name), reference).elpd)
+            except _TooFewDegrees:
+                skipped.append(name)
+        passing = [name for name, c in probes.items() if passes(c, decisive=False)]
+        covariate = max(passing, key=lambda name: probes[name].delta_elpd) if passing else None
+        if covariate is not None:
+            causes.append(UNEXPLAINED)
+        return GeometryCritiqueResults(
+            causes=causes,
+            unexplained_covariate=covariate,
+            steps=steps,
+            probes=probes,
+            estimates=estimates,
+            leads=leads,
+            skipped=sorted(set(skipped)),
+            base=base,
+            final=current,
+            gain=compare_elpd(base.elpd, current.elpd),
+            before=_residual_statistics(points, base),
+            after=_residual_statistics(points, current),
+            n_angles=reference.size,
+            n_points=points.q2.size,
+            source=points.source or "",
+        )
+
+
+@dataclass
+class GeometryCritiqueResults:
+    """What the geometry critique found.
+
+    Attributes
+    ----------
+    causes : list of str
+        Extensions named, in the order added (each fitted on top of those before),
+        then ``"unexplained"`` when a misfit remains that follows a covariate.
+    unexplained_covariate : str or None
+        The covariate the remaining misfit follows.
+    steps : list of dict
+        Per greedy step, every candidate's held-out comparison against the model so far.
+    probes : dict
+        Each covariate probe's comparison against the final model.
+    estimates : dict
+        For each candidate, the extension parameters of the model with it (at its last step), fitted to
+        all points, in reporting units named in the keys.
+    leads : dict
+        For each named cause that another candidate also passed at its step: that runner-up and the
+        held-out comparison of the cause against it (how clearly the data prefer one to the other).
+    skipped : list of str
+        Candidates not tried because they would leave a marker group fewer than :data:`MIN_DOF` degrees of freedom.
+    base, final : AngleValidation
+        The two-step model and the final model, left-one-angle-out.
+    gain : Comparison
+        The final model against the base on held-out angles.
+    before, after : dict
+        Held-out residual rms (per coordinate, mm) of the base and the final model.
+    """
+
+    causes: list[str]
+    unexplained_covariate: str | None
+    steps: list[dict[str, Comparison]]
+    probes: dict[str, Comparison]
+    estimates: dict[str, dict[str, float]]
+    leads: dict[str, tuple[str, Comparison]]
+    skipped: list[str]
+    base: AngleValidation
+    final: AngleValidation
+    gain: Comparison
+    before: dict
+    after: dict
+    n_angles: int
+    n_points: int
+    source: str = ""
+    rule: dict = field(default_factory=lambda: {"z": DETECTION_Z, "floor_nats": DETECTION_FLOOR})
+
+    @property
+    def verdict(self) -> str:
+        return "misfit" if self.causes else "adequate"
+
+    def summary(self) -> pd.DataFrame:
+        """One row per candidate and step (extensions, then probes): held-out ΔELPD, its SE, and whether it was named."""
+        records = []
+        for step_number, step in enumerate(self.steps, start=1):
+            for name, c in step.items():
+                named = step_number <= len(self.causes) and self.causes[step_number - 1] == name
+                records.append(
+                    {"candidate": name, "kind": "extension", "step": step_number, "delta_elpd_nats": c.delta_elpd,
+                     "se_nats": c.se, "named": named}
+                )
+        for name, c in self.probes.items():
+            records.append(
+                {"candidate": name, "kind": "covariate", "step": len(self.steps) + 1, "delta_elpd_nats": c.delta_elpd,
+                 "se_nats": c.se, "named": name == self.unexplained_covariate}
+            )
+        return pd.DataFrame.from_records(records, columns=["candidate", "kind", "step", "delta_elpd_nats", "se_nats", "named"])
+
+    def to_json(self) -> dict:
+        """The elastostatic critique's JSON shape; held-out units are joint angles (``n_configs`` counts them)."""
+        evidence = {}
+        for step_number, step in enumerate(self.steps, start=1):
+            for name, c in step.items():
+                evidence[name] = c.to_json() | {
+                    "step": step_number,
+                    "named": name in self.causes,
+                    "meaning": GEOMETRY_CATALOGUE[name],
+                    "estimate": _rounded(self.estimates.get(name, {})),
+                }
+                if name in self.leads:
+                    runner_up, lead = self.leads[name]
+                    evidence[name]["lead_over_runner_up"] = {"candidate": runner_up} | lead.to_json()
+        payload = {
+            "verdict": self.verdict,
+            "causes": list(self.causes),
+            "evidence": evidence,
+            "gain": self.gain.to_json()
+            | {"held_out": "leave-one-angle-out", "before": _rounded(self.before), "after": _rounded(self.after)},
+            "covariates": {name: c.to_json() | {"meaning": GEOMETRY_PROBES[name]} for name, c in self.probes.items()},
+            "geometry": {"two_step": _rounded(self.base.full.geometry()), "final": _rounded(self.final.full.geometry())},
+            "noise_mm": {
+                "before": _rounded({group: self.base.full.sigma[group] / MM for group in _GROUPS}),
+                "after": _rounded({group: self.final.full.sigma[group] / MM for group in _GROUPS}),
+            },
+            "rule": {"delta_elpd_over_se": DETECTION_Z, "floor_nats": DETECTION_FLOOR},
+            "n_angles": self.n_angles,
+            "n_points": self.n_points,
+            "points": self.source,
+        }
+        if self.skipped:
+            payload["not_tried"] = list(self.skipped)
+        if self.unexplained_covariate is not None:
+            payload["unexplained_covariate"] = self.unexplained_covariate
+        return payload
+
+    def save(self, path: str | PathLike[str]) -> None:
+        """Write :meth:`to_json` to ``path``."""
+        Path(path).write_text(json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n")
