@@ -214,9 +214,9 @@ def wrench_at_pose(cell: Cell, campaign: Campaign, q: np.ndarray) -> np.ndarray:
     load's force acts at its point on the tool (the campaign's ``load_*_mm``
     columns, else the cell's load point), which turns with the tool when the
     arm sags; the rest of the recorded couple is a dead couple, as in
-    :func:`bayescal.inference.equations.check_load_point`.  A sag of 2° turns a
-    300 mm lever under 2600 N by 27 N·m, which the wrist joints turn into tens
-    of μm at the markers.
+    :func:`bayescal.inference.equations.check_load_point`.  A sag of 2° turns the
+    KR-270 tool's 390 mm lever under 2750 N by up to 37 N·m, which the wrist
+    joints turn into tens of μm at the markers.
     """
     wrench = np.array(campaign.wrench, dtype=float)
     points = np.broadcast_to(cell.load_point, (len(campaign), 3)) if campaign.load_point is None else campaign.load_point
