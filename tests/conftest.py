@@ -40,6 +40,12 @@ def plan(cell):
 
 
 @pytest.fixture(scope="session")
+def compensator_plan(cell):
+    """``data/compensator_plan.csv``: 10 q2 angles x 3 configurations at 280 kg, designed to identify the compensator."""
+    return read_plan(DATA / "compensator_plan.csv", cell.robot)
+
+
+@pytest.fixture(scope="session")
 def campaign_csv(cell, plan, tmp_path_factory) -> Path:
     """A campaign CSV of the Table III plan measured once on the twin (seed 1): 45 rows, read-only for tests."""
     from bayescal.twin.simulator import DigitalTwin

@@ -6,8 +6,9 @@ base axes).  :class:`Rows` holds, per row, what the models of
 :mod:`bayescal.critique.extensions` are built from (the marker's Jacobian,
 the joint torques of the load, of the arm's weight and of the compensator,
 the joint frames) and the covariates residuals are checked against
-(:data:`COVARIATES`).  Everything is evaluated at the commanded angles, as
-the linear model of eq 30 is.
+(:data:`COVARIATES`).  Everything is evaluated at the arm's measured
+unloaded pose (:func:`measured_pose`), about which the linear model of eq 30
+holds, with the load's wrench referred to that pose (:func:`wrench_at_pose`).
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.robot.compensator import COMPENSATED_JOINT
 
-__all__ = ["Rows", "campaign_rows", "pose_rows", "measured_pose", "COVARIATES"]
+__all__ = ["Rows", "campaign_rows", "pose_rows", "measured_pose", "wrench_at_pose", "COVARIATES"]
 
 POSE_MIN_MARKERS = 3
 """Markers needed to fix the tool's pose (position and orientation)."""
@@ -56,9 +57,9 @@ class Rows:
     y : numpy.ndarray
         (N, 3) measured deflections, m (zeros for a pose to predict).
     q : numpy.ndarray
-        (N, nq) commanded joint angles, rad.
+        (N, nq) joint angles of the links unloaded (the measured pose), rad.
     wrench : numpy.ndarray
-        (N, 6) load at the flange origin, N and N·m.
+        (N, 6) load at the flange origin with the tool at ``q``, N and N·m.
     point : numpy.ndarray
         (N, 3) the marker in the flange frame, m.
     position : numpy.ndarray
@@ -206,8 +207,29 @@ def measured_pose(cell: Cell, q, markers: np.ndarray, positions: np.ndarray) -> 
     return estimate if np.max(np.abs(estimate - q)) < POSE_MAX_SAG else q
 
 
+def wrench_at_pose(cell: Cell, campaign: Campaign, q: np.ndarray) -> np.ndarray:
+    """(N, 6) the campaign's wrenches referred to the flange origin with the tool at the link angles ``q`` (rad).
+
+    A campaign records the wrench with the arm at its commanded angles.  The
+    load's force acts at its point on the tool (the campaign's ``load_*_mm``
+    columns, else the cell's load point), which turns with the tool when the
+    arm sags; the rest of the recorded couple is a dead couple, as in
+    :func:`bayescal.inference.equations.check_load_point`.  A sag of 2° turns the
+    KR-270 tool's 390 mm lever under 2750 N by up to 37 N·m, which the wrist
+    joints turn into tens of μm at the markers.
+    """
+    wrench = np.array(campaign.wrench, dtype=float)
+    points = np.broadcast_to(cell.load_point, (len(campaign), 3)) if campaign.load_point is None else campaign.load_point
+    commanded = np.asarray(campaign.q, dtype=float)
+    for i in np.flatnonzero(np.any(q != commanded, axis=1)):
+        turned = cell.robot.flange_pose(q[i])[0] - cell.robot.flange_pose(commanded[i])[0]
+        wrench[i, 3:] += np.cross(turned @ points[i], wrench[i, :3])
+    return wrench
+
+
 def campaign_rows(cell: Cell, campaign: Campaign) -> Rows:
-    """The rows of a campaign at the arm's measured unloaded poses (:func:`measured_pose`)."""
+    """The rows of a campaign at the arm's measured unloaded poses (:func:`measured_pose`), the load's wrench
+    referred to them (:func:`wrench_at_pose`)."""
     robot = cell.robot
     q = np.asarray(campaign.q, dtype=float).copy()
     for config in np.unique(campaign.config):
@@ -221,7 +243,7 @@ def campaign_rows(cell: Cell, campaign: Campaign) -> Rows:
     return _build(
         cell,
         q,
-        np.asarray(campaign.wrench, dtype=float),
+        wrench_at_pose(cell, campaign, q),
         point,
         np.asarray(campaign.p0, dtype=float),
         campaign.displacement,

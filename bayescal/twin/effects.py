@@ -85,7 +85,9 @@ class CompensatorScale(Effect):
     """The cell's compensator with its spring stiffness ``K_c`` multiplied by the magnitude.
 
     The compensator is on whenever the cell has one; ``compensator=0`` removes it and
-    leaves a plain serial robot, other values mis-state the spring.
+    leaves a plain serial robot, other values mis-state the spring.  The free length
+    is kept, so a stiffer spring no longer balances the arm: on Table III the arm
+    sags before loading by up to 1.1°, 2.2° and 5.5° at 10, 20 and 50 times K_c.
     """
 
     name = "compensator"

@@ -1,7 +1,9 @@
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
-from bayescal.critique.covariates import campaign_rows, measured_pose, pose_rows
+from bayescal.critique.covariates import campaign_rows, measured_pose, pose_rows, wrench_at_pose
 from bayescal.robot.stiffness import compliance_design
 from bayescal.twin.effects import parse_effect
 from bayescal.twin.simulator import DigitalTwin
@@ -20,12 +22,27 @@ def test_measured_pose_recovers_the_sag_of_the_unloaded_arm(cell, plan):
     assert np.array_equal(measured_pose(cell, q, names[:2], unloaded[:2]), q)
 
 
+def test_the_wrench_turns_with_the_sagging_tool(cell, plan, twin_campaign):
+    # a x20 spring sags the arm by up to 2 deg: the load's lever on the tool turns with it
+    campaign = twin_campaign(["compensator=20"], seed=0, repeats=1)
+    rows = campaign_rows(cell, campaign)
+    assert np.max(np.abs(rows.q - campaign.q)) > 0.03
+    for i in (0, 20, 40):
+        expected = cell.load_wrench(rows.q[i], -campaign.wrench[i, 2] / cell.gravity)
+        assert rows.wrench[i] == pytest.approx(expected, abs=1e-9)
+    # at the commanded pose nothing changes; a couple beyond the load's moment stays as a dead couple
+    assert np.array_equal(wrench_at_pose(cell, campaign, campaign.q), campaign.wrench)
+    couple = np.array([0.0, 0.0, 0.0, 10.0, -20.0, 30.0])
+    with_couple = replace(campaign, wrench=campaign.wrench + couple)
+    assert wrench_at_pose(cell, with_couple, rows.q) - rows.wrench == pytest.approx(np.broadcast_to(couple, rows.wrench.shape), abs=1e-9)
+
+
 def test_rows_carry_eq_31_and_the_measurement_order(cell, twin_campaign):
     campaign = twin_campaign(seed=0)
     rows = campaign_rows(cell, campaign)
     assert len(rows) == len(campaign)
     i = 7
-    expected = compliance_design(cell.robot, rows.q[i], rows.point[i], campaign.wrench[i])
+    expected = compliance_design(cell.robot, rows.q[i], rows.point[i], rows.wrench[i])
     assert rows.design[i] == pytest.approx(expected, rel=1e-12)
     assert np.all(np.diff(rows.order[campaign.marker == "M1"]) == 1)
     assert rows.noise.mean() == pytest.approx(1.0)
