@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         design = designer.optimise(args.angles, args.per_angle, args.criterion, rng=args.seed, starts=starts, progress=True)
         design.save(
             output,
-            comments=(f"bayescal plan --config {args.config} --angles {args.angles} --per-angle {args.per_angle} --criterion {args.criterion} --seed {args.seed}",),
+            comments=(_command(args, starts),),
         )
         payload = design.to_json() | {"output": str(output)}
         table = design.summary()
@@ -94,3 +94,14 @@ def run(args: argparse.Namespace) -> CommandOutput:
     if "output" in payload:
         lines.insert(0, f"wrote {payload['output']}: {payload['configurations']} configurations at q2 = {', '.join(f'{v:g}' for v in payload['q2_deg'])} deg")
     return CommandOutput(payload=payload, text="\n".join(lines))
+
+
+def _command(args: argparse.Namespace, starts: int) -> str:
+    """The command line that makes this plan again, every option that shapes it spelt out."""
+    words = [
+        f"bayescal plan --config {args.config} --angles {args.angles} --per-angle {args.per_angle} --repeats {args.repeats}",
+        f"--criterion {args.criterion} --model {args.model} --starts {starts} --seed {args.seed}",
+    ]
+    if args.mass_kg is not None:
+        words.append(f"--mass-kg {args.mass_kg[0]:g} {args.mass_kg[1]:g}")
+    return " ".join(words)

@@ -24,7 +24,7 @@ from bayescal.twin.effects import EFFECTS
 __all__ = ["MAGNITUDES", "render_report", "main"]
 
 MAGNITUDES: dict[str, tuple[float, ...]] = {
-    "compensator": (10.0, 20.0, 30.0),
+    "compensator": (5.0, 10.0, 20.0, 30.0, 50.0),
     "link_compliance": (0.25, 0.5, 1.0, 2.0),
     "tool_compliance": (0.3, 0.6, 1.0, 1.5),
     "backlash": (0.002, 0.005, 0.01, 0.015),

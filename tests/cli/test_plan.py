@@ -71,3 +71,17 @@ def test_writes_a_plan_that_reads_back(main, tmp_path, capsys):
     first = out.read_bytes()
     assert main(args) == 0
     assert out.read_bytes() == first  # the same seed gives the same plan
+
+
+def test_the_plan_file_records_every_option_that_shapes_it():
+    import argparse
+
+    from bayescal.cli.plan import _command
+
+    args = argparse.Namespace(
+        config="cell.toml", angles=10, per_angle=3, repeats=2, criterion="compensator", model="linear", seed=4, mass_kg=[250.0, 280.0]
+    )
+    assert _command(args, 3) == (
+        "bayescal plan --config cell.toml --angles 10 --per-angle 3 --repeats 2 --criterion compensator --model linear "
+        "--starts 3 --seed 4 --mass-kg 250 280"
+    )
