@@ -33,6 +33,8 @@ reports: $(STAMP)
 	$(BIN)/python -m bayescal.reports.geometry data/table1_geometry.csv reports
 	$(BIN)/python -m bayescal.reports.twin --config data/kr270.toml --plan data/table3_plan.csv -o reports/twin.md
 	$(BIN)/python -m bayescal.reports.elastostatic
+	$(BIN)/python -m bayescal.reports.detection --config data/kr270.toml --plan data/table3_plan.csv \
+	    --plan-for compensator=data/compensator_plan.csv --geometry data/table1_geometry.csv -o reports/detection.md
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
