@@ -71,8 +71,10 @@ def _geometry_section(points_path: str, executor, n_seeds: int, n_null: int, see
         "|---|---|---|---|---|---|---|---|",
     ]
     for row in table.itertuples():
+        # angles at the edge in degrees, as everywhere else
+        magnitude, unit = (row.magnitude / DEG, "deg") if row.unit == "rad" else (row.magnitude, row.unit)
         lines.append(
-            f"| {row.effect} | {row.magnitude:g} | {row.unit} | {row.campaigns} | {100 * row.first_cause:.0f} % "
+            f"| {row.effect} | {magnitude:g} | {unit} | {row.campaigns} | {100 * row.first_cause:.0f} % "
             f"| {100 * row.named:.0f} % | {100 * row.misfit:.0f} % | {100 * row.unexplained:.0f} % |"
         )
     return lines + [""]
