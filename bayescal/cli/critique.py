@@ -33,7 +33,7 @@ def add_parser(subparsers) -> None:
         metavar="POINTS.csv",
         help="criticise the compensator-geometry model on tracker points (q2_deg, marker, x_mm, y_mm) instead of a campaign",
     )
-    parser.add_argument("--figures", metavar="DIR", help="write the residual and LOO-PIT figures into this folder")
+    parser.add_argument("--figures", metavar="DIR", help="write the figures into this folder: held-out residuals and LOO-PIT (with --geometry: held-out residuals per marker)")
     add_common_options(parser)
     parser.set_defaults(run=run)
 
@@ -44,8 +44,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.errors import InputError
 
     if args.geometry is not None:
-        if args.campaign is not None or args.config is not None or args.figures is not None:
-            raise InputError("--geometry takes the points file only: drop the campaign, --config and --figures", source="--geometry")
+        if args.campaign is not None or args.config is not None:
+            raise InputError("--geometry takes the points file only: drop the campaign and --config", source="--geometry")
         return _run_geometry(args)
     if args.campaign is None or args.config is None:
         raise InputError("expected a campaign CSV and --config CELL.toml, or --geometry POINTS.csv")
@@ -73,7 +73,14 @@ def _run_geometry(args: argparse.Namespace) -> CommandOutput:
     from bayescal.geometry.arcs import read_arc_points
 
     results = GeometryCritique().run(read_arc_points(args.geometry))
-    return CommandOutput(payload=results.to_json() | {"seed": args.seed}, text=_geometry_text(results))
+    payload = results.to_json() | {"seed": args.seed}
+    text = _geometry_text(results)
+    if args.figures:
+        from bayescal.critique.figures import write_geometry_figures
+
+        payload["figures"] = [str(path) for path in write_geometry_figures(results, args.figures)]
+        text += f"\nfigures: {', '.join(payload['figures'])}"
+    return CommandOutput(payload=payload, text=text)
 
 
 def _geometry_text(results) -> str:

@@ -1,4 +1,4 @@
-"""Figures of a critique: held-out standardised residuals against the covariates, and the LOO-PIT."""
+"""Figures of a critique: held-out residuals against the covariates, and the LOO-PIT of the campaign critique."""
 
 from __future__ import annotations
 
@@ -7,9 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
+from bayescal.critique.geometry import GeometryCritiqueResults
 from bayescal.critique.model import CritiqueResults
 
-__all__ = ["write_figures"]
+__all__ = ["write_figures", "write_geometry_figures"]
 
 PLOTTED = {
     "q2_deg": "q2 (deg)",
@@ -59,3 +60,35 @@ def write_figures(results: CritiqueResults, folder: str | PathLike[str]) -> list
     figure.savefig(pit, dpi=120)
     plt.close(figure)
     return [residuals, pit]
+
+
+def write_geometry_figures(results: GeometryCritiqueResults, folder: str | PathLike[str]) -> list[Path]:
+    """Write ``geometry_residuals.png`` into ``folder`` (created if needed): held-out residuals against q2 per marker."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    table = results.residuals
+    final = " + ".join(c for c in results.causes if c != "unexplained") or "two-step"
+    markers = list(dict.fromkeys(table["marker"]))
+    figure, axes = plt.subplots(2, len(markers), figsize=(4 * len(markers), 6.5), sharex=True, squeeze=False)
+    for row, (model, label) in enumerate((("two_step", "two-step"), ("final", final))):
+        for ax, marker in zip(axes[row], markers):
+            part = table[table["marker"] == marker].sort_values("q2_deg")
+            for axis, colour in zip("xy", ("C0", "C1")):
+                ax.plot(part["q2_deg"], part[f"{model}_{axis}_mm"], "o-", color=colour, ms=3, lw=0.8, label=axis)
+            ax.axhline(0, color="k", lw=0.5)
+            ax.set_title(f"{marker}, {label}", fontsize=9)
+        axes[row, 0].set_ylabel("held-out residual (mm)")
+    for ax in axes[1]:
+        ax.set_xlabel("q2 (deg)")
+    axes[0, 0].legend(title="tracker axis", fontsize=7)
+    figure.suptitle(f"{results.source}: verdict {results.verdict}, causes {results.causes or 'none'} (each angle left out in turn)")
+    figure.tight_layout()
+    path = folder / "geometry_residuals.png"
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+    return [path]

@@ -673,8 +673,23 @@ class GeometryCritique:
             after=_residual_statistics(points, current),
             n_angles=reference.size,
             n_points=points.q2.size,
+            residuals=_residual_table(points, base, current),
             source=points.source or "",
         )
+
+
+def _residual_table(points: MarkerPoints, base: AngleValidation, final: AngleValidation) -> pd.DataFrame:
+    """One row per point: its marker and angle, and its held-out residual (mm) under the two-step and the final model."""
+    return pd.DataFrame(
+        {
+            "marker": points.marker,
+            "q2_deg": points.q2 / DEG,
+            "two_step_x_mm": base.residual[:, 0] / MM,
+            "two_step_y_mm": base.residual[:, 1] / MM,
+            "final_x_mm": final.residual[:, 0] / MM,
+            "final_y_mm": final.residual[:, 1] / MM,
+        }
+    )
 
 
 @dataclass
@@ -706,6 +721,9 @@ class GeometryCritiqueResults:
         The final model against the base on held-out angles.
     before, after : dict
         Held-out residual rms (per coordinate, mm) of the base and the final model.
+    residuals : pandas.DataFrame
+        One row per point: ``marker``, ``q2_deg`` and the held-out residuals ``two_step_x_mm``,
+        ``two_step_y_mm``, ``final_x_mm``, ``final_y_mm``.
     """
 
     causes: list[str]
@@ -722,6 +740,7 @@ class GeometryCritiqueResults:
     after: dict
     n_angles: int
     n_points: int
+    residuals: pd.DataFrame
     source: str = ""
     rule: dict = field(default_factory=lambda: {"z": DETECTION_Z, "floor_nats": DETECTION_FLOOR})
 

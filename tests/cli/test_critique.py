@@ -80,6 +80,13 @@ def test_geometry_text(capsys):
     assert status == 0 and "verdict:" in out and "held-out gain" in out and "6 joint angles" in out
 
 
+def test_geometry_figures_show_the_held_out_residuals(capsys, tmp_path):
+    status, out, _ = run(capsys, ["--geometry", TABLE_I, "--figures", str(tmp_path / "figures"), "--json"])
+    assert status == 0
+    (path,) = json.loads(out)["figures"]
+    assert path.endswith("geometry_residuals.png") and Path(path).stat().st_size > 10_000
+
+
 @pytest.mark.parametrize(
     "argv, expected",
     [
