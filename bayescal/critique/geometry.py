@@ -105,7 +105,7 @@ from scipy import stats
 from scipy.optimize import least_squares
 
 from bayescal.critique.compare import Comparison, compare_elpd
-from bayescal.critique.model import DETECTION_FLOOR, DETECTION_Z, UNEXPLAINED, passes
+from bayescal.critique.model import DETECTION_FLOOR, DETECTION_Z, UNEXPLAINED, Outcome, passes
 from bayescal.errors import InputError
 from bayescal.geometry.arcs import LEVER_MARKER, MarkerPoints, concentric_fit, known_angle_fit
 from bayescal.units import DEG, MM, UM
@@ -693,20 +693,11 @@ def _residual_table(points: MarkerPoints, base: AngleValidation, final: AngleVal
 
 
 @dataclass
-class GeometryCritiqueResults:
-    """What the geometry critique found.
+class GeometryCritiqueResults(Outcome):
+    """What the geometry critique found (:class:`~bayescal.critique.model.Outcome`, and the following).
 
     Attributes
     ----------
-    causes : list of str
-        Extensions named, in the order added (each fitted on top of those before),
-        then ``"unexplained"`` when a misfit remains that follows a covariate.
-    unexplained_covariate : str or None
-        The covariate the remaining misfit follows.
-    steps : list of dict
-        Per greedy step, every candidate's held-out comparison against the model so far.
-    probes : dict
-        Each covariate probe's comparison against the final model.
     estimates : dict
         For each candidate, the extension parameters of the model with it (at its last step), fitted to
         all points, in reporting units named in the keys.
@@ -726,10 +717,6 @@ class GeometryCritiqueResults:
         ``two_step_y_mm``, ``final_x_mm``, ``final_y_mm``.
     """
 
-    causes: list[str]
-    unexplained_covariate: str | None
-    steps: list[dict[str, Comparison]]
-    probes: dict[str, Comparison]
     estimates: dict[str, dict[str, float]]
     leads: dict[str, tuple[str, Comparison]]
     skipped: list[str]
@@ -743,27 +730,6 @@ class GeometryCritiqueResults:
     residuals: pd.DataFrame
     source: str = ""
     rule: dict = field(default_factory=lambda: {"z": DETECTION_Z, "floor_nats": DETECTION_FLOOR})
-
-    @property
-    def verdict(self) -> str:
-        return "misfit" if self.causes else "adequate"
-
-    def summary(self) -> pd.DataFrame:
-        """One row per candidate and step (extensions, then probes): held-out ΔELPD, its SE, and whether it was named."""
-        records = []
-        for step_number, step in enumerate(self.steps, start=1):
-            for name, c in step.items():
-                named = step_number <= len(self.causes) and self.causes[step_number - 1] == name
-                records.append(
-                    {"candidate": name, "kind": "extension", "step": step_number, "delta_elpd_nats": c.delta_elpd,
-                     "se_nats": c.se, "named": named}
-                )
-        for name, c in self.probes.items():
-            records.append(
-                {"candidate": name, "kind": "covariate", "step": len(self.steps) + 1, "delta_elpd_nats": c.delta_elpd,
-                 "se_nats": c.se, "named": name == self.unexplained_covariate}
-            )
-        return pd.DataFrame.from_records(records, columns=["candidate", "kind", "step", "delta_elpd_nats", "se_nats", "named"])
 
     def to_json(self) -> dict:
         """The elastostatic critique's JSON shape; held-out units are joint angles (``n_configs`` counts them)."""

@@ -36,7 +36,7 @@ from bayescal.inference.equations import check_campaign
 from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.units import DEG, MM
 
-__all__ = ["Critique", "CritiqueResults", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED", "passes"]
+__all__ = ["Critique", "CritiqueResults", "Outcome", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED", "passes"]
 
 DETECTION_Z = 2.0
 """A cause is named only when its held-out gain exceeds this many standard errors of the difference."""
@@ -206,6 +206,25 @@ def _residual_table(rows: Rows, y: np.ndarray, base: CrossValidation, final: Cro
     )
 
 
+def _candidate_summary(
+    steps: list[dict[str, Comparison]], causes: list[str], probes: dict[str, Comparison], covariate: str | None
+) -> pd.DataFrame:
+    """One row per candidate and greedy step, then per covariate probe: held-out ΔELPD, its SE, and whether it was named."""
+    records = []
+    for step_number, step in enumerate(steps, start=1):
+        for name, c in step.items():
+            named = step_number <= len(causes) and causes[step_number - 1] == name
+            records.append(
+                {"candidate": name, "kind": "extension", "step": step_number, "delta_elpd_nats": c.delta_elpd, "se_nats": c.se, "named": named}
+            )
+    for name, c in probes.items():
+        records.append(
+            {"candidate": name, "kind": "covariate", "step": len(steps) + 1, "delta_elpd_nats": c.delta_elpd, "se_nats": c.se,
+             "named": name == covariate}
+        )
+    return pd.DataFrame.from_records(records, columns=["candidate", "kind", "step", "delta_elpd_nats", "se_nats", "named"])
+
+
 def passes(comparison: Comparison, decisive: bool = True) -> bool:
     """The naming rule; ``decisive=False`` for the probes, whose many free offsets can fit a few odd configurations."""
     clear = comparison.delta_elpd > max(DETECTION_Z * comparison.se, DETECTION_FLOOR)
@@ -213,8 +232,8 @@ def passes(comparison: Comparison, decisive: bool = True) -> bool:
 
 
 @dataclass
-class CritiqueResults:
-    """What the critique found.
+class Outcome:
+    """What a greedy critique found: the causes it named and the evidence, step by step.
 
     Attributes
     ----------
@@ -227,6 +246,28 @@ class CritiqueResults:
         Per greedy step, every candidate's held-out comparison against the model so far.
     probes : dict
         Each covariate probe's comparison against the final model.
+    """
+
+    causes: list[str]
+    unexplained_covariate: str | None
+    steps: list[dict[str, Comparison]]
+    probes: dict[str, Comparison]
+
+    @property
+    def verdict(self) -> str:
+        return "misfit" if self.causes else "adequate"
+
+    def summary(self) -> pd.DataFrame:
+        """One row per candidate and greedy step, then per covariate probe: held-out ΔELPD, its SE, and whether it was named."""
+        return _candidate_summary(self.steps, self.causes, self.probes, self.unexplained_covariate)
+
+
+@dataclass
+class CritiqueResults(Outcome):
+    """What the campaign critique found (:class:`Outcome`, and the following).
+
+    Attributes
+    ----------
     base, final : CrossValidation
         The classical and the final model, left-one-configuration-out.
     gain : Comparison
@@ -239,10 +280,6 @@ class CritiqueResults:
         One row per equation: covariates, held-out standardised residuals and LOO-PIT of both models.
     """
 
-    causes: list[str]
-    unexplained_covariate: str | None
-    steps: list[dict[str, Comparison]]
-    probes: dict[str, Comparison]
     base: CrossValidation
     final: CrossValidation
     gain: Comparison
@@ -256,10 +293,6 @@ class CritiqueResults:
     rule: dict = field(default_factory=lambda: {"z": DETECTION_Z, "floor_nats": DETECTION_FLOOR, "decisive_nats": DECISIVE_GAIN})
 
     @property
-    def verdict(self) -> str:
-        return "misfit" if self.causes else "adequate"
-
-    @property
     def evidence(self) -> dict[str, Comparison]:
         """Each catalogue extension's comparison at the step it was named, or at the last step for the others."""
         out: dict[str, Comparison] = {}
@@ -267,22 +300,6 @@ class CritiqueResults:
             for name, comparison in step.items():
                 out[name] = comparison
         return out
-
-    def summary(self) -> pd.DataFrame:
-        """One row per candidate (extensions, then probes): held-out ΔELPD, its SE, and whether it was named."""
-        records = []
-        for step_number, step in enumerate(self.steps, start=1):
-            for name, c in step.items():
-                records.append(
-                    {"candidate": name, "kind": "extension", "step": step_number, "delta_elpd_nats": c.delta_elpd,
-                     "se_nats": c.se, "named": step_number <= len(self.causes) and self.causes[step_number - 1] == name}
-                )
-        for name, c in self.probes.items():
-            records.append(
-                {"candidate": name, "kind": "covariate", "step": len(self.steps) + 1, "delta_elpd_nats": c.delta_elpd,
-                 "se_nats": c.se, "named": name == self.unexplained_covariate}
-            )
-        return pd.DataFrame.from_records(records)
 
     def to_json(self) -> dict:
         evidence = {}
