@@ -130,6 +130,8 @@ class _Prepared(NamedTuple):
     """Exact minus linear prediction of every equation (m); zeros for the linear model."""
     closed_form: ClosedForm
     iterations: int
+    linearised_at: ClosedForm
+    """The closed form ``offset`` was computed at: the exact model's linearisation point."""
 
 
 @dataclass
@@ -231,18 +233,18 @@ class ElastostaticModel:
         _check_scale(campaign, linear_cf, self.nominal_compliances)
         offset = np.zeros(equations.n)
         iterations = 0
-        cf = linear_cf
+        cf = at = linear_cf
         if self.model == "exact":
-            cf, offset, iterations = self._relinearise(campaign, equations, ident, linear_cf)
-        return _Prepared(equations, ident, linear_cf, offset, cf, iterations)
+            cf, offset, iterations, at = self._relinearise(campaign, equations, ident, linear_cf)
+        return _Prepared(equations, ident, linear_cf, offset, cf, iterations, at)
 
     def fit(self, campaign: Campaign, rng: np.random.Generator | int = 0) -> ElastostaticResults:
         """Identify the parameters from ``campaign``; ``rng`` seeds every random draw."""
         rng = np.random.default_rng(rng)
         prepared = self._prepare(campaign)
-        equations, ident, linear_cf, offset, cf, iterations = prepared
+        equations, ident, offset, cf = prepared.equations, prepared.identifiability, prepared.offset, prepared.closed_form
         corrected = replace(equations, y=equations.y - offset)
-        static = self._static_columns(campaign, equations, cf) if self.model == "exact" and ident.compensator else None
+        static = self._static_columns(campaign, equations, prepared) if self.model == "exact" and ident.compensator else None
         tree, draws, residual, n_free = self._sample(corrected.whitened(), ident, cf, rng, static)
         tree.attrs.update(
             {"model": self.model, "noise": self.noise, "sampler": type(self.sampler).__name__, "geometry": self.geometry.source}
@@ -310,7 +312,7 @@ class ElastostaticModel:
             )
         equations, offset, cf = prepared.equations, prepared.offset, prepared.closed_form
         corrected = replace(equations, y=equations.y - offset)
-        static = self._static_columns(campaign, equations, cf) if self.model == "exact" and ident.compensator else None
+        static = self._static_columns(campaign, equations, prepared) if self.model == "exact" and ident.compensator else None
         whitened = corrected.whitened()
         posterior, joints = self._posterior(whitened, ident, static)
         if (static is None) != (draws.gravity is None):
@@ -333,7 +335,7 @@ class ElastostaticModel:
 
     def _results(self, campaign, prepared, tree, draws, residual, chi2, summary, practical, sampler_name) -> ElastostaticResults:
         """The results object of a fit or a restored fit."""
-        equations, ident, linear_cf, offset, cf, iterations = prepared
+        equations, ident, offset, cf = prepared.equations, prepared.identifiability, prepared.offset, prepared.closed_form
         return ElastostaticResults(
             tree=tree,
             identifiability=replace(ident, practical=practical),
@@ -347,9 +349,9 @@ class ElastostaticModel:
             residual_rms=float(np.sqrt(np.mean(residual**2))),
             chi2_per_dof=chi2,
             nonlinearity=float(np.abs(offset).max(initial=0.0)),
-            iterations=iterations,
+            iterations=prepared.iterations,
             residuals=residual.reshape(-1, 3),
-            linear_closed_form=linear_cf,
+            linear_closed_form=prepared.linear_closed_form,
             summary_table=summary,
             sampler_name=sampler_name,
         )
@@ -363,7 +365,8 @@ class ElastostaticModel:
         freedom are the equations less the per-angle compliances fitted.  None
         without a tracker noise model.
         """
-        equations, ident, _, offset, cf, _ = self._prepare(campaign, announce=False)
+        prepared = self._prepare(campaign, announce=False)
+        equations, ident, offset, cf = prepared.equations, prepared.identifiability, prepared.offset, prepared.closed_form
         corrected = replace(equations, y=equations.y - offset)
         residual = corrected.y - corrected.per_angle_design()[:, ident.identifiable] @ cf.per_angle
         return self._chi2_per_dof(campaign, residual, cf.per_angle.size)
@@ -419,17 +422,18 @@ class ElastostaticModel:
         k2 = np.where(np.isfinite(cf.k2) & (cf.k2 > 0), cf.k2, nominal_k2)
         return linearisation_offset(robot or self.robot, campaign, equations, compliances, k2, compensator, self.load_point)
 
-    def _static_columns(self, campaign: Campaign, equations: DeflectionEquations, cf: ClosedForm) -> tuple[np.ndarray, np.ndarray]:
+    def _static_columns(self, campaign: Campaign, equations: DeflectionEquations, prepared: _Prepared) -> tuple[np.ndarray, np.ndarray]:
         """The exact model's correction linearised in the compensator's static torque and the link weights.
 
         Returns the linearisation point ``[K_c, K_c s0]`` (the config's spring)
         and the ``(n, 3)`` derivatives of the correction with respect to
         ``K_c`` (at fixed ``K_c s0``), ``K_c s0`` and a common scale of the link
         masses, by finite differences, divided like the equations by their
-        relative noise.
+        relative noise.  The derivatives are taken at the closed form the offset
+        was computed at, so that the offset itself is their base.
         """
         Kc, s0 = self.nominal_spring
-        base = self._offset(campaign, equations, cf)
+        cf, base = prepared.linearised_at, prepared.offset
         dKc, dP, dg = STATIC_STEPS[0] * Kc, STATIC_STEPS[1] * Kc * s0, STATIC_STEPS[2]
         columns = [
             (self._offset(campaign, equations, cf, spring=(Kc + dKc, Kc * s0 / (Kc + dKc))) - base) / dKc,
@@ -445,19 +449,20 @@ class ElastostaticModel:
         sd = np.sqrt(np.diag(cf.cov))
         offset = np.zeros(equations.n)
         for iteration in range(1, self.max_iterations + 1):
-            offset = self._offset(campaign, equations, cf)
+            at = cf
+            offset = self._offset(campaign, equations, at)
             updated = closed_form(replace(equations, y=equations.y - offset).whitened(), ident, self.geometry.mean)
             change = np.abs(updated.per_angle - cf.per_angle)
             moved = float(np.max(change / sd))
             cf = updated
             if moved < 1e-3 or np.all(change <= 1e-9 * np.abs(cf.per_angle)):
-                return cf, offset, iteration
+                return cf, offset, iteration, at
         warnings.warn(
             f"the exact model did not settle in {self.max_iterations} relinearisations (last move {moved:.2g} sd)",
             UserWarning,
             stacklevel=3,
         )
-        return cf, offset, self.max_iterations
+        return cf, offset, self.max_iterations, at
 
     # ----------------------------------------------------------------- sampling
     def _nominal_start(self, cf: ClosedForm, q2: np.ndarray) -> np.ndarray:
