@@ -83,23 +83,30 @@ def _run_geometry(args: argparse.Namespace) -> CommandOutput:
     return CommandOutput(payload=payload, text=text)
 
 
-def _geometry_text(results) -> str:
-    before, after = results.before, results.after
-    lines = [f"{results.source}: {results.n_points} points at {results.n_angles} joint angles, held out one angle at a time"]
+def _outcome_lines(results, held_out: str, baseline: str) -> list[str]:
+    """The verdict, every candidate's evidence and the unexplained covariate, for either critique."""
     if results.verdict == "adequate":
-        lines.append("verdict: adequate - no extension predicts held-out angles clearly better than the two-step model")
+        lines = [f"verdict: adequate - no extension predicts held-out {held_out} clearly better than {baseline}"]
     else:
-        lines.append(f"verdict: misfit - causes in order of gain: {', '.join(results.causes)}")
-    lines.append("")
-    lines.append(f"{'candidate':<16}{'step':>5}{'ΔELPD':>10}{'SE':>8}  named")
-    for name, entry in results.to_json()["evidence"].items():
-        lines.append(f"{name:<16}{entry['step']:>5}{entry['delta_elpd']:>10.1f}{entry['se']:>8.1f}  {'yes' if entry['named'] else ''}")
+        lines = [f"verdict: misfit - causes in order of gain: {', '.join(results.causes)}"]
+    evidence = results.to_json()["evidence"]
+    width = max(len("candidate"), *map(len, evidence)) + 2
+    lines += ["", f"{'candidate':<{width}}{'step':>5}{'ΔELPD':>10}{'SE':>8}  named"]
+    for name, entry in evidence.items():
+        lines.append(f"{name:<{width}}{entry['step']:>5}{entry['delta_elpd']:>10.1f}{entry['se']:>8.1f}  {'yes' if entry['named'] else ''}")
     if results.unexplained_covariate is not None:
         c = results.probes[results.unexplained_covariate]
         lines.append(
             f"unexplained: the residuals follow {results.unexplained_covariate} (ΔELPD {c.delta_elpd:.1f} ± {c.se:.1f} nats) "
-            "and no extension explains it"
+            "and no extension of the catalogue explains it"
         )
+    return lines
+
+
+def _geometry_text(results) -> str:
+    before, after = results.before, results.after
+    lines = [f"{results.source}: {results.n_points} points at {results.n_angles} joint angles, held out one angle at a time"]
+    lines += _outcome_lines(results, "angles", "the two-step model")
     lines += [
         "",
         f"held-out gain: ΔELPD {results.gain.delta_elpd:.1f} ± {results.gain.se:.1f} nats over {results.n_angles} angles; "
@@ -115,21 +122,7 @@ def _geometry_text(results) -> str:
 def _text(results, figures: list[str]) -> str:
     before, after = results.before, results.after
     lines = [f"{results.source}: {results.n_equations} equations in {results.n_configs} configurations"]
-    if results.verdict == "adequate":
-        lines.append("verdict: adequate - no extension predicts held-out configurations clearly better than the classical model")
-    else:
-        lines.append(f"verdict: misfit - causes in order of gain: {', '.join(results.causes)}")
-    lines.append("")
-    lines.append(f"{'candidate':<22}{'step':>5}{'ΔELPD':>10}{'SE':>8}  named")
-    for name, entry in results.to_json()["evidence"].items():
-        mark = "yes" if entry["named"] else ""
-        lines.append(f"{name:<22}{entry['step']:>5}{entry['delta_elpd']:>10.1f}{entry['se']:>8.1f}  {mark}")
-    if results.unexplained_covariate is not None:
-        c = results.probes[results.unexplained_covariate]
-        lines.append(
-            f"unexplained: the residuals follow {results.unexplained_covariate} (ΔELPD {c.delta_elpd:.1f} ± {c.se:.1f} nats) "
-            "and no extension of the catalogue explains it"
-        )
+    lines += _outcome_lines(results, "configurations", "the classical model")
     lines += [
         "",
         f"held-out gain: ΔELPD {results.gain.delta_elpd:.1f} ± {results.gain.se:.1f} nats; residual rms "

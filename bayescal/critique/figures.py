@@ -20,8 +20,8 @@ PLOTTED = {
 }
 
 
-def write_figures(results: CritiqueResults, folder: str | PathLike[str]) -> list[Path]:
-    """Write ``residuals.png`` and ``loo_pit.png`` into ``folder`` (created if needed); return their paths."""
+def _pyplot(folder: str | PathLike[str]):
+    """pyplot on the file-only backend, and the output folder, created if needed."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -29,6 +29,12 @@ def write_figures(results: CritiqueResults, folder: str | PathLike[str]) -> list
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
+    return plt, folder
+
+
+def write_figures(results: CritiqueResults, folder: str | PathLike[str]) -> list[Path]:
+    """Write ``residuals.png`` and ``loo_pit.png`` into ``folder`` (created if needed); return their paths."""
+    plt, folder = _pyplot(folder)
     table = results.residuals
     final = " + ".join(c for c in results.causes if c != "unexplained") or "classical"
     figure, axes = plt.subplots(2, len(PLOTTED), figsize=(4 * len(PLOTTED), 6.5), sharey="row", squeeze=False)
@@ -64,13 +70,7 @@ def write_figures(results: CritiqueResults, folder: str | PathLike[str]) -> list
 
 def write_geometry_figures(results: GeometryCritiqueResults, folder: str | PathLike[str]) -> list[Path]:
     """Write ``geometry_residuals.png`` into ``folder`` (created if needed): held-out residuals against q2 per marker."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+    plt, folder = _pyplot(folder)
     table = results.residuals
     final = " + ".join(c for c in results.causes if c != "unexplained") or "two-step"
     markers = list(dict.fromkeys(table["marker"]))

@@ -105,7 +105,7 @@ from scipy import stats
 from scipy.optimize import least_squares
 
 from bayescal.critique.compare import Comparison, compare_elpd
-from bayescal.critique.model import DETECTION_FLOOR, DETECTION_Z, UNEXPLAINED, Outcome, passes
+from bayescal.critique.model import DETECTION_FLOOR, DETECTION_Z, UNEXPLAINED, Outcome, strongest
 from bayescal.errors import InputError
 from bayescal.geometry.arcs import LEVER_MARKER, MarkerPoints, concentric_fit, known_angle_fit
 from bayescal.units import DEG, MM, UM
@@ -637,13 +637,11 @@ class GeometryCritique:
             steps.append(evidence)
             for name, cv in trials.items():
                 estimates[name] = cv.full.extension_parameters()
-            passing = [name for name, c in evidence.items() if passes(c, decisive=False)]
-            if not passing:
+            best = strongest(evidence, decisive=False)
+            if best is None:
                 break
-            best = max(passing, key=lambda name: evidence[name].delta_elpd)
-            others = [name for name in passing if name != best]
-            if others:
-                runner_up = max(others, key=lambda name: evidence[name].delta_elpd)
+            runner_up = strongest({name: c for name, c in evidence.items() if name != best}, decisive=False)
+            if runner_up is not None:
                 leads[best] = (runner_up, compare_elpd(trials[runner_up].elpd, trials[best].elpd))
             spec, current = spec.plus(best), trials[best]
             causes.append(best)
@@ -654,8 +652,7 @@ class GeometryCritique:
                 probes[name] = compare_elpd(current.elpd, _validate(points, spec.with_probe(name), reference).elpd)
             except _TooFewDegrees:
                 skipped.append(name)
-        passing = [name for name, c in probes.items() if passes(c, decisive=False)]
-        covariate = max(passing, key=lambda name: probes[name].delta_elpd) if passing else None
+        covariate = strongest(probes, decisive=False)
         if covariate is not None:
             causes.append(UNEXPLAINED)
         return GeometryCritiqueResults(

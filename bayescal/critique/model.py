@@ -36,7 +36,7 @@ from bayescal.inference.equations import check_campaign
 from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.units import DEG, MM
 
-__all__ = ["Critique", "CritiqueResults", "Outcome", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED", "passes"]
+__all__ = ["Critique", "CritiqueResults", "Outcome", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED", "passes", "strongest"]
 
 DETECTION_Z = 2.0
 """A cause is named only when its held-out gain exceeds this many standard errors of the difference."""
@@ -130,17 +130,15 @@ class Critique:
             trials = {e.name: (e, validate(model.plus(e))) for e in remaining}
             evidence = {name: compare(current, cv) for name, (_, cv) in trials.items()}
             steps.append(evidence)
-            passing = [name for name, c in evidence.items() if passes(c)]
-            if not passing:
+            best = strongest(evidence)
+            if best is None:
                 break
-            best = max(passing, key=lambda name: evidence[name].delta_elpd)
             extension, current = trials[best]
             model = model.plus(extension)
             causes.append(best)
             remaining = [e for e in remaining if e.name != best]
         probes = {name: compare(current, validate(model.plus(PROBES[name]))) for name in self.probes}
-        passing = [name for name, c in probes.items() if passes(c, decisive=False)]
-        covariate = max(passing, key=lambda name: probes[name].delta_elpd) if passing else None
+        covariate = strongest(probes, decisive=False)
         if covariate is not None:
             causes.append(UNEXPLAINED)
         return CritiqueResults(
@@ -223,6 +221,12 @@ def _candidate_summary(
              "named": name == covariate}
         )
     return pd.DataFrame.from_records(records, columns=["candidate", "kind", "step", "delta_elpd_nats", "se_nats", "named"])
+
+
+def strongest(evidence: dict[str, Comparison], decisive: bool = True) -> str | None:
+    """The candidate of largest held-out gain among those that pass :func:`passes`, or None."""
+    passing = [name for name, c in evidence.items() if passes(c, decisive)]
+    return max(passing, key=lambda name: evidence[name].delta_elpd) if passing else None
 
 
 def passes(comparison: Comparison, decisive: bool = True) -> bool:
