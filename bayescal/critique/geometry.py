@@ -105,7 +105,7 @@ from scipy import stats
 from scipy.optimize import least_squares
 
 from bayescal.critique.compare import Comparison, compare_elpd
-from bayescal.critique.model import DETECTION_FLOOR, DETECTION_Z, UNEXPLAINED, Outcome, strongest
+from bayescal.critique.model import DETECTION_FLOOR, DETECTION_Z, UNEXPLAINED, Outcome, check_candidates, strongest
 from bayescal.errors import InputError
 from bayescal.geometry.arcs import LEVER_MARKER, MarkerPoints, concentric_fit, known_angle_fit
 from bayescal.units import DEG, MM, UM
@@ -588,10 +588,8 @@ class GeometryCritique:
     probes: tuple[str, ...] = tuple(GEOMETRY_PROBES)
 
     def __post_init__(self) -> None:
-        for names, known in ((self.catalogue, GEOMETRY_CATALOGUE), (self.probes, GEOMETRY_PROBES)):
-            unknown = [name for name in names if name not in known]
-            if unknown:
-                raise ValueError(f"unknown candidate(s) {', '.join(unknown)}; expected some of {', '.join(known)}")
+        check_candidates(self.catalogue, GEOMETRY_CATALOGUE)
+        check_candidates(self.probes, GEOMETRY_PROBES)
 
     def run(self, points: MarkerPoints) -> GeometryCritiqueResults:
         """Criticise the two-step model on ``points`` (see :func:`bayescal.geometry.arcs.read_arc_points`).

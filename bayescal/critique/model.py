@@ -36,7 +36,7 @@ from bayescal.inference.equations import check_campaign
 from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.units import DEG, MM
 
-__all__ = ["Critique", "CritiqueResults", "Outcome", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED", "passes", "strongest"]
+__all__ = ["Critique", "CritiqueResults", "Outcome", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED", "passes", "strongest", "check_candidates"]
 
 DETECTION_Z = 2.0
 """A cause is named only when its held-out gain exceeds this many standard errors of the difference."""
@@ -88,10 +88,8 @@ class Critique:
     probes: tuple[str, ...] = tuple(PROBES)
 
     def __post_init__(self) -> None:
-        for names, known in ((self.catalogue, CATALOGUE), (self.probes, PROBES)):
-            unknown = [name for name in names if name not in known]
-            if unknown:
-                raise ValueError(f"unknown candidate(s) {', '.join(unknown)}; expected some of {', '.join(known)}")
+        check_candidates(self.catalogue, CATALOGUE)
+        check_candidates(self.probes, PROBES)
 
     def run(self, campaign: Campaign, rng: np.random.Generator | int | None = None) -> CritiqueResults:
         """Criticise the classical model on ``campaign``.
@@ -221,6 +219,13 @@ def _candidate_summary(
              "named": name == covariate}
         )
     return pd.DataFrame.from_records(records, columns=["candidate", "kind", "step", "delta_elpd_nats", "se_nats", "named"])
+
+
+def check_candidates(names: tuple[str, ...], known) -> None:
+    """Refuse candidate names that are not among ``known``."""
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        raise ValueError(f"unknown candidate(s) {', '.join(unknown)}; expected some of {', '.join(known)}")
 
 
 def strongest(evidence: dict[str, Comparison], decisive: bool = True) -> str | None:
