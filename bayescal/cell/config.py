@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from bayescal.robot.compensator import Compensator
+from bayescal.robot.compensator import COMPENSATED_JOINT, Compensator
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
 from bayescal.cell.tracker import TrackerNoise
@@ -134,6 +134,11 @@ class Cell:
     source: str
     payload_kg: float | None = None
     design: DesignLimits = DesignLimits()
+
+    @property
+    def compensated_joint(self) -> int | None:
+        """Index (0-based) of the joint that carries the compensator, or ``None`` when the cell has none."""
+        return None if self.compensator is None else COMPENSATED_JOINT
 
     @property
     def capacity_weight(self) -> float:
