@@ -1,0 +1,51 @@
+"""The linear compliance map of a pose and the spread of the posterior draws through it (eqs 31, 38).
+
+At a pose ``q`` with a wrench ``w`` at the flange origin the tool point's
+deflection is, to first order, ``A k`` with ``A[:, j] = J_p[:, j] (J_F[:, j]·w)``
+(eq 31) and ``k`` the joints' equivalent compliances (the compensator included,
+eq 8).  Compensation applies one prediction (the posterior mean); a draw ``k_s``
+would have deflected the tool by ``A (k_s - k̄)`` more: the error left.  With
+``A`` computed once per pose, every draw is applied by one matrix product.
+Both the test-pose prediction (eq 38) and the program compensation use these
+functions: one code path.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bayescal.robot.kinematics import Robot
+from bayescal.robot.stiffness import compliance_design
+
+__all__ = ["THREE_SIGMA", "designs", "deflection_draws", "error_quantiles"]
+
+THREE_SIGMA = 0.9973
+"""Two-sided probability of ±3σ of a normal distribution (the paper's interval)."""
+
+
+def designs(robot: Robot, q: np.ndarray, points: np.ndarray, wrenches: np.ndarray) -> np.ndarray:
+    """``(P, 3, n)`` matrices ``A`` of eq 31, one per pose.
+
+    Parameters
+    ----------
+    robot
+        The robot.
+    q
+        ``(P, n)`` joint angles, rad.
+    points
+        ``(P, 3)`` tool points in the flange frame, m.
+    wrenches
+        ``(P, 6)`` wrenches at the flange origin, base axes, N and N·m.
+    """
+    return np.stack([compliance_design(robot, qi, pi, wi) for qi, pi, wi in zip(q, points, wrenches)])
+
+
+def deflection_draws(design: np.ndarray, compliances: np.ndarray) -> np.ndarray:
+    """``(S, P, 3)`` deflections ``A_p k_{s,p}`` (m) of ``(S, P, n)`` compliance draws through ``(P, 3, n)`` designs."""
+    return np.einsum("spn,pin->spi", compliances, design, optimize=True)
+
+
+def error_quantiles(errors: np.ndarray) -> dict[str, np.ndarray]:
+    """Root-mean-square, 95 % and 99.73 % quantiles over draws of ``(S, ...)`` error lengths (m)."""
+    q95, q9973 = np.quantile(errors, [0.95, THREE_SIGMA], axis=0)
+    return {"rms": np.sqrt(np.mean(errors**2, axis=0)), "q95": q95, "q9973": q9973}
