@@ -13,6 +13,7 @@ essentially their prior's.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from os import PathLike
 
@@ -23,7 +24,14 @@ from bayescal.errors import InputError
 from bayescal.robot.compensator import Compensator, stiffness_regressor
 from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
 
-__all__ = ["Calibration", "load_calibration", "UNIDENTIFIED_LOG_SD"]
+__all__ = ["Calibration", "load_calibration", "UNIDENTIFIED_LOG_SD", "GRID_STEP", "MAX_DRAWS"]
+
+MAX_DRAWS = 2000
+"""Posterior draws kept (evenly thinned): the cost of the spread is linear in them, and 2000 draws
+leave about 5 beyond the 99.73 % quantile."""
+
+GRID_STEP = 0.25 * DEG
+"""Knot spacing (rad) of the compensated joint's equivalent compliance when a program has many distinct angles."""
 
 UNIDENTIFIED_LOG_SD = 0.5
 """Standard deviation of the log of a joint compliance the campaign did not identify.
@@ -75,33 +83,62 @@ class Calibration:
         K_c, s0 = self.spring.mean(axis=0)
         return Compensator(L, a_x, a_y, phi, K_c, s0)
 
-    def compliances(self, q_compensated: np.ndarray, *, fixed: tuple[str, ...] = ()) -> np.ndarray:
-        """``(S, P, n)`` equivalent joint compliances (rad/(N·m)) at ``P`` poses, draw by draw.
+    def compliances(
+        self, q_compensated: np.ndarray, *, fixed: tuple[str, ...] = ()
+    ) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None]:
+        """Joint compliances (rad/(N·m)) draw by draw: the constant ones and the compensated joint's, pose by pose.
 
         Parameters
         ----------
         q_compensated
-            ``(P,)`` angle of the compensated joint at each pose, rad (ignored without a compensator).
+            ``(P,)`` angles of the compensated joint the program visits, rad (ignored without a compensator).
         fixed
             Parameter names (``k1``.., ``K_c``, ``s0``) held at their posterior mean: how much
             of the error they account for is the difference with the full spread.
+
+        Returns
+        -------
+        tuple
+            ``(S, n)`` compliances (the compensated joint's own, without its compensator), and
+            a function giving the ``(p, S)`` equivalent compliance of the compensated joint (eq 8)
+            at ``p`` of those angles (None without a compensator).
         """
         own = self.own.copy()
         for j in range(own.shape[1]):
             if f"k{j + 1}" in fixed:
                 own[:, j] = own[:, j].mean()
-        q_compensated = np.asarray(q_compensated, dtype=float)
-        out = np.broadcast_to(own[:, None, :], (own.shape[0], q_compensated.size, own.shape[1])).copy()
         if self.spring is None:
-            return out
+            return own, None
         spring = self.spring.copy()
         for i, name in enumerate(("K_c", "s0")):
             if name in fixed:
                 spring[:, i] = spring[:, i].mean()
-        C = stiffness_regressor(q_compensated[None, :], *(self.geometry[:, i, None] for i in range(4)))
-        weights = np.column_stack([1.0 / own[:, self.compensated_joint], spring[:, 0], spring[:, 0] * spring[:, 1]])
-        out[:, :, self.compensated_joint] = 1.0 / np.einsum("spk,sk->sp", C, weights)
-        return out
+        return own, self._equivalent(np.asarray(q_compensated, dtype=float), own[:, self.compensated_joint], spring)
+
+    def _equivalent(self, q: np.ndarray, own: np.ndarray, spring: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+        """The compensated joint's equivalent compliance ``1/(1/own + K_c a L η(q))`` (eq 8), draw by draw.
+
+        Evaluated once at the distinct angles of ``q``, or, when there are more of them than
+        knots of a :data:`GRID_STEP` grid over their range, on that grid; the returned function
+        gives ``(p, S)`` values at ``p`` of these angles (interpolated linearly on the grid).
+        """
+        distinct = np.unique(q)
+        grid = np.arange(distinct[0], distinct[-1] + GRID_STEP, GRID_STEP)
+        exact = distinct.size <= grid.size
+        knots = distinct if exact else grid
+        C = stiffness_regressor(knots[None, :], *(self.geometry[:, i, None] for i in range(4)))
+        weights = np.column_stack([1.0 / own, spring[:, 0], spring[:, 0] * spring[:, 1]])
+        # Knots by rows: a pose's draws are then contiguous, as the spread wants them.
+        values = np.ascontiguousarray((1.0 / np.einsum("spk,sk->sp", C, weights)).T)
+
+        def at(angles: np.ndarray) -> np.ndarray:
+            if exact:
+                return values[np.searchsorted(knots, angles)]
+            i = np.clip(np.searchsorted(knots, angles) - 1, 0, knots.size - 2)
+            t = ((angles - knots[i]) / GRID_STEP)[:, None]
+            return values[i] * (1.0 - t) + values[i + 1] * t
+
+        return at
 
 
 def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Generator) -> Calibration:
@@ -135,10 +172,13 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
     n = cell.robot.nq
     _check_robot(tree.attrs, posterior, cell, source)
 
-    def values(name: str) -> np.ndarray:
-        return np.asarray(posterior[name].transpose("chain", "draw", ...).values, dtype=float).reshape(-1)
+    def values(name: str, thin: bool = True) -> np.ndarray:
+        flat = np.asarray(posterior[name].transpose("chain", "draw", ...).values, dtype=float).reshape(-1)
+        return flat[keep] if thin else flat
 
-    size = values("sigma").size // max(posterior["sigma"].sizes.get("noise_group", 1), 1)
+    total = values("sigma", thin=False).size // max(posterior["sigma"].sizes.get("noise_group", 1), 1)
+    keep = np.linspace(0, total - 1, min(total, MAX_DRAWS)).round().astype(int)
+    size = keep.size
     joint = cell.compensated_joint
     own = np.empty((size, n))
     unidentified = {name for name in str(tree.attrs.get("not_identifiable", "")).split(",") if name}

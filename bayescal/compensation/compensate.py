@@ -1,16 +1,18 @@
 """Compliance error compensation of a machining program, with the error each pose still carries.
 
-For each pose the programmed joints ``q`` put the unloaded tool (the arm
-under its own weight and the compensator, eq 1 with no wrench) at a pose
-``T(q)``.  Under the process wrench the tool deflects; the compensated
-targets ``q_c`` are those at which the loaded arm puts the tool at ``T(q)``:
-the dual of eq 2.  They are found with the posterior-mean parameters, from
-the linear map of eq 31 (``q_c0 = q - J⁻¹ δ``) and one Newton step with the
-exact model (two static equilibria of :class:`~bayescal.robot.stiffness.ElasticArm`),
-which :func:`compensate_pose` can repeat to convergence to check it.  With
-six joints the tool's whole pose is kept; with fewer, its position first,
-then as much of its orientation as the remaining joints allow; with more,
-the smallest joint correction.
+For each pose the programmed joints ``q`` put the unloaded arm (under its own
+weight and the compensator: eq 1 with no wrench) at link angles
+``λ = q + θ(q, 0)``, and the tool at ``T(λ)``.  The compensated targets ``q_c``
+are those at which the arm loaded by the process wrench puts the tool at the
+same ``T(λ)``: the dual of eq 2.  Asking the loaded links to be ``λ`` itself
+keeps the whole tool pose, position and orientation, for any number of joints,
+and turns the dual problem into one evaluation: at links ``λ`` the joint springs
+carry the known torque ``τ(λ) = -g(λ) - M_c(λ) e_c + J(λ)ᵀ w``, so the actuators
+must stand at ``q_c = λ - D(τ(λ))`` (eq 1 read backwards, ``D`` the joint
+deflection law).  The only solve is the unloaded equilibrium, Newton's method
+on the arm's weight alone; :func:`compensate_poses` gives both steps, and the
+tests check the loaded equilibrium at ``q_c`` (the full solve of
+:class:`~bayescal.robot.stiffness.ElasticArm`) lands on ``λ``.
 
 The error left at a pose is what a posterior draw would deflect the tool more
 than the mean (:mod:`bayescal.compensation.spread`); its rms is eq 38.
@@ -18,21 +20,18 @@ than the mean (:mod:`bayescal.compensation.spread`); its rms is eq 38.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
-import pinocchio as pin
 
 from bayescal.cell.config import Cell
 from bayescal.compensation.calibration import Calibration
 from bayescal.compensation.program import Program
 from bayescal.compensation.results import CompensationResults
-from bayescal.compensation.spread import deflection_draws, designs, error_quantiles
+from bayescal.compensation.spread import deflection_draws, designs, error_quantiles, mean_square
 from bayescal.inference.exact import scale_masses
+from bayescal.robot.compensator import Compensator
 from bayescal.robot.kinematics import Robot
-from bayescal.robot.stiffness import ElasticArm, EquilibriumError
 
-__all__ = ["compensate_program", "compensate_pose", "predicted_errors"]
+__all__ = ["compensate_program", "compensate_poses", "predicted_errors", "unloaded_links"]
 
 CHUNK = 256
 """Poses whose draws are spread at once: ``S × CHUNK × n`` compliances in memory."""
@@ -61,89 +60,118 @@ def predicted_errors(calibration: Calibration, design: np.ndarray, q_compensated
         that the parameters the campaign did not identify account for.
     """
     out: dict[str, list] = {"rms": [], "q95": [], "q9973": [], "mean_compliances": [], "unidentified_share": []}
+    joint = calibration.compensated_joint
+    full = _Spread(calibration.compliances(q_compensated), joint)
+    held = _Spread(calibration.compliances(q_compensated, fixed=calibration.unidentified), joint) if calibration.unidentified else None
     for start in range(0, design.shape[0], CHUNK):
         part = slice(start, start + CHUNK)
-        k = calibration.compliances(q_compensated[part])
-        mean = k.mean(axis=0)
-        spread = deflection_draws(design[part], k - mean)
-        stats = error_quantiles(np.linalg.norm(spread, axis=-1))
-        share = np.zeros(spread.shape[1])
-        if calibration.unidentified:
-            fixed = calibration.compliances(q_compensated[part], fixed=calibration.unidentified)
-            rest = deflection_draws(design[part], fixed - fixed.mean(axis=0))
-            full = np.mean(np.sum(spread**2, axis=-1), axis=0)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                share = np.clip(1.0 - np.mean(np.sum(rest**2, axis=-1), axis=0) / full, 0.0, 1.0)
-            share = np.nan_to_num(share)
+        spread, mean = full(design[part], q_compensated[part])
+        stats = error_quantiles(np.sqrt(np.einsum("pis,pis->ps", spread, spread)))
+        share = np.zeros(len(mean))
+        if held is not None:
+            rest, total = held.mean_square(design[part], q_compensated[part]), stats["rms"] ** 2
+            share = np.clip(1.0 - np.divide(rest, total, out=np.ones_like(total), where=total > 0), 0.0, 1.0)
         for name, value in (*stats.items(), ("mean_compliances", mean), ("unidentified_share", share)):
             out[name].append(value)
     return {name: np.concatenate(values) for name, values in out.items()}
 
 
-def tool_pose(robot: Robot, q: np.ndarray, tcp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rotation ``(3, 3)`` of the flange and position ``(3,)`` of the tool point (m) at links ``q``."""
-    rotation, _ = robot.flange_pose(q)
-    return rotation, robot.point_position(q, tcp)
+class _Spread:
+    """The draws' deflections about their mean at a chunk of poses: ``(p, 3, S)`` and the ``(p, n)`` mean compliances."""
+
+    def __init__(self, compliances, joint: int | None) -> None:
+        self.own, self.equivalent = compliances
+        self.centred = self.own - self.own.mean(axis=0)
+        self.joint = joint
+
+    def _varying(self, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        mean = np.repeat(self.own.mean(axis=0)[None, :], len(angles), axis=0)
+        if self.equivalent is None:
+            return mean, None
+        varying = self.equivalent(angles)
+        mean[:, self.joint] = varying.mean(axis=1)
+        return mean, varying - mean[:, self.joint, None]
+
+    def __call__(self, design: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        mean, varying = self._varying(angles)
+        return deflection_draws(design, self.centred, varying, self.joint), mean
+
+    def mean_square(self, design: np.ndarray, angles: np.ndarray) -> np.ndarray:
+        """``(p,)`` mean-square deflection about the mean (m²), from the draws' covariance."""
+        return mean_square(design, self.centred, self._varying(angles)[1], self.joint)
 
 
-def tool_jacobian(robot: Robot, q: np.ndarray, tcp: np.ndarray) -> np.ndarray:
-    """``(6, n)`` Jacobian of the tool point's position and the flange's rotation (base axes)."""
-    return np.vstack([robot.point_jacobian(q, tcp), robot.flange_jacobian(q)[3:]])
-
-
-def correction(jacobian: np.ndarray, error: np.ndarray) -> np.ndarray:
-    """Joint step ``(n,)`` that removes a ``(6,)`` pose error ``[δp (m); δφ (rad)]``, position first.
-
-    The position is removed in the least-squares sense by the minimum-norm step; the
-    orientation then with what the null space of the position rows leaves (all of it
-    for six joints, part of it for fewer).
-    """
-    Jp, Jr = jacobian[:3], jacobian[3:]
-    Jp_pinv = np.linalg.pinv(Jp)
-    step = Jp_pinv @ error[:3]
-    null = np.eye(jacobian.shape[1]) - Jp_pinv @ Jp
-    return step + null @ np.linalg.pinv(Jr @ null, rcond=1e-8) @ (error[3:] - Jr @ step)
-
-
-def compensate_pose(
-    arm: ElasticArm, q: np.ndarray, tcp: np.ndarray, wrench: np.ndarray, start: np.ndarray, *, steps: int = 1
+def unloaded_links(
+    robot: Robot, q: np.ndarray, own: np.ndarray, compensator: Compensator | None, joint: int | None, *, max_iter: int = 20
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Compensated joints from ``start`` by ``steps`` Newton steps of the exact model.
+    """``(P, n)`` link angles ``q + θ`` (rad) of the arm at poses ``q`` under its weight and the compensator, no wrench.
+
+    Newton's method (its chord form) on ``θ = k ∘ τ(q + θ)`` with ``τ = -g - M_c e_c`` (linear
+    joints of own compliances ``own`` ``(P, n)``, rad/(N·m)), all poses at once, converged to
+    :data:`EQUILIBRIUM_TOL`.  Also returns ``(P,)`` True where a pose did not converge (its links NaN).
+    """
+    P, n = q.shape
+    # The derivative (gravity's Hessian term and the compensator's stiffness) is taken once, at q: the
+    # deflections are small, so the chord steps converge about a thousandfold per step at a third of the cost.
+    derivative = -np.stack([robot.gravity_torque_derivative(qi) for qi in q])
+    if joint is not None:
+        derivative[:, joint, joint] -= compensator.stiffness(q[:, joint])
+    chord = np.eye(n) - own[:, :, None] * derivative
+    theta = np.zeros((P, n))
+    active = np.arange(P)
+    for _ in range(max_iter):
+        links = q[active] + theta[active]
+        torque = -np.stack([robot.gravity_torque(li) for li in links])
+        if joint is not None:
+            torque[:, joint] -= compensator.torque(links[:, joint])
+        step = np.linalg.solve(chord[active], (own[active] * torque - theta[active])[..., None])[..., 0]
+        theta[active] += step
+        active = active[~(np.max(np.abs(step), axis=1) < EQUILIBRIUM_TOL)]
+        if not active.size:
+            break
+    theta[active] = np.nan
+    failed = np.zeros(P, dtype=bool)
+    failed[active] = True
+    return q + theta, failed
+
+
+def compensate_poses(
+    robot: Robot, q: np.ndarray, wrench: np.ndarray, own: np.ndarray, compensator: Compensator | None, joint: int | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Compensated joints: the loaded arm's links at the unloaded arm's, pose by pose.
 
     Parameters
     ----------
-    arm
-        The arm with the parameters to compensate with.
+    robot
+        The robot (link masses as identified).
     q
-        ``(n,)`` programmed joints, rad.
-    tcp
-        ``(3,)`` tool point in the flange frame, m.
+        ``(P, n)`` programmed joints, rad.
     wrench
-        ``(6,)`` process wrench at the flange origin, base axes.
-    start
-        ``(n,)`` first guess (the linear map's), rad.
-    steps
-        Newton steps.
+        ``(P, 6)`` process wrenches at the flange origin, base axes, N and N·m (dead loads).
+    own
+        ``(P, n)`` joint compliances, rad/(N·m); the compensated joint's without its compensator.
+    compensator
+        The compensator, or None.
+    joint
+        Its joint (0-based), or None.
 
     Returns
     -------
     tuple
-        ``(n,)`` compensated joints and the ``(6,)`` pose error ``[m; rad]`` the last step removed.
+        ``(P, n)`` compensated joints, ``(P, n)`` the links ``λ`` they hold under the wrench (rad),
+        and ``(P,)`` True where the unloaded equilibrium was not found (NaN rows).
     """
-    robot = arm.robot
-    target_rotation, target = tool_pose(robot, q + arm.equilibrium(q, np.zeros(6), tol=EQUILIBRIUM_TOL), tcp)
-    command = np.array(start, dtype=float)
-    error = np.zeros(6)
-    for _ in range(steps):
-        links = command + arm.equilibrium(command, wrench, tol=EQUILIBRIUM_TOL)
-        rotation, position = tool_pose(robot, links, tcp)
-        error = np.concatenate([position - target, pin.log3(rotation @ target_rotation.T)])
-        command = command - correction(tool_jacobian(robot, links, tcp), error)
-    return command, error
+    links, failed = unloaded_links(robot, q, own, compensator, joint)
+    torque = np.full_like(q, np.nan)
+    for p in np.flatnonzero(~failed):
+        torque[p] = robot.flange_jacobian(links[p]).T @ wrench[p] - robot.gravity_torque(links[p])
+    if joint is not None:
+        torque[:, joint] -= compensator.torque(links[:, joint])
+    return links - own * torque, links, failed
 
 
 def compensate_program(
-    program: Program, calibration: Calibration, cell: Cell, *, tolerance: float | None = None, steps: int = 1
+    program: Program, calibration: Calibration, cell: Cell, *, tolerance: float | None = None
 ) -> CompensationResults:
     """Compensated joint targets and the error left at every pose of ``program``.
 
@@ -157,8 +185,6 @@ def compensate_program(
         The cell (robot and compensated joint).
     tolerance
         Error (m) a pose's 99.73 % bound may reach before it is flagged; None: no such flag.
-    steps
-        Newton steps of the exact model after the linear map.
     """
     robot = scale_masses(cell.robot, calibration.gravity_scale) if calibration.gravity_scale != 1.0 else cell.robot
     joint = cell.compensated_joint
@@ -168,34 +194,21 @@ def compensate_program(
     q_comp = program.q[:, joint] if joint is not None else np.zeros(len(program))
     errors = predicted_errors(calibration, design, q_comp)
     compensator = calibration.mean_compensator()
-    own = calibration.own.mean(axis=0)
-    commands = np.full_like(program.q, math.nan)
-    deflection = np.full((len(program), 6), math.nan)
-    newton = np.full(len(program), math.nan)
-    failed = np.zeros(len(program), dtype=bool)
-    for p, (q, tcp, w, k) in enumerate(zip(program.q, program.tcp, wrench, errors["mean_compliances"])):
-        pose_own = own.copy()
-        if joint is not None:
-            # The compensation applies the draws' mean equivalent compliance (the mean of eq 8's draws).
-            pose_own[joint] = compensator.own_compliance(q[joint], k[joint])
-        arm = ElasticArm.linear(robot, pose_own, compensator=compensator)
-        jacobian = tool_jacobian(robot, q, tcp)
-        deflection[p] = jacobian @ (k * (robot.flange_jacobian(q).T @ w))
-        try:
-            commands[p], last = compensate_pose(arm, q, tcp, w, q - correction(jacobian, deflection[p]), steps=steps)
-        except EquilibriumError:
-            failed[p] = True
-            continue
-        newton[p] = np.linalg.norm(last[:3])
+    mean = errors["mean_compliances"]
+    own = np.repeat(calibration.own.mean(axis=0)[None, :], len(program), axis=0)
+    if joint is not None:
+        # The compensation applies the draws' mean equivalent compliance (the mean of eq 8's draws).
+        own[:, joint] = compensator.own_compliance(q_comp, mean[:, joint])
+    deflection = np.linalg.norm(np.einsum("pin,pn->pi", design, mean), axis=1)
+    commands, _, failed = compensate_poses(robot, program.q, wrench, own, compensator, joint)
     return CompensationResults(
         program=program,
         robot=cell.robot,
         commands=commands,
-        deflection=np.linalg.norm(deflection[:, :3], axis=1),
+        deflection=deflection,
         errors={name: errors[name] for name in ("rms", "q95", "q9973")},
         unidentified_share=errors["unidentified_share"],
         unidentified=calibration.unidentified,
-        newton_correction=newton,
         failed=failed,
         tolerance=tolerance,
         n_draws=calibration.n_draws,

@@ -41,8 +41,6 @@ class CompensationResults:
         ``(P,)`` fraction of the mean-square error due to the parameters the campaign did not identify.
     unidentified : tuple of str
         Those parameters.
-    newton_correction : numpy.ndarray
-        ``(P,)`` position change (m) of the exact model's Newton step after the linear map.
     failed : numpy.ndarray
         ``(P,)`` True where the equilibrium under the wrench was not found.
     tolerance : float or None
@@ -58,7 +56,6 @@ class CompensationResults:
     errors: dict[str, np.ndarray]
     unidentified_share: np.ndarray
     unidentified: tuple[str, ...]
-    newton_correction: np.ndarray
     failed: np.ndarray
     tolerance: float | None = None
     n_draws: int = 0
@@ -130,10 +127,13 @@ class CompensationResults:
         }
 
     def diagnostics(self) -> dict:
-        """How far the exact model's Newton step moved the linear map's targets (mm), and failed solves."""
-        newton = self.newton_correction[np.isfinite(self.newton_correction)]
+        """How large the corrections are (deg), draws used, and poses without a static equilibrium."""
+        ok = ~self.failed
+        programmed = self.program.q[ok]
+        correction = np.abs(self.commands[ok] - programmed) / DEG if ok.any() else np.empty((0, programmed.shape[1]))
         return {
-            "newton_step_mm": {"median": _mm(np.median, newton), "max": _mm(np.max, newton)},
+            "draws": self.n_draws,
+            "largest_joint_correction_deg": {f"q{j + 1}": float(c) for j, c in enumerate(correction.max(axis=0, initial=0.0))},
             "equilibrium_failures": int(self.failed.sum()),
         }
 
