@@ -28,11 +28,11 @@ from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.exact import scale_masses
 from bayescal.robot.stiffness import ElasticArm
 from bayescal.sampling.protocol import Sampler
-from bayescal.studies.elastostatic_coverage import LIMIT_MARGIN, Truth
+from bayescal.studies.elastostatic_coverage import LIMIT_MARGIN, Truth, TruthSpread, random_plan
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import DEG
 
-__all__ = ["random_program", "twin_misses", "compensation_check"]
+__all__ = ["random_program", "twin_misses", "compensation_check", "compensation_coverage", "draw_truth"]
 
 MAX_PROCESS_FORCE = 1500.0
 """Largest process force of a random program, N (milling and drilling of aircraft parts: hundreds of N to ~1 kN)."""
@@ -152,3 +152,58 @@ def compensation_check(
             "inside": miss <= compensated.errors["q9973"],
         }
     )
+
+
+def draw_truth(cell: Cell, spread: TruthSpread | None, rng: np.random.Generator) -> Truth:
+    """The cell's own values (``spread`` None), or a truth drawn unlike them as the elastostatic coverage study draws it."""
+    if spread is None:
+        return Truth(compliances=cell.compliances, spring=(cell.compensator.K_c, cell.compensator.s0))
+    factor = lambda width, n=None: rng.uniform(1.0 - width, 1.0 + width, n)  # noqa: E731
+    return Truth(
+        compliances=cell.compliances * factor(spread.compliances, cell.robot.nq),
+        spring=(cell.compensator.K_c * factor(spread.K_c), cell.compensator.s0 * factor(spread.s0)),
+        masses=factor(spread.masses),
+    )
+
+
+def compensation_coverage(
+    cell: Cell,
+    campaigns: int,
+    seed: int,
+    *,
+    plan: Plan | None = None,
+    spread: TruthSpread | None = None,
+    poses: int = 200,
+    sampler: Sampler | None = None,
+) -> pd.DataFrame:
+    """:func:`compensation_check` over ``campaigns`` simulated calibrations, each with its own seed.
+
+    Parameters
+    ----------
+    cell
+        The cell as the user knows it.
+    campaigns
+        Number of campaigns.
+    seed
+        Root of every random draw.
+    plan
+        The campaigns' plan; None: a random plan of 6 q2 angles x 5 configurations per campaign.
+    spread
+        How far each truth is drawn from the cell's values; None: the cell's values are the truth.
+    poses
+        Poses of each campaign's random program.
+    sampler
+        The identification's sampler (default: the model's).
+
+    Returns
+    -------
+    pandas.DataFrame
+        :func:`compensation_check`'s rows with a ``campaign`` column.
+    """
+    frames = []
+    for index, rng in enumerate(np.random.default_rng(seed).spawn(campaigns)):
+        truth = draw_truth(cell, spread, rng)
+        campaign_plan = plan if plan is not None else random_plan(cell, 6, 5, rng)
+        frame = compensation_check(cell, truth, campaign_plan, rng, poses=poses, sampler=sampler)
+        frames.append(frame.assign(campaign=index))
+    return pd.concat(frames, ignore_index=True)
