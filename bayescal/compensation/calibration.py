@@ -203,6 +203,11 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
         else:
             c = cell.compensator
             geometry = np.tile([c.L, c.a_x, c.a_y, c.phi], (size, 1))
+    elif "K_c" in posterior:
+        raise InputError(
+            f"the calibration has a compensator (K_c, s0) and the cell ({cell.source}) has none: it belongs to another cell",
+            source=source,
+        )
     gravity = float(values("gravity_scale").mean()) if "gravity_scale" in posterior else 1.0
     names = [f"k{j + 1}" for j in range(n)] + ["K_c", "s0"]
     return Calibration(
