@@ -9,15 +9,14 @@ Other columns are carried to the compensated file unchanged.
 
 from __future__ import annotations
 
+import csv
 from dataclasses import dataclass
 from os import PathLike
 
 import numpy as np
 import pandas as pd
 
-import csv
-
-from bayescal.cell.campaign import MAX_LOAD_ARM
+from bayescal.cell.campaign import MAX_LOAD_ARM, WRENCH_COLUMNS
 from bayescal.cell.config import Cell
 from bayescal.errors import InputError
 from bayescal.tables import read_table
@@ -25,7 +24,6 @@ from bayescal.units import DEG, MM
 
 __all__ = ["Program", "read_program", "WRENCH_COLUMNS", "TCP_COLUMNS"]
 
-WRENCH_COLUMNS = ("fx_N", "fy_N", "fz_N", "mx_Nm", "my_Nm", "mz_Nm")
 TCP_COLUMNS = ("tcp_x_mm", "tcp_y_mm", "tcp_z_mm")
 
 

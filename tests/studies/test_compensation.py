@@ -7,7 +7,7 @@ from bayescal.sampling.gibbs import GibbsSampler
 from bayescal.studies.compensation import compensation_coverage
 from bayescal.studies.elastostatic_coverage import TruthSpread
 
-SAMPLER = GibbsSampler(n_chains=2, n_tune=200, n_draws=1000)
+SAMPLER = GibbsSampler(n_chains=2, n_tune=100, n_draws=300)
 
 
 def _report(frame):
@@ -17,7 +17,7 @@ def _report(frame):
 
 
 def test_table_iii_campaigns_leave_the_predicted_error_and_a_tenth_of_the_deflection(cell, plan):
-    frame = compensation_coverage(cell, 2, 11, plan=plan, poses=60, sampler=SAMPLER)
+    frame = compensation_coverage(cell, 2, 11, plan=plan, poses=50, sampler=SAMPLER)
     inside, gain = _report(frame)
     assert inside >= 0.99
     assert gain <= 0.1
@@ -25,7 +25,7 @@ def test_table_iii_campaigns_leave_the_predicted_error_and_a_tenth_of_the_deflec
 
 def test_truths_unlike_the_config_on_random_plans_stay_inside_the_bound(cell):
     # Other compliances, spring and link masses than the config's, and another plan than Table III.
-    frame = compensation_coverage(cell, 2, 12, spread=TruthSpread(), poses=60, sampler=SAMPLER)
+    frame = compensation_coverage(cell, 2, 12, spread=TruthSpread(), poses=50, sampler=SAMPLER)
     inside, _ = _report(frame)
     assert inside >= 0.99
 
