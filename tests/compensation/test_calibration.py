@@ -30,3 +30,14 @@ def test_a_file_that_is_not_a_posterior_is_refused(cell, tmp_path):
     path.write_text("not netcdf")
     with pytest.raises(InputError, match="cannot read"):
         load_calibration(path, cell, np.random.default_rng(0))
+
+
+def test_a_calibration_of_another_robot_is_refused(cell, short_calibration, tmp_path):
+    from bayescal.sampling.summary import load, save
+
+    tree = load(short_calibration["calibration"])
+    assert tree.attrs["robot"] == cell.robot.model.name
+    tree.attrs["robot"] = "another_arm"
+    save(tree, tmp_path / "other.nc")
+    with pytest.raises(InputError, match="another_arm"):
+        load_calibration(tmp_path / "other.nc", cell, np.random.default_rng(0))

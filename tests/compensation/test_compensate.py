@@ -106,3 +106,20 @@ def test_eq_38_at_the_test_pose_is_the_programs_rms_there(cell, calibrated):
     prediction = predict_cell_test_pose(results, cell).to_json()["residual_error_mm"]
     assert compensated.errors["rms"][0] * 1e3 == pytest.approx(prediction["rms"], rel=1e-9)
     assert compensated.errors["q9973"][0] * 1e3 == pytest.approx(prediction["q99.73"], rel=1e-9)
+
+
+def test_a_cell_without_compensator_is_compensated_with_constant_compliances(cell):
+    bare = dataclasses.replace(cell, compensator=None)
+    rng = np.random.default_rng(6)
+    own = cell.compliances * np.exp(0.05 * rng.standard_normal((400, 6)))
+    calibration = Calibration(own=own, spring=None, geometry=None, gravity_scale=1.0, compensated_joint=None, unidentified=("k1",))
+    program = random_program(bare, 20, np.random.default_rng(7))
+    compensated = compensate_program(program, calibration, bare)
+    assert not compensated.failed.any()
+    assert np.all(compensated.errors["rms"] < compensated.errors["q9973"])
+    assert np.all((compensated.unidentified_share >= 0) & (compensated.unidentified_share < 1))
+    assert np.median(compensated.unidentified_share) > 0.01
+    arm = ElasticArm.linear(bare.robot, own.mean(axis=0))
+    wrench = program.flange_wrench(np.stack([bare.robot.flange_pose(q)[0] for q in program.q]))
+    for q, command, w in zip(program.q, compensated.commands, wrench):
+        assert np.allclose(command + arm.equilibrium(command, w), q + arm.equilibrium(q, np.zeros(6)), atol=1e-11, rtol=0)
