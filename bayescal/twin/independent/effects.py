@@ -17,6 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from bayescal.cell.config import Cell
 from bayescal.twin.independent.noise import FrameDrift, LineOfSightJumps, ScaleError
@@ -120,14 +121,22 @@ def _rated_torque(cell: Cell) -> np.ndarray:
 def _spring(world: World, cell: Cell, size: float, rng) -> World:
     if world.linkage is None:
         raise ValueError("the cell has no compensator whose spring could be changed")
-    # A stiffer, progressive spring whose free length is lengthened with its rate, as a
-    # maker would to keep carrying the arm: at the default rate factor 4.6 the free
-    # length is 117 mm longer and the rate rises 15 % over a 200 mm stretch.
-    step = (size - 1.0) / 3.6
-    linkage = replace(
-        world.linkage, K_c=world.linkage.K_c * size, s0=world.linkage.s0 + 0.117 * step, progression=0.15 * step
-    )
-    return replace(world, linkage=linkage)
+    # A stiffer, progressive spring (the rate rises 15 % over a 200 mm stretch at the
+    # default size), its free length chosen as a maker would: the one whose moment is
+    # closest, in least squares over the joint's range, to the moment of the spring it replaces.
+    old = world.linkage
+    step = (size - 1.0) / (EFFECTS["stiff_spring"].default - 1.0)
+    joint = old.joint
+    angles = np.linspace(cell.robot.lower[joint], cell.robot.upper[joint], 60)
+    target = np.array([old.moment(angle) for angle in angles])
+
+    def misfit(s0: float) -> float:
+        new = replace(old, K_c=old.K_c * size, s0=s0, progression=0.15 * step)
+        return float(np.sum((np.array([new.moment(angle) for angle in angles]) - target) ** 2))
+
+    lengths = np.array([old.length(angle) for angle in angles])
+    s0 = minimize_scalar(misfit, bounds=(0.0, float(lengths.max())), method="bounded").x if size > 0 else old.s0
+    return replace(world, linkage=replace(old, K_c=old.K_c * size, s0=float(s0), progression=0.15 * step))
 
 
 CAST_IRON = (169e9, 65e9)
@@ -157,7 +166,7 @@ def _tool(world: World, cell: Cell, size: float, rng) -> World:
 def _play(world: World, cell: Cell, size: float, rng) -> World:
     rated = _rated_torque(cell)
     play = np.full(len(rated), size * math.pi / (180.0 * 60.0))
-    return replace(world, play=GearPlay(play, 0.02 * rated))
+    return replace(world, play=GearPlay(play, 0.03 * rated, 0.01 * rated))
 
 
 def _knee(world: World, cell: Cell, size: float, rng) -> World:
@@ -197,12 +206,12 @@ EFFECTS: dict[str, Effect] = {
     effect.name: effect
     for effect in (
         Effect("stiff_spring", "the compensator's spring stiffer (rate × the size), progressive, with a longer free length",
-               "compensator", 4.6, "factor on K_c", _spring),
+               "compensator", 3.0, "factor on K_c", _spring),
         Effect("link_beams", "upper arm and forearm bend and twist as cast-iron tubes under their own weight and the load beyond",
                "link_compliance", 1.0, "factor on the tubes' compliance", _beams),
         Effect("tool_mount", "a 30 kg tool on an adaptor that turns under the bending moment (torsion 0.4 times it) and shears",
                "tool_compliance", 0.4, "μrad/(N·m) in bending", _tool),
-        Effect("gear_play", "lost motion of every joint's gears, dragged along each change of the joint torque (Dahl hysteresis)",
+        Effect("gear_play", "lost motion of every joint's gears, held by friction until the torque exceeds 3 % of the rated torque the other way",
                "backlash", 1.0, "arcmin of play per joint", _play),
         Effect("knee_joints", "every joint spring softer by this fraction below 10 % of its rated torque",
                "nonlinear_stiffness", 0.5, "fraction of extra compliance", _knee),

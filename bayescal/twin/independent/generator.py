@@ -230,7 +230,7 @@ class IndependentGenerator:
         markers = np.array(list(world.markers.values()))
         offsets = TIMELINE["marker"] * np.arange(len(markers))
         base = [] if world.tool is None else [Load(np.array([0.0, 0.0, -world.tool.mass * cell.gravity]), world.tool.centre)]
-        play, last, clock = np.zeros(robot.nq), None, 0.0
+        play, clock = np.zeros(robot.nq), 0.0
         states, times, keys, wrenches = [], [], [], []
         for number, (q, mass) in enumerate(zip(plan.q, plan.masses(cell.load_mass))):
             force = np.array([0.0, 0.0, -mass * cell.gravity])
@@ -244,7 +244,7 @@ class IndependentGenerator:
                 for loaded in (False, True):
                     load = force if loaded else np.zeros(3)
                     try:
-                        theta, play, last = self._equilibrium(statics, world, q, base + [Load(load, point)], play, last)
+                        theta, play = self._equilibrium(statics, world, q, base + [Load(load, point)], play)
                     except SolverError as exc:
                         raise InputError(str(exc), source=plan.source, line=int(plan.lines[number]) or None) from None
                     pair.append(self._markers(world, robot, q, q + theta + play, load, point, markers))
@@ -256,13 +256,13 @@ class IndependentGenerator:
         return np.concatenate(states), np.concatenate(times), keys, np.array(wrenches)
 
     @staticmethod
-    def _equilibrium(statics: Statics, world: World, q, loads, play, last):
-        """Deflections, play and joint torques of one state; the play follows the torque's change since ``last``."""
+    def _equilibrium(statics: Statics, world: World, q, loads, play):
+        """Deflections and play of one state: the play moves first if the torque pushes it across."""
         theta, torque = statics.solve(q, loads, play)
-        if world.play is not None and last is not None:
-            play = world.play.update(play, torque - last)
-            theta, torque = statics.solve(q, loads, play)
-        return theta, play, torque
+        if world.play is not None:
+            play = world.play.update(play, torque)
+            theta, _ = statics.solve(q, loads, play)
+        return theta, play
 
     def _markers(self, world: World, robot, q, q_link, force, point, markers) -> np.ndarray:
         """(k, 3) true marker positions (m) with the links at ``q_link`` under the load ``force`` at ``point``."""

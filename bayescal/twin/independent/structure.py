@@ -1,8 +1,8 @@
 """Mechanical effects beyond rigid links and linear joint springs, each a small physical model.
 
 * :class:`KneeJoints`: a joint spring softer below a knee torque (a piecewise-linear torsion curve);
-* :class:`GearPlay`: lost motion in the gears, taken up along the torque's change with a
-  friction-like (Dahl) hysteresis, so that it depends on the order of the loads;
+* :class:`GearPlay`: lost motion in the gears, held by friction until the torque pushes it
+  across (a smoothed play operator), so that it depends on the order of the loads;
 * :class:`LinkBeams`: the long links as tubular cantilevers under their own
   distributed weight and the loads beyond them, each moving its far end by a 6-D twist;
 * :class:`ToolMount`: the tool on a compliant adaptor at the flange, with its own weight;
@@ -49,21 +49,25 @@ class KneeJoints:
 
 @dataclass(frozen=True)
 class GearPlay:
-    """Lost motion of each joint's gears, between ``-play/2`` and ``+play/2`` (rad).
+    """Lost motion of each joint's gears, a position between ``-play/2`` and ``+play/2`` (rad) with memory.
 
-    A change ``Δτ`` of the joint's torque drags the play toward the side it pushes,
-    ``b ← s·play/2 + (b - s·play/2)·exp(-|Δτ|/take_up)`` with ``s = sign(Δτ)``: a
-    Dahl-like friction law, so that a small change takes up part of the play and a
-    large one all of it, whatever the torque's sign.
+    Friction holds the gear in the play until the torque pushes it across: the
+    position only moves when the torque leaves the band ``±hold``, toward the side it
+    pushes, and then to ``±(play/2)·tanh((|τ| - hold)/soft)``: the play operator
+    of hysteresis models, smoothed.  A joint whose torque keeps its sign beyond
+    ``hold`` stays taken up; one whose torque crosses zero moves by up to ``play``.
     """
 
     play: np.ndarray
-    take_up: np.ndarray
+    hold: np.ndarray
+    soft: np.ndarray
 
-    def update(self, position: np.ndarray, change: np.ndarray) -> np.ndarray:
-        """(nq,) play position (rad) after a torque change ``change`` (nq,) N·m from ``position``."""
-        side = np.sign(change) * self.play / 2.0
-        return side + (position - side) * np.exp(-np.abs(change) / self.take_up)
+    def update(self, position: np.ndarray, torque: np.ndarray) -> np.ndarray:
+        """(nq,) play position (rad) under the joint torques ``torque`` (nq,) N·m, starting from ``position``."""
+        half = self.play / 2.0
+        upper = half * np.tanh((torque + self.hold) / self.soft)
+        lower = half * np.tanh((torque - self.hold) / self.soft)
+        return np.clip(position, lower, upper)
 
 
 @dataclass(frozen=True)
