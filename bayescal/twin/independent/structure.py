@@ -53,8 +53,8 @@ class GearPlay:
 
     Friction holds the gear in the play until the torque pushes it across: the
     position only moves when the torque leaves the band ``±hold``, toward the side it
-    pushes, and then to ``±(play/2)·tanh((|τ| - hold)/soft)``: the play operator
-    of hysteresis models, smoothed.  A joint whose torque keeps its sign beyond
+    pushes, at most to ``play·tanh((|τ| - hold)/soft)`` from the far side: the play
+    operator of hysteresis models, smoothed over ``soft``.  A joint whose torque keeps its sign beyond
     ``hold`` stays taken up; one whose torque crosses zero moves by up to ``play``.
     """
 
@@ -65,8 +65,8 @@ class GearPlay:
     def update(self, position: np.ndarray, torque: np.ndarray) -> np.ndarray:
         """(nq,) play position (rad) under the joint torques ``torque`` (nq,) N·m, starting from ``position``."""
         half = self.play / 2.0
-        upper = half * np.tanh((torque + self.hold) / self.soft)
-        lower = half * np.tanh((torque - self.hold) / self.soft)
+        upper = half - self.play * np.tanh(np.maximum(-(torque + self.hold), 0.0) / self.soft)
+        lower = -half + self.play * np.tanh(np.maximum(torque - self.hold, 0.0) / self.soft)
         return np.clip(position, lower, upper)
 
 
