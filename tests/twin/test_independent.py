@@ -7,9 +7,10 @@ equilibrium gives the same deflections.
 
 from __future__ import annotations
 
-import io
 import contextlib
+import io
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -153,6 +154,14 @@ def test_drawn_truth_is_not_the_config(cell):
 def test_unknown_effect_is_an_input_error(cell, plan):
     with pytest.raises(InputError, match="unknown effect"):
         IndependentGenerator(cell, np.random.default_rng(0)).simulate(plan, 1, "wobble")
+
+
+def test_spring_effect_needs_a_compensator(cell, plan):
+    plain = replace(cell, compensator=None)
+    with pytest.raises(InputError, match="no compensator"):
+        IndependentGenerator(plain, np.random.default_rng(0)).simulate(plan, 1, "stiff_spring")
+    campaign, _ = IndependentGenerator(plain, np.random.default_rng(0)).simulate(plan, 1, "link_beams")
+    assert np.all(np.isfinite(campaign.p1))
 
 
 def _calibrates(cell, data_dir, tmp_path, name):

@@ -158,7 +158,10 @@ class IndependentGenerator:
         if effect not in EFFECTS:
             raise InputError(f"unknown effect {effect!r}; known: {', '.join(EFFECTS)}", column="effect")
         planted = EFFECTS[effect]
-        return planted.plant(world, cell, planted.default * magnitude, rng)
+        try:
+            return planted.plant(world, cell, planted.default * magnitude, rng)
+        except ValueError as exc:
+            raise InputError(f"cannot plant {effect!r} in {cell.source}: {exc}", column="effect") from None
 
     def _drawn(self, world: World) -> World:
         rng = self.rng
