@@ -154,6 +154,8 @@ def test_drawn_truth_is_not_the_config(cell):
 def test_unknown_effect_is_an_input_error(cell, plan):
     with pytest.raises(InputError, match="unknown effect"):
         IndependentGenerator(cell, np.random.default_rng(0)).simulate(plan, 1, "wobble")
+    with pytest.raises(InputError, match="magnitude"):
+        IndependentGenerator(cell, np.random.default_rng(0)).simulate(plan, 1, "link_beams", -1.0)
 
 
 def test_spring_effect_needs_a_compensator(cell, plan):

@@ -157,6 +157,8 @@ class IndependentGenerator:
             return world
         if effect not in EFFECTS:
             raise InputError(f"unknown effect {effect!r}; known: {', '.join(EFFECTS)}", column="effect")
+        if not (np.isfinite(magnitude) and magnitude >= 0):
+            raise InputError(f"the magnitude must be a finite number ≥ 0, got {magnitude}", column="magnitude")
         planted = EFFECTS[effect]
         try:
             return planted.plant(world, cell, planted.default * magnitude, rng)
