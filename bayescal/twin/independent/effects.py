@@ -211,7 +211,8 @@ EFFECTS: dict[str, Effect] = {
                "link_compliance", 1.0, "factor on the tubes' compliance", _beams),
         Effect("tool_mount", "a 30 kg tool on an adaptor that turns under the bending moment (torsion 0.4 times it) and shears",
                "tool_compliance", 0.4, "μrad/(N·m) in bending", _tool),
-        Effect("gear_play", "lost motion of every joint's gears, held by friction until the torque exceeds 3 % of the rated torque the other way",
+        Effect("gear_play", "lost motion of every joint's gears, held by friction until the torque exceeds "
+               "3 % of the rated torque the other way",
                "backlash", 1.0, "arcmin of play per joint", _play),
         Effect("knee_joints", "every joint spring softer by this fraction below 10 % of its rated torque",
                "nonlinear_stiffness", 0.5, "fraction of extra compliance", _knee),

@@ -142,7 +142,9 @@ class LinkBeams:
     scale: float
     gravity: float
 
-    def displacements(self, robot: Robot, q_link: np.ndarray, force: np.ndarray, point: np.ndarray, points: np.ndarray) -> np.ndarray:
+    def displacements(
+        self, robot: Robot, q_link: np.ndarray, force: np.ndarray, point: np.ndarray, points: np.ndarray
+    ) -> np.ndarray:
         """(k, 3) displacements (m) of flange-frame ``points`` from the bending of the long links.
 
         ``force`` (3,) N in base axes acts at the flange-frame ``point`` (the load);
@@ -168,7 +170,8 @@ class LinkBeams:
             tip_moment = np.cross(lever, beyond) + np.cross(load_at - tip, force)
             own = model.inertias[j + 1].mass * down / np.linalg.norm(tip - root)
             section = self.sections[min(number, len(self.sections) - 1)]
-            local = cantilever_twist(np.linalg.norm(tip - root), section, frame.T @ tip_force, frame.T @ tip_moment, frame.T @ own)
+            length = np.linalg.norm(tip - root)
+            local = cantilever_twist(length, section, frame.T @ tip_force, frame.T @ tip_moment, frame.T @ own)
             delta, phi = frame @ local[:3], frame @ local[3:]
             moved += self.scale * (delta + np.cross(phi, targets - tip))
         return moved
@@ -189,7 +192,9 @@ class ToolMount:
     torsion: float
     shear: float
 
-    def displacements(self, rotation: np.ndarray, force: np.ndarray, point: np.ndarray, points: np.ndarray, gravity: float) -> np.ndarray:
+    def displacements(
+        self, rotation: np.ndarray, force: np.ndarray, point: np.ndarray, points: np.ndarray, gravity: float
+    ) -> np.ndarray:
         """(k, 3) base-frame displacements (m) of flange-frame ``points`` with the flange turned by ``rotation``.
 
         ``force`` (3,) N in base axes acts at the flange-frame ``point``.
@@ -218,7 +223,9 @@ class RandomField:
     marker_scale: float
 
     @classmethod
-    def draw(cls, rng: np.random.Generator, n_inputs: int, *, sigma: float, length: float, marker_scale: float, features: int = 200) -> RandomField:
+    def draw(
+        cls, rng: np.random.Generator, n_inputs: int, *, sigma: float, length: float, marker_scale: float, features: int = 200
+    ) -> RandomField:
         """A field over ``n_inputs`` joint angles plus 3 marker coordinates."""
         omega = rng.normal(scale=1.0 / length, size=(features, n_inputs + 3))
         phase = rng.uniform(0.0, 2.0 * math.pi, size=features)
