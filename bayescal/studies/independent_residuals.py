@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from bayescal.cell.config import Cell
+from bayescal.errors import InputError
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.twin.independent import EFFECTS, IndependentGenerator, random_plan
 
@@ -28,6 +29,23 @@ def _campaign(cell: Cell, seed: int, effect: str | None, magnitude: float, noise
     rng = np.random.default_rng(seed)
     plan = random_plan(cell, rng)
     return IndependentGenerator(cell, rng, noise=noise).simulate(plan, 3, effect, magnitude)[0]
+
+
+def _fit(cell: Cell, campaign, seed: int) -> dict:
+    """The fit's residuals and convergence, or the reason it refused the campaign."""
+    try:
+        with warnings.catch_warnings():
+            # Identifiability and convergence warnings are the fit's, recorded in its diagnostics.
+            warnings.simplefilter("ignore")
+            results = ElastostaticModel.from_cell(cell).fit(campaign, rng=seed)
+    except InputError as error:
+        return dict.fromkeys(_FIT_COLUMNS, np.nan) | {"error": error.what}
+    report = results.diagnostics()
+    values = (results.residual_rms / 1e-6, results.chi2_per_dof, report["r_hat_max"], report["ess_bulk_min"])
+    return dict(zip(_FIT_COLUMNS, values)) | {"error": None}
+
+
+_FIT_COLUMNS = ("residual_rms_um", "chi2_per_dof", "r_hat_max", "ess_bulk_min")
 
 
 def effect_residuals(
@@ -51,7 +69,8 @@ def effect_residuals(
     pandas.DataFrame
         Columns ``effect`` ("none" for no effect), ``cause``, ``seed``, ``change_um`` (rms change of
         the noiseless deflections), ``noise_um`` (rms of the cell's noise model on a deflection:
-        the floor), ``residual_rms_um``, ``chi2_per_dof``, ``r_hat_max`` and ``ess_bulk_min``.
+        the floor), ``residual_rms_um``, ``chi2_per_dof``, ``r_hat_max``, ``ess_bulk_min`` and
+        ``error``: the message when the fit refuses the campaign (its other columns then NaN).
     """
     effects = [None, *EFFECTS] if effects is None else list(effects)
     rows = []
@@ -62,22 +81,12 @@ def effect_residuals(
             bare = _campaign(cell, seed, None, magnitude, False)
             change = np.sqrt(np.mean((exact.displacement - bare.displacement) ** 2))
             noise = np.sqrt(np.mean(cell.tracker.sigma(campaign.p0) ** 2 + cell.tracker.sigma(campaign.p1) ** 2))
-            with warnings.catch_warnings():
-                # Identifiability and convergence warnings are the fit's, recorded in its diagnostics.
-                warnings.simplefilter("ignore")
-                results = ElastostaticModel.from_cell(cell).fit(campaign, rng=seed)
-            report = results.diagnostics()
-            rows.append(
-                {
-                    "effect": effect or "none",
-                    "cause": EFFECTS[effect].cause if effect else None,
-                    "seed": seed,
-                    "change_um": change / 1e-6,
-                    "noise_um": noise / 1e-6,
-                    "residual_rms_um": results.residual_rms / 1e-6,
-                    "chi2_per_dof": results.chi2_per_dof,
-                    "r_hat_max": report["r_hat_max"],
-                    "ess_bulk_min": report["ess_bulk_min"],
-                }
-            )
+            row = {
+                "effect": effect or "none",
+                "cause": EFFECTS[effect].cause if effect else None,
+                "seed": seed,
+                "change_um": change / 1e-6,
+                "noise_um": noise / 1e-6,
+            }
+            rows.append(row | _fit(cell, campaign, seed))
     return pd.DataFrame(rows)

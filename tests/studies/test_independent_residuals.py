@@ -10,8 +10,10 @@ from bayescal.studies.independent_residuals import effect_residuals
 def test_outliers_raise_the_residuals_above_the_noise(cell):
     table = effect_residuals(cell, [1], effects=[None, "los_jumps"]).set_index("effect")
     assert list(table.columns) == [
-        "cause", "seed", "change_um", "noise_um", "residual_rms_um", "chi2_per_dof", "r_hat_max", "ess_bulk_min"
+        "cause", "seed", "change_um", "noise_um", "residual_rms_um", "chi2_per_dof", "r_hat_max", "ess_bulk_min",
+        "error",
     ]
+    assert table["error"].isna().all()
     # Without an effect the residuals are the noise; 3 % of readings off by 0.5-1.5 mm are not.
     assert table.loc["none", "change_um"] == 0.0
     assert table.loc["none", "residual_rms_um"] == pytest.approx(table.loc["none", "noise_um"], rel=0.15)
