@@ -187,3 +187,43 @@ def test_an_effect_campaign_calibrates(cell, data_dir, tmp_path):
 @pytest.mark.parametrize("name", [None, *sorted(EFFECTS)])
 def test_every_effect_campaign_calibrates(cell, data_dir, tmp_path, name):
     _calibrates(cell, data_dir, tmp_path, name)
+
+
+THREE_JOINTS = """<robot name="three">
+  <link name="base"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><origin xyz="0 0 0.6"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="4000" velocity="1"/></joint>
+  <link name="l1"><inertial><origin xyz="0 0 0"/><mass value="80"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.2 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-2" upper="0.5" effort="4000" velocity="1"/></joint>
+  <link name="l2"><inertial><origin xyz="0.45 0 0"/><mass value="60"/><inertia ixx="1" ixy="0" ixz="0" iyy="5" iyz="0" izz="5"/></inertial></link>
+  <joint name="j3" type="revolute"><parent link="l2"/><child link="l3"/><origin xyz="0.9 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="2000" velocity="1"/></joint>
+  <link name="l3"><inertial><origin xyz="0.4 0 0"/><mass value="30"/><inertia ixx="1" ixy="0" ixz="0" iyy="2" iyz="0" izz="2"/></inertial></link>
+  <joint name="tip" type="fixed"><parent link="l3"/><child link="flange"/><origin xyz="0.8 0 0"/></joint>
+  <link name="flange"/>
+</robot>"""
+
+
+def test_another_robot_without_compensator(cell, tmp_path):
+    from bayescal.cell.plan import Plan
+    from bayescal.robot.kinematics import Robot
+    from bayescal.twin.independent.solver import Load, Statics, scaled_robot
+
+    (tmp_path / "three.urdf").write_text(THREE_JOINTS)
+    robot = Robot.from_urdf(tmp_path / "three.urdf")
+    k = np.array([2e-6, 1e-6, 3e-6])
+    # Weightless links and a small load: the deflection is the linear compliance J k Jᵀ f.
+    statics = Statics(scaled_robot(robot, 0.0), lambda torque: k * torque)
+    angles, point, force = np.array([0.3, -0.6, 0.9]), np.array([0.1, 0.0, 0.2]), np.array([3.0, -2.0, -5.0])
+    theta, _ = statics.solve(angles, [Load(force, point)])
+    jacobian = robot.point_jacobian(angles, point)
+    moved = robot.point_position(angles + theta, point) - robot.point_position(angles, point)
+    np.testing.assert_allclose(moved, jacobian @ (k * (jacobian.T @ force)), rtol=1e-4)
+    # The generator runs on it with the links' weights and each structural effect changes its data.
+    small = replace(cell, robot=robot, compliances=k, compensator=None)
+    plan = Plan(np.array([[0.3, -0.6, 0.9], [-0.4, -1.2, 0.4]]), np.array([40.0, 60.0]), np.zeros(2, dtype=int))
+    campaign, _ = IndependentGenerator(small, np.random.default_rng(0), truth="config", noise=False).simulate(plan, 1)
+    for name in ("link_beams", "knee_joints", "gear_play"):
+        changed, _ = IndependentGenerator(small, np.random.default_rng(0), truth="config", noise=False).simulate(plan, 1, name)
+        assert np.abs(changed.displacement - campaign.displacement).max() > 1e-6
