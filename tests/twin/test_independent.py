@@ -227,3 +227,23 @@ def test_another_robot_without_compensator(cell, tmp_path):
     for name in ("link_beams", "knee_joints", "gear_play"):
         changed, _ = IndependentGenerator(small, np.random.default_rng(0), truth="config", noise=False).simulate(plan, 1, name)
         assert np.abs(changed.displacement - campaign.displacement).max() > 1e-6
+
+
+def test_repeats_agree_unless_the_load_is_rehung(cell, plan, null):
+    rehung, _ = _exact(cell, plan, "load_rehang")
+    spread = [np.ptp(c.displacement.reshape(-1, 3, 3, 3), axis=1).max() for c in (null, rehung)]
+    # Without noise the repeats of a configuration see the same deflection, to rounding; re-hanging the load does not.
+    assert spread[0] < 1e-12 and spread[1] > 5e-6
+
+
+def test_drift_grows_with_the_time_of_the_reading(cell, plan, null):
+    drifted, _ = _exact(cell, plan, "thermal_drift")
+    shift = np.linalg.norm(drifted.p0 - null.p0, axis=1)
+    # 0.2 mm/h over a 9 h campaign: the last configuration's readings moved far more than the first's.
+    assert shift[-9:].mean() > 5 * shift[:9].mean() and shift.max() > 0.3e-3
+
+
+def test_isotropic_option_is_the_cells_model(cell):
+    points = np.tile([[2.4, 0.3, 1.2]], (40000, 1))
+    errors = TrackerReadout(cell.tracker, isotropic=True).read(points, np.random.default_rng(4)) - points
+    np.testing.assert_allclose(errors.std(axis=0), cell.tracker.sigma(points[:1])[0], rtol=0.02)
