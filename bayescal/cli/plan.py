@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     space = load_design_space(cell, mass_range=None if args.mass_kg is None else tuple(args.mass_kg))
     designer = PlanDesigner(cell, space, repeats=args.repeats, model=args.model)
     if args.evaluate is not None:
-        plan = read_plan(args.evaluate, cell.robot)
+        plan = read_plan(args.evaluate, cell.robot, max_load_kg=cell.max_force / cell.gravity, loading=cell.loading)
         prediction = designer.evaluate(plan, "exact")
         payload = prediction.to_json() | {
             "model": "exact",
