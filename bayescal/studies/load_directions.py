@@ -26,7 +26,8 @@ estimate) and scored by the error left at the test pose.  For k1 the study
 also counts how often the ±3σ interval of the estimate covers the truth, and
 asks the identification's own structural analysis
 (:meth:`~bayescal.inference.elastostatic.ElastostaticModel.estimate`) on one
-campaign per plan whether k1 is reported identifiable.
+campaign per plan whether k1 is reported identifiable.  With ``k1_known`` every
+truth keeps the config's k1, which shows what the plans deliver apart from k1.
 """
 
 from __future__ import annotations
@@ -130,6 +131,8 @@ def load_direction_study(
     seed: int = 0,
     candidates_per_angle: int = 8,
     starts: int = 2,
+    model: str = "exact",
+    k1_known: bool = False,
     executor: Executor | None = None,
 ) -> LoadDirectionFindings:
     """Hanging masses against loads in any direction on ``cell`` (module docstring).
@@ -146,8 +149,12 @@ def load_direction_study(
         Loads of the hanging plan turned sideways in the second plan.
     seed
         Root of the designs' and the campaigns' random draws.
-    candidates_per_angle, starts
-        The designer's candidate set and random starts (:meth:`PlanDesigner.optimise`).
+    candidates_per_angle, starts, model
+        The designer's candidate set, random starts and search model (:class:`PlanDesigner`);
+        the simulations always run the twin and score with the exact linearisation.
+    k1_known
+        Hold k1 at the cell's value in every truth: what the plans deliver when the config's k1
+        happens to be right, so that the hanging plans lose nothing by holding it.
     executor
         Where the campaigns run (default: a process pool on all cores).
     """
@@ -155,22 +162,24 @@ def load_direction_study(
         raise ValueError('the study needs a cell whose end-effector applies loads in any direction ([load] directions = "any")')
     hanging_cell = dataclasses.replace(cell, loading=Loading(force_max=cell.loading.force_max))
     options = {"rng": seed, "starts": starts, "candidates_per_angle": candidates_per_angle}
-    hanging = PlanDesigner(hanging_cell, repeats=repeats).optimise(angles, per_angle, "test-pose", **options).plan
+    hanging = PlanDesigner(hanging_cell, repeats=repeats, model=model).optimise(angles, per_angle, "test-pose", **options).plan
     plans = {
         "hanging, test-pose optimal": hanging,
         f"hanging + {turned} sideways": sideways(cell, hanging, turned),
-        "free directions, test-pose optimal": PlanDesigner(cell, repeats=repeats).optimise(angles, per_angle, "test-pose", **options).plan,
+        "free directions, test-pose optimal": PlanDesigner(cell, repeats=repeats, model=model).optimise(angles, per_angle, "test-pose", **options).plan,
     }
     rows, first = {}, None
     for name, plan in plans.items():
-        model = CampaignModel.build(cell, plan, repeats, vary_all=True)
-        weighted = model.design / model.sigma[:, np.newaxis]
-        prediction = predict(cell, repeats * weighted.T @ weighted, test_design=model.test_design)
-        result = simulate_plan(cell, plan, campaigns=campaigns, repeats=repeats, seed=seed + 1, executor=executor, model=model)
+        linearised = CampaignModel.build(cell, plan, repeats, vary_all=True)
+        if k1_known:
+            linearised = dataclasses.replace(linearised, varied=np.arange(len(linearised.varied)) != 0)
+        weighted = linearised.design / linearised.sigma[:, np.newaxis]
+        prediction = predict(cell, repeats * weighted.T @ weighted, test_design=linearised.test_design)
+        result = simulate_plan(cell, plan, campaigns=campaigns, repeats=repeats, seed=seed + 1, executor=executor, model=linearised)
         length = np.linalg.norm(result["errors"], axis=1)
         first = length if first is None else first
         sd_k1 = prediction.relative_sd[0]
-        covered = np.abs(result["parameter_errors"][:, 0]) <= 3.0 * sd_k1 if model.excited[0] else np.full(campaigns, np.nan)
+        covered = np.abs(result["parameter_errors"][:, 0]) <= 3.0 * sd_k1 if linearised.excited[0] else np.full(campaigns, np.nan)
         rows[name] = {
             "predicted_rho0_um": prediction.rho0 / UM,
             "mean_error_um": length.mean() / UM,
@@ -178,7 +187,7 @@ def load_direction_study(
             "rms_error_um": math.sqrt(np.mean(length**2)) / UM,
             "difference_to_hanging_um": (length - first).mean() / UM,
             "difference_se_um": (length - first).std(ddof=1) / math.sqrt(campaigns) / UM,
-            "k1_excited": bool(model.excited[0]),
+            "k1_excited": bool(linearised.excited[0]),
             "k1_identifiable": _k1_reported_identifiable(cell, plan, repeats, seed),
             "k1_width_3sd_pct": 300.0 * sd_k1,
             "k1_width_3sd_urad_per_Nm": 3.0 * sd_k1 * cell.compliances[0] / URAD_PER_NM,
@@ -188,7 +197,8 @@ def load_direction_study(
     scores = pd.DataFrame.from_dict(rows, orient="index")
     scores.index.name = "plan"
     settings = {"angles": angles, "per_angle": per_angle, "repeats": repeats, "campaigns": campaigns, "turned": turned, "seed": seed}
-    return LoadDirectionFindings(scores=scores, plans=plans, settings=settings | {"candidates_per_angle": candidates_per_angle, "starts": starts})
+    settings |= {"candidates_per_angle": candidates_per_angle, "starts": starts, "model": model, "k1_known": k1_known}
+    return LoadDirectionFindings(scores=scores, plans=plans, settings=settings)
 
 
 def _k1_reported_identifiable(cell: Cell, plan: Plan, repeats: int, seed: int) -> bool:
