@@ -92,7 +92,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
     for violation in payload.get("violations", []):
         lines.append(f"configuration {violation['config']}: {violation['reason']}")
     if "output" in payload:
-        lines.insert(0, f"wrote {payload['output']}: {payload['configurations']} configurations at q2 = {', '.join(f'{v:g}' for v in payload['q2_deg'])} deg")
+        loads = f", forces of {payload['force_max_N']:.0f} N in directions of the design" if "force_max_N" in payload else ""
+        lines.insert(0, f"wrote {payload['output']}: {payload['configurations']} configurations at q2 = {', '.join(f'{v:g}' for v in payload['q2_deg'])} deg{loads}")
     return CommandOutput(payload=payload, text="\n".join(lines))
 
 

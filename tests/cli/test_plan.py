@@ -91,14 +91,14 @@ def test_an_any_direction_cell_gets_force_columns_and_evaluates_them(main, tmp_p
     config = str(DATA / "kr270_any_load.toml")
     output = tmp_path / "plan.csv"
     options = ["--angles", "3", "--per-angle", "2", "--model", "linear", "--starts", "1", "--seed", "2"]
-    assert main(["plan", "--config", config, "-o", str(output), "--json"] + options) == 0
-    payload = json.loads(capsys.readouterr().out)
+    assert main(["plan", "--config", config, "-o", str(output)] + options) == 0
+    assert "forces of 2750 N in directions of the design" in capsys.readouterr().out
     header = [line for line in output.read_text().splitlines() if not line.startswith("#")][0]
     assert header.endswith("fx_N,fy_N,fz_N,mx_Nm,my_Nm,mz_Nm") and "load_kg" not in header
-    assert payload["force_max_N"] <= 2750.0 + 1e-6 and payload["parameters"]["k1"]["width_3sd_pct"] is not None
     assert main(["plan", "--config", config, "--evaluate", str(output), "--json"]) == 0
     evaluated = json.loads(capsys.readouterr().out)
     assert evaluated["violations"] == [] and evaluated["parameters"]["k1"]["excited"]
+    assert evaluated["parameters"]["k1"]["width_3sd_pct"] is not None
     # the same plan on a cell that can only hang masses is refused when read
     assert main(["plan", "--config", CONFIG, "--evaluate", str(output)]) == 2
     err = capsys.readouterr().err.strip()
