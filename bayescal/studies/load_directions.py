@@ -51,11 +51,9 @@ from bayescal.design.optimise import PlanDesigner
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.studies.plans import CampaignModel, simulate_plan
 from bayescal.twin.simulator import DigitalTwin
-from bayescal.units import MM, URAD_PER_NM
+from bayescal.units import UM, URAD_PER_NM
 
 __all__ = ["LoadDirectionFindings", "load_direction_study", "sideways"]
-
-UM = 1e-3 * MM
 
 
 def sideways(cell: Cell, plan: Plan, count: int) -> Plan:
