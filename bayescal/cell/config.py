@@ -22,6 +22,7 @@ import numpy as np
 from bayescal.robot.compensator import COMPENSATED_JOINT, Compensator
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
+from bayescal.cell.loading import DIRECTIONS, Loading
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.units import DEG, MM, N_PER_MM, UM, URAD_PER_NM
 
@@ -54,7 +55,7 @@ SCHEMA: dict[str, frozenset[str] | None] = {
     "tool": frozenset({"load_point_mm", "markers_mm", "tcp_mm"}),
     "tool.markers_mm": None,
     "tracker": frozenset({"position_mm", "U0_um", "U1_um_per_m", "factor"}),
-    "load": frozenset({"mass_kg", "gravity_m_per_s2"}),
+    "load": frozenset({"mass_kg", "gravity_m_per_s2", "directions", "force_max_N", "couple_max_Nm"}),
     "test_pose": frozenset({"q_deg", "wrench_N_Nm", "point_mm"}),
     "design": frozenset({"mass_kg", "acceptance_deg", "floor_z_mm", "hanging_clearance_mm"}),
 }
@@ -121,6 +122,8 @@ class Cell:
         when the file does not give it (:attr:`tool_point` then falls back to the test pose's point).
     design : DesignLimits
         The ``[design]`` table: what campaigns of this cell may load and where they must keep clear.
+    loading : Loading
+        What the end-effector can apply (``[load] directions``, ``force_max_N``, ``couple_max_Nm``).
     """
 
     robot: Robot
@@ -138,6 +141,7 @@ class Cell:
     payload_kg: float | None = None
     design: DesignLimits = DesignLimits()
     tcp: np.ndarray | None = None
+    loading: Loading = Loading()
 
     @property
     def tool_point(self) -> np.ndarray:
@@ -161,9 +165,14 @@ class Cell:
 
     def load_wrench(self, q, mass: float) -> np.ndarray:
         """(6,) wrench at the flange origin (base axes) of ``mass`` kg hanging at the load point with the arm at ``q``."""
-        force = np.array([0.0, 0.0, -mass * self.gravity])
+        return self.wrench(q, np.array([0.0, 0.0, -mass * self.gravity]))
+
+    def wrench(self, q, force, couple=None) -> np.ndarray:
+        """(6,) wrench at the flange origin (base axes) of ``force`` (3,) N through the load point and ``couple`` (3,) N·m, base axes."""
+        force = np.asarray(force, dtype=float).reshape(3)
+        couple = np.zeros(3) if couple is None else np.asarray(couple, dtype=float).reshape(3)
         rotation, _ = self.robot.flange_pose(q)
-        return np.concatenate([force, np.cross(rotation @ self.load_point, force)])
+        return np.concatenate([force, np.cross(rotation @ self.load_point, force) + couple])
 
 
 class _Reader:
@@ -321,6 +330,18 @@ def _design_limits(reader: _Reader) -> DesignLimits:
     )
 
 
+def _loading(reader: _Reader) -> Loading:
+    table = reader.table("load")
+    directions = reader.text("load", "directions", default="down")
+    if directions not in DIRECTIONS:
+        reader.fail(f"expected \"down\" (hanging masses) or \"any\" (forces in any direction), got {directions!r}", "load", "directions")
+    force_max = reader.number("load", "force_max_N", unit="N", positive=True) if "force_max_N" in table else None
+    if directions == "any" and force_max is None:
+        reader.fail('missing key \'force_max_N\' (eq 41\'s F_max in N), required with directions = "any"', "load")
+    couple_max = reader.number("load", "couple_max_Nm", unit="N·m", non_negative=True, default=0.0)
+    return Loading(directions=directions, force_max=force_max, couple_max=couple_max)
+
+
 def load_cell(path: str | PathLike[str]) -> Cell:
     """Read a cell TOML file (schema in ``docs/twin.md``) and convert it to SI.
 
@@ -419,6 +440,7 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     test_wrench = reader.vector("test_pose", "wrench_N_Nm", 6, unit="N and N·m")
     cell = Cell(
         design=_design_limits(reader),
+        loading=_loading(reader),
         robot=robot,
         compliances=compliances,
         compensator=compensator,

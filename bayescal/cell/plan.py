@@ -1,9 +1,12 @@
 """Calibration plans: the robot configurations of an elastostatic campaign and their loads.
 
 A plan CSV has one row per configuration with the controller's joint angles
-``q1_deg`` … ``q<n>_deg`` and, optionally, the mass ``load_kg`` hung at the tool's
-load point in that configuration.  Configurations are numbered 1, 2, … in file
-order; lines starting with ``#`` are provenance notes.
+``q1_deg`` … ``q<n>_deg`` and, optionally, its load: either the mass ``load_kg``
+hung at the tool's load point, or a force ``fx_N, fy_N, fz_N`` (base axes)
+applied through the load point by an end-effector that can push or pull in any
+direction (:mod:`bayescal.cell.loading`); either may come with a couple
+``mx_Nm, my_Nm, mz_Nm`` (base axes).  Configurations are numbered 1, 2, … in
+file order; lines starting with ``#`` are provenance notes.
 """
 
 from __future__ import annotations
@@ -16,12 +19,22 @@ from pathlib import Path
 
 import numpy as np
 
+from bayescal.cell.loading import Loading
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
 from bayescal.tables import read_header, read_table
 from bayescal.units import DEG
 
-__all__ = ["Plan", "read_plan", "write_plan"]
+__all__ = ["FORCE_COLUMNS", "COUPLE_COLUMNS", "Plan", "read_plan", "write_plan"]
+
+FORCE_COLUMNS = ("fx_N", "fy_N", "fz_N")
+"""A plan's force columns: the force through the load point, base axes, N."""
+
+COUPLE_COLUMNS = ("mx_Nm", "my_Nm", "mz_Nm")
+"""A plan's couple columns: a pure couple on the tool, base axes, N·m."""
+
+_STANDARD_GRAVITY = 9.80665
+"""m/s²: turns ``max_load_kg`` into the largest plausible force of a force column."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,12 +50,18 @@ class Plan:
     lines : numpy.ndarray
         (M,) line numbers in the source file.
     source : str
+    force : numpy.ndarray or None
+        (M, 3) forces through the load point, base axes, N; when given, ``load_kg`` is ``None``.
+    couple : numpy.ndarray or None
+        (M, 3) couples, base axes, N·m.
     """
 
     q: np.ndarray
     load_kg: np.ndarray | None
     lines: np.ndarray
     source: str = "<memory>"
+    force: np.ndarray | None = None
+    couple: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.q)
@@ -51,8 +70,41 @@ class Plan:
         """(M,) the load of each configuration, kg: the plan's own, or ``default`` everywhere."""
         return np.full(len(self), float(default)) if self.load_kg is None else self.load_kg.copy()
 
+    def forces(self, default_mass: float, gravity: float) -> np.ndarray:
+        """(M, 3) the force through the load point of each configuration, base axes, N.
 
-def read_plan(path: str | PathLike[str], robot: Robot, *, max_load_kg: float | None = None) -> Plan:
+        The plan's own forces, else the weight of its masses (``default_mass`` kg where it has none).
+        """
+        if self.force is not None:
+            return self.force.copy()
+        weight = np.zeros((len(self), 3))
+        weight[:, 2] = -self.masses(default_mass) * gravity
+        return weight
+
+    def couples(self) -> np.ndarray:
+        """(M, 3) the couple of each configuration, base axes, N·m (zero where the plan has none)."""
+        return np.zeros((len(self), 3)) if self.couple is None else self.couple.copy()
+
+    def wrenches(self, cell) -> np.ndarray:
+        """(M, 6) each configuration's load as a wrench at the flange origin, base axes (``cell.wrench``)."""
+        forces = self.forces(cell.load_mass, cell.gravity)
+        couples = self.couples()
+        return np.array([cell.wrench(q, f, c) for q, f, c in zip(self.q, forces, couples)])
+
+    def describe_load(self, row: int, default_mass: float) -> str:
+        """Row ``row``'s load in words, for error messages."""
+        if self.force is None:
+            text = f"{self.masses(default_mass)[row]:g} kg"
+        else:
+            text = "a force of [" + ", ".join(f"{v:.1f}" for v in self.force[row]) + "] N"
+        if self.couple is not None and np.any(self.couple[row]):
+            text += " and a couple of [" + ", ".join(f"{v:.1f}" for v in self.couple[row]) + "] N m"
+        return text
+
+
+def read_plan(
+    path: str | PathLike[str], robot: Robot, *, max_load_kg: float | None = None, loading: Loading | None = None
+) -> Plan:
     """Read a plan CSV for ``robot``, checking every row against the joint limits.
 
     Parameters
@@ -63,14 +115,19 @@ def read_plan(path: str | PathLike[str], robot: Robot, *, max_load_kg: float | N
         The robot whose joints and limits the plan must match.
     max_load_kg
         The heaviest plausible load, kg (e.g. ``cell.max_force / cell.gravity``);
-        a heavier ``load_kg`` is an error.
+        a heavier ``load_kg``, or a larger force (as a weight), is an error.
+    loading
+        What the cell's end-effector can apply (``cell.loading``); a force or couple
+        it cannot apply is an error.  ``None``: any force and couple.
 
     Raises
     ------
     InputError
         Naming the line and column of a missing column, a joint column the robot
         does not have, a value that is not a number, a joint angle outside its
-        limits, or a load that is not positive or above ``max_load_kg``.
+        limits, a load that is not positive or above ``max_load_kg``, force or
+        couple columns given in part or a force given with ``load_kg``, or a load
+        the end-effector cannot apply.
     """
     source = str(path)
     joints = [f"q{j}_deg" for j in range(1, robot.nq + 1)]
@@ -84,11 +141,12 @@ def read_plan(path: str | PathLike[str], robot: Robot, *, max_load_kg: float | N
             line=header[0],
             column=extra[0],
         )
+    _check_load_columns(header, source)
     frame = read_table(
         path,
         {name: "number" for name in joints},
-        optional={"load_kg": "number"},
-        units={name: "deg" for name in joints} | {"load_kg": "kg"},
+        optional={"load_kg": "number"} | {name: "number" for name in FORCE_COLUMNS + COUPLE_COLUMNS},
+        units={name: "deg" for name in joints} | {"load_kg": "kg"} | dict.fromkeys(FORCE_COLUMNS, "N") | dict.fromkeys(COUPLE_COLUMNS, "N·m"),
     )
     q = frame[joints].to_numpy(dtype=float) * DEG
     for line, row in zip(frame.index, q):
@@ -113,22 +171,71 @@ def read_plan(path: str | PathLike[str], robot: Robot, *, max_load_kg: float | N
                 line=int(frame.index[row]),
                 column="load_kg",
             )
-    return Plan(q=q, load_kg=load, lines=frame.index.to_numpy(dtype=int), source=source)
+    force = frame[list(FORCE_COLUMNS)].to_numpy(dtype=float) if FORCE_COLUMNS[0] in frame else None
+    couple = frame[list(COUPLE_COLUMNS)].to_numpy(dtype=float) if COUPLE_COLUMNS[0] in frame else None
+    _check_wrenches(frame.index, force, couple, max_load_kg, loading, source)
+    return Plan(q=q, load_kg=load, lines=frame.index.to_numpy(dtype=int), source=source, force=force, couple=couple)
+
+
+def _check_load_columns(header: tuple[int, list[str]] | None, source: str) -> None:
+    """Force and couple columns come in threes, and a force replaces ``load_kg``."""
+    if header is None:
+        return  # read_table names the problem
+    line, names = header
+    for group in (FORCE_COLUMNS, COUPLE_COLUMNS):
+        present = [name for name in group if name in names]
+        if present and len(present) < 3:
+            missing = [name for name in group if name not in names][0]
+            raise InputError(f"missing column {missing}: expected all of {', '.join(group)} or none", source=source, line=line, column=missing)
+    if FORCE_COLUMNS[0] in names and "load_kg" in names:
+        raise InputError(
+            "expected either load_kg (a hanging mass) or fx_N, fy_N, fz_N (a force), not both", source=source, line=line, column="load_kg"
+        )
+
+
+def _check_wrenches(lines, force, couple, max_load_kg, loading: Loading | None, source: str) -> None:
+    """Forces the arm can carry and the end-effector can apply, couples it can apply."""
+    for row, line in enumerate(lines):
+        reason, column = None, None
+        if force is not None:
+            size = float(np.linalg.norm(force[row]))
+            if max_load_kg is not None and size > max_load_kg * _STANDARD_GRAVITY:
+                reason = (
+                    f"a force of {size:.4g} N is more than the weight of the {max_load_kg:.0f} kg the arm can plausibly carry: "
+                    "are fx_N..fz_N in another unit than N?"
+                )
+            elif loading is not None:
+                reason = loading.force_violation(force[row])
+            column = FORCE_COLUMNS[int(np.argmax(np.abs(force[row])))]
+        if reason is None and couple is not None and loading is not None:
+            reason = loading.couple_violation(couple[row])
+            column = COUPLE_COLUMNS[int(np.argmax(np.abs(couple[row])))]
+        if reason is not None:
+            raise InputError(reason, source=source, line=int(line), column=column)
 
 
 def write_plan(plan: Plan, path: str | PathLike[str], *, comments: Sequence[str] = ()) -> None:
     """Write ``plan`` in the format :func:`read_plan` reads; ``comments`` become leading ``#`` lines.
 
     Joint angles are written with 3 decimals in deg (about 17 μrad, far below the
-    controllers' repeatability), loads with 1 decimal in kg.
+    controllers' repeatability), loads with 1 decimal in kg, forces in N and couples in N·m.
     """
     lines = [f"# {line}" for comment in comments for line in str(comment).splitlines()]
     joints = [f"q{j}_deg" for j in range(1, plan.q.shape[1] + 1)]
-    lines.append(",".join(joints + ([] if plan.load_kg is None else ["load_kg"])))
+    columns = joints + ([] if plan.load_kg is None else ["load_kg"])
+    columns += list(FORCE_COLUMNS) * (plan.force is not None) + list(COUPLE_COLUMNS) * (plan.couple is not None)
+    lines.append(",".join(columns))
     for number, q in enumerate(plan.q):
-        # "+ 0.0" turns a rounded -0.0 into 0.0 so the file does not depend on rounding sign.
-        fields = [f"{round(float(value / DEG), 3) + 0.0:.3f}" for value in q]
+        fields = [_decimal(value / DEG, 3) for value in q]
         if plan.load_kg is not None:
             fields.append(f"{float(plan.load_kg[number]):.1f}")
+        for values in (plan.force, plan.couple):
+            if values is not None:
+                fields += [_decimal(value, 1) for value in values[number]]
         lines.append(",".join(fields))
     Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def _decimal(value: float, places: int) -> str:
+    # "+ 0.0" turns a rounded -0.0 into 0.0 so the file does not depend on rounding sign.
+    return f"{round(float(value), places) + 0.0:.{places}f}"

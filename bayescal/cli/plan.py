@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     space = load_design_space(cell, mass_range=None if args.mass_kg is None else tuple(args.mass_kg))
     designer = PlanDesigner(cell, space, repeats=args.repeats, model=args.model)
     if args.evaluate is not None:
-        plan = read_plan(args.evaluate, cell.robot)
+        plan = read_plan(args.evaluate, cell.robot, max_load_kg=cell.max_force / cell.gravity, loading=cell.loading)
         prediction = designer.evaluate(plan, "exact")
         payload = prediction.to_json() | {
             "model": "exact",
@@ -92,7 +92,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
     for violation in payload.get("violations", []):
         lines.append(f"configuration {violation['config']}: {violation['reason']}")
     if "output" in payload:
-        lines.insert(0, f"wrote {payload['output']}: {payload['configurations']} configurations at q2 = {', '.join(f'{v:g}' for v in payload['q2_deg'])} deg")
+        loads = f", forces of {payload['force_max_N']:.0f} N in directions of the design" if "force_max_N" in payload else ""
+        lines.insert(0, f"wrote {payload['output']}: {payload['configurations']} configurations at q2 = {', '.join(f'{v:g}' for v in payload['q2_deg'])} deg{loads}")
     return CommandOutput(payload=payload, text="\n".join(lines))
 
 

@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         raise InputError(f"effect '{repeated}' is given more than once", source="--effect")
     cell = load_cell(args.config)
     check_output("-o", args.output, inputs | {"the robot URDF": cell.robot.source})
-    plan = read_plan(args.plan, cell.robot, max_load_kg=cell.max_force / cell.gravity)
+    plan = read_plan(args.plan, cell.robot, max_load_kg=cell.max_force / cell.gravity, loading=cell.loading)
     twin = DigitalTwin(cell, effects)
     try:
         campaign = twin.simulate(plan, args.repeats, np.random.default_rng(args.seed))

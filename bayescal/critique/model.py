@@ -110,7 +110,7 @@ class Critique:
             )
         rows = campaign_rows(self.cell, campaign)
         # markers located on the tool at the measured unloaded pose, so that a sagging arm is no mislabelled marker
-        check_campaign(self.cell.robot, campaign, rows.point)
+        check_campaign(self.cell.robot, campaign, rows.point, hanging_only=self.cell.loading.hanging_only)
         y = rows.y.reshape(-1)
         scale = np.repeat(rows.noise, 3)
         group = np.tile(np.arange(3), len(rows))

@@ -1,10 +1,14 @@
 """Which configurations a calibration campaign can use: the constraints of eq 41 and of the cell.
 
 A configuration ``q`` loaded with a mass hanging at the tool's load point (the
-gravity-only loading of Klimchik et al.'s experiments) is feasible when
+gravity-only loading of Klimchik et al.'s experiments), or, on a cell whose
+end-effector applies them, with a force in any direction and a couple
+(:mod:`bayescal.cell.loading`), is feasible when
 
 * every joint is within its limits;
-* the mass lies in the design's mass range;
+* the mass lies in the design's mass range; a force and a couple within the
+  end-effector's ``force_max_N`` (eq 41's ``‖F‖ ≤ F_max``) and ``couple_max_Nm``,
+  a force not straight down only on an end-effector that can apply it;
 * every marker is visible from the tracker: the line of sight does not pass
   through the arm, and it meets the marker within the reflector's acceptance
   angle;
@@ -170,13 +174,30 @@ class Feasibility:
         that fails is reported.
         """
         q = np.asarray(q, dtype=float)
+        low, high = self.space.mass_range
+        if not low - 1e-9 <= mass <= high + 1e-9 and self._within_limits(q) is None:
+            return f"load {mass:g} kg outside the mass range {low:g} to {high:g} kg"
+        return self.violation_under(q, [0.0, 0.0, -mass * self.cell.gravity])
+
+    def _within_limits(self, q: np.ndarray) -> str | None:
         robot = self.cell.robot
         if np.any(q < robot.lower - 1e-9) or np.any(q > robot.upper + 1e-9):
             j = int(np.flatnonzero((q < robot.lower - 1e-9) | (q > robot.upper + 1e-9))[0])
             return f"joint {robot.joint_names[j]} at {math.degrees(q[j]):.2f} deg is outside its limits"
-        low, high = self.space.mass_range
-        if not low - 1e-9 <= mass <= high + 1e-9:
-            return f"load {mass:g} kg outside the mass range {low:g} to {high:g} kg"
+        return None
+
+    def violation_under(self, q, force, couple=None) -> str | None:
+        """Why ``q`` loaded with ``force`` (3,) N through the load point and ``couple`` (3,) N·m (base axes) is infeasible, or None.
+
+        The mass range is not checked here (:meth:`violation` does for a hanging mass);
+        the end-effector's limits (``cell.loading``) are.
+        """
+        q = np.asarray(q, dtype=float)
+        couple = np.zeros(3) if couple is None else np.asarray(couple, dtype=float)
+        robot = self.cell.robot
+        reason = self._within_limits(q) or self.cell.loading.force_violation(force) or self.cell.loading.couple_violation(couple)
+        if reason is not None:
+            return reason
         rotation, _ = robot.flange_pose(q)
         tool = robot.point_position(q, self._tool)
         floor = self.space.floor_z
@@ -188,7 +209,7 @@ class Feasibility:
         if reason is not None:
             return reason
         try:
-            solve_equilibrium(self.cell, q, self.cell.load_wrench(q, mass), self.cell.load_point)
+            solve_equilibrium(self.cell, q, self.cell.wrench(q, force, couple), self.cell.load_point)
         except EquilibriumError as exc:
             return f"no loaded equilibrium ({exc})"
         return None

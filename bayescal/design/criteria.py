@@ -65,6 +65,7 @@ __all__ = [
     "test_deflection",
     "test_pose_design",
     "with_parameters",
+    "wrench_information",
 ]
 
 CRITERIA = ("test-pose", "compensator", "d-optimal")
@@ -145,10 +146,16 @@ def configuration_information(cell: Cell, q, mass: float, repeats: int = 1, *, e
 
     ``exact``: take ``B`` from the exact model's linearisation instead of eq 31.
     """
+    return wrench_information(cell, q, cell.load_wrench(q, mass), repeats, exact=exact)
+
+
+def wrench_information(cell: Cell, q, wrench, repeats: int = 1, *, exact: ExactLinearisation | None = None) -> np.ndarray:
+    """(p, p) information of one configuration under any (6,) ``wrench`` (flange origin, base axes, its force
+    through the load point: :meth:`~bayescal.cell.config.Cell.wrench`), relative parameters."""
     if exact is None:
-        design, sigma = configuration_design(cell, q, cell.load_wrench(q, mass))
+        design, sigma = configuration_design(cell, q, wrench)
     else:
-        design, sigma = exact.configuration_design(q, mass)
+        design, sigma = exact.wrench_design(q, wrench)
     weighted = design / sigma[:, np.newaxis]
     return repeats * weighted.T @ weighted
 
@@ -222,16 +229,24 @@ class ExactLinearisation:
 
     def deflections(self, q, mass: float) -> np.ndarray:
         """(markers, 3) noiseless deflections (m) at the cell's values."""
-        unloaded, loaded = self._nominal.positions(q, mass)
+        return self.wrench_deflections(q, self.cell.load_wrench(q, mass))
+
+    def wrench_deflections(self, q, wrench) -> np.ndarray:
+        """(markers, 3) noiseless deflections (m) at the cell's values under any (6,) ``wrench`` (flange origin, base axes)."""
+        unloaded, loaded = self._nominal.positions_under(q, wrench)
         return loaded - unloaded
 
     def configuration_design(self, q, mass: float) -> tuple[np.ndarray, np.ndarray]:
         """Like :func:`configuration_design`, from the exact model; the noise is that of the two readings."""
+        return self.wrench_design(q, self.cell.load_wrench(q, mass))
+
+    def wrench_design(self, q, wrench) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`configuration_design` under any (6,) ``wrench`` (flange origin, base axes, its force through the load point)."""
         columns = []
         for plus, minus in self._twins:
-            moved = [np.subtract(*twin.positions(q, mass)[::-1]).ravel() for twin in (plus, minus)]
+            moved = [np.subtract(*twin.positions_under(q, wrench)[::-1]).ravel() for twin in (plus, minus)]
             columns.append((moved[0] - moved[1]) / (2.0 * DIFFERENCE_STEP))
-        unloaded, loaded = self._nominal.positions(q, mass)
+        unloaded, loaded = self._nominal.positions_under(q, wrench)
         tracker = self.cell.tracker
         sigma = np.sqrt(tracker.sigma(unloaded) ** 2 + tracker.sigma(loaded) ** 2)
         return np.column_stack(columns), np.repeat(sigma, 3)

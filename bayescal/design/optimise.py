@@ -16,15 +16,17 @@ optimiser
    with a step that shrinks from a few degrees to a tenth of one;
 4. repeats 2-3 from several random starts and keeps the best.
 
-Every configuration carries the heaviest mass of the design's range: the
-information of a configuration grows as the square of its load.
+Every configuration carries the heaviest mass of the design's range (the
+information of a configuration grows as the square of its load), or on a cell
+whose end-effector applies loads in any direction, a force of ``F_max`` (and
+a couple) in a direction the exchange and the refinement choose
+(:mod:`bayescal.design.loads`).
 """
 
 from __future__ import annotations
 
 import math
 import re
-import sys
 from collections import Counter
 from dataclasses import dataclass, field
 from os import PathLike
@@ -44,7 +46,10 @@ from bayescal.design.criteria import (
     criterion_values,
     predict,
     test_pose_design,
+    wrench_information,
 )
+from bayescal.design.loads import free_candidates, load_sizes, loads_json, turned
+from bayescal.design.progress import Progress
 from bayescal.errors import InputError
 from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.units import DEG, MM
@@ -72,28 +77,6 @@ REFINE_STEP_DEG = (3.0, 0.1)
 
 MAX_PASSES = 20
 """Exchange passes at most; on the KR-270 a start settles in 3 to 6."""
-
-
-class _Progress:
-    """A one-line progress bar on stderr."""
-
-    WIDTH = 30
-
-    def __init__(self, total: int, label: str, enabled: bool) -> None:
-        self.total, self.label, self.enabled, self.done = max(total, 1), label, enabled, 0
-
-    def step(self, note: str = "") -> None:
-        self.done += 1
-        if self.enabled:
-            filled = int(self.WIDTH * self.done / self.total)
-            bar = "#" * filled + "." * (self.WIDTH - filled)
-            sys.stderr.write(f"\r{self.label} [{bar}] {self.done}/{self.total} {note}".ljust(100))
-            sys.stderr.flush()
-
-    def close(self) -> None:
-        if self.enabled:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
 
 
 @dataclass(frozen=True)
@@ -150,7 +133,7 @@ class PlanDesign:
             "configurations": len(self.plan),
             "repeats": self.repeats,
             "q2_deg": [float(v) for v in q2],
-            "load_kg": sorted({float(m) for m in self.plan.masses(0.0)}),
+            **loads_json(self.plan),
             "starts": [_finite(v) for v in self.starts],
             "candidates": self.candidates,
             "seed": self.seed,
@@ -195,6 +178,9 @@ class PlanDesigner:
         self._exact_test_design = self.exact.test_design()
         self.feasibility = Feasibility(cell, self.space)
         self.mass = self.space.mass_range[1]
+        self.free = not cell.loading.hanging_only
+        self.force_size, self.couple_size = load_sizes(cell, self.mass)
+        self._down = np.array([0.0, 0.0, -self.force_size, 0.0, 0.0, 0.0])
         self._test_design = test_pose_design(cell)
         robot = cell.robot
         j2 = COMPENSATED_JOINT
@@ -207,17 +193,32 @@ class PlanDesigner:
         exact = self.exact if (model or self.model) == "exact" else None
         return configuration_information(self.cell, q, mass, self.repeats, exact=exact)
 
+    def _load_information(self, q, load: np.ndarray) -> np.ndarray:
+        """(p, p) information of ``q`` under a designed ``load`` (:mod:`bayescal.design.loads`), the search's model."""
+        if not self.free:
+            return self.information(q, self.mass)
+        exact = self.exact if self.model == "exact" else None
+        return wrench_information(self.cell, q, self.cell.wrench(q, load[:3], load[3:]), self.repeats, exact=exact)
+
+    def _violation(self, q, load: np.ndarray) -> str | None:
+        return self.feasibility.violation_under(q, load[:3], load[3:]) if self.free else self.feasibility.violation(q, self.mass)
+
     def evaluate(self, plan: Plan, model: str = "exact") -> PlanPrediction:
-        """The prediction for any plan (its own masses, or the cell's load where it has none)."""
-        information = sum(self.information(q, m, model) for q, m in zip(plan.q, plan.masses(self.cell.load_mass)))
+        """The prediction for any plan (its own masses or forces, or the cell's load where it has none)."""
+        exact = self.exact if model == "exact" else None
+        information = sum(wrench_information(self.cell, q, w, self.repeats, exact=exact) for q, w in zip(plan.q, plan.wrenches(self.cell)))
         design = self._exact_test_design if model == "exact" else self._test_design
         return predict(self.cell, information, test_design=design)
 
     def violations(self, plan: Plan) -> list[dict]:
         """The configurations of ``plan`` (numbered from 1) that break a constraint, and why."""
         found = []
+        forces, couples = plan.forces(self.cell.load_mass, self.cell.gravity), plan.couples()
         for number, (q, mass) in enumerate(zip(plan.q, plan.masses(self.cell.load_mass)), start=1):
-            reason = self.feasibility.violation(q, mass)
+            if plan.force is None:
+                reason = self.feasibility.violation(q, mass) or self.cell.loading.couple_violation(couples[number - 1])
+            else:
+                reason = self.feasibility.violation_under(q, forces[number - 1], couples[number - 1])
             if reason is not None:
                 found.append({"config": number, "reason": reason})
         return found
@@ -266,7 +267,7 @@ class PlanDesigner:
         for _ in range(tries):
             q = rng.uniform(robot.lower, robot.upper)
             q[COMPENSATED_JOINT] = q2
-            reason = self.feasibility.violation(q, self.mass)
+            reason = self._violation(q, self._down)
             if reason is None:
                 return q
             # angles removed, so that "marker M1 faces 97 deg away" and "... 120 deg away" count together
@@ -274,7 +275,9 @@ class PlanDesigner:
         return None
 
     def candidates(self, rng: np.random.Generator, *, per_angle: int = CANDIDATES_PER_ANGLE, progress: bool = False):
-        """Feasible candidates on the q2 grid: (n, nq) configurations, their grid index and information.
+        """Feasible candidates on the q2 grid: (n, nq) configurations, their grid index, information and (n, 6) loads.
+
+        On an any-direction cell each configuration comes under :data:`~bayescal.design.loads.DIRECTIONS_PER_CONFIGURATION` loads.
 
         Raises
         ------
@@ -283,7 +286,7 @@ class PlanDesigner:
         """
         grid = self._grid()
         configurations, index, reasons = [], [], Counter()
-        bar = _Progress(len(grid), "plan: candidates", progress)
+        bar = Progress(len(grid), "plan: candidates", progress)
         for g, q2 in enumerate(grid):
             for _ in range(per_angle):
                 q = self._random_configuration(q2, rng, TRIES_PER_CANDIDATE, reasons)
@@ -296,9 +299,12 @@ class PlanDesigner:
         if not configurations:
             common = reasons.most_common(1)[0][0] if reasons else "no draws"
             raise InputError(f"no feasible configuration found in the cell (most frequent reason: {common})", source=self.cell.source)
-        configurations = np.array(configurations)
-        information = np.array([self.information(q, self.mass) for q in configurations])
-        return grid, configurations, np.array(index), information
+        configurations, index = np.array(configurations), np.array(index)
+        if not self.free:
+            information = np.array([self.information(q, self.mass) for q in configurations])
+            return grid, configurations, index, information, np.tile(self._down, (len(configurations), 1))
+        exact = self.exact if self.model == "exact" else None
+        return (grid, *free_candidates(self.cell, configurations, index, rng, self.force_size, self.couple_size, exact, self.repeats))
 
     def random_plan(self, angles: int, per_angle: int, rng: np.random.Generator) -> Plan:
         """A random feasible plan: ``angles`` q2 values uniform over the range and apart, random other joints."""
@@ -317,11 +323,14 @@ class PlanDesigner:
                         break
                     rows.append(q)
             if len(rows) == angles * per_angle:
-                return self._plan(np.array(rows))
+                return self._plan(np.array(rows), np.tile(self._down, (len(rows), 1)))
         raise InputError(f"no random feasible plan with {angles} angles found (most frequent reason: {reasons.most_common(1)})", source="--angles")
 
-    def _plan(self, q: np.ndarray) -> Plan:
-        return Plan(q=q, load_kg=np.full(len(q), self.mass), lines=np.zeros(len(q), dtype=int), source="optimised")
+    def _plan(self, q: np.ndarray, loads: np.ndarray) -> Plan:
+        lines = np.zeros(len(q), dtype=int)
+        if not self.free:
+            return Plan(q=q, load_kg=np.full(len(q), self.mass), lines=lines, source="optimised")
+        return Plan(q=q, load_kg=None, lines=lines, source="optimised", force=loads[:, :3], couple=loads[:, 3:] if self.couple_size > 0 else None)
 
     # ----------------------------------------------------------------- optimisation
 
@@ -372,24 +381,24 @@ class PlanDesigner:
         rng = np.random.default_rng(rng)
         if candidates is None:
             candidates = self.candidates(rng, per_angle=candidates_per_angle, progress=progress)
-        grid, configurations, index, information = candidates
+        grid, configurations, index, information, loads = candidates
         available = [np.flatnonzero(index == g) for g in range(len(grid))]
         usable = np.array([len(c) >= per_angle for c in available])
         if np.count_nonzero(usable) < angles:
             raise InputError(f"only {np.count_nonzero(usable)} q2 angles have {per_angle} feasible configurations, {angles} requested", source="--angles")
-        bar = _Progress(starts, f"plan: {criterion}", progress)
+        bar = Progress(starts, f"plan: {criterion}", progress)
         best, scores = None, []
         for _ in range(starts):
             groups = self._start(grid, usable, available, angles, per_angle, rng)
             groups = self._exchange(groups, grid, usable, available, information, criterion)
-            q = np.array([configurations[c] for group in groups for c in group[1]])
-            q, score = self._refine(q, angles, per_angle, criterion, rng, refine_steps)
+            chosen = [c for group in groups for c in group[1]]
+            q, load, score = self._refine(configurations[chosen], loads[chosen], angles, per_angle, criterion, rng, refine_steps)
             scores.append(score)
-            if best is None or score < best[1]:
-                best = (q, score)
-            bar.step(f"best {best[1]:.4g}")
+            if best is None or score < best[2]:
+                best = (q, load, score)
+            bar.step(f"best {best[2]:.4g}")
         bar.close()
-        plan = self._plan(best[0])
+        plan = self._plan(best[0], best[1])
         return PlanDesign(
             plan=plan,
             criterion=criterion,
@@ -452,35 +461,39 @@ class PlanDesigner:
                 break
         return groups
 
-    def _refine(self, q: np.ndarray, angles: int, per_angle: int, criterion: str, rng: np.random.Generator, steps: int):
+    def _refine(self, q: np.ndarray, loads: np.ndarray, angles: int, per_angle: int, criterion: str, rng: np.random.Generator, steps: int):
         robot = self.cell.robot
         j2 = COMPENSATED_JOINT
-        q = q.copy()
-        parts = np.array([self.information(row, self.mass) for row in q])
+        q, loads = q.copy(), loads.copy()
+        parts = np.array([self._load_information(row, load) for row, load in zip(q, loads)])
         current = self._score(parts.sum(axis=0), criterion)
         first, last = (v * DEG for v in REFINE_STEP_DEG)
         others = [j for j in range(robot.nq) if j != j2]
         for step in range(steps):
             size = first * (last / first) ** (step / max(steps - 1, 1))
-            proposal = q.copy()
+            proposal, turn = q.copy(), loads.copy()
             if rng.random() < 0.3:
                 group = int(rng.integers(angles))
                 rows = np.arange(group * per_angle, (group + 1) * per_angle)
                 proposal[rows, j2] += rng.normal() * size
                 if not self._separated(list(proposal[::per_angle, j2])):
                     continue
+            elif self.free and rng.random() < 0.5:
+                # the step (rad) turns the load's direction as far as it moves a joint
+                rows = np.array([int(rng.integers(len(q)))])
+                turn[rows[0]] = turned(loads[rows[0]], size, rng)
             else:
                 rows = np.array([int(rng.integers(len(q)))])
                 proposal[rows[0], others] += rng.normal(size=len(others)) * size
-            if any(self.feasibility.violation(proposal[r], self.mass) is not None for r in rows):
+            if any(self._violation(proposal[r], turn[r]) is not None for r in rows):
                 continue
             trial = parts.copy()
             for r in rows:
-                trial[r] = self.information(proposal[r], self.mass)
+                trial[r] = self._load_information(proposal[r], turn[r])
             score = self._score(trial.sum(axis=0), criterion)
             if score < current:
-                q, parts, current = proposal, trial, score
-        return q, current
+                q, loads, parts, current = proposal, turn, trial, score
+        return q, loads, current
 
 
 def _finite(value: float) -> float | None:

@@ -42,7 +42,7 @@ from bayescal.cell.config import Cell
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError, NotIdentifiableWarning
 from bayescal.inference.closedform import ClosedForm, check_regression, closed_form
-from bayescal.inference.equations import DeflectionEquations, check_campaign, check_load_point, deflection_equations, deflection_noise
+from bayescal.inference.equations import HANGING_ONLY_REASON, DeflectionEquations, check_campaign, check_load_point, deflection_equations, deflection_noise
 from bayescal.inference.exact import linearisation_offset, scale_masses
 from bayescal.inference.identifiability import Identifiability, analyse, grouped, label_angle, practical_reasons
 from bayescal.inference.likelihood import compensated_posterior, per_angle_posterior
@@ -163,6 +163,9 @@ class ElastostaticModel:
         The tracker's noise model: weights the equations by its distance-dependent
         error and gives the chi-square of the fit against the nominal noise.
         None: equal weights, no chi-square.
+    hanging_only
+        The cell's end-effector hangs masses only (``cell.loading``): vertical loads are
+        no mistake, and k1's not-identifiable reason says so in place of the parallel-loads warning.
     """
 
     robot: Robot
@@ -175,6 +178,7 @@ class ElastostaticModel:
     load_point: np.ndarray | None = None
     tracker: TrackerNoise | None = None
     max_iterations: int = 10
+    hanging_only: bool = False
 
     @classmethod
     def from_cell(cls, cell: Cell, geometry: GeometryPrior | None = None, **options) -> ElastostaticModel:
@@ -193,7 +197,7 @@ class ElastostaticModel:
             nominal_spring=spring,
             load_point=cell.load_point,
             tracker=cell.tracker,
-            **options,
+            **({"hanging_only": cell.loading.hanging_only} | options),
         )
 
     def estimate(self, campaign: Campaign) -> tuple[ClosedForm, Identifiability]:
@@ -205,7 +209,7 @@ class ElastostaticModel:
         if self.model not in ("exact", "linear"):
             raise ValueError(f"model must be 'exact' or 'linear', got {self.model!r}")
         equations, torque, points = deflection_equations(self.robot, campaign, noise=self.noise, tracker=self.tracker)
-        check_campaign(self.robot, campaign, points)
+        check_campaign(self.robot, campaign, points, hanging_only=self.hanging_only)
         if announce:
             check_load_point(self.robot, campaign, self.load_point)
         configs = np.unique(campaign.config, return_index=True)[1]
@@ -216,6 +220,8 @@ class ElastostaticModel:
             torque[configs],
             equations.angle[3 * configs],
         )
+        if self.hanging_only and "k1" in ident.reasons:
+            ident.reasons["k1"] += f"; {HANGING_ONLY_REASON}"
         if ident.compensator:
             ident = check_regression(ident, equations.per_angle_columns(), equations.q2, self.geometry.mean)
         _check_determined(campaign, equations, ident)

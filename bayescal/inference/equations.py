@@ -227,8 +227,12 @@ def _relative_noise(tracker: TrackerNoise, campaign: Campaign) -> np.ndarray:
     return sd / sd.mean()
 
 
-def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray) -> None:
+def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray, *, hanging_only: bool = False) -> None:
     """Reject deflections or marker positions no robot could produce; warn when all loads are parallel.
+
+    ``hanging_only``: the cell's end-effector can only hang masses, so vertical loads are all it
+    can apply and the warning is left to the report that k1 is not identifiable
+    (:data:`HANGING_ONLY_REASON`), which says it once.
 
     Raises
     ------
@@ -258,14 +262,23 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray) -> None
     loaded = forces[np.linalg.norm(forces, axis=1) > 0]
     if loaded.shape[0]:
         singular = np.linalg.svd(loaded / np.linalg.norm(loaded, axis=1, keepdims=True), compute_uv=False)
-        if singular.size < 2 or singular[1] < 1e-3 * singular[0]:
-            direction = loaded[0] / np.linalg.norm(loaded[0])
+        direction = loaded[0] / np.linalg.norm(loaded[0])
+        vertical = abs(direction[2]) > 1.0 - 1e-6
+        if (singular.size < 2 or singular[1] < 1e-3 * singular[0]) and not (hanging_only and vertical):
             warnings.warn(
                 f"{campaign.source}: all loads are parallel (force direction {np.array2string(direction, precision=3)}); "
                 "Klimchik et al. advise varying the load direction: parameters such loads cannot excite are reported as not identifiable",
                 UserWarning,
                 stacklevel=2,
             )
+
+
+HANGING_ONLY_REASON = (
+    'the cell\'s end-effector hangs masses only ([load] directions = "down"), and a vertical load never turns the '
+    "vertical A1; Klimchik et al. advise varying the load direction, which needs an end-effector that pushes or pulls "
+    'sideways (directions = "any", docs/design.md)'
+)
+"""Added to k1's not-identifiable reason on a cell that can only hang masses, in place of the parallel-loads warning."""
 
 
 def check_load_point(robot: Robot, campaign: Campaign, load_point: np.ndarray | None) -> None:

@@ -22,6 +22,7 @@ import pandas as pd
 
 from bayescal.cell.config import Cell
 from bayescal.cell.plan import Plan
+from bayescal.design.loads import draw_loads
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.exact import scale_masses
 from bayescal.robot.compensator import COMPENSATED_JOINT
@@ -54,7 +55,9 @@ class TruthSpread:
 def random_plan(cell: Cell, angles: int, per_angle: int, rng: np.random.Generator) -> Plan:
     """A plan of ``angles`` q2 angles spread over joint 2's range with ``per_angle`` random configurations each.
 
-    The other joints are uniform within their limits, :data:`LIMIT_MARGIN` clear of them.
+    The other joints are uniform within their limits, :data:`LIMIT_MARGIN` clear of them.  On a cell
+    whose end-effector applies loads in any direction, each configuration gets a force of ``F_max``
+    (and a couple of ``couple_max_Nm``) in a direction uniform on the sphere; otherwise the cell's mass.
     """
     robot = cell.robot
     low = robot.lower + LIMIT_MARGIN * (robot.upper - robot.lower)
@@ -63,7 +66,11 @@ def random_plan(cell: Cell, angles: int, per_angle: int, rng: np.random.Generato
     q2 = rng.uniform(edges[:-1], edges[1:])
     q = rng.uniform(low, high, (angles * per_angle, robot.nq))
     q[:, COMPENSATED_JOINT] = np.repeat(q2, per_angle)
-    return Plan(q=q, load_kg=None, lines=np.zeros(len(q), dtype=int), source="random plan")
+    plan = Plan(q=q, load_kg=None, lines=np.zeros(len(q), dtype=int), source="random plan")
+    if cell.loading.hanging_only:
+        return plan
+    loads = draw_loads(len(q) + 1, cell.loading.force_max, cell.loading.couple_max, rng)[1:]  # the first is straight down
+    return dataclasses.replace(plan, force=loads[:, :3], couple=loads[:, 3:] if cell.loading.couple_max > 0 else None)
 
 
 def elastostatic_coverage(
@@ -172,7 +179,8 @@ def fit_against_truth(
     Returns
     -------
     list of dict
-        Per parameter (``k2``..``k6``, ``K_c``, ``s0``, ``gravity_scale``) in edge units:
+        Per parameter (``k2``..``k6``, with ``k1`` on a cell whose loads go in any direction,
+        ``K_c``, ``s0``, ``gravity_scale``) in edge units:
         ``parameter``, ``truth``, ``mean``, ``sd``, ``z`` = (truth - mean) / sd,
         ``identifiable``, and the fit's worst ``r_hat``.
     """
@@ -199,7 +207,9 @@ def fit_against_truth(
     summary = results.summary()
     not_identifiable = results.identifiability.not_identifiable
     r_hat = results.diagnostics()["r_hat_max"]
-    values = {f"k{j + 1}": truth.compliances[j] / URAD_PER_NM for j in range(cell.robot.nq) if j != 0}
+    # hanging masses never turn A1 (k1 stays the config's); loads in any direction do
+    first = 0 if not cell.loading.hanging_only else 1
+    values = {f"k{j + 1}": truth.compliances[j] / URAD_PER_NM for j in range(first, cell.robot.nq)}
     values |= {"K_c": truth.spring[0] / N_PER_MM, "s0": truth.spring[1] / MM, "gravity_scale": truth.masses}
     out = []
     for name, value in values.items():

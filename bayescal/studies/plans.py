@@ -16,8 +16,11 @@ deflection with the estimate, and the error left is the distance to the exact
 deflection of the campaign's truth.
 
 Parameters the plan cannot excite (``k1`` under hanging loads) are held at
-the cell's value in the truth as in the estimate, as the test-pose prediction
-does (:func:`bayescal.inference.testpose.predict_cell_test_pose`).
+the cell's value in the estimate, as the test-pose prediction does
+(:func:`bayescal.inference.testpose.predict_cell_test_pose`); by default
+they are held in the truth too, and with ``vary_all`` the truth draws them
+like the others, so that the error the estimate's held value leaves at the
+test pose is counted (plans with loads in any direction against hanging masses).
 
 Campaigns run on a :class:`concurrent.futures.Executor`; their seeds are
 spawned from one :class:`numpy.random.SeedSequence`, so the result does not
@@ -40,12 +43,12 @@ from bayescal.cell.plan import Plan
 from bayescal.design.criteria import (
     UNEXCITED,
     ExactLinearisation,
-    configuration_information,
     nominal_parameters,
     parameter_names,
     predict,
     test_deflection,
     with_parameters,
+    wrench_information,
 )
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import MM
@@ -77,6 +80,8 @@ class CampaignModel:
         (3, p) derivatives of the test point's exact deflection, m.
     test_nominal : numpy.ndarray
         (3,) the test point's exact deflection at the cell's values, m.
+    varied : numpy.ndarray
+        (p,) the parameters the simulated truths draw away from the cell's values.
     """
 
     cell: Cell
@@ -88,19 +93,25 @@ class CampaignModel:
     excited: np.ndarray
     test_design: np.ndarray
     test_nominal: np.ndarray
+    varied: np.ndarray
 
     @classmethod
-    def build(cls, cell: Cell, plan: Plan, repeats: int = 3) -> CampaignModel:
-        """Linearise the twin's noiseless campaign and the test pose by central differences."""
+    def build(cls, cell: Cell, plan: Plan, repeats: int = 3, *, vary_all: bool = False) -> CampaignModel:
+        """Linearise the twin's noiseless campaign and the test pose by central differences.
+
+        ``vary_all``: the truths draw every parameter, not only those the plan excites.
+        """
         exact = ExactLinearisation(cell)
         designs, sigmas, deflections = [], [], []
-        for q, mass in zip(plan.q, plan.masses(cell.load_mass)):
-            design, sigma = exact.configuration_design(q, mass)
+        wrenches = plan.wrenches(cell)
+        for q, wrench in zip(plan.q, wrenches):
+            design, sigma = exact.wrench_design(q, wrench)
             designs.append(design)
             sigmas.append(sigma)
-            deflections.append(exact.deflections(q, mass).ravel())
-        information = sum(configuration_information(cell, q, m, repeats) for q, m in zip(plan.q, plan.masses(cell.load_mass)))
+            deflections.append(exact.wrench_deflections(q, wrench).ravel())
+        information = sum(wrench_information(cell, q, w, repeats) for q, w in zip(plan.q, wrenches))
         diagonal = np.diag(information)
+        excited = diagonal > UNEXCITED * diagonal.max()
         return cls(
             cell=cell,
             plan=plan,
@@ -108,9 +119,10 @@ class CampaignModel:
             design=np.vstack(designs),
             nominal_deflections=np.concatenate(deflections),
             sigma=np.concatenate(sigmas),
-            excited=diagonal > UNEXCITED * diagonal.max(),
+            excited=excited,
             test_design=exact.test_design(),
             test_nominal=test_deflection(cell),
+            varied=np.ones_like(excited) if vary_all else excited,
         )
 
 
@@ -121,7 +133,7 @@ def _campaign(model: CampaignModel, seed: np.random.SeedSequence) -> tuple[np.nd
     cell = replace(model.cell, robot=model.cell.robot.copy())
     names = parameter_names(cell)
     spread = np.array([TRUTH_SPREAD["k"] if name.startswith("k") else TRUTH_SPREAD[name] for name in names])
-    relative_truth = np.where(model.excited, np.random.default_rng(truth_seed).normal(size=len(names)) * spread, 0.0)
+    relative_truth = np.where(model.varied, np.random.default_rng(truth_seed).normal(size=len(names)) * spread, 0.0)
     nominal = nominal_parameters(cell)
     truth_cell = with_parameters(cell, nominal * (1.0 + relative_truth))
     campaign = DigitalTwin(truth_cell).simulate(model.plan, model.repeats, np.random.default_rng(noise_seed))
@@ -216,10 +228,12 @@ def compare_plans(
     repeats: int = 3,
     seed: int = 0,
     executor: Executor | None = None,
+    vary_all: bool = False,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Plans side by side: predicted ``ρ0`` against the error left over simulated campaigns.
 
-    Every plan meets the same truths and noise streams (the same ``seed``).
+    Every plan meets the same truths and noise streams (the same ``seed``); with
+    ``vary_all`` the truths draw the parameters a plan cannot excite too (module docstring).
 
     Returns
     -------
@@ -241,10 +255,10 @@ def compare_plans(
     rows, width_rows, squares = {}, [], []
     try:
         for name, plan in plans.items():
-            model = CampaignModel.build(cell, plan, repeats)
+            model = CampaignModel.build(cell, plan, repeats, vary_all=vary_all)
             weighted = model.design / model.sigma[:, np.newaxis]
             exact = predict(cell, repeats * weighted.T @ weighted, test_design=model.test_design)
-            linear = predict(cell, sum(configuration_information(cell, q, m, repeats) for q, m in zip(plan.q, plan.masses(cell.load_mass))))
+            linear = predict(cell, sum(wrench_information(cell, q, w, repeats) for q, w in zip(plan.q, plan.wrenches(cell))))
             result = simulate_plan(cell, plan, campaigns=campaigns, repeats=repeats, seed=seed, executor=executor, model=model)
             squared = np.sum(result["errors"] ** 2, axis=1)
             squares.append(squared)

@@ -2,7 +2,9 @@
 
 For each configuration of a plan the twin solves the nonlinear static
 equilibrium of the arm (links' weights, compensator, joint springs) twice,
-without and with the load hanging at the tool's load point, places the tool's
+without and with the load at the tool's load point (a hanging mass, or a force
+that keeps its direction in the base axes as one applied by a cable or a jack
+does, and a couple: :mod:`bayescal.cell.loading`), places the tool's
 markers at ``q + θ`` by forward kinematics, and lets the tracker read them with
 fresh noise at every repeat.  Planted effects (:mod:`bayescal.twin.effects`) change
 the compensator, the joint springs, add compliance outside the joints or
@@ -62,6 +64,10 @@ class DigitalTwin:
         q = np.asarray(q, dtype=float)
         return self._positions(q, self.cell.load_wrench(q, mass))
 
+    def positions_under(self, q, wrench) -> tuple[np.ndarray, np.ndarray]:
+        """Like :meth:`positions`, under any (6,) ``wrench`` at the flange origin, base axes, its force through the load point."""
+        return self._positions(np.asarray(q, dtype=float), np.asarray(wrench, dtype=float))
+
     def _positions(self, q: np.ndarray, wrench: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         robot = self.cell.robot
         unloaded = robot.point_position(q + self._deflections(q, np.zeros(6)), self._points)
@@ -78,19 +84,19 @@ class DigitalTwin:
 
         Rows are ordered by configuration, repeat and marker; each repeat reads both
         states with fresh tracker noise.  The wrench recorded is the load referred to
-        the flange origin with the arm at its commanded angles.
+        the flange origin with the arm at its commanded angles (:meth:`Plan.wrenches`).
         """
         if repeats < 1:
             raise ValueError(f"expected at least 1 repeat, got {repeats}")
-        masses = plan.masses(self.cell.load_mass)
+        wrenches = plan.wrenches(self.cell)
         n_markers = len(self.marker_names)
         rows = {"config": [], "repeat": [], "marker": [], "q": [], "wrench": [], "p0": [], "p1": []}
-        for number, (q, mass, line) in enumerate(zip(plan.q, masses, plan.lines), start=1):
-            wrench = self.cell.load_wrench(q, mass)
+        for number, (q, wrench, line) in enumerate(zip(plan.q, wrenches, plan.lines), start=1):
             try:
                 unloaded, loaded = self._positions(q, wrench)
             except EquilibriumError as exc:
-                raise InputError(f"the twin finds no static equilibrium under {mass:g} kg ({exc})", source=plan.source, line=int(line) or None) from None
+                load = plan.describe_load(number - 1, self.cell.load_mass)
+                raise InputError(f"the twin finds no static equilibrium under {load} ({exc})", source=plan.source, line=int(line) or None) from None
             for repeat in range(1, repeats + 1):
                 readings = []
                 for exact in (unloaded, loaded):

@@ -85,3 +85,22 @@ def test_the_plan_file_records_every_option_that_shapes_it():
         "bayescal plan --config cell.toml --angles 10 --per-angle 3 --repeats 2 --criterion compensator --model linear "
         "--starts 3 --seed 4 --mass-kg 250 280"
     )
+
+
+def test_an_any_direction_cell_gets_force_columns_and_evaluates_them(main, tmp_path, capsys):
+    config = str(DATA / "kr270_any_load.toml")
+    output = tmp_path / "plan.csv"
+    options = ["--angles", "3", "--per-angle", "2", "--model", "linear", "--starts", "1", "--seed", "2"]
+    assert main(["plan", "--config", config, "-o", str(output)] + options) == 0
+    assert "forces of 2750 N in directions of the design" in capsys.readouterr().out
+    header = [line for line in output.read_text().splitlines() if not line.startswith("#")][0]
+    assert header.endswith("fx_N,fy_N,fz_N,mx_Nm,my_Nm,mz_Nm") and "load_kg" not in header
+    assert main(["plan", "--config", config, "--evaluate", str(output), "--json"]) == 0
+    evaluated = json.loads(capsys.readouterr().out)
+    assert evaluated["violations"] == [] and evaluated["parameters"]["k1"]["excited"]
+    assert evaluated["parameters"]["k1"]["width_3sd_pct"] is not None
+    # the same plan on a cell that can only hang masses is refused when read
+    assert main(["plan", "--config", CONFIG, "--evaluate", str(output)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "not straight down" in err or "applies none" in err
+    assert "\n" not in err

@@ -153,7 +153,19 @@ def test_deflections_unlike_the_configs_compliances_name_a_unit_slip(cell, campa
 
 def test_parallel_loads_are_warned(cell, campaign):
     with pytest.warns(UserWarning, match="all loads are parallel"):
-        ElastostaticModel.from_cell(cell, model="linear", sampler=GibbsSampler(n_chains=2, n_tune=20, n_draws=20)).fit(campaign)
+        ElastostaticModel.from_cell(cell, model="linear", sampler=GibbsSampler(n_chains=2, n_tune=20, n_draws=20), hanging_only=False).fit(campaign)
+
+
+def test_a_cell_that_only_hangs_masses_says_it_once(cell, campaign):
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        results = ElastostaticModel.from_cell(cell, model="linear", sampler=GibbsSampler(n_chains=2, n_tune=20, n_draws=20)).fit(campaign)
+    messages = [str(w.message) for w in caught]
+    assert not any("all loads are parallel" in m for m in messages)
+    assert sum("hangs masses only" in m for m in messages) == 1
+    assert "hangs masses only" in results.identifiability.not_identifiable["k1"]
 
 
 def test_scale_masses_scales_gravity(cell):

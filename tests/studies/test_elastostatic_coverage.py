@@ -64,3 +64,36 @@ def test_a_spring_unlike_the_configs_is_found_from_near_noise_free_data(cell):
     for name in ("K_c", "s0"):
         assert rows[name]["identifiable"] and abs(rows[name]["z"]) < 3.5, rows[name]
     assert rows["K_c"]["sd"] < 0.01 * 660.0
+
+
+def test_random_plans_of_an_any_direction_cell_push_every_way(data_dir):
+    from bayescal.cell.config import load_cell
+
+    any_cell = load_cell(data_dir / "kr270_any_load.toml")
+    plan = random_plan(any_cell, 5, 3, np.random.default_rng(2))
+    np.testing.assert_allclose(np.linalg.norm(plan.force, axis=1), 2750.0)
+    assert np.hypot(plan.force[:, 0], plan.force[:, 1]).max() > 1000.0
+    assert plan.couple.shape == (15, 3)
+
+
+def _k1_coverage(data_dir, campaigns, seed, sampler=None):
+    from bayescal.cell.config import load_cell
+
+    any_cell = load_cell(data_dir / "kr270_any_load.toml")
+    table = elastostatic_coverage(any_cell, campaigns, seed, sampler=sampler, angles=5, per_angle=3, executor=ThreadPoolExecutor(2))
+    return table[table["parameter"] == "k1"]
+
+
+def test_k1_is_identified_from_loads_in_any_direction_on_six_campaigns(data_dir):
+    k1 = _k1_coverage(data_dir, 6, 7, GibbsSampler(n_chains=2, n_tune=150, n_draws=300))
+    assert len(k1) == 6 and k1["identifiable"].all()
+    assert (k1["z"].abs() <= 3.0).sum() >= 5  # nominal 99.7 %: a single miss in six is already unlikely (2 %)
+
+
+@pytest.mark.slow
+def test_k1_covers_at_the_nominal_rate_from_loads_in_any_direction(data_dir):
+    k1 = _k1_coverage(data_dir, 200, 23)
+    assert k1["identifiable"].all()
+    rate = hits(k1).mean(axis=0)
+    tolerance = 4 * np.sqrt(NOMINAL * (1 - NOMINAL) / len(k1)) + 1.0 / len(k1)
+    assert np.all(np.abs(rate - NOMINAL) <= tolerance), (rate, NOMINAL, tolerance)

@@ -82,3 +82,30 @@ def test_repeated_or_impossible_requests(cell, plan):
         DigitalTwin(cell, [parse_effect("backlash"), parse_effect("backlash=0.01")])
     with pytest.raises(ValueError, match="at least 1 repeat"):
         DigitalTwin(cell).simulate(plan, 0, np.random.default_rng(0))
+
+
+def test_a_force_in_any_direction_deflects_as_the_linear_model_says(data_dir):
+    # eq 31 (compliance_design) is written apart from the twin's equilibrium solver
+    from bayescal.cell.config import load_cell
+    from bayescal.cell.plan import Plan
+
+    cell = load_cell(data_dir / "kr270_any_load.toml")
+    silent = replace(cell, tracker=replace(cell.tracker, factor=0.0))
+    q = np.radians([[20.0, -60.0, 40.0, 10.0, 30.0, -20.0]] * 2)
+    force = np.array([[2000.0, -1500.0, 800.0], [0.0, 0.0, -2700.0]])
+    couple = np.array([[0.0, 0.0, 400.0], [0.0, 0.0, 0.0]])
+    plan = Plan(q=q, load_kg=None, lines=np.zeros(2, dtype=int), force=force, couple=couple)
+    campaign = DigitalTwin(silent).simulate(plan, 1, np.random.default_rng(0))
+    points = np.array(list(cell.markers.values()))
+    k = cell.compliances.copy()
+    k[1] = 1 / (1 / k[1] + cell.compensator.stiffness(q[0, 1]))
+    for row in range(2):
+        wrench = cell.wrench(q[row], force[row], couple[row])
+        np.testing.assert_allclose(campaign.wrench[3 * row], wrench)
+        linear = np.array([compliance_design(cell.robot, q[row], p, wrench) @ k for p in points])
+        deflection = campaign.displacement[3 * row : 3 * row + 3]
+        assert np.linalg.norm(deflection - linear) < 0.03 * np.linalg.norm(linear)
+    # the horizontal force and the vertical couple turn A1, which a hanging mass never does
+    sideways = DigitalTwin(replace(silent, compliances=cell.compliances * [2, 1, 1, 1, 1, 1])).simulate(plan, 1, np.random.default_rng(0))
+    moved = np.abs(sideways.displacement - campaign.displacement).reshape(2, -1).max(axis=1)
+    assert moved[0] > 1e-5 and moved[1] < 1e-9
