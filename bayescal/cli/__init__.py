@@ -6,7 +6,8 @@ default.  ``run(args)`` returns a :class:`~bayescal.cli._command.CommandOutput`;
 this module prints it as JSON (``--json``) or as text, and turns an
 :class:`~bayescal.errors.InputError` into a one-line message and exit status 2.
 A bad option value is reported by the parser the same way: one line, status 2.
-Output files go through :mod:`bayescal.cli._command`'s guard and atomic writer.
+Ctrl-C ends any command with one line saying what was written, and status 130.
+Output files and folders go through :mod:`bayescal.cli._output`'s guard and atomic writers.
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ import warnings
 from collections.abc import Sequence
 
 from bayescal.errors import InputError
+
+from ._output import forget_written, written_paths
 
 __all__ = ["main"]
 
@@ -43,14 +46,32 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+INTERRUPTED = 130
+"""Exit status after Ctrl-C: 128 + SIGINT, as the shells report it."""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line and return the exit status (0 success, 2 bad input)."""
-    parser = build_parser()
+    """Run the command line and return the exit status (0 success, 2 bad input, 130 interrupted)."""
+    forget_written()
+    command = "bayescal"
     try:
-        args = parser.parse_args(argv)
-    except SystemExit as exit:
-        # A bad option value (status 2) or --help (status 0): the message is printed already.
-        return exit.code if isinstance(exit.code, int) else 0
+        parser = build_parser()
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exit:
+            # A bad option value (status 2) or --help (status 0): the message is printed already.
+            return exit.code if isinstance(exit.code, int) else 0
+        command = f"bayescal {args.command}"
+        return _run(args)
+    except KeyboardInterrupt:
+        # The writers rename whole files into place, so what was written is complete.
+        kept = written_paths()
+        print(f"{command}: interrupted; {'kept ' + ', '.join(kept) if kept else 'nothing written'}", file=sys.stderr)
+        return INTERRUPTED
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Run the parsed command, print its result or its one-line error, and return the exit status."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -60,7 +81,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
         except OSError as error:
             # An output path that cannot be written is the user's to fix, not a bug.
-            print(f"bayescal {args.command}: error: {error.filename}: {error.strerror}", file=sys.stderr)
+            where = f"{error.filename}: " if error.filename is not None else ""
+            print(f"bayescal {args.command}: error: {where}{error.strerror or error}", file=sys.stderr)
             return 2
     # Warnings go out before the result, so that a reader of a terminal sees them
     # above the table and a JSON consumer still gets clean stdout.

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 from pathlib import Path
 
-from ._command import CommandOutput, add_common_options, check_output, write_atomically
+from ._command import CommandOutput, add_common_options
+from ._output import guard_outputs, write_folder
 
 __all__ = ["add_parser", "run"]
 
@@ -56,43 +56,25 @@ def run(args: argparse.Namespace) -> CommandOutput:
                          ("--config", args.config), ("--plan", args.plan), ("--critique", args.critique), ("--study", args.study)):
         if path and not Path(path).is_file():
             raise InputError(f"{path}: {'is a folder' if Path(path).is_dir() else 'file not found'}", source=option)
-    folder = _check_folder(args.output, inputs)
-
-    review_inputs = _read_inputs(args)
-
     from bayescal.reports.review import HTML_FILE, render_review
 
+    # The page's own files are checked now; the figures' names are known once rendered and checked then.
+    guard_outputs(inputs, folders={"--output": (args.output, (HTML_FILE, "summary.md", "numbers.json"))})
+    review_inputs = _read_inputs(args)
     files = render_review(review_inputs)
-    folder.mkdir(exist_ok=True)
-    for name in files:
-        check_output("--output", folder / name, inputs)
-    for name, content in files.items():
-        write_atomically("--output", folder / name, lambda path, content=content: path.write_bytes(content))
+    guard_outputs(inputs, folders={"--output": (args.output, tuple(files))})
+
+    def write(staging: Path) -> None:
+        for name, content in files.items():
+            (staging / name).write_bytes(content)
+
+    write_folder("--output", args.output, write)
+    folder = Path(args.output)
     index = folder / HTML_FILE
     figures = sorted(name for name in files if name.endswith(".png"))
     payload = {"report": str(index), "files": sorted(files), "figures": len(figures)}
     text = f"wrote {index} with {len(figures)} figures, and {folder / 'summary.md'}, {folder / 'numbers.json'}"
     return CommandOutput(payload=payload, text=text)
-
-
-def _check_folder(output: str, inputs: dict) -> Path:
-    """The report folder, refused when it is an input file, a file, or its parent cannot take it."""
-    from bayescal.errors import InputError
-
-    if not output.strip():
-        raise InputError("expected the name of a folder to write, got an empty text", source="--output")
-    folder = Path(output)
-    if folder.exists() and not folder.is_dir():
-        raise InputError(f"{output} is a file; expected a folder for the report", source="--output")
-    if folder.is_dir():
-        check_output("--output", folder / "index.html", inputs)
-        return folder
-    parent = Path(os.path.realpath(folder)).parent
-    if not parent.is_dir():
-        raise InputError(f"the folder {parent} that should hold the report does not exist; create it first", source="--output")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise InputError(f"cannot create the report folder in {parent} (permission denied)", source="--output")
-    return folder
 
 
 def _read_inputs(args: argparse.Namespace):
