@@ -7,7 +7,7 @@ this module prints it as JSON (``--json``) or as text, and turns an
 :class:`~bayescal.errors.InputError` into a one-line message and exit status 2.
 A bad option value is reported by the parser the same way: one line, status 2.
 Ctrl-C ends any command with one line saying what was written, and status 130.
-Output files and folders go through :mod:`bayescal.cli._output`'s guard and atomic writers.
+Output files and folders go through :mod:`bayescal.output`'s guard and atomic writers.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from collections.abc import Sequence
 
 from bayescal.errors import InputError
 
-from ._output import forget_written, written_paths
+from bayescal.output import forget_written, written_paths
 
 __all__ = ["main"]
 

@@ -1,7 +1,7 @@
 """What every subcommand shares: its common options, the checks of its option values
 and the shape of its result.
 
-The output guard and the atomic writers live in :mod:`bayescal.cli._output`;
+The output guard and the atomic writers live in :mod:`bayescal.output`;
 :func:`check_output` and :func:`write_atomically` are re-exported here.
 """
 
@@ -12,7 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from ._output import check_output, write_atomically
+from bayescal.output import check_output, write_atomically
 
 __all__ = [
     "CommandOutput",

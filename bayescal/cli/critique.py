@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 
 from ._command import CommandOutput, add_common_options
-from ._output import guard_outputs, write_folder
+from bayescal.output import guard_outputs, write_folder
 
 __all__ = ["add_parser", "run"]
 

@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from ._command import CommandOutput, add_common_options
-from ._output import guard_outputs, write_folder
+from bayescal.output import guard_outputs, write_folder
 
 __all__ = ["add_parser", "run"]
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ._command import CommandOutput, add_common_options, whole_number
-from ._output import guard_outputs, write_atomically
+from bayescal.output import guard_outputs, write_atomically
 
 __all__ = ["add_parser", "run"]
 

@@ -10,9 +10,9 @@ once before any work, then :func:`write_atomically` or :func:`write_folder`):
 - a file is written to a temporary file beside its target and renamed in, so a
   full disk or an interrupt leaves the old file whole, and the error names the
   option and the file;
-- a folder of files (a report, figures) is written into a staging folder beside
-  it, then renamed in whole when the folder is new, or its files renamed in
-  together when it exists, with Ctrl-C held back during those renames;
+- a folder of files (a report, figures) is written into a staging folder, then
+  renamed in whole when the folder is new, or its files renamed in together
+  when it exists, with Ctrl-C held back during those renames;
 - :func:`written_paths` says what a run has written, so that an interrupt can
   say what was kept.
 """
@@ -244,12 +244,13 @@ def write_atomically(option: str, path: PathText, write: Callable[[Path], None])
 
 
 def write_folder(option: str, path: PathText, write: Callable[[Path], object]) -> list[Path]:
-    """Write a folder of files through a staging folder beside it, then put them all in place together.
+    """Write a folder of files through a staging folder, then put them all in place together.
 
     ``write(staging)`` writes the files into the staging folder.  A new folder
-    is the staging folder renamed; into an existing one each file is renamed
-    (its other files are left alone).  Ctrl-C is held back during the renames,
-    so the folder holds all the old files or all the new ones.
+    is staged beside its place and renamed in whole; into an existing folder
+    the files are staged in a hidden folder inside it and each renamed over its
+    namesake (the folder's other files are left alone).  Ctrl-C is held back
+    during the renames, so the folder holds all the old files or all the new ones.
 
     Returns
     -------
@@ -263,9 +264,10 @@ def write_folder(option: str, path: PathText, write: Callable[[Path], object]) -
         the folder is then as it was.
     """
     folder = Path(path)
-    parent = Path(os.path.realpath(folder)).parent
+    exists = folder.is_dir()
+    home = folder if exists else Path(os.path.realpath(folder)).parent
     try:
-        staging = Path(tempfile.mkdtemp(dir=parent, prefix=f".{folder.name}.", suffix=".tmp"))
+        staging = Path(tempfile.mkdtemp(dir=home, prefix=f".{folder.name}.", suffix=".tmp"))
     except OSError as error:
         raise _failure(option, path, error) from None
     try:
@@ -275,7 +277,7 @@ def write_folder(option: str, path: PathText, write: Callable[[Path], object]) -
             with (staging / name).open("rb+") as stream:
                 os.fsync(stream.fileno())
         with _interrupts_held():
-            if folder.is_dir():
+            if exists:
                 for name in names:
                     os.replace(staging / name, folder / name)
                 staging.rmdir()
