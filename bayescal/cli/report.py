@@ -98,7 +98,7 @@ def _read_inputs(args: argparse.Namespace):
         cell = load_cell(args.config)
         campaign = read_campaign(args.campaign, cell=cell)
         tree = _load_tree(args.calibration, "--calibration", load, needs=("k2_q2", "sigma"), foreign="R")
-        geometry = posterior_geometry(args.geometry) if args.geometry else None
+        geometry = posterior_geometry(args.geometry, cell.compensator) if args.geometry else None
         results = restore_results(cell, campaign, tree, geometry)
         review.results, review.campaign, review.cell = results, campaign, cell
         review.residuals = residual_table(results, campaign, cell)
@@ -116,8 +116,10 @@ def _read_inputs(args: argparse.Namespace):
 
 
 def _load_tree(path: str, option: str, load, needs: tuple[str, ...], foreign: str):
-    """The posterior at ``path``, refused when it lacks a variable of ``needs`` or has ``foreign``, a variable only
-    the other kind of posterior has (an elastostatic posterior also holds the geometry it sampled)."""
+    """The posterior at ``path``, refused when it lacks a variable of ``needs``, has ``foreign``, a variable only
+    the other kind of posterior has (an elastostatic posterior also holds the geometry it sampled), or non-finite draws."""
+    import numpy as np
+
     from bayescal.errors import InputError
 
     try:
@@ -131,6 +133,10 @@ def _load_tree(path: str, option: str, load, needs: tuple[str, ...], foreign: st
     if foreign in posterior:
         other = "--calibration" if option == "--geometry" else "--geometry"
         raise InputError(f"the posterior has the variable '{foreign}' of a {other} posterior: is it the file {option} expects?", source=path)
+    for name, values in posterior.data_vars.items():
+        bad = int(np.count_nonzero(~np.isfinite(np.asarray(values.values, dtype=float))))
+        if bad:
+            raise InputError(f"the variable has {bad} non-finite draws; expected finite draws", source=path, column=str(name))
     return tree
 
 
