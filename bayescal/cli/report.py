@@ -9,7 +9,24 @@ from pathlib import Path
 from ._command import CommandOutput, add_common_options
 from bayescal.output import guard_outputs, write_folder
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parser", "run", "MAX_CHI2_PER_DOF"]
+
+MAX_CHI2_PER_DOF = 100.0
+"""Largest χ²/dof of a calibration against the campaign and cell given beside it: residuals 10 times the
+tracker noise the cell states.  A calibration of its own campaign gives about 1; one beside a campaign of
+a robot twice as compliant gave 3370."""
+
+_SCHEMAS = {
+    "--plan": ({"criterion": (float, int, type(None)), "parameters": dict, "configurations": int}, "verdict", "bayescal plan --json"),
+    "--critique": ({"verdict": str, "causes": list, "evidence": dict, "gain": dict}, "parameters", "bayescal critique --json"),
+}
+"""Per JSON option: the keys it must have with their types, a key only the other kind has, and the command that writes it."""
+
+VERDICTS = ("adequate", "misfit")
+"""The verdicts `bayescal critique` gives."""
+
+STUDY_COLUMNS = ("angles", "per_angle", "noise_fraction", "test_pose_rms_mm")
+"""Columns every q2-angle study table has (`bayescal study q2-angles -o`)."""
 
 
 def add_parser(subparsers) -> None:
@@ -100,6 +117,7 @@ def _read_inputs(args: argparse.Namespace):
         tree = _load_tree(args.calibration, "--calibration", load, needs=("k2_q2", "sigma"), foreign="R")
         geometry = posterior_geometry(args.geometry, cell.compensator) if args.geometry else None
         results = restore_results(cell, campaign, tree, geometry)
+        _check_fit(results, args)
         review.results, review.campaign, review.cell = results, campaign, cell
         review.residuals = residual_table(results, campaign, cell)
         review.test_pose = predict_cell_test_pose(results, cell)
@@ -152,6 +170,15 @@ def _read_json(path: str, option: str) -> dict:
         raise InputError("not a UTF-8 text file", source=path) from None
     if not isinstance(data, dict):
         raise InputError(f"expected a JSON object (the output of {option[2:]} --json), got a {type(data).__name__}", source=path)
+    required, foreign, writer = _SCHEMAS[option]
+    if foreign in data:
+        raise InputError(f"the JSON has the key '{foreign}' of another command's output; {option} expects the output of {writer}", source=path)
+    for key, kind in required.items():
+        if key not in data or not isinstance(data[key], kind) or isinstance(data[key], bool):
+            found = "no such key" if key not in data else f"a {type(data[key]).__name__}"
+            raise InputError(f"expected the key '{key}' of the output of {writer}, found {found}", source=path, column=key)
+    if option == "--critique" and data["verdict"] not in VERDICTS:
+        raise InputError(f"expected a verdict {' or '.join(VERDICTS)}, got {data['verdict']!r}", source=path, column="verdict")
     return data
 
 
@@ -166,4 +193,23 @@ def _read_csv(path: str, option: str):
         raise InputError(f"not a readable CSV table ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})", source=path) from None
     if frame.empty:
         raise InputError("the table has no rows", source=path)
+    missing = [column for column in STUDY_COLUMNS if column not in frame.columns]
+    if missing:
+        raise InputError(f"no column {', '.join(missing)}: expected the table of bayescal study q2-angles -o", source=path)
+    for column in STUDY_COLUMNS:
+        if not pd.api.types.is_numeric_dtype(frame[column]):
+            raise InputError("expected numbers", source=path, column=column)
     return frame
+
+
+def _check_fit(results, args: argparse.Namespace) -> None:
+    """Refuse a calibration whose χ²/dof against the given campaign and cell shows it was computed from other data."""
+    from bayescal.errors import InputError
+
+    chi2 = results.diagnostics().get("chi2_per_dof")
+    if chi2 is not None and chi2 > MAX_CHI2_PER_DOF:
+        raise InputError(
+            f"the calibration fits the campaign {args.campaign} with χ²/dof = {chi2:.4g}, above {MAX_CHI2_PER_DOF:g} (residuals "
+            f"{chi2 ** 0.5:.0f} times the tracker noise of {args.config}): was it computed from this campaign and cell?",
+            source=args.calibration,
+        )
