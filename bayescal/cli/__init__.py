@@ -79,6 +79,14 @@ def _run(args: argparse.Namespace) -> int:
         except InputError as error:
             print(f"bayescal {args.command}: error: {error}", file=sys.stderr)
             return 2
+        except RuntimeError as error:
+            from bayescal.robot.stiffness import EquilibriumError
+
+            if not isinstance(error, EquilibriumError):
+                raise
+            print(f"bayescal {args.command}: error: {_equilibrium_inputs(args)}: no static equilibrium of the loaded arm "
+                  f"({error}); are the cell's compensator, loads and tool plausible?", file=sys.stderr)
+            return 2
         except OSError as error:
             # An output path that cannot be written is the user's to fix, not a bug.
             where = f"{error.filename}: " if error.filename is not None else ""
@@ -96,6 +104,14 @@ def _run(args: argparse.Namespace) -> int:
     else:
         print(output.text)
     return 0
+
+
+def _equilibrium_inputs(args: argparse.Namespace) -> str:
+    """The inputs that shape the loaded arm's equilibrium (the cell, the campaign, the load option), for an error."""
+    names = [f"{option} {value}" for option, value in (("--config", getattr(args, "config", None)), ("campaign", getattr(args, "campaign", None))) if value]
+    if getattr(args, "mass_kg", None) is not None:
+        names.append(f"--mass-kg {args.mass_kg[0]:g} {args.mass_kg[1]:g}")
+    return ", ".join(names) or "the inputs"
 
 
 if __name__ == "__main__":
