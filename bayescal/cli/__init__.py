@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import sys
 import warnings
 from collections.abc import Sequence
@@ -98,11 +99,17 @@ def _run(args: argparse.Namespace) -> int:
     for message in dict.fromkeys(messages):
         print(f"bayescal {args.command}: warning: {message}", file=sys.stderr)
     sys.stderr.flush()
-    if args.json:
-        json.dump(output.payload, sys.stdout, indent=2, allow_nan=False)
-        sys.stdout.write("\n")
-    else:
-        print(output.text)
+    try:
+        if args.json:
+            json.dump(output.payload, sys.stdout, indent=2, allow_nan=False)
+            sys.stdout.write("\n")
+        else:
+            print(output.text)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        # A reader that stopped early (``| head``) is no error: the outputs are written already.
+        # stdout goes to /dev/null so that the interpreter's own flush at exit does not fail again.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     return 0
 
 
