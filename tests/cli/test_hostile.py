@@ -230,3 +230,84 @@ def test_a_full_disk_keeps_the_old_plan_and_names_the_output(files, capsys, monk
     code, lines = _run(capsys, ["plan", "--config", str(files / "cell.toml"), "-o", str(old)])
     assert code == 2 and len(lines) == 1 and f"--output: cannot write {old} (No space left on device)" in lines[0]
     assert old.read_text() == "the old plan\n" and sorted(p.name for p in tmp_path.iterdir()) == ["plan.csv"]
+
+
+# ----------------------------------------------------------------- random output paths at every command
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+# Each command: its argv before the output, the output option, the names it writes into a folder output, its inputs.
+COMMANDS = {
+    "simulate": (["simulate", "--plan", "{f}/plan.csv", "--config", "{f}/cell.toml"], "-o", (), ("plan.csv", "cell.toml", "urdf")),
+    "calibrate": (["calibrate", "{f}/campaign.csv", "--config", "{f}/cell.toml"], "--posterior", (), ("campaign.csv", "cell.toml", "urdf")),
+    "geometry": (["geometry", "{f}/points.csv"], "--posterior", (), ("points.csv",)),
+    "plan": (["plan", "--config", "{f}/cell.toml", "--model", "linear"], "-o", (), ("cell.toml", "urdf")),
+    "study -o": (["study", "q2-angles", "--config", "{f}/cell.toml"], "-o", (), ("cell.toml", "urdf")),
+    "study --markdown": (["study", "q2-angles", "--config", "{f}/cell.toml"], "--markdown", (), ("cell.toml", "urdf")),
+    "critique": (
+        ["critique", "{f}/campaign.csv", "--config", "{f}/cell.toml"], "--figures", ("residuals.png", "loo_pit.png"),
+        ("campaign.csv", "cell.toml", "urdf"),
+    ),
+    "report": (["report", "--plan", "{f}/plan.json"], "-o", ("index.html", "summary.md", "numbers.json"), ("plan.json",)),
+}
+INPUTS = ("plan.csv", "cell.toml", "campaign.csv", "points.csv", "plan.json", "urdf")
+
+
+@pytest.fixture(scope="module")
+def property_inputs(files):
+    """The inputs every command of :data:`COMMANDS` reads, side by side in one folder."""
+    folder = files / "property"
+    folder.mkdir()
+    for name in ("cell.toml", "campaign.csv", "points.csv", "plan.json"):
+        (folder / name).write_bytes((files / name).read_bytes())
+    (folder / "plan.csv").write_bytes((DATA / "table3_plan.csv").read_bytes())
+    (folder / "cell.toml").write_text((folder / "cell.toml").read_text().replace(f'"{DATA}/robots/kr270.urdf"', '"robots/kr270.urdf"'))
+    (folder / "robots").mkdir()
+    (folder / "robots" / "kr270.urdf").write_bytes(URDF.read_bytes())
+    return folder
+
+
+def _hostile_path(folder: Path, kind: str, target: str, names: tuple[str, ...], index: int) -> str:
+    """An output path of ``kind`` aimed at the input ``target``, made under ``folder``."""
+    source = folder / ("robots/kr270.urdf" if target == "urdf" else target)
+    work = folder / f"try{index}"
+    work.mkdir()
+    if kind == "the input":
+        return str(source)
+    if kind == "a dotted path to the input":
+        return f"{work}/../{source.relative_to(folder)}"
+    if kind in ("a symlink", "a hard link"):
+        link = work / (names[index % len(names)] if names else "out.csv")
+        (os.symlink if kind == "a symlink" else os.link)(source, link)
+        return str(work if names else link)
+    if kind == "a path under a file":
+        return f"{source}/out"
+    if kind == "a missing folder":
+        return str(work / "missing" / "out")
+    return str(work)  # an existing folder: refused as a file; as a folder it holds a link to an input (below)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    command=st.sampled_from(list(COMMANDS)),
+    kind=st.sampled_from(["the input", "a dotted path to the input", "a symlink", "a hard link", "a path under a file", "a missing folder", "an existing folder"]),
+    pick=st.integers(0, 2),
+    index=st.integers(0, 10**6),
+)
+def test_no_output_path_overwrites_an_input(property_inputs, capsys, command, kind, pick, index):
+    head, option, names, reads = COMMANDS[command]
+    target = reads[pick % len(reads)]
+    folder = property_inputs
+    if (folder / f"try{index}").exists():
+        return
+    path = _hostile_path(folder, kind, target, names, index)
+    if kind == "an existing folder" and names:
+        os.symlink(folder / ("robots/kr270.urdf" if target == "urdf" else target), Path(path) / names[index % len(names)])
+    before = {name: (folder / ("robots/kr270.urdf" if name == "urdf" else name)).read_bytes() for name in INPUTS}
+    status = main([word.format(f=folder) for word in head] + [option, path])
+    lines = capsys.readouterr().err.strip().splitlines()
+    after = {name: (folder / ("robots/kr270.urdf" if name == "urdf" else name)).read_bytes() for name in INPUTS}
+    assert status == 2 and len(lines) == 1, (command, kind, target, lines)
+    assert after == before
+    assert not [p for p in folder.rglob("*.tmp*")]
