@@ -85,8 +85,17 @@ def _run(args: argparse.Namespace) -> int:
 
             if not isinstance(error, EquilibriumError):
                 raise
-            print(f"bayescal {args.command}: error: {_equilibrium_inputs(args)}: no static equilibrium of the loaded arm "
+            print(f"bayescal {args.command}: error: {_named_inputs(args)}: no static equilibrium of the loaded arm "
                   f"({error}); are the cell's compensator, loads and tool plausible?", file=sys.stderr)
+            return 2
+        except ValueError as error:
+            # numpy's LinAlgError: an SVD or a factorisation that failed on a degenerate input.
+            import numpy as np
+
+            if not isinstance(error, np.linalg.LinAlgError):
+                raise
+            print(f"bayescal {args.command}: error: {_named_inputs(args)}: a linear-algebra step failed ({error}); "
+                  "is a posterior degenerate (constant or repeated draws) or a plan without spread?", file=sys.stderr)
             return 2
         except OSError as error:
             # An output path that cannot be written is the user's to fix, not a bug.
@@ -113,11 +122,20 @@ def _run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _equilibrium_inputs(args: argparse.Namespace) -> str:
-    """The inputs that shape the loaded arm's equilibrium (the cell, the campaign, the load option), for an error."""
-    names = [f"{option} {value}" for option, value in (("--config", getattr(args, "config", None)), ("campaign", getattr(args, "campaign", None))) if value]
-    if getattr(args, "mass_kg", None) is not None:
-        names.append(f"--mass-kg {args.mass_kg[0]:g} {args.mass_kg[1]:g}")
+INPUT_OPTIONS = (
+    ("campaign", "campaign"), ("points", "points"), ("--config", "config"), ("--plan", "plan"), ("--geometry", "geometry"),
+    ("--calibration", "calibration"), ("--evaluate", "evaluate"), ("--mass-kg", "mass_kg"),
+)
+"""The arguments, across commands, that name an input or shape the loads: named when a solver fails."""
+
+
+def _named_inputs(args: argparse.Namespace) -> str:
+    """The inputs of this run that a failing solver depends on, e.g. ``--config cell.toml, --mass-kg 200 250``."""
+    names = []
+    for option, attribute in INPUT_OPTIONS:
+        value = getattr(args, attribute, None)
+        if value:
+            names.append(f"{option} {' '.join(f'{v:g}' for v in value) if isinstance(value, list) else value}")
     return ", ".join(names) or "the inputs"
 
 

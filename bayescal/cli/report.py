@@ -116,6 +116,7 @@ def _read_inputs(args: argparse.Namespace):
         campaign = read_campaign(args.campaign, cell=cell)
         tree = _load_tree(args.calibration, "--calibration", load, needs=("k2_q2", "sigma"), foreign="R")
         geometry = posterior_geometry(args.geometry, cell.compensator) if args.geometry else None
+        _check_joint_count(tree, cell, args.calibration)
         results = restore_results(cell, campaign, tree, geometry)
         _check_fit(results, args)
         review.results, review.campaign, review.cell = results, campaign, cell
@@ -200,6 +201,22 @@ def _read_csv(path: str, option: str):
         if not pd.api.types.is_numeric_dtype(frame[column]):
             raise InputError("expected numbers", source=path, column=column)
     return frame
+
+
+def _check_joint_count(tree, cell, path: str) -> None:
+    """Refuse a calibration with a compliance ``k<j>`` of a joint the cell's robot does not have."""
+    import re
+
+    from bayescal.errors import InputError
+
+    joints = [int(match.group(1)) for name in tree["posterior"].data_vars if (match := re.fullmatch(r"k(\d+)", str(name)))]
+    if joints and max(joints) > cell.robot.nq:
+        raise InputError(
+            f"the calibration has the compliance k{max(joints)} but the robot of {cell.source} has {cell.robot.nq} joints: "
+            "was it computed for this cell?",
+            source=path,
+            column=f"k{max(joints)}",
+        )
 
 
 def _check_fit(results, args: argparse.Namespace) -> None:

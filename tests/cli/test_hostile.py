@@ -214,6 +214,31 @@ def test_a_newton_failure_names_the_cell_and_the_load_option(files, capsys, monk
     assert f"--config {files}/cell.toml" in lines[0] and "--mass-kg 200 250" in lines[0] and "no static equilibrium" in lines[0]
 
 
+def test_a_failed_svd_names_the_inputs(files, capsys, monkeypatch):
+    def degenerate(*args, **kwargs):
+        raise np.linalg.LinAlgError("SVD did not converge")
+
+    monkeypatch.setattr("bayescal.inference.elastostatic.restore_results", degenerate)
+    argv = ["report", "--calibration", str(files / "calibration.nc"), "--campaign", str(files / "campaign.csv"),
+            "--config", str(files / "cell.toml"), "-o", str(files / "out")]
+    code, lines = _run(capsys, argv)
+    assert code == 2 and len(lines) == 1 and "SVD did not converge" in lines[0] and f"--calibration {files}/calibration.nc" in lines[0]
+
+
+def test_a_calibration_of_a_robot_with_more_joints_is_refused(files, capsys, tmp_path):
+    from bayescal.sampling.summary import load
+
+    tree = load(files / "calibration.nc").load()
+    posterior = tree["posterior"].to_dataset()
+    posterior["k7"] = posterior["k6"]
+    tree["posterior"] = posterior
+    tree.to_netcdf(tmp_path / "seven.nc")
+    argv = ["report", "--calibration", str(tmp_path / "seven.nc"), "--campaign", str(files / "campaign.csv"),
+            "--config", str(files / "cell.toml"), "-o", str(tmp_path / "out")]
+    code, lines = _run(capsys, argv)
+    assert code == 2 and len(lines) == 1 and "has the compliance k7 but the robot" in lines[0] and "6 joints" in lines[0]
+
+
 def test_a_full_disk_keeps_the_old_plan_and_names_the_output(files, capsys, monkeypatch, tmp_path):
     import errno
 
