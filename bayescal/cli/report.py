@@ -13,8 +13,8 @@ __all__ = ["add_parser", "run", "MAX_CHI2_PER_DOF"]
 
 MAX_CHI2_PER_DOF = 100.0
 """Largest χ²/dof of a calibration against the campaign and cell given beside it: residuals 10 times the
-tracker noise the cell states.  A calibration of its own campaign gives about 1; one beside a campaign of
-a robot twice as compliant gave 3370."""
+tracker noise the cell states.  A short calibration of the twin's Table III campaign gives 0.87 on that
+campaign and 3588 beside a campaign of the same plan on a robot twice as compliant (tests/cli/test_hostile.py)."""
 
 _SCHEMAS = {
     "--plan": ({"criterion": (float, int, type(None)), "parameters": dict, "configurations": int}, "verdict", "bayescal plan --json"),
