@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike
 
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.errors import InputError
+from bayescal.geometry.plausibility import check_angle_unit
 from bayescal.tables import read_table
 from bayescal.units import DEG, MM
 
@@ -68,10 +69,6 @@ MAX_POINT_DISTANCE = 100.0
 
 Laser trackers measure within tens of metres (the AT901 class, whose noise the
 cell models, within 80 m), so a larger coordinate is in another unit (μm)."""
-
-MAX_ARC_RADIUS = 2.0
-"""Largest radius (m) of a compensator marker's arc about its axis: 11 times the KR-270's lever
-(0.183 m on Table I); Table I with q2 written in rad reads as a radius of 10.5 m."""
 
 
 @dataclass(frozen=True)
@@ -208,7 +205,7 @@ def read_arc_points(path: str | PathLike[str]) -> MarkerPoints:
     )
     columns = ["x_mm", "y_mm", "z_mm"] if "z_mm" in frame else ["x_mm", "y_mm"]
     _check_scale(frame[columns].to_numpy() * MM, frame.index.to_numpy(), columns, str(path))
-    _check_angle_unit(frame, columns, str(path))
+    check_angle_unit(frame, columns, str(path))
     return MarkerPoints.from_arrays(
         frame["marker"].to_numpy(dtype=str),
         frame["q2_deg"].to_numpy() * DEG,
@@ -216,36 +213,6 @@ def read_arc_points(path: str | PathLike[str]) -> MarkerPoints:
         line=frame.index.to_numpy(),
         source=str(path),
     )
-
-
-def _check_angle_unit(frame, columns: list[str], source: str) -> None:
-    """Reject joint angles that turn the markers too little for how far they move: q2 written in rad.
-
-    A point on a circle of radius r moves by a chord of at most r·Δq when the joint
-    turns by Δq, so chord / Δq is a lower bound of its radius; above
-    :data:`MAX_ARC_RADIUS` no compensator marker could have moved so.
-    """
-    worst, where = 0.0, None
-    for marker, group in frame.groupby("marker", sort=False):
-        q = group["q2_deg"].to_numpy() * DEG
-        xyz = group[columns].to_numpy() * MM
-        i, j = np.triu_indices(len(q), k=1)
-        turn = np.abs(q[i] - q[j])
-        usable = turn > 0
-        if not usable.any():
-            continue
-        ratio = np.linalg.norm(xyz[i] - xyz[j], axis=1)[usable] / turn[usable]
-        k = int(np.argmax(ratio))
-        if ratio[k] > worst:
-            worst, where = float(ratio[k]), (marker, int(group.index[j[usable][k]]))
-    if where is not None and worst > MAX_ARC_RADIUS:
-        raise InputError(
-            f"marker {where[0]} moves as if on a circle of radius {worst:.3g} m or more, beyond any compensator "
-            f"({MAX_ARC_RADIUS:g} m): are the q2_deg angles in rad instead of deg?",
-            source=source,
-            line=where[1],
-            column="q2_deg",
-        )
 
 
 def _check_scale(xyz: np.ndarray, lines: np.ndarray, columns: list[str], source: str) -> None:

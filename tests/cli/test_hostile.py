@@ -107,7 +107,7 @@ CASES = {
     "critique columns swapped": ("critique {f}/columns_swapped.csv --config {f}/cell.toml", 2, "swapped"),
     "critique wrench sign flipped": ("critique {f}/wrench_flipped.csv --config {f}/cell.toml", 2, "sign flipped"),
     "critique q2 beyond its limit": ("critique {f}/q2_beyond.csv --config {f}/cell.toml", 2, "outside its limits"),
-    "critique geometry q2 in rad": ("critique --geometry {f}/points_rad.csv", 2, "in rad instead of deg"),
+    "critique geometry q2 in rad": ("critique --geometry {f}/points_rad.csv", 2, "are q2 in deg, not rad?"),
     "calibrate geometry is a calibration": (
         "calibrate {f}/campaign.csv --config {f}/cell.toml --geometry {f}/calibration.nc", 2, "elastostatic posterior"),
     "report plan hello": ("report --plan {f}/hello.json -o {f}/out", 2, "expected the key 'criterion'"),

@@ -278,5 +278,5 @@ def test_q2_written_in_radians_is_refused(tmp_path, data_dir):
     points = pd.read_csv(data_dir / "table1_geometry.csv", comment="#")
     path = tmp_path / "points.csv"
     points.assign(q2_deg=np.deg2rad(points["q2_deg"])).to_csv(path, index=False)
-    with pytest.raises(InputError, match=r"column 'q2_deg': marker P1 moves as if on a circle of radius 10.5 m .* in rad instead of deg"):
+    with pytest.raises(InputError, match=r"column 'q2_deg': marker P1 moves as if on a circle of radius 10.5 m .* are q2 in deg, not rad\?"):
         read_arc_points(path)
