@@ -8,16 +8,19 @@ The output guard and the atomic writers live in :mod:`bayescal.output`;
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
+from bayescal.errors import InputError
 from bayescal.output import check_output, write_atomically
 
 __all__ = [
     "CommandOutput",
     "add_common_options",
     "whole_number",
+    "options_for",
     "check_output",
     "write_atomically",
 ]
@@ -65,3 +68,19 @@ def add_common_options(parser: argparse.ArgumentParser) -> None:
         help=f"seed of the random number generator, a whole number >= 0; the same seed gives identical output "
         f"(default {DEFAULT_SEED})",
     )
+
+
+@contextmanager
+def options_for(flags: Mapping[str, str]) -> Iterator[None]:
+    """Name this command's option in a library error about one of its own arguments.
+
+    The library names its arguments (``InputError(..., source="angles")``); within
+    ``with options_for({"angles": "--max-angles"}):`` such an error is raised again
+    with ``source="--max-angles"``.  Errors about files pass unchanged.
+    """
+    try:
+        yield
+    except InputError as error:
+        if error.source not in flags:
+            raise
+        raise InputError(error.what, source=flags[error.source], line=error.line, column=error.column) from None

@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import argparse
 
-from ._command import CommandOutput, add_common_options, whole_number
+from ._command import CommandOutput, add_common_options, options_for, whole_number
 from bayescal.output import guard_outputs, write_atomically
 
 __all__ = ["add_parser", "run"]
+
+FLAGS = {"angles": "--angles", "repeats": "--repeats", "model": "--model", "criterion": "--criterion", "mass_range": "--mass-kg"}
+"""The library's argument names and this command's options."""
 
 
 def add_parser(subparsers) -> None:
@@ -47,8 +50,6 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.cell.config import load_cell
-    from bayescal.design.constraints import load_design_space
-    from bayescal.design.optimise import STARTS, PlanDesigner
     from bayescal.errors import InputError
 
     inputs = {"the config": args.config, "the --evaluate plan": args.evaluate}
@@ -58,6 +59,25 @@ def run(args: argparse.Namespace) -> CommandOutput:
     cell = load_cell(args.config)
     guard_outputs(inputs | {"the robot URDF": cell.robot.source}, {"--output": None if args.evaluate is not None else args.output})
     _check_masses(args.mass_kg, cell)
+    with options_for(FLAGS):
+        payload, table = _design_or_evaluate(args, cell)
+    criterion = payload["criterion"]
+    lines = [
+        f"predicted rms error at the test pose after compensation: {'not predictable' if criterion is None else f'{criterion:.5f} mm'}",
+        table.to_string(float_format=lambda v: f"{v:.4g}"),
+    ]
+    for violation in payload.get("violations", []):
+        lines.append(f"configuration {violation['config']}: {violation['reason']}")
+    if "output" in payload:
+        lines.insert(0, f"wrote {payload['output']}: {payload['configurations']} configurations at q2 = {', '.join(f'{v:g}' for v in payload['q2_deg'])} deg")
+    return CommandOutput(payload=payload, text="\n".join(lines))
+
+
+def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFrame]:
+    """Design the plan and write it, or score the --evaluate plan: the JSON payload and the table of predicted widths."""
+    from bayescal.design.constraints import load_design_space
+    from bayescal.design.optimise import STARTS, PlanDesigner
+
     space = load_design_space(cell, mass_range=None if args.mass_kg is None else tuple(args.mass_kg))
     designer = PlanDesigner(cell, space, repeats=args.repeats, model=args.model)
     if args.evaluate is not None:
@@ -79,16 +99,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         write_atomically("--output", args.output, lambda path: design.save(path, comments=comments))
         payload = design.to_json() | {"output": str(args.output)}
         table = design.summary()
-    criterion = payload["criterion"]
-    lines = [
-        f"predicted rms error at the test pose after compensation: {'not predictable' if criterion is None else f'{criterion:.5f} mm'}",
-        table.to_string(float_format=lambda v: f"{v:.4g}"),
-    ]
-    for violation in payload.get("violations", []):
-        lines.append(f"configuration {violation['config']}: {violation['reason']}")
-    if "output" in payload:
-        lines.insert(0, f"wrote {payload['output']}: {payload['configurations']} configurations at q2 = {', '.join(f'{v:g}' for v in payload['q2_deg'])} deg")
-    return CommandOutput(payload=payload, text="\n".join(lines))
+    return payload, table
 
 
 def _command(args: argparse.Namespace, starts: int) -> str:

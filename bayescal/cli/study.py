@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._command import CommandOutput, add_common_options, whole_number
+from ._command import CommandOutput, add_common_options, options_for, whole_number
 from bayescal.output import guard_outputs, write_atomically
 
 __all__ = ["add_parser", "run"]
@@ -54,16 +54,10 @@ def run(args: argparse.Namespace) -> CommandOutput:
             f"separation), got {args.max_angles}",
             source="--max-angles",
         )
-    try:
+    with options_for({"angles": "--max-angles", "per_angle": "--max-per-angle", "repeats": "--repeats"}):
         table = q2_angle_study(
             cell, angles=range(3, args.max_angles + 1), per_angle=range(1, args.max_per_angle + 1), repeats=args.repeats, seed=args.seed
         )
-    except InputError as error:
-        # The library names its own arguments; this command's options are the --max- ones.
-        option = {"--angles": "--max-angles", "--per-angle": "--max-per-angle"}.get(error.source)
-        if option is None:
-            raise
-        raise InputError(error.what, source=option, line=error.line, column=error.column) from None
     cost = identification_cost(table, repeats=args.repeats)
     columns = ["angles", "per_angle", "noise_fraction", "test_pose_rms_mm", "k2_width_3sd_pct", "K_c_width_3sd_pct", "s0_width_3sd_pct"]
     rows = [[f"{v:.4g}" if isinstance(v, float) else v for v in row] for row in table[columns].itertuples(index=False)]
