@@ -98,24 +98,27 @@ def _read_inputs(args: argparse.Namespace):
     from bayescal.reports.review import ReviewInputs
     from bayescal.sampling.summary import load
 
+    from bayescal.cell.config import load_cell
+    from bayescal.inference.priors import posterior_geometry
+
     sources = {}
     review = ReviewInputs(sources=sources, seed=args.seed)
+    cell = load_cell(args.config) if args.config else None
+    geometry = None
     if args.geometry:
         sources["geometry posterior"] = args.geometry
         review.geometry = _load_tree(args.geometry, "--geometry", load, needs=("L", "a_x", "a_y"), foreign="k2_q2")
+        # The check calibrate applies: units, finite draws and, with a cell, nearness to its compensator.
+        geometry = posterior_geometry(args.geometry, None if cell is None else cell.compensator)
     if args.calibration:
         from bayescal.cell.campaign import read_campaign
-        from bayescal.cell.config import load_cell
         from bayescal.inference.elastostatic import restore_results
-        from bayescal.inference.priors import posterior_geometry
         from bayescal.inference.testpose import predict_cell_test_pose
         from bayescal.studies.residuals import residual_table
 
         sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
-        cell = load_cell(args.config)
         campaign = read_campaign(args.campaign, cell=cell)
         tree = _load_tree(args.calibration, "--calibration", load, needs=("k2_q2", "sigma"), foreign="R")
-        geometry = posterior_geometry(args.geometry, cell.compensator) if args.geometry else None
         _check_joint_count(tree, cell, args.calibration)
         results = restore_results(cell, campaign, tree, geometry)
         _check_fit(results, args)
