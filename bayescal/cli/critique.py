@@ -7,8 +7,9 @@ from __future__ import annotations
 
 import argparse
 
-from ._command import CommandOutput, add_common_options
 from bayescal.output import guard_outputs, write_folder
+
+from ._command import CommandOutput, add_common_options
 
 __all__ = ["add_parser", "run"]
 

@@ -6,8 +6,9 @@ import argparse
 import json
 from pathlib import Path
 
-from ._command import CommandOutput, add_common_options
 from bayescal.output import guard_outputs, write_folder
+
+from ._command import CommandOutput, add_common_options
 
 __all__ = ["add_parser", "run", "MAX_CHI2_PER_DOF"]
 

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from ._command import CommandOutput, add_common_options, options_for, whole_number
 from bayescal.output import guard_outputs, write_atomically
+
+from ._command import CommandOutput, add_common_options, options_for, whole_number
 
 __all__ = ["add_parser", "run"]
 
