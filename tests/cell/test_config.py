@@ -201,4 +201,3 @@ def test_a_malformed_design_table_names_its_line(tmp_path, data_dir, old, new, e
     key = new.split(" =")[0]
     with pytest.raises(InputError, match=rf"cell.toml:{_line_of(path, new)}, column 'design.{key}': expected .*{expected}"):
         load_cell(path)
-
