@@ -48,6 +48,11 @@ load.  A campaign whose largest force is below it is far more likely a wrench
 written in kN (1000 times smaller) than one measured so.
 """
 
+MAX_COMPENSATOR_LENGTH = 5.0
+"""Longest (m) lever L or pivot offset a_x, a_y of a compensator: longer than any industrial arm's link
+(ESTIMATE; the KR-270's are 0.18 and 0.70 m, Klimchik et al. Table II)."""
+
+
 SCHEMA: dict[str, frozenset[str] | None] = {
     "robot": frozenset({"urdf", "flange", "payload_kg"}),
     "joints": frozenset({"k_urad_per_Nm"}),
@@ -405,6 +410,14 @@ def load_cell(path: str | PathLike[str]) -> Cell:
             "K_c": reader.number("compensator", "K_c_N_per_mm", unit="N/mm", non_negative=True) * N_PER_MM,
             "s0": reader.number("compensator", "s0_mm", unit="mm", non_negative=True) * MM,
         }
+        for name in ("L", "a_x", "a_y"):
+            if abs(values[name]) > MAX_COMPENSATOR_LENGTH:
+                reader.fail(
+                    f"{values[name] / MM:g} mm is longer than any compensator linkage ({MAX_COMPENSATOR_LENGTH / MM:g} mm); "
+                    "is it in μm instead of mm?",
+                    "compensator",
+                    f"{name}_mm",
+                )
         try:
             compensator = Compensator(**values)
         except ValueError as exc:
@@ -418,6 +431,7 @@ def load_cell(path: str | PathLike[str]) -> Cell:
         str(name): reader.vector_value(value, 3, "mm", "tool.markers_mm", str(name)) * MM
         for name, value in marker_table.items()
     }
+    _check_reach(reader, load_point, markers)
 
     noise = {
         "U0": reader.number("tracker", "U0_um", unit="μm", default=15.0) * UM,
@@ -465,3 +479,18 @@ def load_cell(path: str | PathLike[str]) -> Cell:
             "wrench_N_Nm",
         )
     return cell
+
+
+def _check_reach(reader, load_point: np.ndarray, markers: dict[str, np.ndarray]) -> None:
+    """Refuse a load point or a marker farther from the flange than any tool reaches."""
+    from bayescal.cell.campaign import MAX_LOAD_ARM
+
+    for key, point in [("load_point_mm", load_point)] + [(name, point) for name, point in markers.items()]:
+        distance = float(np.linalg.norm(point))
+        if distance > MAX_LOAD_ARM:
+            table = "tool" if key == "load_point_mm" else "tool.markers_mm"
+            reader.fail(
+                f"a point {distance / MM:.6g} mm from the flange is beyond any tool ({MAX_LOAD_ARM / MM:g} mm); is it in μm instead of mm?",
+                table,
+                key,
+            )

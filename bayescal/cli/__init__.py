@@ -6,7 +6,8 @@ default.  ``run(args)`` returns a :class:`~bayescal.cli._command.CommandOutput`;
 this module prints it as JSON (``--json``) or as text, and turns an
 :class:`~bayescal.errors.InputError` into a one-line message and exit status 2.
 A bad option value is reported by the parser the same way: one line, status 2.
-Output files go through :mod:`bayescal.cli._command`'s guard and atomic writer.
+Ctrl-C ends any command with one line saying what was written, and status 130.
+Output files and folders go through :mod:`bayescal.output`'s guard and atomic writers.
 """
 
 from __future__ import annotations
@@ -14,11 +15,14 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import sys
 import warnings
 from collections.abc import Sequence
 
 from bayescal.errors import InputError
+
+from bayescal.output import forget_written, written_paths
 
 __all__ = ["main"]
 
@@ -43,14 +47,32 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+INTERRUPTED = 130
+"""Exit status after Ctrl-C: 128 + SIGINT, as the shells report it."""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line and return the exit status (0 success, 2 bad input)."""
-    parser = build_parser()
+    """Run the command line and return the exit status (0 success, 2 bad input, 130 interrupted)."""
+    forget_written()
+    command = "bayescal"
     try:
-        args = parser.parse_args(argv)
-    except SystemExit as exit:
-        # A bad option value (status 2) or --help (status 0): the message is printed already.
-        return exit.code if isinstance(exit.code, int) else 0
+        parser = build_parser()
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exit:
+            # A bad option value (status 2) or --help (status 0): the message is printed already.
+            return exit.code if isinstance(exit.code, int) else 0
+        command = f"bayescal {args.command}"
+        return _run(args)
+    except KeyboardInterrupt:
+        # The writers rename whole files into place, so what was written is complete.
+        kept = written_paths()
+        print(f"{command}: interrupted; {'kept ' + ', '.join(kept) if kept else 'nothing written'}", file=sys.stderr)
+        return INTERRUPTED
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Run the parsed command, print its result or its one-line error, and return the exit status."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -58,9 +80,27 @@ def main(argv: Sequence[str] | None = None) -> int:
         except InputError as error:
             print(f"bayescal {args.command}: error: {error}", file=sys.stderr)
             return 2
+        except RuntimeError as error:
+            from bayescal.robot.stiffness import EquilibriumError
+
+            if not isinstance(error, EquilibriumError):
+                raise
+            print(f"bayescal {args.command}: error: {_named_inputs(args)}: no static equilibrium of the loaded arm "
+                  f"({error}); are the cell's compensator, loads and tool plausible?", file=sys.stderr)
+            return 2
+        except ValueError as error:
+            # numpy's LinAlgError: an SVD or a factorisation that failed on a degenerate input.
+            import numpy as np
+
+            if not isinstance(error, np.linalg.LinAlgError):
+                raise
+            print(f"bayescal {args.command}: error: {_named_inputs(args)}: a linear-algebra step failed ({error}); "
+                  "is a posterior degenerate (constant or repeated draws) or a plan without spread?", file=sys.stderr)
+            return 2
         except OSError as error:
             # An output path that cannot be written is the user's to fix, not a bug.
-            print(f"bayescal {args.command}: error: {error.filename}: {error.strerror}", file=sys.stderr)
+            where = f"{error.filename}: " if error.filename is not None else ""
+            print(f"bayescal {args.command}: error: {where}{error.strerror or error}", file=sys.stderr)
             return 2
     # Warnings go out before the result, so that a reader of a terminal sees them
     # above the table and a JSON consumer still gets clean stdout.
@@ -68,12 +108,35 @@ def main(argv: Sequence[str] | None = None) -> int:
     for message in dict.fromkeys(messages):
         print(f"bayescal {args.command}: warning: {message}", file=sys.stderr)
     sys.stderr.flush()
-    if args.json:
-        json.dump(output.payload, sys.stdout, indent=2, allow_nan=False)
-        sys.stdout.write("\n")
-    else:
-        print(output.text)
+    try:
+        if args.json:
+            json.dump(output.payload, sys.stdout, indent=2, allow_nan=False)
+            sys.stdout.write("\n")
+        else:
+            print(output.text)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        # A reader that stopped early (``| head``) is no error: the outputs are written already.
+        # stdout goes to /dev/null so that the interpreter's own flush at exit does not fail again.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     return 0
+
+
+INPUT_OPTIONS = (
+    ("campaign", "campaign"), ("points", "points"), ("--config", "config"), ("--plan", "plan"), ("--geometry", "geometry"),
+    ("--calibration", "calibration"), ("--evaluate", "evaluate"), ("--mass-kg", "mass_kg"),
+)
+"""The arguments, across commands, that name an input or shape the loads: named when a solver fails."""
+
+
+def _named_inputs(args: argparse.Namespace) -> str:
+    """The inputs of this run that a failing solver depends on, e.g. ``--config cell.toml, --mass-kg 200 250``."""
+    names = []
+    for option, attribute in INPUT_OPTIONS:
+        value = getattr(args, attribute, None)
+        if value:
+            names.append(f"{option} {' '.join(f'{v:g}' for v in value) if isinstance(value, list) else value}")
+    return ", ".join(names) or "the inputs"
 
 
 if __name__ == "__main__":

@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     if args.geometry and not Path(args.geometry).is_file():
         what = "is a folder" if Path(args.geometry).is_dir() else "file not found"
         raise InputError(f"{what}; expected the NetCDF file `bayescal geometry --posterior` writes", source=args.geometry)
-    geometry = posterior_geometry(args.geometry) if args.geometry else None
+    geometry = posterior_geometry(args.geometry, cell.compensator) if args.geometry else None
     campaign = read_campaign(args.campaign, cell=cell)
     model = ElastostaticModel.from_cell(
         cell, geometry, model=args.model, sampler=default_sampler(args.sampler, args.draws), noise=args.noise

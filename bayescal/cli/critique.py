@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import argparse
 
+from bayescal.output import guard_outputs, write_folder
+
 from ._command import CommandOutput, add_common_options
 
 __all__ = ["add_parser", "run"]
@@ -53,15 +55,17 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.cell.campaign import read_campaign
     from bayescal.cell.config import load_cell
     from bayescal.critique import Critique
+    from bayescal.critique.figures import FIGURES, write_figures
 
+    inputs = {"the campaign": args.campaign, "the config": args.config}
+    guard_outputs(inputs, folders={"--figures": (args.figures, FIGURES)})
     cell = load_cell(args.config)
-    campaign = read_campaign(args.campaign)
+    guard_outputs(inputs | {"the robot URDF": cell.robot.source}, folders={"--figures": (args.figures, FIGURES)})
+    campaign = read_campaign(args.campaign, cell=cell)
     results = Critique(cell).run(campaign, np.random.default_rng(args.seed))
     figures = []
-    if args.figures:
-        from bayescal.critique.figures import write_figures
-
-        figures = [str(path) for path in write_figures(results, args.figures)]
+    if args.figures is not None:
+        figures = [str(path) for path in write_folder("--figures", args.figures, lambda folder: write_figures(results, folder))]
     payload = results.to_json() | {"seed": args.seed}
     if figures:
         payload["figures"] = figures
@@ -69,16 +73,17 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
 
 def _run_geometry(args: argparse.Namespace) -> CommandOutput:
+    from bayescal.critique.figures import GEOMETRY_FIGURES, write_geometry_figures
     from bayescal.critique.geometry import GeometryCritique
     from bayescal.geometry.arcs import read_arc_points
 
+    guard_outputs({"the --geometry points": args.geometry}, folders={"--figures": (args.figures, GEOMETRY_FIGURES)})
     results = GeometryCritique().run(read_arc_points(args.geometry))
     payload = results.to_json() | {"seed": args.seed}
     text = _geometry_text(results)
-    if args.figures:
-        from bayescal.critique.figures import write_geometry_figures
-
-        payload["figures"] = [str(path) for path in write_geometry_figures(results, args.figures)]
+    if args.figures is not None:
+        written = write_folder("--figures", args.figures, lambda folder: write_geometry_figures(results, folder))
+        payload["figures"] = [str(path) for path in written]
         text += f"\nfigures: {', '.join(payload['figures'])}"
     return CommandOutput(payload=payload, text=text)
 

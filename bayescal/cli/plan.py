@@ -4,9 +4,14 @@ from __future__ import annotations
 
 import argparse
 
-from ._command import CommandOutput, add_common_options
+from bayescal.output import guard_outputs, write_atomically
+
+from ._command import CommandOutput, add_common_options, options_for, whole_number
 
 __all__ = ["add_parser", "run"]
+
+FLAGS = {"angles": "--angles", "repeats": "--repeats", "model": "--model", "criterion": "--criterion", "mass_range": "--mass-kg"}
+"""The library's argument names and this command's options."""
 
 
 def add_parser(subparsers) -> None:
@@ -21,9 +26,9 @@ def add_parser(subparsers) -> None:
         ),
     )
     parser.add_argument("--config", required=True, help="cell TOML file (robot, stiffness, compensator, tool, tracker, test pose)")
-    parser.add_argument("--angles", type=int, default=5, help="distinct q2 angles (default 5, as Table III)")
-    parser.add_argument("--per-angle", type=int, default=3, help="configurations per q2 angle (default 3)")
-    parser.add_argument("--repeats", type=int, default=3, help="measurements of each configuration (default 3)")
+    parser.add_argument("--angles", type=whole_number(1), default=5, help="distinct q2 angles (default 5, as Table III)")
+    parser.add_argument("--per-angle", type=whole_number(1), default=3, help="configurations per q2 angle (default 3)")
+    parser.add_argument("--repeats", type=whole_number(1), default=3, help="measurements of each configuration (default 3)")
     parser.add_argument(
         "--criterion",
         choices=("test-pose", "compensator", "d-optimal"),
@@ -37,7 +42,7 @@ def add_parser(subparsers) -> None:
         help="model the search scores plans with: exact (default, the identification's, about 100 s) or linear (eq 31, about 25 s)",
     )
     parser.add_argument("--mass-kg", type=float, nargs=2, metavar=("LOW", "HIGH"), help="range of the hanging load (default: the cell's [design] mass_kg)")
-    parser.add_argument("--starts", type=int, default=None, help="random starts of the exchange algorithm (default 3)")
+    parser.add_argument("--starts", type=whole_number(1), default=None, help="random starts of the exchange algorithm (default 3)")
     parser.add_argument("-o", "--output", help="plan CSV to write")
     parser.add_argument("--evaluate", metavar="PLAN.csv", help="score this plan instead of designing one")
     add_common_options(parser)
@@ -45,45 +50,18 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> CommandOutput:
-    from pathlib import Path
-
     from bayescal.cell.config import load_cell
-    from bayescal.cell.plan import read_plan
-    from bayescal.design.constraints import load_design_space
-    from bayescal.design.optimise import STARTS, PlanDesigner
     from bayescal.errors import InputError
 
+    inputs = {"the config": args.config, "the --evaluate plan": args.evaluate}
+    if args.evaluate is None and args.output is None:
+        raise InputError("expected -o PLAN.csv (the plan to write) or --evaluate PLAN.csv", source="--output")
+    guard_outputs(inputs, {"--output": None if args.evaluate is not None else args.output})
     cell = load_cell(args.config)
-    space = load_design_space(cell, mass_range=None if args.mass_kg is None else tuple(args.mass_kg))
-    designer = PlanDesigner(cell, space, repeats=args.repeats, model=args.model)
-    if args.evaluate is not None:
-        plan = read_plan(args.evaluate, cell.robot, max_load_kg=cell.max_force / cell.gravity, loading=cell.loading)
-        prediction = designer.evaluate(plan, "exact")
-        payload = prediction.to_json() | {
-            "model": "exact",
-            "linear_model": designer.evaluate(plan, "linear").to_json(),
-            "plan": args.evaluate,
-            "configurations": len(plan),
-            "repeats": args.repeats,
-            "violations": designer.violations(plan),
-        }
-        table = prediction.summary()
-    else:
-        if args.output is None:
-            raise InputError("expected -o PLAN.csv (the plan to write) or --evaluate PLAN.csv", source="--output")
-        output = Path(args.output)
-        if not output.parent.is_dir():
-            raise InputError("the output directory does not exist", source=args.output)
-        starts = STARTS if args.starts is None else args.starts
-        if starts < 1:
-            raise InputError(f"expected at least 1 start, got {starts}", source="--starts")
-        design = designer.optimise(args.angles, args.per_angle, args.criterion, rng=args.seed, starts=starts, progress=True)
-        design.save(
-            output,
-            comments=(_command(args, starts),),
-        )
-        payload = design.to_json() | {"output": str(output)}
-        table = design.summary()
+    guard_outputs(inputs | {"the robot URDF": cell.robot.source}, {"--output": None if args.evaluate is not None else args.output})
+    _check_masses(args.mass_kg, cell)
+    with options_for(FLAGS):
+        payload, table = _design_or_evaluate(args, cell)
     criterion = payload["criterion"]
     lines = [
         f"predicted rms error at the test pose after compensation: {'not predictable' if criterion is None else f'{criterion:.5f} mm'}",
@@ -97,6 +75,35 @@ def run(args: argparse.Namespace) -> CommandOutput:
     return CommandOutput(payload=payload, text="\n".join(lines))
 
 
+def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFrame]:
+    """Design the plan and write it, or score the --evaluate plan: the JSON payload and the table of predicted widths."""
+    from bayescal.design.constraints import load_design_space
+    from bayescal.design.optimise import STARTS, PlanDesigner
+
+    space = load_design_space(cell, mass_range=None if args.mass_kg is None else tuple(args.mass_kg))
+    designer = PlanDesigner(cell, space, repeats=args.repeats, model=args.model)
+    if args.evaluate is not None:
+        plan = _read_evaluated_plan(args.evaluate, cell)
+        prediction = designer.evaluate(plan, "exact")
+        payload = prediction.to_json() | {
+            "model": "exact",
+            "linear_model": designer.evaluate(plan, "linear").to_json(),
+            "plan": args.evaluate,
+            "configurations": len(plan),
+            "repeats": args.repeats,
+            "violations": designer.violations(plan),
+        }
+        table = prediction.summary()
+    else:
+        starts = STARTS if args.starts is None else args.starts
+        design = designer.optimise(args.angles, args.per_angle, args.criterion, rng=args.seed, starts=starts, progress=True)
+        comments = (_command(args, starts),)
+        write_atomically("--output", args.output, lambda path: design.save(path, comments=comments))
+        payload = design.to_json() | {"output": str(args.output)}
+        table = design.summary()
+    return payload, table
+
+
 def _command(args: argparse.Namespace, starts: int) -> str:
     """The command line that makes this plan again, every option that shapes it spelt out."""
     words = [
@@ -106,3 +113,55 @@ def _command(args: argparse.Namespace, starts: int) -> str:
     if args.mass_kg is not None:
         words.append(f"--mass-kg {args.mass_kg[0]:g} {args.mass_kg[1]:g}")
     return " ".join(words)
+
+
+def _check_masses(mass_kg: list[float] | None, cell) -> None:
+    """Refuse a --mass-kg range that is not finite and positive, or that simulate would refuse as too heavy."""
+    import math
+
+    from bayescal.errors import InputError
+
+    if mass_kg is None:
+        return
+    low, high = mass_kg
+    if not all(math.isfinite(value) for value in mass_kg) or not 0 < low <= high:
+        raise InputError(f"expected a mass range 0 < LOW <= HIGH in kg, got {low:g} {high:g}", source="--mass-kg")
+    heaviest = cell.max_force / cell.gravity
+    if high > heaviest:
+        raise InputError(
+            f"a load of {high:g} kg is more than the {heaviest:.0f} kg the arm of {cell.source} can plausibly carry "
+            "(the limit simulate applies to a plan's load_kg)",
+            source="--mass-kg",
+        )
+
+
+def _read_evaluated_plan(path: str, cell):
+    """The --evaluate plan, refused when it is a campaign or has too few q2 angles to identify the compensator."""
+    import numpy as np
+    import pandas as pd
+
+    from bayescal.cell.campaign import POSITION_COLUMNS
+    from bayescal.cell.plan import read_plan
+    from bayescal.errors import InputError
+
+    try:
+        header = pd.read_csv(path, comment="#", nrows=0).columns
+    except (OSError, ValueError, UnicodeDecodeError):
+        header = ()
+    if set(POSITION_COLUMNS) & set(header):
+        raise InputError(
+            "this is a campaign (it has tracker position columns); --evaluate expects a plan CSV of joint angles "
+            "(bayescal plan -o writes one)",
+            source=path,
+        )
+    plan = read_plan(path, cell.robot, max_load_kg=cell.max_force / cell.gravity, loading=cell.loading)
+    joint = cell.compensated_joint
+    if joint is not None:
+        angles = len(np.unique(np.round(plan.q[:, joint], 9)))
+        if angles < 3:
+            raise InputError(
+                f"the plan has {angles} distinct q{joint + 1} angle(s); the compensator's stiffness, K_c and s0 need at "
+                "least 3 to be predicted at all",
+                source=path,
+            )
+    return plan

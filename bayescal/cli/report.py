@@ -4,12 +4,30 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 from pathlib import Path
 
-from ._command import CommandOutput, add_common_options, check_output, write_atomically
+from bayescal.output import guard_outputs, write_folder
 
-__all__ = ["add_parser", "run"]
+from ._command import CommandOutput, add_common_options
+
+__all__ = ["add_parser", "run", "MAX_CHI2_PER_DOF"]
+
+MAX_CHI2_PER_DOF = 100.0
+"""Largest χ²/dof of a calibration against the campaign and cell given beside it: residuals 10 times the
+tracker noise the cell states.  A short calibration of the twin's Table III campaign gives 0.87 on that
+campaign and 3588 beside a campaign of the same plan on a robot twice as compliant (tests/cli/test_hostile.py)."""
+
+_SCHEMAS = {
+    "--plan": ({"criterion": (float, int, type(None)), "parameters": dict, "configurations": int}, "verdict", "bayescal plan --json"),
+    "--critique": ({"verdict": str, "causes": list, "evidence": dict, "gain": dict}, "parameters", "bayescal critique --json"),
+}
+"""Per JSON option: the keys it must have with their types, a key only the other kind has, and the command that writes it."""
+
+VERDICTS = ("adequate", "misfit")
+"""The verdicts `bayescal critique` gives."""
+
+STUDY_COLUMNS = ("angles", "per_angle", "noise_fraction", "test_pose_rms_mm")
+"""Columns every q2-angle study table has (`bayescal study q2-angles -o`)."""
 
 
 def add_parser(subparsers) -> None:
@@ -59,18 +77,20 @@ def run(args: argparse.Namespace) -> CommandOutput:
                          ("--compensation", args.compensation)):
         if path and not Path(path).is_file():
             raise InputError(f"{path}: {'is a folder' if Path(path).is_dir() else 'file not found'}", source=option)
-    folder = _check_folder(args.output, inputs)
-
-    review_inputs = _read_inputs(args)
-
     from bayescal.reports.review import HTML_FILE, render_review
 
+    # The page's own files are checked now; the figures' names are known once rendered and checked then.
+    guard_outputs(inputs, folders={"--output": (args.output, (HTML_FILE, "summary.md", "numbers.json"))})
+    review_inputs = _read_inputs(args)
     files = render_review(review_inputs)
-    folder.mkdir(exist_ok=True)
-    for name in files:
-        check_output("--output", folder / name, inputs)
-    for name, content in files.items():
-        write_atomically("--output", folder / name, lambda path, content=content: path.write_bytes(content))
+    guard_outputs(inputs, folders={"--output": (args.output, tuple(files))})
+
+    def write(staging: Path) -> None:
+        for name, content in files.items():
+            (staging / name).write_bytes(content)
+
+    write_folder("--output", args.output, write)
+    folder = Path(args.output)
     index = folder / HTML_FILE
     figures = sorted(name for name in files if name.endswith(".png"))
     payload = {"report": str(index), "files": sorted(files), "figures": len(figures)}
@@ -78,49 +98,34 @@ def run(args: argparse.Namespace) -> CommandOutput:
     return CommandOutput(payload=payload, text=text)
 
 
-def _check_folder(output: str, inputs: dict) -> Path:
-    """The report folder, refused when it is an input file, a file, or its parent cannot take it."""
-    from bayescal.errors import InputError
-
-    if not output.strip():
-        raise InputError("expected the name of a folder to write, got an empty text", source="--output")
-    folder = Path(output)
-    if folder.exists() and not folder.is_dir():
-        raise InputError(f"{output} is a file; expected a folder for the report", source="--output")
-    if folder.is_dir():
-        check_output("--output", folder / "index.html", inputs)
-        return folder
-    parent = Path(os.path.realpath(folder)).parent
-    if not parent.is_dir():
-        raise InputError(f"the folder {parent} that should hold the report does not exist; create it first", source="--output")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise InputError(f"cannot create the report folder in {parent} (permission denied)", source="--output")
-    return folder
-
-
 def _read_inputs(args: argparse.Namespace):
     from bayescal.reports.review import ReviewInputs
     from bayescal.sampling.summary import load
 
+    from bayescal.cell.config import load_cell
+    from bayescal.inference.priors import posterior_geometry
+
     sources = {}
     review = ReviewInputs(sources=sources, seed=args.seed)
+    cell = load_cell(args.config) if args.config else None
+    geometry = None
     if args.geometry:
         sources["geometry posterior"] = args.geometry
         review.geometry = _load_tree(args.geometry, "--geometry", load, needs=("L", "a_x", "a_y"), foreign="k2_q2")
+        # The check calibrate applies: units, finite draws and, with a cell, nearness to its compensator.
+        geometry = posterior_geometry(args.geometry, None if cell is None else cell.compensator)
     if args.calibration:
         from bayescal.cell.campaign import read_campaign
-        from bayescal.cell.config import load_cell
         from bayescal.inference.elastostatic import restore_results
-        from bayescal.inference.priors import posterior_geometry
         from bayescal.inference.testpose import predict_cell_test_pose
         from bayescal.studies.residuals import residual_table
 
         sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
-        cell = load_cell(args.config)
         campaign = read_campaign(args.campaign, cell=cell)
         tree = _load_tree(args.calibration, "--calibration", load, needs=("k2_q2", "sigma"), foreign="R")
-        geometry = posterior_geometry(args.geometry) if args.geometry else None
+        _check_joint_count(tree, cell, args.calibration)
         results = restore_results(cell, campaign, tree, geometry)
+        _check_fit(results, args)
         review.results, review.campaign, review.cell = results, campaign, cell
         review.residuals = residual_table(results, campaign, cell)
         review.test_pose = predict_cell_test_pose(results, cell)
@@ -142,8 +147,10 @@ def _read_inputs(args: argparse.Namespace):
 
 
 def _load_tree(path: str, option: str, load, needs: tuple[str, ...], foreign: str):
-    """The posterior at ``path``, refused when it lacks a variable of ``needs`` or has ``foreign``, a variable only
-    the other kind of posterior has (an elastostatic posterior also holds the geometry it sampled)."""
+    """The posterior at ``path``, refused when it lacks a variable of ``needs``, has ``foreign``, a variable only
+    the other kind of posterior has (an elastostatic posterior also holds the geometry it sampled), or non-finite draws."""
+    import numpy as np
+
     from bayescal.errors import InputError
 
     try:
@@ -157,6 +164,10 @@ def _load_tree(path: str, option: str, load, needs: tuple[str, ...], foreign: st
     if foreign in posterior:
         other = "--calibration" if option == "--geometry" else "--geometry"
         raise InputError(f"the posterior has the variable '{foreign}' of a {other} posterior: is it the file {option} expects?", source=path)
+    for name, values in posterior.data_vars.items():
+        bad = int(np.count_nonzero(~np.isfinite(np.asarray(values.values, dtype=float))))
+        if bad:
+            raise InputError(f"the variable has {bad} non-finite draws; expected finite draws", source=path, column=str(name))
     return tree
 
 
@@ -172,6 +183,15 @@ def _read_json(path: str, option: str) -> dict:
         raise InputError("not a UTF-8 text file", source=path) from None
     if not isinstance(data, dict):
         raise InputError(f"expected a JSON object (the output of {option[2:]} --json), got a {type(data).__name__}", source=path)
+    required, foreign, writer = _SCHEMAS[option]
+    if foreign in data:
+        raise InputError(f"the JSON has the key '{foreign}' of another command's output; {option} expects the output of {writer}", source=path)
+    for key, kind in required.items():
+        if key not in data or not isinstance(data[key], kind) or isinstance(data[key], bool):
+            found = "no such key" if key not in data else f"a {type(data[key]).__name__}"
+            raise InputError(f"expected the key '{key}' of the output of {writer}, found {found}", source=path, column=key)
+    if option == "--critique" and data["verdict"] not in VERDICTS:
+        raise InputError(f"expected a verdict {' or '.join(VERDICTS)}, got {data['verdict']!r}", source=path, column="verdict")
     return data
 
 
@@ -186,4 +206,39 @@ def _read_csv(path: str, option: str):
         raise InputError(f"not a readable CSV table ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})", source=path) from None
     if frame.empty:
         raise InputError("the table has no rows", source=path)
+    missing = [column for column in STUDY_COLUMNS if column not in frame.columns]
+    if missing:
+        raise InputError(f"no column {', '.join(missing)}: expected the table of bayescal study q2-angles -o", source=path)
+    for column in STUDY_COLUMNS:
+        if not pd.api.types.is_numeric_dtype(frame[column]):
+            raise InputError("expected numbers", source=path, column=column)
     return frame
+
+
+def _check_joint_count(tree, cell, path: str) -> None:
+    """Refuse a calibration with a compliance ``k<j>`` of a joint the cell's robot does not have."""
+    import re
+
+    from bayescal.errors import InputError
+
+    joints = [int(match.group(1)) for name in tree["posterior"].data_vars if (match := re.fullmatch(r"k(\d+)", str(name)))]
+    if joints and max(joints) > cell.robot.nq:
+        raise InputError(
+            f"the calibration has the compliance k{max(joints)} but the robot of {cell.source} has {cell.robot.nq} joints: "
+            "was it computed for this cell?",
+            source=path,
+            column=f"k{max(joints)}",
+        )
+
+
+def _check_fit(results, args: argparse.Namespace) -> None:
+    """Refuse a calibration whose χ²/dof against the given campaign and cell shows it was computed from other data."""
+    from bayescal.errors import InputError
+
+    chi2 = results.diagnostics().get("chi2_per_dof")
+    if chi2 is not None and chi2 > MAX_CHI2_PER_DOF:
+        raise InputError(
+            f"the calibration fits the campaign {args.campaign} with χ²/dof = {chi2:.4g}, above {MAX_CHI2_PER_DOF:g} (residuals "
+            f"{chi2 ** 0.5:.0f} times the tracker noise of {args.config}): was it computed from this campaign and cell?",
+            source=args.calibration,
+        )

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from ._command import CommandOutput, add_common_options
+from bayescal.output import guard_outputs, write_atomically
+
+from ._command import CommandOutput, add_common_options, options_for, whole_number
 
 __all__ = ["add_parser", "run"]
 
@@ -22,9 +24,11 @@ def add_parser(subparsers) -> None:
     )
     parser.add_argument("name", choices=("q2-angles",), help="the study")
     parser.add_argument("--config", required=True, help="cell TOML file")
-    parser.add_argument("--repeats", type=int, default=3, help="measurements of each configuration (default 3)")
-    parser.add_argument("--max-angles", type=int, default=12, help="largest number of q2 angles (default 12)")
-    parser.add_argument("--max-per-angle", type=int, default=5, help="largest number of configurations per angle (default 5)")
+    parser.add_argument("--repeats", type=whole_number(1), default=3, help="measurements of each configuration (default 3)")
+    parser.add_argument("--max-angles", type=whole_number(3), default=12, help="largest number of q2 angles, at least 3 (default 12)")
+    parser.add_argument(
+        "--max-per-angle", type=whole_number(1), default=5, help="largest number of configurations per angle (default 5)"
+    )
     parser.add_argument("-o", "--output", help="CSV file for the table")
     parser.add_argument("--markdown", help="Markdown file for the table and the answer")
     add_common_options(parser)
@@ -33,32 +37,37 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> CommandOutput:
     import math
-    from pathlib import Path
 
     from bayescal.cell.config import load_cell
+    from bayescal.design.optimise import PlanDesigner
     from bayescal.errors import InputError
     from bayescal.studies.angles import identification_cost, q2_angle_study
     from bayescal.tables import markdown_table
 
-    for option, value, least in (("--max-angles", args.max_angles, 3), ("--max-per-angle", args.max_per_angle, 1), ("--repeats", args.repeats, 1)):
-        if value < least:
-            raise InputError(f"expected at least {least}, got {value}", source=option)
-    for path in (args.output, args.markdown):
-        if path is not None and not Path(path).parent.is_dir():
-            raise InputError("the output directory does not exist", source=path)
+    outputs = {"--output": args.output, "--markdown": args.markdown}
+    guard_outputs({"the config": args.config}, outputs)
     cell = load_cell(args.config)
-    table = q2_angle_study(
-        cell, angles=range(3, args.max_angles + 1), per_angle=range(1, args.max_per_angle + 1), repeats=args.repeats, seed=args.seed
-    )
+    guard_outputs({"the config": args.config, "the robot URDF": cell.robot.source}, outputs)
+    designer = PlanDesigner(cell, repeats=args.repeats, model="linear")
+    if args.max_angles > designer.max_angles():
+        raise InputError(
+            f"expected at most {designer.max_angles()} q2 angles (the joint range of {cell.source} at the design's "
+            f"separation), got {args.max_angles}",
+            source="--max-angles",
+        )
+    with options_for({"angles": "--max-angles", "per_angle": "--max-per-angle", "repeats": "--repeats"}):
+        table = q2_angle_study(
+            cell, angles=range(3, args.max_angles + 1), per_angle=range(1, args.max_per_angle + 1), repeats=args.repeats, seed=args.seed
+        )
     cost = identification_cost(table, repeats=args.repeats)
     columns = ["angles", "per_angle", "noise_fraction", "test_pose_rms_mm", "k2_width_3sd_pct", "K_c_width_3sd_pct", "s0_width_3sd_pct"]
     rows = [[f"{v:.4g}" if isinstance(v, float) else v for v in row] for row in table[columns].itertuples(index=False)]
     answer = markdown_table(list(cost.columns), [[f"{v:.4g}" if isinstance(v, float) else v for v in row] for row in cost.itertuples(index=False)])
     text = markdown_table(columns, rows) + "\n\n" + answer
     if args.output is not None:
-        table.to_csv(args.output, index=False)
+        write_atomically("--output", args.output, lambda path: table.to_csv(path, index=False))
     if args.markdown is not None:
-        Path(args.markdown).write_text(text + "\n", encoding="utf-8")
+        write_atomically("--markdown", args.markdown, lambda path: path.write_text(text + "\n", encoding="utf-8"))
 
     def clean(value):
         return None if isinstance(value, float) and not math.isfinite(value) else value

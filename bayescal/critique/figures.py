@@ -20,6 +20,13 @@ PLOTTED = {
 }
 
 
+FIGURES = ("residuals.png", "loo_pit.png")
+"""The files :func:`write_figures` writes."""
+
+GEOMETRY_FIGURES = ("geometry_residuals.png",)
+"""The files :func:`write_geometry_figures` writes."""
+
+
 def _pyplot(folder: str | PathLike[str]):
     """pyplot on the file-only backend, and the output folder, created if needed."""
     import matplotlib
@@ -49,7 +56,7 @@ def write_figures(results: CritiqueResults, folder: str | PathLike[str]) -> list
     axes[0, 0].legend(title="axis", fontsize=7)
     figure.suptitle(f"{results.source}: verdict {results.verdict}, causes {results.causes or 'none'}")
     figure.tight_layout()
-    residuals = folder / "residuals.png"
+    residuals = folder / FIGURES[0]
     figure.savefig(residuals, dpi=120)
     plt.close(figure)
 
@@ -62,7 +69,7 @@ def write_figures(results: CritiqueResults, folder: str | PathLike[str]) -> list
     ax.set_ylabel("equations")
     ax.legend(fontsize=7)
     figure.tight_layout()
-    pit = folder / "loo_pit.png"
+    pit = folder / FIGURES[1]
     figure.savefig(pit, dpi=120)
     plt.close(figure)
     return [residuals, pit]
@@ -88,7 +95,7 @@ def write_geometry_figures(results: GeometryCritiqueResults, folder: str | PathL
     axes[0, 0].legend(title="tracker axis", fontsize=7)
     figure.suptitle(f"{results.source}: verdict {results.verdict}, causes {results.causes or 'none'} (each angle left out in turn)")
     figure.tight_layout()
-    path = folder / "geometry_residuals.png"
+    path = folder / GEOMETRY_FIGURES[0]
     figure.savefig(path, dpi=120)
     plt.close(figure)
     return [path]

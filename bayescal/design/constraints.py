@@ -117,7 +117,7 @@ def load_design_space(cell: Cell, *, mass_range: tuple[float, float] | None = No
     source = cell.source
     masses = limits.mass_range or (cell.load_mass, cell.load_mass)
     if mass_range is not None:
-        masses, source = mass_range, "--mass-kg"
+        masses, source = mass_range, "mass_range"
     return DesignSpace(
         mass_range=(float(masses[0]), float(masses[1])),
         acceptance=ACCEPTANCE_DEG * DEG if limits.acceptance is None else limits.acceptance,

@@ -166,9 +166,9 @@ class PlanDesigner:
 
     def __init__(self, cell: Cell, space: DesignSpace | None = None, *, repeats: int = 3, model: str = "exact") -> None:
         if repeats < 1:
-            raise InputError(f"expected at least 1 repeat, got {repeats}", source="--repeats")
+            raise InputError(f"expected at least 1 repeat, got {repeats}", source="repeats")
         if model not in ("linear", "exact"):
-            raise InputError(f"unknown model '{model}'; expected linear or exact", source="--model")
+            raise InputError(f"unknown model '{model}'; expected linear or exact", source="model")
         cell.robot.check_limits(cell.test_q, source=cell.source)
         self.cell = cell
         self.space = load_design_space(cell) if space is None else space
@@ -239,20 +239,20 @@ class PlanDesigner:
 
     def _check_request(self, angles: int, per_angle: int, criterion: str, *, scored: bool = True) -> None:
         if criterion not in CRITERIA:
-            raise InputError(f"unknown criterion '{criterion}'; expected one of {', '.join(CRITERIA)}", source="--criterion")
+            raise InputError(f"unknown criterion '{criterion}'; expected one of {', '.join(CRITERIA)}", source="criterion")
         if angles < 1 or per_angle < 1:
-            raise InputError(f"expected at least 1 angle and 1 configuration per angle, got {angles} and {per_angle}", source="--angles")
+            raise InputError(f"expected at least 1 angle and 1 configuration per angle, got {angles} and {per_angle}", source="angles")
         if angles > self.max_angles():
             low, high = (math.degrees(v) for v in self.q2_range)
             raise InputError(
                 f"{angles} q2 angles do not fit in the joint range {low:.0f} to {high:.0f} deg at "
                 f"{math.degrees(self.space.min_separation):.0f} deg apart (at most {self.max_angles()})",
-                source="--angles",
+                source="angles",
             )
         # every criterion inverts the information in K_θ2^0, K_c and s0, singular below three angles
         if self.cell.compensator is not None and angles < 3 and scored:
             raise InputError(
-                f"the compensator's K_θ2^0, K_c and s0 need at least 3 distinct q2 angles, got {angles}", source="--angles"
+                f"the compensator's K_θ2^0, K_c and s0 need at least 3 distinct q2 angles, got {angles}", source="angles"
             )
 
     # ----------------------------------------------------------------- candidates
@@ -324,7 +324,7 @@ class PlanDesigner:
                     rows.append(q)
             if len(rows) == angles * per_angle:
                 return self._plan(np.array(rows), np.tile(self._down, (len(rows), 1)))
-        raise InputError(f"no random feasible plan with {angles} angles found (most frequent reason: {reasons.most_common(1)})", source="--angles")
+        raise InputError(f"no random feasible plan with {angles} angles found (most frequent reason: {reasons.most_common(1)})", source="angles")
 
     def _plan(self, q: np.ndarray, loads: np.ndarray) -> Plan:
         lines = np.zeros(len(q), dtype=int)
@@ -385,7 +385,7 @@ class PlanDesigner:
         available = [np.flatnonzero(index == g) for g in range(len(grid))]
         usable = np.array([len(c) >= per_angle for c in available])
         if np.count_nonzero(usable) < angles:
-            raise InputError(f"only {np.count_nonzero(usable)} q2 angles have {per_angle} feasible configurations, {angles} requested", source="--angles")
+            raise InputError(f"only {np.count_nonzero(usable)} q2 angles have {per_angle} feasible configurations, {angles} requested", source="angles")
         bar = Progress(starts, f"plan: {criterion}", progress)
         best, scores = None, []
         for _ in range(starts):
@@ -420,7 +420,7 @@ class PlanDesigner:
             chosen = rng.choice(np.flatnonzero(usable), size=angles, replace=False)
             if self._separated(list(grid[chosen])):
                 return [(int(g), list(rng.choice(available[g], size=per_angle, replace=False))) for g in chosen]
-        raise InputError(f"no {angles} q2 angles {math.degrees(self.space.min_separation):.0f} deg apart have feasible configurations", source="--angles")
+        raise InputError(f"no {angles} q2 angles {math.degrees(self.space.min_separation):.0f} deg apart have feasible configurations", source="angles")
 
     def _exchange(self, groups, grid, usable, available, information, criterion):
         def total(groups):

@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike
 
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.errors import InputError
+from bayescal.geometry.plausibility import check_angle_unit
 from bayescal.tables import read_table
 from bayescal.units import DEG, MM
 
@@ -204,6 +205,7 @@ def read_arc_points(path: str | PathLike[str]) -> MarkerPoints:
     )
     columns = ["x_mm", "y_mm", "z_mm"] if "z_mm" in frame else ["x_mm", "y_mm"]
     _check_scale(frame[columns].to_numpy() * MM, frame.index.to_numpy(), columns, str(path))
+    check_angle_unit(frame, columns, str(path))
     return MarkerPoints.from_arrays(
         frame["marker"].to_numpy(dtype=str),
         frame["q2_deg"].to_numpy() * DEG,

@@ -62,11 +62,34 @@ PHI_SD = 0.05 * DEG
 (Table II gives none); the arc fits of the geometry step determine phi to a few hundredths of a degree."""
 
 
-def posterior_geometry(path) -> GeometryPrior:
+GEOMETRY_UNITS = {"L": "mm", "a_x": "mm", "a_y": "mm", "phi": "deg"}
+"""The variables of a geometry posterior and the unit each is stored in (its ``units`` attribute)."""
+
+MAX_GEOMETRY_OFFSET = 0.5
+"""Largest difference between a geometry posterior's L or |(a_x, a_y)| and the cell's, as a fraction of the
+cell's value, and (times 60 deg) of phi: the twin's and Table II's geometries differ by under 1 %, a value in
+m instead of mm by 99.9 %, phi in rad instead of deg by 98 %."""
+
+
+def posterior_geometry(path, expected: CompensatorGeometry | None = None) -> GeometryPrior:
     """Geometry prior from a saved geometry posterior (NetCDF with L, a_x, a_y in mm and phi in deg).
 
     The Gaussian with the draws' mean and covariance: the elastostatic data then
     barely move it, and the same prior serves the Gibbs and the emcee paths.
+
+    Parameters
+    ----------
+    path
+        The NetCDF DataTree `bayescal geometry --posterior` writes.
+    expected
+        The cell's compensator geometry (m, rad); when given, a posterior far from it (in metres or
+        radians, or of another robot) is refused.
+
+    Raises
+    ------
+    InputError
+        For a file that is not a geometry posterior (an elastostatic posterior included), a variable
+        missing, in another unit or with non-finite draws, a singular covariance, or a mean far from ``expected``.
     """
     from bayescal.sampling.summary import load
 
@@ -75,12 +98,24 @@ def posterior_geometry(path) -> GeometryPrior:
         posterior = tree["posterior"]
     except (OSError, KeyError, ValueError) as exc:
         raise InputError(f"cannot read a geometry posterior ({type(exc).__name__})", source=str(path)) from None
+    if "k2_q2" in posterior:
+        tree.close()
+        raise InputError(
+            "this is an elastostatic posterior (it has 'k2_q2'); expected the geometry posterior `bayescal geometry --posterior` writes",
+            source=str(path),
+        )
     columns = []
-    for name, factor in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG)):
+    for name, unit in GEOMETRY_UNITS.items():
         if name not in posterior:
             tree.close()
             raise InputError(f"the geometry posterior has no variable '{name}'", source=str(path), column=name)
-        columns.append(np.asarray(posterior[name].values, dtype=float).reshape(-1) * factor)
+        given = posterior[name].attrs.get("units", unit)
+        values = np.asarray(posterior[name].values, dtype=float).reshape(-1)
+        if given != unit or not np.all(np.isfinite(values)):
+            tree.close()
+            problem = f"is in {given}" if given != unit else f"has {np.count_nonzero(~np.isfinite(values))} non-finite draws"
+            raise InputError(f"the variable {problem}; expected finite draws in {unit}", source=str(path), column=name)
+        columns.append(values * (MM if unit == "mm" else DEG))
     tree.close()
     draws = np.column_stack(columns)
     spread = draws.std(axis=0)
@@ -89,7 +124,34 @@ def posterior_geometry(path) -> GeometryPrior:
             "the geometry posterior's draws of L, a_x, a_y, phi have a singular covariance (a constant or duplicated variable)",
             source=str(path),
         )
+    if expected is not None:
+        _check_near(draws.mean(axis=0), expected, str(path))
     return GeometryPrior.from_draws(draws, source=f"geometry posterior {path}")
+
+
+def _check_near(mean: np.ndarray, expected: CompensatorGeometry, source: str) -> None:
+    """Refuse a geometry posterior mean ``[L, a_x, a_y, phi]`` (m, rad) far from the cell's compensator."""
+    L, a, phi = mean[0], float(np.hypot(mean[1], mean[2])), mean[3]
+    cell_a = float(np.hypot(expected.a_x, expected.a_y))
+    for name, value, reference in (("L", L, expected.L), ("a_x", a, cell_a)):
+        if abs(value - reference) > MAX_GEOMETRY_OFFSET * reference:
+            in_m = abs(value * 1000 - reference) < MAX_GEOMETRY_OFFSET * reference
+            what = "L" if name == "L" else "|(a_x, a_y)|"
+            raise InputError(
+                f"the geometry posterior's {what} is {value / MM:.6g} mm, far from the cell's compensator's "
+                f"{reference / MM:.6g} mm: {'is it in m instead of mm?' if in_m else 'is it the posterior of this robot?'}",
+                source=source,
+                column=name,
+            )
+    turn = abs((phi - expected.phi + np.pi) % (2 * np.pi) - np.pi)
+    if turn > MAX_GEOMETRY_OFFSET * 60 * DEG:
+        in_rad = abs((phi / DEG - expected.phi + np.pi) % (2 * np.pi) - np.pi) < MAX_GEOMETRY_OFFSET * 60 * DEG
+        raise InputError(
+            f"the geometry posterior's phi is {phi / DEG:.6g} deg, {turn / DEG:.3g} deg from the cell's compensator's "
+            f"{expected.phi / DEG:.6g} deg{': is it in rad instead of deg?' if in_rad else ': is it the posterior of this robot?'}",
+            source=source,
+            column="phi",
+        )
 
 
 def config_geometry(compensator: CompensatorGeometry, source: str = "") -> GeometryPrior:

@@ -23,6 +23,7 @@ import pandas as pd
 from bayescal.studies.detection import detection_power, markdown_table, power_threshold
 from bayescal.twin.effects import EFFECTS
 from bayescal.units import DEG
+from bayescal.output import guard_outputs, write_atomically
 
 __all__ = ["MAGNITUDES", "render_report", "main"]
 
@@ -167,6 +168,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--null", type=int, default=40, help="campaigns without an effect")
     parser.add_argument("--workers", type=int, default=None)
     args = parser.parse_args(argv)
+    inputs = {"the config": args.config, "the plan": args.plan, "the --geometry points": args.geometry}
+    inputs |= {f"the {effect} plan": path for effect, path in args.plan_for}
+    guard_outputs(inputs, {"--output": args.output})
     text = render_report(
         args.config,
         args.plan,
@@ -176,7 +180,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         n_null=args.null,
         workers=args.workers,
     )
-    Path(args.output).write_text(text, encoding="utf-8")
+    write_atomically("--output", args.output, lambda path: path.write_text(text, encoding="utf-8"))
 
 
 if __name__ == "__main__":

@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from bayescal.cell.config import Cell, load_cell
+from bayescal.output import guard_outputs, write_folder
 from bayescal.cell.plan import read_plan
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.results import ElastostaticResults
@@ -460,8 +461,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("-o", "--output", default="reports/elastostatic.md")
     args = parser.parse_args(argv)
     output = Path(args.output)
-    figure = output.with_name(output.stem + "_joint2.png")
-    output.write_text(build_report(args.config, args.plan, args.seed, figure), encoding="utf-8")
+    figure = output.stem + "_joint2.png"
+    guard_outputs({"the config": args.config, "the plan": args.plan}, folders={"--output": (output.parent, (output.name, figure))})
+
+    def write(staging: Path) -> None:
+        (staging / output.name).write_text(build_report(args.config, args.plan, args.seed, staging / figure), encoding="utf-8")
+
+    write_folder("--output", output.parent, write)
 
 
 if __name__ == "__main__":

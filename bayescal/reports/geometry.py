@@ -34,6 +34,7 @@ from bayescal.geometry.arcs import (
 from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler
 from bayescal.sampling.protocol import Sampler
 from bayescal.reports.plots import plot_arc_fit, plot_eta_curves
+from bayescal.output import guard_outputs, write_folder
 from bayescal.reference import REFERENCE_FILE, beside_published, read_paper_reference
 from bayescal.studies.arc_fit import TABLE_I_NOISE, arc_fit_study
 from bayescal.studies.geometry_coverage import binomial_se, coverage_study
@@ -458,8 +459,14 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--coverage-rep", type=int, default=200)
     args = parser.parse_args(argv)
-    path = write_geometry_report(args.points, args.out_dir, args.reference, args.seed, n_coverage_rep=args.coverage_rep)
-    print(path)
+    names = ("geometry.md", "geometry_arcs.png", "geometry_eta.png")
+    guard_outputs({"the points": args.points, "the --reference table": args.reference}, folders={"out_dir": (args.out_dir, names)})
+
+    def write(staging: Path) -> None:
+        write_geometry_report(args.points, staging, args.reference, args.seed, n_coverage_rep=args.coverage_rep)
+
+    written = write_folder("out_dir", args.out_dir, write)
+    print(next(path for path in written if path.suffix == ".md"))
 
 
 if __name__ == "__main__":

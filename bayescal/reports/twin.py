@@ -16,6 +16,7 @@ import pandas as pd
 from bayescal.cell.config import Cell, load_cell
 from bayescal.twin.effects import EFFECTS
 from bayescal.cell.plan import Plan, read_plan
+from bayescal.output import guard_outputs, write_atomically
 from bayescal.studies.balance import gravity_balance
 from bayescal.studies.precision import design_precision, effect_detectability, table_iv_width_ratio
 from bayescal.tables import markdown_table
@@ -157,10 +158,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--seed", type=int, default=1)
     args = parser.parse_args(argv)
+    guard_outputs({"the config": args.config, "the plan": args.plan}, {"--output": args.output})
     cell = load_cell(args.config)
     text = render_report(cell, read_plan(args.plan, cell.robot), repeats=args.repeats, seed=args.seed)
-    with open(args.output, "w", encoding="utf-8") as handle:
-        handle.write(text)
+    write_atomically("--output", args.output, lambda path: path.write_text(text, encoding="utf-8"))
 
 
 if __name__ == "__main__":

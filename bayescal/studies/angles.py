@@ -99,7 +99,7 @@ def q2_angle_study(
     """
     angles, per_angle = list(angles), list(per_angle)
     if min(angles) < 3 and cell.compensator is not None:
-        raise InputError(f"K_c and s0 need at least 3 distinct q2 angles, got {min(angles)}", source="--angles")
+        raise InputError(f"K_c and s0 need at least 3 distinct q2 angles, got {min(angles)}", source="angles")
     root = np.random.SeedSequence(seed)
     candidate_seed, *design_seeds = root.spawn(1 + len(angles) * len(per_angle))
     designer = PlanDesigner(cell, repeats=repeats, model="exact")

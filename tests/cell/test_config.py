@@ -97,6 +97,22 @@ def test_not_toml(tmp_path):
         load_cell(path)
 
 
+@pytest.mark.parametrize(
+    ("old", "new", "column"),
+    [
+        ("M1 = [200.0, 0.0, 115.47]", "M1 = [200000.0, 0.0, 115.47]", "tool.markers_mm.M1"),
+        ("L_mm = 184.72", "L_mm = 184720", "compensator.L_mm"),
+    ],
+)
+def test_a_marker_beyond_any_tool_or_a_linkage_beyond_any_arm_is_refused(tmp_path, data_dir, old, new, column):
+    text = (data_dir / "kr270.toml").read_text().replace('urdf = "', f'urdf = "{data_dir}/')
+    assert old in text
+    path = tmp_path / "cell.toml"
+    path.write_text(text.replace(old, new))
+    with pytest.raises(InputError, match=rf"column '{column}': .* is it in μm instead of mm\?"):
+        load_cell(path)
+
+
 def test_unknown_flange_frame_names_the_flange_key(tmp_path, data_dir):
     path = _edited(data_dir, tmp_path, 'flange = "flange"', 'flange = "tool0"')
     with pytest.raises(InputError, match=r"cell.toml:\d+, column 'robot.flange': the model has no frame named 'tool0'"):

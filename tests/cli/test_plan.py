@@ -42,7 +42,7 @@ def test_evaluates_table_iii(main, capsys):
         (["--angles", "40"], "--angles: 40 q2 angles do not fit in the joint range"),
         (["--angles", "2"], "at least 3 distinct q2 angles"),
         (["--mass-kg", "0", "0"], "mass range"),
-        (["--starts", "0"], "at least 1 start"),
+        (["--starts", "0"], "argument --starts: expected a whole number >= 1"),
     ],
 )
 def test_infeasible_requests_exit_2_with_one_line(main, tmp_path, capsys, options, message):

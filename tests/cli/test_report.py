@@ -82,7 +82,7 @@ def test_output_is_refused_when_it_is_an_input_a_file_or_has_no_parent(capsys, s
     plan = tmp_path / "plan.json"
     plan.write_text((FIXTURES / "plan.json").read_text())
     status, _, err = run(capsys, ["--plan", str(plan), "-o", str(plan)])
-    assert status == 2 and "is a file; expected a folder" in err
+    assert status == 2 and "is the --plan file this command reads; expected a folder" in err
     status, _, err = run(capsys, ["--plan", str(plan), "-o", str(tmp_path / "no" / "such")])
     assert status == 2 and "does not exist" in err
     # A report folder holding an input under a name the report writes: that input is not overwritten.

@@ -20,10 +20,18 @@ def main(monkeypatch):
     return cli.main
 
 
-@pytest.mark.parametrize(("option", "value"), [("--max-angles", "2"), ("--max-per-angle", "0"), ("--repeats", "0")])
-def test_bad_options_exit_2(main, capsys, option, value):
+@pytest.mark.parametrize(
+    ("option", "value", "message"),
+    [
+        ("--max-angles", "2", "argument --max-angles: expected a whole number >= 3"),
+        ("--max-per-angle", "0", "argument --max-per-angle: expected a whole number >= 1"),
+        ("--repeats", "0", "argument --repeats: expected a whole number >= 1"),
+        ("--max-angles", "100000", "--max-angles: expected at most 30 q2 angles"),
+    ],
+)
+def test_bad_options_exit_2_naming_the_option(main, capsys, option, value, message):
     assert main(["study", "q2-angles", "--config", CONFIG, option, value]) == 2
-    assert f"bayescal study: error: {option}: expected at least" in capsys.readouterr().err
+    assert f"bayescal study: error: {message}" in capsys.readouterr().err
 
 
 @pytest.mark.slow

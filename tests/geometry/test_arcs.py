@@ -270,3 +270,13 @@ def test_concentric_centre_along_the_axis_minimises_the_sum_of_squared_radii_wit
     }
     fit = concentric_fit(arcs)
     np.testing.assert_allclose(fit.centre, [0.0, 0.0, 0.0], atol=1e-9)
+
+
+def test_q2_written_in_radians_is_refused(tmp_path, data_dir):
+    import pandas as pd
+
+    points = pd.read_csv(data_dir / "table1_geometry.csv", comment="#")
+    path = tmp_path / "points.csv"
+    points.assign(q2_deg=np.deg2rad(points["q2_deg"])).to_csv(path, index=False)
+    with pytest.raises(InputError, match=r"column 'q2_deg': marker P1 moves as if on a circle of radius 10.5 m .* are q2 in deg, not rad\?"):
+        read_arc_points(path)

@@ -108,7 +108,7 @@ def test_numbers_are_those_of_the_posteriors(report, short_calibration, cell):
 
 def test_optional_files_are_rendered_known_keys_and_unknown_ones(report):
     numbers = json.loads((report / JSON_FILE).read_text())
-    assert numbers["critique"]["verdict"] == "the calibrated model describes the data"
+    assert numbers["critique"]["verdict"] == "adequate"
     assert numbers["critique"]["evidence"]["nonlinear_stiffness"]["delta_elpd"] == 6.5
     assert numbers["critique"]["gain.rho0_mm.values"] == {"before": 0.041, "after": 0.039}
     assert numbers["critique"]["gain.values"] == {"held_out_rows": 45}

@@ -24,3 +24,18 @@ def test_report_tables(tmp_path, data_dir):
     out = tmp_path / "twin.md"
     main(["--config", str(data_dir / "kr270.toml"), "--plan", str(data_dir / "table3_plan.csv"), "-o", str(out)])
     assert out.read_text() == text
+
+
+def test_the_report_is_not_written_over_its_plan_even_through_a_link(tmp_path, data_dir):
+    import os
+
+    import pytest
+
+    from bayescal.errors import InputError
+
+    plan = tmp_path / "plan.csv"
+    plan.write_bytes((data_dir / "table3_plan.csv").read_bytes())
+    os.symlink(plan, tmp_path / "twin.md")
+    with pytest.raises(InputError, match="--output: .*twin.md is the plan"):
+        main(["--config", str(data_dir / "kr270.toml"), "--plan", str(plan), "-o", str(tmp_path / "twin.md")])
+    assert plan.read_bytes() == (data_dir / "table3_plan.csv").read_bytes()
