@@ -33,6 +33,7 @@ from bayescal.critique.covariates import COVARIATES, Rows, campaign_rows, pose_r
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
 from bayescal.errors import InputError
 from bayescal.inference.equations import check_campaign
+from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit, lack_of_fit, replicate_cells
 from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.units import DEG, MM
 
@@ -122,6 +123,7 @@ class Critique:
         model = _Model(())
         base = current = validate(model)
         causes: list[str] = []
+        tied: dict[str, list[str]] = {}
         steps: list[dict[str, Comparison]] = []
         remaining = [CATALOGUE[name] for name in self.catalogue]
         while remaining:
@@ -131,13 +133,18 @@ class Critique:
             best = strongest(evidence)
             if best is None:
                 break
+            tied[best] = _tied(best, trials, evidence)
             extension, current = trials[best]
             model = model.plus(extension)
             causes.append(best)
             remaining = [e for e in remaining if e.name != best]
         probes = {name: compare(current, validate(model.plus(PROBES[name]))) for name in self.probes}
         covariate = strongest(probes, decisive=False)
-        if covariate is not None:
+        misfit = _lack_of_fit(model.design(rows, self.cell), y, scale, rows)
+        # The repeats' pure error sees a misfit of any shape, also one no candidate matches; a robust
+        # model's outliers inflate both sides of the test, so it does not overrule a named outlier model.
+        unmatched = misfit is not None and misfit.significant() and not model.robust
+        if covariate is not None or unmatched:
             causes.append(UNEXPLAINED)
         return CritiqueResults(
             causes=causes,
@@ -154,6 +161,8 @@ class Critique:
             n_equations=y.size,
             residuals=_residual_table(rows, y, base, current),
             source=campaign.source,
+            lack_of_fit=misfit,
+            tied_with={cause: others for cause, others in tied.items() if others},
         )
 
     def _test_pose(self, model: _Model, rows: Rows, y, scale, group) -> dict:
@@ -178,6 +187,28 @@ class Critique:
         out["classical_error_mm"] = float(np.linalg.norm(difference))
         out["note"] = "classical_error_mm: the error the classical model leaves at the test pose if the extended model is right"
         return out
+
+
+def _tied(best: str, trials: dict, evidence: dict[str, Comparison]) -> list[str]:
+    """Candidates that also pass and that ``best`` does not beat by :data:`DETECTION_Z` SE on held-out configurations.
+
+    Such candidates explain this campaign about as well: it cannot tell them apart.
+    """
+    tied = []
+    for name in trials:
+        if name == best or not passes(evidence[name]):
+            continue
+        lead = compare(trials[name][1], trials[best][1])
+        if lead.delta_elpd <= DETECTION_Z * lead.se:
+            tied.append(name)
+    return tied
+
+
+def _lack_of_fit(X: np.ndarray, y: np.ndarray, scale: np.ndarray, rows: Rows) -> LackOfFit | None:
+    """The lack-of-fit test of a model's weighted least-squares fit against the repeats' scatter."""
+    columns = independent_columns(X)
+    beta = np.linalg.lstsq(X[:, columns] / scale[:, None], y / scale, rcond=None)[0]
+    return lack_of_fit(y - X[:, columns] @ beta, scale, replicate_cells(rows.config, rows.marker), columns.size)
 
 
 def _residual_table(rows: Rows, y: np.ndarray, base: CrossValidation, final: CrossValidation) -> pd.DataFrame:
@@ -299,6 +330,8 @@ class CritiqueResults(Outcome):
     n_equations: int
     residuals: pd.DataFrame
     source: str = ""
+    lack_of_fit: LackOfFit | None = None
+    tied_with: dict = field(default_factory=dict)
     rule: dict = field(default_factory=lambda: {"z": DETECTION_Z, "floor_nats": DETECTION_FLOOR, "decisive_nats": DECISIVE_GAIN})
 
     @property
@@ -334,6 +367,12 @@ class CritiqueResults(Outcome):
         }
         if self.unexplained_covariate is not None:
             payload["unexplained_covariate"] = self.unexplained_covariate
+        payload["tied_with"] = {cause: list(others) for cause, others in self.tied_with.items()}
+        payload["lack_of_fit"] = None if self.lack_of_fit is None else self.lack_of_fit.to_json() | {
+            "model": "final",
+            "level": LACK_OF_FIT_LEVEL,
+            "meaning": "scatter of the configuration means about the final model against the scatter between repeats",
+        }
         return payload
 
     def save(self, path: str | PathLike[str]) -> None:
