@@ -51,7 +51,7 @@ SCHEMA: dict[str, frozenset[str] | None] = {
     "robot": frozenset({"urdf", "flange", "payload_kg"}),
     "joints": frozenset({"k_urad_per_Nm"}),
     "compensator": frozenset({"L_mm", "a_x_mm", "a_y_mm", "phi_deg", "K_c_N_per_mm", "s0_mm"}),
-    "tool": frozenset({"load_point_mm", "markers_mm"}),
+    "tool": frozenset({"load_point_mm", "markers_mm", "tcp_mm"}),
     "tool.markers_mm": None,
     "tracker": frozenset({"position_mm", "U0_um", "U1_um_per_m", "factor"}),
     "load": frozenset({"mass_kg", "gravity_m_per_s2"}),
@@ -116,6 +116,9 @@ class Cell:
         The TOML file.
     payload_kg : float or None
         The robot's rated payload, kg (``robot.payload_kg``), when the file gives it.
+    tcp : numpy.ndarray or None
+        (3,) the machining tool's point in the flange frame, m (``tool.tcp_mm``); ``None``
+        when the file does not give it (:attr:`tool_point` then falls back to the test pose's point).
     design : DesignLimits
         The ``[design]`` table: what campaigns of this cell may load and where they must keep clear.
     """
@@ -134,6 +137,12 @@ class Cell:
     source: str
     payload_kg: float | None = None
     design: DesignLimits = DesignLimits()
+    tcp: np.ndarray | None = None
+
+    @property
+    def tool_point(self) -> np.ndarray:
+        """(3,) the machining tool's point in the flange frame, m: ``tool.tcp_mm``, else ``test_pose.point_mm``."""
+        return self.test_point if self.tcp is None else self.tcp
 
     @property
     def compensated_joint(self) -> int | None:
@@ -423,6 +432,7 @@ def load_cell(path: str | PathLike[str]) -> Cell:
         test_point=reader.vector("test_pose", "point_mm", 3, unit="mm") * MM,
         source=source,
         payload_kg=payload,
+        tcp=reader.vector("tool", "tcp_mm", 3, unit="mm") * MM if "tcp_mm" in reader.table("tool") else None,
     )
     force = float(np.linalg.norm(test_wrench[:3]))
     if force > cell.max_force:

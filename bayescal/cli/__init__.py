@@ -22,7 +22,7 @@ from bayescal.errors import InputError
 
 __all__ = ["main"]
 
-COMMANDS = ("geometry", "simulate", "calibrate", "plan", "study", "critique", "report")
+COMMANDS = ("geometry", "simulate", "calibrate", "plan", "study", "critique", "report", "compensate")
 
 
 class _Parser(argparse.ArgumentParser):

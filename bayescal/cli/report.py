@@ -31,6 +31,7 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--plan", metavar="PLAN.json", help="JSON printed by `bayescal plan --json`")
     parser.add_argument("--critique", metavar="CRITIQUE.json", help="JSON printed by `bayescal critique --json`")
     parser.add_argument("--study", metavar="STUDY.csv", help="a q2-angle study table (CSV)")
+    parser.add_argument("--compensation", metavar="COMPENSATED.csv", help="a compensated program from `bayescal compensate -o`")
     parser.add_argument("-o", "--output", required=True, metavar="FOLDER", help="report folder, created when missing (its parent must exist)")
     add_common_options(parser)
     parser.set_defaults(run=run)
@@ -47,13 +48,15 @@ def run(args: argparse.Namespace) -> CommandOutput:
         "the --plan file": args.plan,
         "the --critique file": args.critique,
         "the --study file": args.study,
+        "the --compensation file": args.compensation,
     }
     if not any(value for key, value in inputs.items() if key not in ("the campaign", "the config")):
-        raise InputError("nothing to report: give --geometry, --calibration, --plan, --critique or --study", source="bayescal report")
+        raise InputError("nothing to report: give --geometry, --calibration, --plan, --critique, --study or --compensation", source="bayescal report")
     if args.calibration and not (args.campaign and args.config):
         raise InputError("--calibration needs the --campaign and the --config it was computed from", source="--calibration")
     for option, path in (("--geometry", args.geometry), ("--calibration", args.calibration), ("--campaign", args.campaign),
-                         ("--config", args.config), ("--plan", args.plan), ("--critique", args.critique), ("--study", args.study)):
+                         ("--config", args.config), ("--plan", args.plan), ("--critique", args.critique), ("--study", args.study),
+                         ("--compensation", args.compensation)):
         if path and not Path(path).is_file():
             raise InputError(f"{path}: {'is a folder' if Path(path).is_dir() else 'file not found'}", source=option)
     folder = _check_folder(args.output, inputs)
@@ -130,6 +133,11 @@ def _read_inputs(args: argparse.Namespace):
     if args.study:
         sources["q2-angle study"] = args.study
         review.study = _read_csv(args.study, "--study")
+    if args.compensation:
+        from bayescal.reports.compensation import read_compensated
+
+        sources["compensated program"] = args.compensation
+        review.compensation = read_compensated(args.compensation)
     return review
 
 

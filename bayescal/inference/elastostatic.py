@@ -254,6 +254,15 @@ class ElastostaticModel:
             residual = residual * corrected.scale
         summary = summarize(tree)
         practical = self._practical(summary, equations, ident, cf)
+        # What a later user of the saved posterior (bayescal compensate) must know without the campaign:
+        # the robot it belongs to and which sampled parameters the data did not determine.
+        tree.attrs.update(
+            {
+                "robot": self.robot.model.name,
+                "n_joints": self.robot.nq,
+                "not_identifiable": ",".join(sorted(set(ident.not_identifiable) | set(practical))),
+            }
+        )
         for names, reason in grouped(practical):
             warnings.warn(f"{_listed(names)} not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=2)
         warn_if_unconverged(diagnostics(tree, summary), what="the elastostatic posterior")

@@ -9,7 +9,9 @@ compensation applies the posterior-mean prediction, so the error left is the
 spread of the draws about it.  Its root-mean-square is the paper's ``rho0``
 (eq 38 with the posterior covariance instead of the sampling covariance, which
 for this linear-Gaussian problem coincide); it is given both from the draws
-and from the covariance, which must agree.
+and from the covariance, which must agree.  The design and the spread of the
+draws are those of :mod:`bayescal.compensation.spread`, which the program
+compensation (``bayescal compensate``) uses pose by pose: one code path.
 """
 
 from __future__ import annotations
@@ -25,14 +27,10 @@ from bayescal.robot.compensator import Compensator
 from bayescal.inference.exact import exact_deflections
 from bayescal.inference.results import ElastostaticResults
 from bayescal.robot.kinematics import Robot
-from bayescal.robot.stiffness import compliance_design
+from bayescal.compensation.spread import deflection_draws, designs, error_quantiles
 from bayescal.units import MM, URAD_PER_NM
 
 __all__ = ["TestPosePrediction", "predict_test_pose", "predict_cell_test_pose"]
-
-THREE_SIGMA = 0.9973
-"""Two-sided probability of ±3σ of a normal distribution (the paper's interval)."""
-
 
 @dataclass(frozen=True)
 class TestPosePrediction:
@@ -80,7 +78,7 @@ class TestPosePrediction:
         mean = self.deflection.mean(axis=0)
         sd = self.deflection.std(axis=0, ddof=1)
         norms = np.linalg.norm(self.deflection, axis=1)
-        errors = self.errors
+        errors = error_quantiles(self.errors)
         return {
             "deflection_mm": {
                 axis: {"mean": mean[i] / MM, "sd": sd[i] / MM, "lo3": (mean[i] - 3 * sd[i]) / MM, "hi3": (mean[i] + 3 * sd[i]) / MM}
@@ -93,9 +91,9 @@ class TestPosePrediction:
                 "hi3": float((norms.mean() + 3 * norms.std(ddof=1)) / MM),
             },
             "residual_error_mm": {
-                "rms": float(np.sqrt(np.mean(errors**2)) / MM),
-                "q95": float(np.quantile(errors, 0.95) / MM),
-                "q99.73": float(np.quantile(errors, THREE_SIGMA) / MM),
+                "rms": float(errors["rms"] / MM),
+                "q95": float(errors["q95"] / MM),
+                "q99.73": float(errors["q9973"] / MM),
                 "rho0_from_covariance": self.rho0 / MM,
             },
             "assumed": assumed,
@@ -149,8 +147,8 @@ def predict_test_pose(
             available=False,
             reason=_unavailable(results, float(q0[COMPENSATED_JOINT]), nominal_compliances is None),
         )
-    A0 = compliance_design(robot, q0, point, wrench0)
-    deflection = draws @ A0.T
+    A0 = designs(robot, q0[np.newaxis], np.reshape(point, (1, 3)), np.reshape(wrench0, (1, 6)))[0]
+    deflection = deflection_draws(A0[np.newaxis], draws)[0].T
     mean_k = draws.mean(axis=0)
     if results.model == "exact" and nominal_compensator is not None:
         own = mean_k.copy()

@@ -28,6 +28,7 @@ from bayescal.inference.equations import deflection_noise
 from bayescal.inference.results import ElastostaticResults
 from bayescal.inference.testpose import TestPosePrediction
 from bayescal.reference import published
+from bayescal.reports.compensation import compensation_section
 from bayescal.reports.page import HTML_FILE, JSON_FILE, MARKDOWN_FILE, Page, finite_number, format_value, generic
 from bayescal.reports.figures import plot_error_distribution, plot_evidence, plot_pairs, plot_rank, plot_residuals
 from bayescal.reports.plots import plot_eta_curves, plot_joint2_compliance
@@ -69,6 +70,8 @@ class ReviewInputs:
         The JSON printed by ``bayescal plan --json`` and ``bayescal critique --json``.
     study : pandas.DataFrame or None
         A q2-angle study table.
+    compensation : pandas.DataFrame or None
+        A compensated program (:func:`~bayescal.reports.compensation.read_compensated`).
     seed : int
         Seed of the choice of draws shown in the pair plots.
     """
@@ -83,6 +86,7 @@ class ReviewInputs:
     plan: dict | None = None
     critique: dict | None = None
     study: pd.DataFrame | None = None
+    compensation: pd.DataFrame | None = None
     seed: int = 0
 
 
@@ -105,6 +109,8 @@ def render_review(inputs: ReviewInputs) -> dict[str, bytes]:
         _identifiability_section(page, inputs.results, facts)
     if inputs.test_pose is not None:
         _test_pose_section(page, inputs.test_pose, inputs.cell)
+    if inputs.compensation is not None:
+        compensation_section(page, inputs.compensation, inputs.sources.get("compensated program", ""))
     if inputs.geometry is not None:
         _geometry_section(page, inputs.geometry, inputs.seed)
     if inputs.results is not None:

@@ -185,3 +185,14 @@ def test_a_malformed_design_table_names_its_line(tmp_path, data_dir, old, new, e
     key = new.split(" =")[0]
     with pytest.raises(InputError, match=rf"cell.toml:{_line_of(path, new)}, column 'design.{key}': expected .*{expected}"):
         load_cell(path)
+
+
+def test_the_machining_tool_point_defaults_to_the_test_pose_point(cell, tmp_path, data_dir):
+    assert cell.tcp is None and np.array_equal(cell.tool_point, cell.test_point)
+    (tmp_path / "good").mkdir()
+    (tmp_path / "bad").mkdir()
+    path = _edited(data_dir, tmp_path / "good", "load_point_mm = [250.0, 0.0, 300.0]", "load_point_mm = [250.0, 0.0, 300.0]\ntcp_mm = [410.0, 0.0, 25.0]")
+    assert load_cell(path).tool_point == pytest.approx([0.410, 0.0, 0.025])
+    bad = _edited(data_dir, tmp_path / "bad", "load_point_mm = [250.0, 0.0, 300.0]", "load_point_mm = [250.0, 0.0, 300.0]\ntcp_mm = [410.0, 0.0]")
+    with pytest.raises(InputError, match="tcp_mm"):
+        load_cell(bad)

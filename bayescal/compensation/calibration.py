@@ -1,0 +1,237 @@
+"""A saved elastostatic calibration as the compensation uses it: posterior draws of the arm's parameters.
+
+``bayescal calibrate --posterior`` writes the posterior DataTree; the
+compensation needs, draw by draw, each joint's own compliance, the spring
+(``K_c``, ``s0``), the compensator geometry and the scale of the link masses,
+without the campaign.  A joint compliance the campaign could not identify (k1
+under hanging loads) is not in the posterior: it is drawn from a log-normal
+prior about the cell's value (:data:`UNIDENTIFIED_LOG_SD`), so that its
+uncertainty reaches the predicted error instead of a fixed guess.  ``K_c`` and
+``s0`` are always sampled; when flagged not identifiable their draws are
+essentially their prior's.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from os import PathLike
+
+import numpy as np
+
+from bayescal.cell.config import Cell
+from bayescal.errors import InputError
+from bayescal.robot.compensator import Compensator, stiffness_regressor
+from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
+
+__all__ = ["Calibration", "load_calibration", "UNIDENTIFIED_LOG_SD", "GRID_STEP", "MAX_DRAWS"]
+
+MAX_DRAWS = 2000
+"""Posterior draws kept (evenly thinned): the cost of the spread is linear in them, and 2000 draws
+leave about 5 beyond the 99.73 % quantile."""
+
+GRID_STEP = 0.25 * DEG
+"""Knot spacing (rad) of the compensated joint's equivalent compliance when a program has many distinct angles."""
+
+UNIDENTIFIED_LOG_SD = 0.5
+"""Standard deviation of the log of a joint compliance the campaign did not identify.
+
+An assumption, not a measurement: the cell's value may be off by a factor
+``exp(±3 × 0.5)``, 0.22 to 4.5, at ±3σ (the KR-270's k1 is itself an estimate,
+``data/kr270.toml``)."""
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Posterior draws of the parameters the compensation needs (SI), ``S`` draws.
+
+    Attributes
+    ----------
+    own : numpy.ndarray
+        ``(S, n)`` joint compliances, rad/(N·m); the compensated joint's excludes its compensator.
+    spring : numpy.ndarray or None
+        ``(S, 2)`` ``K_c`` (N/m) and ``s0`` (m); None without a compensator.
+    geometry : numpy.ndarray or None
+        ``(S, 4)`` ``L, a_x, a_y`` (m), ``phi`` (rad) of the compensator.
+    gravity_scale : float
+        Posterior mean of the scale on the link masses (1 when not sampled).
+    compensated_joint : int or None
+        0-based index of the joint with the compensator.
+    unidentified : tuple of str
+        Parameters the campaign did not identify, whose draws are (mostly) their prior's.
+    source : str
+        The posterior file.
+    """
+
+    own: np.ndarray
+    spring: np.ndarray | None
+    geometry: np.ndarray | None
+    gravity_scale: float
+    compensated_joint: int | None
+    unidentified: tuple[str, ...]
+    source: str = ""
+
+    @property
+    def n_draws(self) -> int:
+        return self.own.shape[0]
+
+    def mean_compensator(self) -> Compensator | None:
+        """The compensator at the posterior mean of its geometry and spring."""
+        if self.spring is None:
+            return None
+        L, a_x, a_y, phi = self.geometry.mean(axis=0)
+        K_c, s0 = self.spring.mean(axis=0)
+        return Compensator(L, a_x, a_y, phi, K_c, s0)
+
+    def compliances(
+        self, q_compensated: np.ndarray, *, fixed: tuple[str, ...] = ()
+    ) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None]:
+        """Joint compliances (rad/(N·m)) draw by draw: the constant ones and the compensated joint's, pose by pose.
+
+        Parameters
+        ----------
+        q_compensated
+            ``(P,)`` angles of the compensated joint the program visits, rad (ignored without a compensator).
+        fixed
+            Parameter names (``k1``.., ``K_c``, ``s0``) held at their posterior mean: how much
+            of the error they account for is the difference with the full spread.
+
+        Returns
+        -------
+        tuple
+            ``(S, n)`` compliances (the compensated joint's own, without its compensator), and
+            a function giving the ``(p, S)`` equivalent compliance of the compensated joint (eq 8)
+            at ``p`` of those angles (None without a compensator).
+        """
+        own = self.own.copy()
+        for j in range(own.shape[1]):
+            if f"k{j + 1}" in fixed:
+                own[:, j] = own[:, j].mean()
+        if self.spring is None:
+            return own, None
+        spring = self.spring.copy()
+        for i, name in enumerate(("K_c", "s0")):
+            if name in fixed:
+                spring[:, i] = spring[:, i].mean()
+        return own, self._equivalent(np.asarray(q_compensated, dtype=float), own[:, self.compensated_joint], spring)
+
+    def _equivalent(self, q: np.ndarray, own: np.ndarray, spring: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+        """The compensated joint's equivalent compliance ``1/(1/own + K_c a L η(q))`` (eq 8), draw by draw.
+
+        Evaluated once at the distinct angles of ``q``, or, when there are more of them than
+        knots of a :data:`GRID_STEP` grid over their range, on that grid; the returned function
+        gives ``(p, S)`` values at ``p`` of these angles (interpolated linearly on the grid).
+        """
+        distinct = np.unique(q)
+        grid = np.arange(distinct[0], distinct[-1] + GRID_STEP, GRID_STEP)
+        exact = distinct.size <= grid.size
+        knots = distinct if exact else grid
+        C = stiffness_regressor(knots[None, :], *(self.geometry[:, i, None] for i in range(4)))
+        weights = np.column_stack([1.0 / own, spring[:, 0], spring[:, 0] * spring[:, 1]])
+        # Knots by rows: a pose's draws are then contiguous, as the spread wants them.
+        values = np.ascontiguousarray((1.0 / np.einsum("spk,sk->sp", C, weights)).T)
+
+        def at(angles: np.ndarray) -> np.ndarray:
+            if exact:
+                return values[np.searchsorted(knots, angles)]
+            i = np.clip(np.searchsorted(knots, angles) - 1, 0, knots.size - 2)
+            t = ((angles - knots[i]) / GRID_STEP)[:, None]
+            return values[i] * (1.0 - t) + values[i + 1] * t
+
+        return at
+
+
+def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Generator) -> Calibration:
+    """Read the posterior ``bayescal calibrate --posterior`` wrote, for ``cell``'s robot.
+
+    Parameters
+    ----------
+    path
+        The NetCDF posterior.
+    cell
+        The cell it must belong to: same joint count and, when the file records it, same robot.
+    rng
+        Draws the prior of the joint compliances the calibration did not identify.
+
+    Raises
+    ------
+    InputError
+        When the file is not an elastostatic posterior, belongs to another robot or joint
+        count, or lacks the compensator model the cell needs.
+    """
+    from bayescal.sampling.summary import load
+
+    source = str(path)
+    try:
+        tree = load(path)
+        posterior = tree["posterior"]
+    except (OSError, KeyError, ValueError) as exc:
+        raise InputError(f"cannot read a posterior DataTree ({type(exc).__name__})", source=source) from None
+    if "k2_q2" not in posterior or "sigma" not in posterior:
+        raise InputError("not an elastostatic posterior (no 'k2_q2' or 'sigma'): expected `bayescal calibrate --posterior`", source=source)
+    n = cell.robot.nq
+    _check_robot(tree.attrs, posterior, cell, source)
+
+    def values(name: str, thin: bool = True) -> np.ndarray:
+        flat = np.asarray(posterior[name].transpose("chain", "draw", ...).values, dtype=float).reshape(-1)
+        return flat[keep] if thin else flat
+
+    total = values("sigma", thin=False).size // max(posterior["sigma"].sizes.get("noise_group", 1), 1)
+    keep = np.linspace(0, total - 1, min(total, MAX_DRAWS)).round().astype(int)
+    size = keep.size
+    joint = cell.compensated_joint
+    own = np.empty((size, n))
+    unidentified = {name for name in str(tree.attrs.get("not_identifiable", "")).split(",") if name}
+    for j in range(n):
+        name = f"k{j + 1}"
+        if name in posterior:
+            own[:, j] = values(name) * URAD_PER_NM
+        else:
+            own[:, j] = cell.compliances[j] * np.exp(UNIDENTIFIED_LOG_SD * rng.standard_normal(size))
+            unidentified.add(name)
+    spring = geometry = None
+    if joint is not None:
+        if "K_c" not in posterior:
+            raise InputError(
+                "the calibration has no compensator model (K_c, s0: its campaign had fewer than three joint-2 angles); "
+                "the cell's compensated joint cannot be predicted at other angles",
+                source=source,
+            )
+        spring = np.column_stack([values("K_c") * N_PER_MM, values("s0") * MM])
+        if "L" in posterior:
+            geometry = np.column_stack([values(name) * f for name, f in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG))])
+        else:
+            c = cell.compensator
+            geometry = np.tile([c.L, c.a_x, c.a_y, c.phi], (size, 1))
+    elif "K_c" in posterior:
+        raise InputError(
+            f"the calibration has a compensator (K_c, s0) and the cell ({cell.source}) has none: it belongs to another cell",
+            source=source,
+        )
+    gravity = float(values("gravity_scale").mean()) if "gravity_scale" in posterior else 1.0
+    names = [f"k{j + 1}" for j in range(n)] + ["K_c", "s0"]
+    return Calibration(
+        own=own,
+        spring=spring,
+        geometry=geometry,
+        gravity_scale=gravity,
+        compensated_joint=joint,
+        unidentified=tuple(name for name in names if name in unidentified),
+        source=source,
+    )
+
+
+def _check_robot(attrs, posterior, cell: Cell, source: str) -> None:
+    """Refuse a posterior of another robot: another joint count, or another robot name when the file records it."""
+    n = cell.robot.nq
+    sampled = [int(name[1:]) for name in posterior.data_vars if name[:1] == "k" and name[1:].isdigit()]
+    # Files written before the joint count was recorded show it only by their highest sampled joint.
+    joints = max(int(attrs.get("n_joints", 0)), max(sampled, default=0))
+    if joints > n or ("n_joints" in attrs and joints != n):
+        raise InputError(
+            f"the calibration is of a robot with {joints} joints, the cell's ({cell.source}) has {n}: it belongs to another cell",
+            source=source,
+        )
+    robot = attrs.get("robot")
+    if robot is not None and str(robot) != cell.robot.model.name:
+        raise InputError(f"the calibration is of robot '{robot}', the cell's ({cell.source}) is '{cell.robot.model.name}'", source=source)

@@ -1,0 +1,130 @@
+"""Machining program files: one row per pose, the programmed joints and the process wrench.
+
+Columns: ``q1_deg .. qn_deg`` (the programmed joints), ``fx_N, fy_N, fz_N,
+mx_Nm, my_Nm, mz_Nm`` (the process wrench on the tool, base axes, its moment
+taken about the tool point) and optionally ``tcp_x_mm, tcp_y_mm, tcp_z_mm``
+(the tool point in the flange frame; the cell's ``[tool] tcp_mm`` otherwise).
+Other columns are carried to the compensated file unchanged.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from os import PathLike
+
+import numpy as np
+import pandas as pd
+
+from bayescal.cell.campaign import MAX_LOAD_ARM, WRENCH_COLUMNS
+from bayescal.cell.config import Cell
+from bayescal.errors import InputError
+from bayescal.tables import read_table
+from bayescal.units import DEG, MM
+
+__all__ = ["Program", "read_program", "WRENCH_COLUMNS", "TCP_COLUMNS"]
+
+TCP_COLUMNS = ("tcp_x_mm", "tcp_y_mm", "tcp_z_mm")
+
+
+@dataclass(frozen=True)
+class Program:
+    """A machining program in SI, ``P`` poses.
+
+    Attributes
+    ----------
+    q : numpy.ndarray
+        ``(P, n)`` programmed joints, rad.
+    wrench : numpy.ndarray
+        ``(P, 6)`` process wrench ``[f (N); m (N·m)]`` in base axes, moment about the tool point.
+    tcp : numpy.ndarray
+        ``(P, 3)`` tool point in the flange frame, m.
+    table : pandas.DataFrame
+        The file's columns as read (indexed by line), carried to the output.
+    source : str
+        The file.
+    """
+
+    q: np.ndarray
+    wrench: np.ndarray
+    tcp: np.ndarray
+    table: pd.DataFrame
+    source: str = ""
+
+    def __len__(self) -> int:
+        return self.q.shape[0]
+
+    @property
+    def lines(self) -> np.ndarray:
+        """``(P,)`` the line of each pose in the file (1-based, header included)."""
+        return self.table.index.to_numpy(dtype=int)
+
+    def flange_wrench(self, rotation: np.ndarray) -> np.ndarray:
+        """``(P, 6)`` the wrench referred to the flange origin, given ``(P, 3, 3)`` flange rotations."""
+        force = self.wrench[:, :3]
+        arm = np.einsum("pij,pj->pi", rotation, self.tcp)
+        return np.column_stack([force, self.wrench[:, 3:] + np.cross(arm, force)])
+
+
+def read_program(path: str | PathLike[str], cell: Cell) -> Program:
+    """Read and check a program for ``cell``'s robot.
+
+    Raises
+    ------
+    InputError
+        A missing column, a bad number, joints outside the robot's limits, or a force
+        beyond what the robot can carry (naming the line and the column).
+    """
+    n = cell.robot.nq
+    joints = [f"q{j + 1}_deg" for j in range(n)]
+    columns = dict.fromkeys([*joints, *WRENCH_COLUMNS], "number")
+    units = {name: "deg" for name in joints} | {name: name.rsplit("_", 1)[1] for name in WRENCH_COLUMNS}
+    frame = read_table(path, columns, optional=dict.fromkeys(TCP_COLUMNS, "number"), units=units | dict.fromkeys(TCP_COLUMNS, "mm"))
+    source = frame.attrs["source"]
+    full = _all_columns(source, frame.index)
+    q = frame[joints].to_numpy(dtype=float) * DEG
+    for row, line in zip(q, frame.index):
+        cell.robot.check_limits(row, source=source, line=int(line))
+    wrench = frame[list(WRENCH_COLUMNS)].to_numpy(dtype=float)
+    present = [name for name in TCP_COLUMNS if name in frame]
+    if present and len(present) < 3:
+        missing = next(name for name in TCP_COLUMNS if name not in frame)
+        raise InputError(f"missing column '{missing}': a per-row tool point needs tcp_x_mm, tcp_y_mm and tcp_z_mm", source=source)
+    tcp = frame[list(TCP_COLUMNS)].to_numpy(dtype=float) * MM if present else np.tile(cell.tool_point, (len(frame), 1))
+    _check_wrench(cell, wrench, frame.index.to_numpy(dtype=int), source)
+    return Program(q=q, wrench=wrench, tcp=tcp, table=full, source=source)
+
+
+def _all_columns(source: str, lines: pd.Index) -> pd.DataFrame:
+    """Every column of the file as text, indexed by line: what the compensated file carries over."""
+    with open(source, encoding="utf-8-sig", newline="") as handle:
+        numbered = [(i, line) for i, line in enumerate(handle.read().splitlines(), start=1) if line.strip() and not line.lstrip().startswith("#")]
+    rows = list(csv.reader([line for _, line in numbered], skipinitialspace=True))
+    header = [name.strip() for name in rows[0]]
+    return pd.DataFrame([[field.strip() for field in row] for row in rows[1:]], columns=header, index=lines)
+
+
+def _check_wrench(cell: Cell, wrench: np.ndarray, lines: np.ndarray, source: str) -> None:
+    """Refuse a force the arm cannot carry, or a moment about the tool point no tool's force could make (N·mm?)."""
+    force = np.linalg.norm(wrench[:, :3], axis=1)
+    moment = np.linalg.norm(wrench[:, 3:], axis=1)
+    worst = int(np.argmax(force))
+    if force[worst] > cell.max_force:
+        raise InputError(
+            f"a process force of {force[worst]:.4g} N is more than the {cell.max_force:.0f} N the robot can carry "
+            f"(from {cell.source}): is the wrench in another unit than N and N·m?",
+            source=source,
+            line=int(lines[worst]),
+            column=WRENCH_COLUMNS[int(np.argmax(np.abs(wrench[worst, :3])))],
+        )
+    limit = np.maximum(force, cell.capacity_weight) * MAX_LOAD_ARM
+    beyond = np.flatnonzero(moment > limit)
+    if beyond.size:
+        row = int(beyond[0])
+        raise InputError(
+            f"a moment of {moment[row]:.4g} N·m about the tool point is beyond what the robot can carry "
+            f"({limit[row]:.4g} N·m): are mx_Nm..mz_Nm in N·mm instead of N·m?",
+            source=source,
+            line=int(lines[row]),
+            column=WRENCH_COLUMNS[3 + int(np.argmax(np.abs(wrench[row, 3:])))],
+        )

@@ -1,0 +1,158 @@
+"""What a compensation found: the compensated program, its per-pose error and the summary."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from os import PathLike
+
+import numpy as np
+import pandas as pd
+
+from bayescal.compensation.program import Program
+from bayescal.robot.kinematics import Robot
+from bayescal.units import DEG, MM
+
+__all__ = ["CompensationResults", "FLAG_OK"]
+
+FLAG_OK = "ok"
+"""The ``flag`` of a pose with nothing to report."""
+
+WORST = 10
+"""Poses listed in :meth:`CompensationResults.to_json`'s ``worst_poses``."""
+
+
+@dataclass
+class CompensationResults:
+    """The compensated program (SI inside).
+
+    Attributes
+    ----------
+    program : Program
+    robot : Robot
+    commands : numpy.ndarray
+        ``(P, n)`` compensated joint targets, rad (NaN where no equilibrium was found).
+    deflection : numpy.ndarray
+        ``(P,)`` the tool point's deflection under the wrench at the programmed joints,
+        posterior mean, linear map of eq 31 (m): the error without compensation.
+    errors : dict
+        ``rms``, ``q95``, ``q9973``: ``(P,)`` error left after compensation over the draws (m).
+    unidentified_share : numpy.ndarray
+        ``(P,)`` fraction of the mean-square error due to the parameters the campaign did not identify.
+    unidentified : tuple of str
+        Those parameters.
+    failed : numpy.ndarray
+        ``(P,)`` True where the equilibrium under the wrench was not found.
+    tolerance : float or None
+        The flagging tolerance on the 99.73 % error (m).
+    n_draws : int
+        Posterior draws spread through every pose.
+    """
+
+    program: Program
+    robot: Robot
+    commands: np.ndarray
+    deflection: np.ndarray
+    errors: dict[str, np.ndarray]
+    unidentified_share: np.ndarray
+    unidentified: tuple[str, ...]
+    failed: np.ndarray
+    tolerance: float | None = None
+    n_draws: int = 0
+    _flags: list[str] | None = field(default=None, repr=False)
+
+    @property
+    def flags(self) -> list[str]:
+        """Per pose: ``"ok"`` or the reasons, ``;``-separated (no equilibrium, a target outside its joint's
+        limits, never clipped, or a 99.73 % error beyond the tolerance with what dominates it)."""
+        if self._flags is None:
+            self._flags = [self._flag(p) for p in range(len(self.program))]
+        return self._flags
+
+    def _flag(self, p: int) -> str:
+        if self.failed[p]:
+            return "no static equilibrium under this wrench"
+        reasons = []
+        for j, (value, low, high) in enumerate(zip(self.commands[p], self.robot.lower, self.robot.upper)):
+            if not low <= value <= high:
+                reasons.append(f"q{j + 1}_cmd {value / DEG:.3f} deg outside the limits {low / DEG:.1f} to {high / DEG:.1f} deg")
+        bound = self.errors["q9973"][p]
+        if self.tolerance is not None and bound > self.tolerance:
+            share = self.unidentified_share[p]
+            cause = (
+                f"{share:.0%} of it from {', '.join(self.unidentified)}, not identified by the calibration"
+                if self.unidentified and share >= 0.5
+                else "mostly from the identified parameters' uncertainty"
+            )
+            reasons.append(f"99.73% error {bound / MM:.4f} mm above the tolerance {self.tolerance / MM:g} mm ({cause})")
+        return "; ".join(reasons) or FLAG_OK
+
+    def table(self) -> pd.DataFrame:
+        """The compensated program: the input's columns, ``q<j>_cmd_deg``, ``deflection_mm``, the error columns, ``flag``."""
+        out = self.program.table.copy()
+        for j in range(self.commands.shape[1]):
+            out[f"q{j + 1}_cmd_deg"] = self.commands[:, j] / DEG
+        out["deflection_mm"] = self.deflection / MM
+        out["error_rms_mm"] = self.errors["rms"] / MM
+        out["error_q95_mm"] = self.errors["q95"] / MM
+        out["error_q9973_mm"] = self.errors["q9973"] / MM
+        out["unidentified_share"] = self.unidentified_share
+        out["flag"] = self.flags
+        return out
+
+    def save(self, path: str | PathLike[str]) -> None:
+        """Write :meth:`table` as CSV (joint targets to 1e-6 deg, lengths to 1e-6 mm)."""
+        self.table().to_csv(path, index=False, float_format="%.9g")
+
+    def summary(self) -> dict:
+        """Program-level numbers (mm): deflections without compensation, errors left, flagged poses."""
+        flags = self.flags
+        q9973 = self.errors["q9973"]
+        ok = ~self.failed
+        return {
+            "poses": len(self.program),
+            "draws": self.n_draws,
+            "deflection_mm": {"median": _mm(np.median, self.deflection[ok]), "max": _mm(np.max, self.deflection[ok])},
+            "error_rms_mm": {"median": _mm(np.median, self.errors["rms"]), "max": _mm(np.max, self.errors["rms"])},
+            "error_q9973_mm": {"median": _mm(np.median, q9973), "max": _mm(np.max, q9973)},
+            "unidentified": list(self.unidentified),
+            "unidentified_share_of_mean_square_error": {
+                "median": float(np.median(self.unidentified_share)),
+                "max": float(np.max(self.unidentified_share)),
+            },
+            "tolerance_mm": None if self.tolerance is None else self.tolerance / MM,
+            "flagged": int(sum(flag != FLAG_OK for flag in flags)),
+            "outside_joint_limits": int(sum("outside the limits" in flag for flag in flags)),
+            "no_equilibrium": int(self.failed.sum()),
+        }
+
+    def diagnostics(self) -> dict:
+        """How large the corrections are (deg), draws used, and poses without a static equilibrium."""
+        ok = ~self.failed
+        programmed = self.program.q[ok]
+        correction = np.abs(self.commands[ok] - programmed) / DEG if ok.any() else np.empty((0, programmed.shape[1]))
+        return {
+            "draws": self.n_draws,
+            "largest_joint_correction_deg": {f"q{j + 1}": float(c) for j, c in enumerate(correction.max(axis=0, initial=0.0))},
+            "equilibrium_failures": int(self.failed.sum()),
+        }
+
+    def to_json(self) -> dict:
+        """Summary, diagnostics and the :data:`WORST` poses by their 99.73 % error."""
+        order = np.argsort(-self.errors["q9973"])[:WORST]
+        lines = self.program.lines
+        worst = [
+            {
+                "line": int(lines[p]),
+                "error_q9973_mm": float(self.errors["q9973"][p] / MM),
+                "error_rms_mm": float(self.errors["rms"][p] / MM),
+                "deflection_mm": float(self.deflection[p] / MM) if math.isfinite(self.deflection[p]) else None,
+                "flag": self.flags[p],
+            }
+            for p in order
+        ]
+        return {"summary": self.summary(), "diagnostics": self.diagnostics(), "worst_poses": worst}
+
+
+def _mm(statistic, values: np.ndarray) -> float | None:
+    return float(statistic(values) / MM) if values.size else None

@@ -1,0 +1,90 @@
+"""The linear compliance map of a pose and the spread of the posterior draws through it (eqs 31, 38).
+
+At a pose ``q`` with a wrench ``w`` at the flange origin the tool point's
+deflection is, to first order, ``A k`` with ``A[:, j] = J_p[:, j] (J_F[:, j]·w)``
+(eq 31) and ``k`` the joints' equivalent compliances (the compensator included,
+eq 8).  Compensation applies one prediction (the posterior mean); a draw ``k_s``
+would have deflected the tool by ``A (k_s - k̄)`` more: the error left.  With
+``A`` computed once per pose, every draw is applied by one matrix product.
+Both the test-pose prediction (eq 38) and the program compensation use these
+functions: one code path.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bayescal.robot.kinematics import Robot
+from bayescal.robot.stiffness import compliance_design
+
+__all__ = ["THREE_SIGMA", "designs", "deflection_draws", "error_quantiles", "mean_square"]
+
+THREE_SIGMA = 0.9973
+"""Two-sided probability of ±3σ of a normal distribution (the paper's interval)."""
+
+
+def designs(robot: Robot, q: np.ndarray, points: np.ndarray, wrenches: np.ndarray) -> np.ndarray:
+    """``(P, 3, n)`` matrices ``A`` of eq 31, one per pose.
+
+    Parameters
+    ----------
+    robot
+        The robot.
+    q
+        ``(P, n)`` joint angles, rad.
+    points
+        ``(P, 3)`` tool points in the flange frame, m.
+    wrenches
+        ``(P, 6)`` wrenches at the flange origin, base axes, N and N·m.
+    """
+    return np.stack([compliance_design(robot, qi, pi, wi) for qi, pi, wi in zip(q, points, wrenches)])
+
+
+def deflection_draws(design: np.ndarray, compliances: np.ndarray, varying: np.ndarray | None = None, joint: int | None = None) -> np.ndarray:
+    """``(P, 3, S)`` deflections ``A_p k_s`` (m) of ``S`` compliance draws through ``(P, 3, n)`` designs.
+
+    Parameters
+    ----------
+    design
+        ``(P, 3, n)`` eq-31 matrices.
+    compliances
+        ``(S, n)`` joint compliances of each draw, rad/(N·m).
+    varying
+        ``(P, S)`` compliance of joint ``joint`` that varies from pose to pose (the compensated
+        joint's, eq 8); it replaces that column of ``compliances``.
+    joint
+        The joint of ``varying``.
+
+    The draws are the last axis, so that a pose's draws are contiguous for the quantiles.
+    """
+    P, _, n = design.shape
+    if varying is not None:
+        compliances = compliances.copy()
+        compliances[:, joint] = 0.0
+    out = (design.reshape(P * 3, n) @ compliances.T).reshape(P, 3, -1)
+    if varying is not None:
+        out += design[:, :, joint, None] * varying[:, None, :]
+    return out
+
+
+def mean_square(design: np.ndarray, compliances: np.ndarray, varying: np.ndarray | None = None, joint: int | None = None) -> np.ndarray:
+    """``(P,)`` mean over the draws of ``|A_p k_s|²`` (m²) from the draws' second moments: ``trace(A M Aᵀ)`` (eq 38).
+
+    Arguments as :func:`deflection_draws` (centred draws give eq 38's ``rho0²``); no ``(P, 3, S)`` array is formed.
+    """
+    S = compliances.shape[0]
+    if varying is not None:
+        compliances = compliances.copy()
+        compliances[:, joint] = 0.0
+    gram = np.einsum("pia,pib->pab", design, design)
+    out = np.einsum("pab,ab->p", gram, compliances.T @ compliances / S)
+    if varying is not None:
+        cross = varying @ compliances / S
+        out += 2.0 * np.einsum("pa,pa->p", gram[:, :, joint], cross) + gram[:, joint, joint] * np.mean(varying**2, axis=1)
+    return out
+
+
+def error_quantiles(errors: np.ndarray) -> dict[str, np.ndarray]:
+    """Root-mean-square, 95 % and 99.73 % quantiles over the draws (last axis) of error lengths (m)."""
+    q95, q9973 = np.quantile(errors, [0.95, THREE_SIGMA], axis=-1)
+    return {"rms": np.sqrt(np.mean(errors**2, axis=-1)), "q95": q95, "q9973": q9973}

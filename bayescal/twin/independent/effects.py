@@ -1,0 +1,232 @@
+"""The effects the independent generator can plant, and the world they change.
+
+An effect is a named change of the simulated world (:class:`World`): of the
+arm's mechanics, of the tool, of the load, or of the tracker's readings.  Each
+has a physical description, a default size (``default`` in ``unit``, documented
+with its source or flagged as an estimate in ``docs/twin.md``), a ``magnitude``
+multiplier of that size, and the cause family a model criticism should name for
+it (``None``: no family covers it, the right answer is "unexplained").  The
+forms are this generator's own and deliberately not those of the package's
+digital twin (``bayescal.twin.effects``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from bayescal.cell.config import Cell
+from bayescal.twin.independent.noise import FrameDrift, LineOfSightJumps, ScaleError
+from bayescal.twin.independent.solver import SpringLinkage
+from bayescal.twin.independent.structure import GearPlay, KneeJoints, LinkBeams, RandomField, ToolMount, tube
+
+__all__ = ["World", "Effect", "EFFECTS", "CAUSES"]
+
+CAUSES = (
+    "compensator",
+    "link_compliance",
+    "tool_compliance",
+    "backlash",
+    "nonlinear_stiffness",
+    "outliers",
+    "drift",
+    "tracker_scale",
+)
+"""The cause families a model criticism may name; an effect outside all of them expects ``unexplained``."""
+
+
+@dataclass(frozen=True, eq=False)
+class World:
+    """Everything true about a simulated campaign, SI: the arm, the tool, the load and the tracker.
+
+    Attributes
+    ----------
+    compliances : numpy.ndarray
+        (nq,) joint spring compliances, rad/(N·m) (the compensated joint's without its spring).
+    linkage : SpringLinkage or None
+        The gravity compensator as it truly is.
+    mass_scale : float
+        Factor on the URDF's link masses.
+    load_point : numpy.ndarray
+        (3,) where the load hangs, flange frame, m (written into the campaign).
+    markers : dict of str to numpy.ndarray
+        Marker positions, flange frame, m.
+    knee, play, beams, tool, field, jumps, drift, scale
+        The planted effects' models, ``None`` when absent.
+    load_jitter : float
+        Standard deviation (m, per axis) of the load point's shift each time the load is hung.
+    field_force : float
+        Force (N) at which the random field has its nominal size; it scales with the load.
+    """
+
+    compliances: np.ndarray
+    linkage: SpringLinkage | None
+    mass_scale: float
+    load_point: np.ndarray
+    markers: dict[str, np.ndarray]
+    knee: KneeJoints | None = None
+    play: GearPlay | None = None
+    beams: LinkBeams | None = None
+    tool: ToolMount | None = None
+    field: RandomField | None = None
+    jumps: LineOfSightJumps | None = None
+    drift: FrameDrift | None = None
+    scale: ScaleError | None = None
+    load_jitter: float = 0.0
+    field_force: float = 1.0
+
+    def joint_law(self):
+        """The joints' deflection law, (nq,) N·m → (nq,) rad."""
+        if self.knee is not None:
+            return self.knee
+        compliances = self.compliances
+        return lambda torque: compliances * torque
+
+
+@dataclass(frozen=True)
+class Effect:
+    """A plantable effect.
+
+    Attributes
+    ----------
+    name, description : str
+    cause : str or None
+        The family of :data:`CAUSES` it belongs to, or None (expect ``unexplained``).
+    default : float
+        Its size at magnitude 1, in ``unit``.
+    unit : str
+    plant : callable
+        ``plant(world, cell, size, rng) -> World`` with ``size = default·magnitude`` in ``unit``.
+    """
+
+    name: str
+    description: str
+    cause: str | None
+    default: float
+    unit: str
+    plant: Callable[[World, Cell, float, np.random.Generator], World]
+
+
+def _rated_torque(cell: Cell) -> np.ndarray:
+    effort = np.array(cell.robot.model.effortLimit, dtype=float)
+    if not np.all(np.isfinite(effort) & (effort > 0)):
+        raise ValueError("this effect needs the URDF's effort limits (rated torques) on every joint")
+    return effort
+
+
+def _spring(world: World, cell: Cell, size: float, rng) -> World:
+    if world.linkage is None:
+        raise ValueError("the cell has no compensator whose spring could be changed")
+    # A stiffer, progressive spring (the rate rises 15 % over a 200 mm stretch at the
+    # default size), its free length chosen as a maker would: the one whose moment is
+    # closest, in least squares over the joint's range, to the moment of the spring it replaces.
+    old = world.linkage
+    step = (size - 1.0) / (EFFECTS["stiff_spring"].default - 1.0)
+    joint = old.joint
+    angles = np.linspace(cell.robot.lower[joint], cell.robot.upper[joint], 60)
+    target = np.array([old.moment(angle) for angle in angles])
+
+    def misfit(s0: float) -> float:
+        new = replace(old, K_c=old.K_c * size, s0=s0, progression=0.15 * step)
+        return float(np.sum((np.array([new.moment(angle) for angle in angles]) - target) ** 2))
+
+    lengths = np.array([old.length(angle) for angle in angles])
+    s0 = minimize_scalar(misfit, bounds=(0.0, float(lengths.max())), method="bounded").x if size > 0 else old.s0
+    return replace(world, linkage=replace(old, K_c=old.K_c * size, s0=float(s0), progression=0.15 * step))
+
+
+CAST_IRON = (169e9, 65e9)
+"""Young's and shear moduli (Pa) of nodular cast iron EN-GJS-400 (EN 1563 typical values)."""
+ARM_TUBES = ((0.34, 0.016), (0.24, 0.012))
+"""Outer diameter and wall (m) of the upper arm and of the forearm as round tubes: ESTIMATES
+sized from the KR-270's outline (upper arm about 350 mm deep, forearm about 250 mm)."""
+
+
+def _beams(world: World, cell: Cell, size: float, rng) -> World:
+    sections = tuple(tube(outer, wall, *CAST_IRON) for outer, wall in ARM_TUBES)
+    return replace(world, beams=LinkBeams(sections, size, cell.gravity))
+
+
+TOOL_MASS = 30.0
+"""The tool's own mass, kg: ESTIMATE for a welded steel plate carrying markers and a lifting eye."""
+
+
+def _tool(world: World, cell: Cell, size: float, rng) -> World:
+    # The tool's centre of mass: midway between the flange and the centroid of what it carries.
+    carried = np.vstack([world.load_point, *world.markers.values()])
+    centre = 0.5 * carried.mean(axis=0)
+    mount = ToolMount(TOOL_MASS, centre, bending=size * 1e-6, torsion=0.4 * size * 1e-6, shear=0.5 * size * 1e-9)
+    return replace(world, tool=mount)
+
+
+def _play(world: World, cell: Cell, size: float, rng) -> World:
+    rated = _rated_torque(cell)
+    play = np.full(len(rated), size * math.pi / (180.0 * 60.0))
+    return replace(world, play=GearPlay(play, 0.03 * rated, 0.01 * rated))
+
+
+def _knee(world: World, cell: Cell, size: float, rng) -> World:
+    return replace(world, knee=KneeJoints(world.compliances, size, 0.1 * _rated_torque(cell)))
+
+
+def _jumps(world: World, cell: Cell, size: float, rng) -> World:
+    return replace(world, jumps=LineOfSightJumps(0.03, 0.5 * size * 1e-3, 1.5 * size * 1e-3))
+
+
+def _drift(world: World, cell: Cell, size: float, rng) -> World:
+    hour = 3600.0
+    drift = FrameDrift.draw(
+        rng, rate=size * 1e-3 / hour, cycle=0.1 * size * 1e-3, period=0.5 * hour, spin_rate=0.1 * size * 1e-3 / hour
+    )
+    return replace(world, drift=drift)
+
+
+def _scale(world: World, cell: Cell, size: float, rng) -> World:
+    return replace(world, scale=ScaleError(size * 1e-6))
+
+
+def _rehang(world: World, cell: Cell, size: float, rng) -> World:
+    return replace(world, load_jitter=size * 1e-3)
+
+
+FIELD_FORCE = 2600.0
+"""Force (N) at which the random field has its nominal size: the weight of 265 kg."""
+
+
+def _field(world: World, cell: Cell, size: float, rng) -> World:
+    field = RandomField.draw(rng, cell.robot.nq, sigma=size * 1e-6, length=0.6, marker_scale=0.2)
+    return replace(world, field=field, field_force=FIELD_FORCE)
+
+
+EFFECTS: dict[str, Effect] = {
+    effect.name: effect
+    for effect in (
+        Effect("stiff_spring", "the compensator's spring stiffer (rate × the size), progressive, with a longer free length",
+               "compensator", 3.0, "factor on K_c", _spring),
+        Effect("link_beams", "upper arm and forearm bend and twist as cast-iron tubes under their own weight and the load beyond",
+               "link_compliance", 1.0, "factor on the tubes' compliance", _beams),
+        Effect("tool_mount", "a 30 kg tool on an adaptor that turns under the bending moment (torsion 0.4 times it) and shears",
+               "tool_compliance", 0.4, "μrad/(N·m) in bending", _tool),
+        Effect("gear_play", "lost motion of every joint's gears, held by friction until the torque exceeds "
+               "3 % of the rated torque the other way",
+               "backlash", 1.0, "arcmin of play per joint", _play),
+        Effect("knee_joints", "every joint spring softer by this fraction below 10 % of its rated torque",
+               "nonlinear_stiffness", 0.5, "fraction of extra compliance", _knee),
+        Effect("los_jumps", "3 % of readings re-acquired off along the line of sight, by 0.5 to 1.5 times the size",
+               "outliers", 1.0, "mm", _jumps),
+        Effect("thermal_drift", "the tracker's frame drifts in time: a steady translation, a 30 min cycle of a tenth of "
+               "its hourly amount and a turn of 0.1 mrad/h per mm/h about the tracker",
+               "drift", 0.2, "mm/h", _drift),
+        Effect("tracker_scale", "every distance from the tracker off by a relative error (refractive index)",
+               "tracker_scale", 20.0, "ppm", _scale),
+        Effect("load_rehang", "the load hangs somewhere else on the tool each time it is hung (per axis)",
+               None, 4.0, "mm standard deviation", _rehang),
+        Effect("random_field", "a smooth random function of the joint angles and the marker added to the loaded deflection",
+               None, 40.0, "μm per coordinate at 2600 N", _field),
+    )
+}
+"""The effects by name."""

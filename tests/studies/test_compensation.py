@@ -1,0 +1,41 @@
+"""The compensation against the twin's own truth: the miss it predicts, and the gain over no compensation."""
+
+import numpy as np
+import pytest
+
+from bayescal.sampling.gibbs import GibbsSampler
+from bayescal.studies.compensation import compensation_coverage
+from bayescal.studies.elastostatic_coverage import TruthSpread
+
+SAMPLER = GibbsSampler(n_chains=2, n_tune=100, n_draws=300)
+
+
+def _report(frame):
+    inside = frame["inside"].mean()
+    gain = np.sqrt(np.mean(frame["miss_m"] ** 2)) / np.sqrt(np.mean(frame["uncompensated_m"] ** 2))
+    return inside, gain
+
+
+def test_table_iii_campaigns_leave_the_predicted_error_and_a_tenth_of_the_deflection(cell, plan):
+    frame = compensation_coverage(cell, 2, 11, plan=plan, poses=50, sampler=SAMPLER)
+    inside, gain = _report(frame)
+    assert inside >= 0.99
+    assert gain <= 0.1
+
+
+def test_truths_unlike_the_config_on_random_plans_stay_inside_the_bound(cell):
+    # Other compliances, spring and link masses than the config's, and another plan than Table III.
+    frame = compensation_coverage(cell, 2, 12, spread=TruthSpread(), poses=50, sampler=SAMPLER)
+    inside, _ = _report(frame)
+    assert inside >= 0.99
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("spread", [None, TruthSpread()], ids=["cell-truth-table-iii", "unlike-config-random-plans"])
+def test_coverage_over_twenty_campaigns(cell, plan, spread):
+    frame = compensation_coverage(cell, 20, 21, plan=plan if spread is None else None, spread=spread, poses=200)
+    inside, gain = _report(frame)
+    print(f"inside the 99.73 % bound: {inside:.4f} of {len(frame)} poses; rms miss / rms uncompensated {gain:.4f}")
+    assert inside >= 0.99
+    if spread is None:
+        assert gain <= 0.1
