@@ -21,8 +21,9 @@ import pinocchio as pin
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.robot.compensator import COMPENSATED_JOINT
+from bayescal.robot.stiffness import ElasticArm, EquilibriumError
 
-__all__ = ["Rows", "campaign_rows", "pose_rows", "measured_pose", "wrench_at_pose", "COVARIATES"]
+__all__ = ["Rows", "campaign_rows", "pose_rows", "measured_pose", "predicted_pose", "tool_points", "wrench_at_pose", "COVARIATES"]
 
 POSE_MIN_MARKERS = 3
 """Markers needed to fix the tool's pose (position and orientation)."""
@@ -174,8 +175,8 @@ def _build(cell: Cell, q, wrench, point, position, y, config, repeat, marker, no
     )
 
 
-def measured_pose(cell: Cell, q, markers: np.ndarray, positions: np.ndarray) -> np.ndarray:
-    """Link angles (rad) that put the cell's ``markers`` at their unloaded ``positions``, from the commanded ``q``.
+def measured_pose(cell: Cell, q, points: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """Link angles (rad) that put the tool ``points`` at their unloaded ``positions``, from the commanded ``q``.
 
     The arm sags under its weight and the compensator's moment before any load is
     applied; the linear model of eq 30 is accurate about the pose the arm is
@@ -184,16 +185,15 @@ def measured_pose(cell: Cell, q, markers: np.ndarray, positions: np.ndarray) -> 
 
     Parameters
     ----------
-    markers
-        (k,) marker names.
+    points
+        (k, 3) the markers' places on the tool, flange frame, m.
     positions
         (k, 3) their unloaded readings, m.
     """
     q = np.asarray(q, dtype=float)
-    names = [str(m) for m in markers]
-    if len(set(names)) < POSE_MIN_MARKERS or any(name not in cell.markers for name in names):
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    if len(points) < POSE_MIN_MARKERS:
         return q
-    points = np.array([cell.markers[name] for name in names])
     robot = cell.robot
     estimate = q.copy()
     for _ in range(POSE_ITERATIONS):
@@ -203,8 +203,37 @@ def measured_pose(cell: Cell, q, markers: np.ndarray, positions: np.ndarray) -> 
         estimate = estimate + step
         if np.max(np.abs(step)) < POSE_TOLERANCE:
             break
-    # A pose far from the commanded one means markers that are not where the cell says.
+    # A pose far from the commanded one means markers that are not where they were taken to be.
     return estimate if np.max(np.abs(estimate - q)) < POSE_MAX_SAG else q
+
+
+def predicted_pose(cell: Cell, q) -> np.ndarray:
+    """Link angles (rad) of the unloaded arm at the commanded ``q``: its sag under its weight with the cell's stiffness."""
+    arm = ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator)
+    try:
+        return np.asarray(q, dtype=float) + arm.equilibrium(q, np.zeros(6))
+    except EquilibriumError:
+        return np.asarray(q, dtype=float)
+
+
+def tool_points(cell: Cell, campaign: Campaign, names: list[str]) -> np.ndarray:
+    """(k, 3) the markers' places on the tool (flange frame, m) as the campaign's unloaded readings put them.
+
+    A real tool's markers are never exactly where the cell file says, and a few
+    millimetres off turn every pose fitted to them (a null campaign of another
+    simulator then looked like a threefold misfit).  Each marker's place is taken
+    as the mean over the configurations of its unloaded reading seen from the
+    flange at the arm's predicted sag (:func:`predicted_pose`), so that the sag
+    the prediction misses averages out and only its variation between
+    configurations is left to :func:`measured_pose`.
+    """
+    configs, first = np.unique(campaign.config, return_index=True)
+    sagged = {int(c): predicted_pose(cell, campaign.q[i]) for c, i in zip(configs, first)}
+    points = []
+    for name in names:
+        rows = np.flatnonzero(campaign.marker.astype(str) == name)
+        points.append(np.mean([cell.robot.point_in_flange(sagged[int(campaign.config[i])], campaign.p0[i]) for i in rows], axis=0))
+    return np.array(points)
 
 
 def wrench_at_pose(cell: Cell, campaign: Campaign, q: np.ndarray) -> np.ndarray:
@@ -232,12 +261,14 @@ def campaign_rows(cell: Cell, campaign: Campaign) -> Rows:
     referred to them (:func:`wrench_at_pose`)."""
     robot = cell.robot
     q = np.asarray(campaign.q, dtype=float).copy()
+    names = sorted(set(campaign.marker.astype(str)))
+    places = dict(zip(names, tool_points(cell, campaign, names)))
     for config in np.unique(campaign.config):
         rows = np.flatnonzero(campaign.config == config)
-        names = campaign.marker[rows].astype(str)
-        unique = sorted(set(names))
-        mean = np.array([campaign.p0[rows[names == name]].mean(axis=0) for name in unique])
-        q[rows] = measured_pose(cell, q[rows[0]], np.array(unique), mean)
+        seen = campaign.marker[rows].astype(str)
+        unique = sorted(set(seen))
+        mean = np.array([campaign.p0[rows[seen == name]].mean(axis=0) for name in unique])
+        q[rows] = measured_pose(cell, q[rows[0]], np.array([places[name] for name in unique]), mean)
     point = np.array([robot.point_in_flange(qi, p) for qi, p in zip(q, campaign.p0)])
     sd = np.hypot(cell.tracker.sigma(campaign.p0), cell.tracker.sigma(campaign.p1))
     return _build(

@@ -140,7 +140,7 @@ class Critique:
             remaining = [e for e in remaining if e.name != best]
         probes = {name: compare(current, validate(model.plus(PROBES[name]))) for name in self.probes}
         covariate = strongest(probes, decisive=False)
-        misfit = _lack_of_fit(model.design(rows, self.cell), y, scale, rows)
+        misfit = _lack_of_fit(self._calibration_design(model, rows, campaign.q), y, scale, rows)
         # The repeats' pure error sees a misfit of any shape, also one no candidate matches; a robust
         # model's outliers inflate both sides of the test, so it does not overrule a named outlier model.
         unmatched = misfit is not None and misfit.significant() and not model.robust
@@ -164,6 +164,21 @@ class Critique:
             lack_of_fit=misfit,
             tied_with={cause: others for cause, others in tied.items() if others},
         )
+
+    def _calibration_design(self, model: _Model, rows: Rows, commanded: np.ndarray) -> np.ndarray:
+        """The model's design with the compensated joint's compliance free at every angle of that joint, as calibrate fits it.
+
+        The lack-of-fit test asks whether the calibration itself misses the repeats:
+        a joint-2 compliance that varies with q2 (eq 8, whatever the spring) is part
+        of the calibration model, not a misfit of it.
+        """
+        design = model.design(rows, self.cell)
+        joint = self.cell.compensated_joint
+        if joint is None:
+            return design
+        angles = np.unique(np.round(commanded[:, joint], 6), return_inverse=True)[1]
+        per_angle = rows.design[:, :, joint, np.newaxis] * (angles[:, np.newaxis] == np.arange(angles.max() + 1))[:, np.newaxis, :]
+        return np.concatenate([design.reshape(len(rows), 3, -1), per_angle], axis=2).reshape(3 * len(rows), -1)
 
     def _test_pose(self, model: _Model, rows: Rows, y, scale, group) -> dict:
         """Deflection of the cell's test point predicted by the classical and by the extended model, mm."""

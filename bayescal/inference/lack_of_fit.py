@@ -123,8 +123,15 @@ def lack_of_fit(residual: np.ndarray, scale: np.ndarray, cells: np.ndarray, n_pa
     -------
     LackOfFit or None
         None when no cell is repeated or the cells do not outnumber the parameters.
+
+    Raises
+    ------
+    ValueError
+        When a residual or a scale is not finite.
     """
     r = np.asarray(residual, dtype=float) / np.asarray(scale, dtype=float)
+    if not np.all(np.isfinite(r)):
+        raise ValueError("the residuals and their scales must be finite")
     labels, index, counts = np.unique(cells, return_inverse=True, return_counts=True)
     mean = np.bincount(index, weights=r) / counts
     ss_pe = float(np.sum((r - mean[index]) ** 2))

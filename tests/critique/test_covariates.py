@@ -15,11 +15,11 @@ def test_measured_pose_recovers_the_sag_of_the_unloaded_arm(cell, plan):
     q = plan.q[0]
     sag = twin._deflections(q, np.zeros(6))
     assert np.max(np.abs(sag)) > 0.01
-    names = np.array(list(cell.markers))
+    points = np.array(list(cell.markers.values()))
     unloaded, _ = twin.positions(q, 0.0)
-    assert measured_pose(cell, q, names, unloaded) == pytest.approx(q + sag, abs=1e-9)
+    assert measured_pose(cell, q, points, unloaded) == pytest.approx(q + sag, abs=1e-9)
     # two markers cannot fix the tool's orientation: the commanded pose is kept
-    assert np.array_equal(measured_pose(cell, q, names[:2], unloaded[:2]), q)
+    assert np.array_equal(measured_pose(cell, q, points[:2], unloaded[:2]), q)
 
 
 def test_the_wrench_turns_with_the_sagging_tool(cell, plan, twin_campaign):
