@@ -32,9 +32,11 @@ from bayescal.critique.compare import Comparison, CrossValidation, compare, cros
 from bayescal.critique.covariates import COVARIATES, Rows, campaign_rows, pose_rows
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
 from bayescal.errors import InputError
+from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.equations import check_campaign
 from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit, lack_of_fit, replicate_cells
 from bayescal.robot.compensator import COMPENSATED_JOINT
+from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG, MM
 
 __all__ = ["Critique", "CritiqueResults", "Outcome", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED", "passes", "strongest", "check_candidates"]
@@ -140,7 +142,7 @@ class Critique:
             remaining = [e for e in remaining if e.name != best]
         probes = {name: compare(current, validate(model.plus(PROBES[name]))) for name in self.probes}
         covariate = strongest(probes, decisive=False)
-        misfit = _lack_of_fit(self._calibration_design(model, rows, campaign.q), y, scale, rows)
+        misfit = _lack_of_fit(self._calibration_design(model, rows, campaign.q), y - self._nonlinearity(campaign), scale, rows)
         # The repeats' pure error sees a misfit of any shape, also one no candidate matches; a robust
         # model's outliers inflate both sides of the test, so it does not overrule a named outlier model.
         unmatched = misfit is not None and misfit.significant() and not model.robust
@@ -164,6 +166,20 @@ class Critique:
             lack_of_fit=misfit,
             tied_with={cause: others for cause, others in tied.items() if others},
         )
+
+    def _nonlinearity(self, campaign: Campaign) -> np.ndarray | float:
+        """The exact model's nonlinearity (m per equation), which calibrate removes before judging the fit; 0 where it cannot.
+
+        The exact model places the markers on the tool at the commanded pose, and
+        refuses a campaign whose arm sags by degrees (a spring far off the cell's):
+        there the lack of fit is judged on the linear model alone.
+        """
+        if self.cell.compensator is None:
+            return 0.0
+        try:
+            return ElastostaticModel.from_cell(self.cell).nonlinearity(campaign)
+        except (InputError, EquilibriumError):
+            return 0.0
 
     def _calibration_design(self, model: _Model, rows: Rows, commanded: np.ndarray) -> np.ndarray:
         """The model's design with the compensated joint's compliance free at every angle of that joint, as calibrate fits it.

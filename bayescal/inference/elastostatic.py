@@ -202,6 +202,15 @@ class ElastostaticModel:
         prepared = self._prepare(campaign, announce=False)
         return prepared.closed_form, prepared.identifiability
 
+    def nonlinearity(self, campaign: Campaign) -> np.ndarray:
+        """``(3 N,)`` what the exact model adds to the linear one's deflections (m), at its closed-form estimate.
+
+        Zero for the linear model.  A linear analysis of the campaign (the critique's)
+        subtracts it from the measured deflections so that the arm's own geometric
+        nonlinearity under a heavy load is not mistaken for a misfit.
+        """
+        return self._prepare(campaign, announce=False).offset
+
     def _prepare(self, campaign: Campaign, *, announce: bool = True) -> _Prepared:
         if self.model not in ("exact", "linear"):
             raise ValueError(f"model must be 'exact' or 'linear', got {self.model!r}")
