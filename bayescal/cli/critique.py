@@ -105,6 +105,12 @@ def _outcome_lines(results, held_out: str, baseline: str) -> list[str]:
             f"unexplained: the residuals follow {results.unexplained_covariate} (ΔELPD {c.delta_elpd:.1f} ± {c.se:.1f} nats) "
             "and no extension of the catalogue explains it"
         )
+    misfit = getattr(results, "lack_of_fit", None)
+    if misfit is not None:
+        verdict = "misses them" if misfit.significant() else "fits them within the repeats' scatter"
+        lines.append(f"repeats: the final model {verdict}: {misfit.describe()}")
+        if misfit.significant() and results.unexplained_covariate is None:
+            lines.append("unexplained: a misfit the repeats reveal and no candidate of the catalogue matches in shape")
     return lines
 
 

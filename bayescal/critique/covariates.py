@@ -21,14 +21,21 @@ import pinocchio as pin
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.robot.compensator import COMPENSATED_JOINT
+from bayescal.robot.stiffness import ElasticArm, EquilibriumError
 
-__all__ = ["Rows", "campaign_rows", "pose_rows", "measured_pose", "wrench_at_pose", "COVARIATES"]
+__all__ = ["Rows", "campaign_rows", "pose_rows", "measured_pose", "predicted_pose", "wrench_at_pose", "COVARIATES"]
 
 POSE_MIN_MARKERS = 3
 """Markers needed to fix the tool's pose (position and orientation)."""
 POSE_ITERATIONS = 10
 POSE_TOLERANCE = 1e-10
 """Gauss-Newton on the pose stops when no joint moves by more than this, rad."""
+POSE_MAX_SHAPE_MISFIT = 0.5e-3
+"""Largest median rms distance (m) between the markers placed as the cell file says and their readings.
+
+Above it the cell's marker places are wrong by more than the tracker could explain
+(tens of μm after the repeats' averaging), and fitting poses to them would turn
+every pose by up to their error over the markers' spacing (3 mm over 115 mm: 26 mrad)."""
 POSE_MAX_SAG = 0.15
 """Largest sag (rad, about 9 deg) accepted between commanded and measured pose; beyond it the
 markers are not where the cell file puts them and the commanded pose is used."""
@@ -174,27 +181,34 @@ def _build(cell: Cell, q, wrench, point, position, y, config, repeat, marker, no
     )
 
 
-def measured_pose(cell: Cell, q, markers: np.ndarray, positions: np.ndarray) -> np.ndarray:
-    """Link angles (rad) that put the cell's ``markers`` at their unloaded ``positions``, from the commanded ``q``.
+def measured_pose(cell: Cell, q, points: np.ndarray, positions: np.ndarray) -> tuple[np.ndarray, float]:
+    """Link angles (rad) that put the tool ``points`` at their unloaded ``positions``, from the commanded ``q``.
 
     The arm sags under its weight and the compensator's moment before any load is
     applied; the linear model of eq 30 is accurate about the pose the arm is
     actually in, which three or more markers at known places on the tool fix.
-    Gauss-Newton, started at ``q``; ``q`` itself when the markers cannot fix the pose.
+    Gauss-Newton, started at ``q``.
 
     Parameters
     ----------
-    markers
-        (k,) marker names.
+    points
+        (k, 3) the markers' places on the tool, flange frame, m.
     positions
         (k, 3) their unloaded readings, m.
+
+    Returns
+    -------
+    tuple
+        The link angles (``q`` itself when fewer than three markers cannot fix the
+        pose, or the fit wanders beyond :data:`POSE_MAX_SAG`) and the rms distance (m)
+        left between the placed markers and their readings: the markers' shape on the
+        tool against the cell file's.
     """
     q = np.asarray(q, dtype=float)
-    names = [str(m) for m in markers]
-    if len(set(names)) < POSE_MIN_MARKERS or any(name not in cell.markers for name in names):
-        return q
-    points = np.array([cell.markers[name] for name in names])
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
     robot = cell.robot
+    if len(points) < POSE_MIN_MARKERS:
+        return q, 0.0
     estimate = q.copy()
     for _ in range(POSE_ITERATIONS):
         residual = (positions - robot.point_position(estimate, points)).reshape(-1)
@@ -203,8 +217,18 @@ def measured_pose(cell: Cell, q, markers: np.ndarray, positions: np.ndarray) -> 
         estimate = estimate + step
         if np.max(np.abs(step)) < POSE_TOLERANCE:
             break
-    # A pose far from the commanded one means markers that are not where the cell says.
-    return estimate if np.max(np.abs(estimate - q)) < POSE_MAX_SAG else q
+    misfit = float(np.sqrt(np.mean((positions - robot.point_position(estimate, points)) ** 2)))
+    # A pose far from the commanded one means markers that are not where they were taken to be.
+    return (estimate, misfit) if np.max(np.abs(estimate - q)) < POSE_MAX_SAG else (q, misfit)
+
+
+def predicted_pose(cell: Cell, q) -> np.ndarray:
+    """Link angles (rad) of the unloaded arm at the commanded ``q``: its sag under its weight with the cell's stiffness."""
+    arm = ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator)
+    try:
+        return np.asarray(q, dtype=float) + arm.equilibrium(q, np.zeros(6))
+    except EquilibriumError:
+        return np.asarray(q, dtype=float)
 
 
 def wrench_at_pose(cell: Cell, campaign: Campaign, q: np.ndarray) -> np.ndarray:
@@ -232,12 +256,22 @@ def campaign_rows(cell: Cell, campaign: Campaign) -> Rows:
     referred to them (:func:`wrench_at_pose`)."""
     robot = cell.robot
     q = np.asarray(campaign.q, dtype=float).copy()
+    measured, shape = q.copy(), []
     for config in np.unique(campaign.config):
         rows = np.flatnonzero(campaign.config == config)
         names = campaign.marker[rows].astype(str)
-        unique = sorted(set(names))
-        mean = np.array([campaign.p0[rows[names == name]].mean(axis=0) for name in unique])
-        q[rows] = measured_pose(cell, q[rows[0]], np.array(unique), mean)
+        unique = [name for name in sorted(set(names)) if name in cell.markers]
+        mean = np.array([campaign.p0[rows[names == name]].mean(axis=0) for name in unique]).reshape(-1, 3)
+        measured[rows], misfit = measured_pose(cell, q[rows[0]], np.array([cell.markers[name] for name in unique]), mean)
+        shape.append(misfit)
+    if shape and np.median(shape) <= POSE_MAX_SHAPE_MISFIT:
+        q = measured
+    else:
+        # The markers are not where the cell file puts them (or are too few): a pose fitted to
+        # them would turn the whole design; the sag the cell's own stiffness predicts serves instead.
+        configs, first = np.unique(campaign.config, return_index=True)
+        sagged = {int(c): predicted_pose(cell, campaign.q[i]) for c, i in zip(configs, first)}
+        q = np.array([sagged[int(c)] for c in campaign.config])
     point = np.array([robot.point_in_flange(qi, p) for qi, p in zip(q, campaign.p0)])
     sd = np.hypot(cell.tracker.sigma(campaign.p0), cell.tracker.sigma(campaign.p1))
     return _build(

@@ -152,6 +152,26 @@ def _nonlinear_stiffness(rows: Rows, cell: Cell) -> np.ndarray:
     return rows.point_jacobian * (change / scale)[:, np.newaxis, :]
 
 
+def _drift(rows: Rows, cell: Cell) -> np.ndarray:
+    """The tracker's frame creeping between a configuration's unloaded and loaded reading.
+
+    To first order any slow motion of the tracker (thermal growth of its stand, a
+    settling tripod) is a translation ``v`` and a small rotation ``w`` about the
+    tracker, which add ``v + w x (p - tracker)`` to a deflection read at ``p``; each
+    either constant over the campaign or growing with the order of measurement:
+    12 columns, in the deflections' scale.
+    """
+    lever = rows.position - cell.tracker.position
+    # w x lever = -lever x w: the columns of the cross-product matrix of -lever.
+    cross = np.zeros((len(rows), 3, 3))
+    cross[:, 0, 1], cross[:, 0, 2] = lever[:, 2], -lever[:, 1]
+    cross[:, 1, 0], cross[:, 1, 2] = -lever[:, 2], lever[:, 0]
+    cross[:, 2, 0], cross[:, 2, 1] = lever[:, 1], -lever[:, 0]
+    constant = np.concatenate([np.broadcast_to(np.eye(3), cross.shape), cross / np.linalg.norm(lever, axis=1).mean()], axis=2)
+    growth = rows.order / max(int(rows.order.max()), 1)
+    return np.concatenate([constant, constant * growth[:, np.newaxis, np.newaxis]], axis=2) * np.abs(rows.y).mean()
+
+
 def _no_columns(rows: Rows, cell: Cell) -> np.ndarray:
     return np.zeros((len(rows), 3, 0))
 
@@ -165,6 +185,7 @@ CATALOGUE: dict[str, Extension] = {
         Extension("backlash", "lost motion in the joints where the load reverses their torque", _backlash),
         Extension("nonlinear_stiffness", "joint stiffness that changes with the torque carried", _nonlinear_stiffness),
         Extension("outliers", "heavy-tailed (Student-t) tracker errors", _no_columns, robust=True),
+        Extension("drift", "the tracker's frame creeps between the unloaded and the loaded reading", _drift, physical=False),
     )
 }
 """The physical extensions, named as the digital twin's effects."""

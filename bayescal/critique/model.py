@@ -32,8 +32,11 @@ from bayescal.critique.compare import Comparison, CrossValidation, compare, cros
 from bayescal.critique.covariates import COVARIATES, Rows, campaign_rows, pose_rows
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
 from bayescal.errors import InputError
+from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.equations import check_campaign
+from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit, lack_of_fit, replicate_cells
 from bayescal.robot.compensator import COMPENSATED_JOINT
+from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG, MM
 
 __all__ = ["Critique", "CritiqueResults", "Outcome", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED", "passes", "strongest", "check_candidates"]
@@ -122,6 +125,7 @@ class Critique:
         model = _Model(())
         base = current = validate(model)
         causes: list[str] = []
+        tied: dict[str, list[str]] = {}
         steps: list[dict[str, Comparison]] = []
         remaining = [CATALOGUE[name] for name in self.catalogue]
         while remaining:
@@ -131,13 +135,18 @@ class Critique:
             best = strongest(evidence)
             if best is None:
                 break
+            tied[best] = _tied(best, trials, evidence)
             extension, current = trials[best]
             model = model.plus(extension)
             causes.append(best)
             remaining = [e for e in remaining if e.name != best]
         probes = {name: compare(current, validate(model.plus(PROBES[name]))) for name in self.probes}
         covariate = strongest(probes, decisive=False)
-        if covariate is not None:
+        misfit = _lack_of_fit(self._calibration_design(model, rows, campaign.q), y - self._nonlinearity(campaign), scale, rows)
+        # The repeats' pure error sees a misfit of any shape, also one no candidate matches; a robust
+        # model's outliers inflate both sides of the test, so it does not overrule a named outlier model.
+        unmatched = misfit is not None and misfit.significant() and not model.robust
+        if covariate is not None or unmatched:
             causes.append(UNEXPLAINED)
         return CritiqueResults(
             causes=causes,
@@ -154,7 +163,38 @@ class Critique:
             n_equations=y.size,
             residuals=_residual_table(rows, y, base, current),
             source=campaign.source,
+            lack_of_fit=misfit,
+            tied_with={cause: others for cause, others in tied.items() if others},
         )
+
+    def _nonlinearity(self, campaign: Campaign) -> np.ndarray | float:
+        """The exact model's nonlinearity (m per equation), which calibrate removes before judging the fit; 0 where it cannot.
+
+        The exact model places the markers on the tool at the commanded pose, and
+        refuses a campaign whose arm sags by degrees (a spring far off the cell's):
+        there the lack of fit is judged on the linear model alone.
+        """
+        if self.cell.compensator is None:
+            return 0.0
+        try:
+            return ElastostaticModel.from_cell(self.cell).nonlinearity(campaign)
+        except (InputError, EquilibriumError):
+            return 0.0
+
+    def _calibration_design(self, model: _Model, rows: Rows, commanded: np.ndarray) -> np.ndarray:
+        """The model's design with the compensated joint's compliance free at every angle of that joint, as calibrate fits it.
+
+        The lack-of-fit test asks whether the calibration itself misses the repeats:
+        a joint-2 compliance that varies with q2 (eq 8, whatever the spring) is part
+        of the calibration model, not a misfit of it.
+        """
+        design = model.design(rows, self.cell)
+        joint = self.cell.compensated_joint
+        if joint is None:
+            return design
+        angles = np.unique(np.round(commanded[:, joint], 6), return_inverse=True)[1]
+        per_angle = rows.design[:, :, joint, np.newaxis] * (angles[:, np.newaxis] == np.arange(angles.max() + 1))[:, np.newaxis, :]
+        return np.concatenate([design.reshape(len(rows), 3, -1), per_angle], axis=2).reshape(3 * len(rows), -1)
 
     def _test_pose(self, model: _Model, rows: Rows, y, scale, group) -> dict:
         """Deflection of the cell's test point predicted by the classical and by the extended model, mm."""
@@ -178,6 +218,28 @@ class Critique:
         out["classical_error_mm"] = float(np.linalg.norm(difference))
         out["note"] = "classical_error_mm: the error the classical model leaves at the test pose if the extended model is right"
         return out
+
+
+def _tied(best: str, trials: dict, evidence: dict[str, Comparison]) -> list[str]:
+    """Candidates that also pass and that ``best`` does not beat by :data:`DETECTION_Z` SE on held-out configurations.
+
+    Such candidates explain this campaign about as well: it cannot tell them apart.
+    """
+    tied = []
+    for name in trials:
+        if name == best or not passes(evidence[name]):
+            continue
+        lead = compare(trials[name][1], trials[best][1])
+        if lead.delta_elpd <= DETECTION_Z * lead.se:
+            tied.append(name)
+    return tied
+
+
+def _lack_of_fit(X: np.ndarray, y: np.ndarray, scale: np.ndarray, rows: Rows) -> LackOfFit | None:
+    """The lack-of-fit test of a model's weighted least-squares fit against the repeats' scatter."""
+    columns = independent_columns(X)
+    beta = np.linalg.lstsq(X[:, columns] / scale[:, None], y / scale, rcond=None)[0]
+    return lack_of_fit(y - X[:, columns] @ beta, scale, replicate_cells(rows.config, rows.marker), columns.size)
 
 
 def _residual_table(rows: Rows, y: np.ndarray, base: CrossValidation, final: CrossValidation) -> pd.DataFrame:
@@ -299,6 +361,8 @@ class CritiqueResults(Outcome):
     n_equations: int
     residuals: pd.DataFrame
     source: str = ""
+    lack_of_fit: LackOfFit | None = None
+    tied_with: dict = field(default_factory=dict)
     rule: dict = field(default_factory=lambda: {"z": DETECTION_Z, "floor_nats": DETECTION_FLOOR, "decisive_nats": DECISIVE_GAIN})
 
     @property
@@ -334,6 +398,12 @@ class CritiqueResults(Outcome):
         }
         if self.unexplained_covariate is not None:
             payload["unexplained_covariate"] = self.unexplained_covariate
+        payload["tied_with"] = {cause: list(others) for cause, others in self.tied_with.items()}
+        payload["lack_of_fit"] = None if self.lack_of_fit is None else self.lack_of_fit.to_json() | {
+            "model": "final",
+            "level": LACK_OF_FIT_LEVEL,
+            "meaning": "scatter of the configuration means about the final model against the scatter between repeats",
+        }
         return payload
 
     def save(self, path: str | PathLike[str]) -> None:

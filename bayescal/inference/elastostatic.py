@@ -45,6 +45,7 @@ from bayescal.inference.closedform import ClosedForm, check_regression, closed_f
 from bayescal.inference.equations import HANGING_ONLY_REASON, DeflectionEquations, check_campaign, check_load_point, deflection_equations, deflection_noise
 from bayescal.inference.exact import linearisation_offset, scale_masses
 from bayescal.inference.identifiability import Identifiability, analyse, grouped, label_angle, practical_reasons
+from bayescal.inference.lack_of_fit import LackOfFit, lack_of_fit, replicate_cells
 from bayescal.inference.likelihood import compensated_posterior, per_angle_posterior
 from bayescal.inference.priors import GeometryPrior, config_geometry
 from bayescal.inference.results import ElastostaticDraws, ElastostaticResults, parameter_units
@@ -205,6 +206,15 @@ class ElastostaticModel:
         prepared = self._prepare(campaign, announce=False)
         return prepared.closed_form, prepared.identifiability
 
+    def nonlinearity(self, campaign: Campaign) -> np.ndarray:
+        """``(3 N,)`` what the exact model adds to the linear one's deflections (m), at its closed-form estimate.
+
+        Zero for the linear model.  A linear analysis of the campaign (the critique's)
+        subtracts it from the measured deflections so that the arm's own geometric
+        nonlinearity under a heavy load is not mistaken for a misfit.
+        """
+        return self._prepare(campaign, announce=False).offset
+
     def _prepare(self, campaign: Campaign, *, announce: bool = True) -> _Prepared:
         if self.model not in ("exact", "linear"):
             raise ValueError(f"model must be 'exact' or 'linear', got {self.model!r}")
@@ -281,7 +291,15 @@ class ElastostaticModel:
                 UserWarning,
                 stacklevel=2,
             )
-        return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, type(self.sampler).__name__)
+        misfit = self._lack_of_fit(campaign, residual, n_free)
+        if misfit is not None and misfit.significant():
+            warnings.warn(
+                f"{campaign.source}: the model misses the repeated configurations: {misfit.describe()}; "
+                "bayescal critique names the likely cause",
+                UserWarning,
+                stacklevel=2,
+            )
+        return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, type(self.sampler).__name__, misfit)
 
     def restore(self, campaign: Campaign, tree) -> ElastostaticResults:
         """The results of an earlier :meth:`fit` of ``campaign`` from its saved posterior, without sampling again.
@@ -346,9 +364,10 @@ class ElastostaticModel:
         chi2 = self._chi2_per_dof(campaign, residual, posterior.ndim - posterior.n_groups)
         practical = self._practical(summary, equations, ident, cf)
         sampler = str(tree.attrs.get("sampler", "not recorded"))
-        return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, sampler)
+        misfit = self._lack_of_fit(campaign, residual, posterior.ndim - posterior.n_groups)
+        return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, sampler, misfit)
 
-    def _results(self, campaign, prepared, tree, draws, residual, chi2, summary, practical, sampler_name) -> ElastostaticResults:
+    def _results(self, campaign, prepared, tree, draws, residual, chi2, summary, practical, sampler_name, misfit) -> ElastostaticResults:
         """The results object of a fit or a restored fit."""
         equations, ident, offset, cf = prepared.equations, prepared.identifiability, prepared.offset, prepared.closed_form
         return ElastostaticResults(
@@ -369,6 +388,7 @@ class ElastostaticModel:
             linear_closed_form=prepared.linear_closed_form,
             summary_table=summary,
             sampler_name=sampler_name,
+            lack_of_fit=misfit,
         )
 
     def chi2_per_dof(self, campaign: Campaign) -> float | None:
@@ -385,6 +405,11 @@ class ElastostaticModel:
         corrected = replace(equations, y=equations.y - offset)
         residual = corrected.y - corrected.per_angle_design()[:, ident.identifiable] @ cf.per_angle
         return self._chi2_per_dof(campaign, residual, cf.per_angle.size)
+
+    def _lack_of_fit(self, campaign: Campaign, residual: np.ndarray, n_free: int) -> LackOfFit | None:
+        """The lack-of-fit test of the residuals against the repeats' scatter (None without repeats)."""
+        scale = np.ones(residual.size) if self.tracker is None else np.repeat(deflection_noise(self.tracker, campaign), 3)
+        return lack_of_fit(residual, scale, replicate_cells(campaign.config, campaign.marker), n_free)
 
     def _chi2_per_dof(self, campaign: Campaign, residual: np.ndarray, n_free: int) -> float | None:
         if self.tracker is None:

@@ -11,6 +11,7 @@ import pandas as pd
 from bayescal.inference.closedform import ClosedForm
 from bayescal.inference.equations import ANGLE_DECIMALS, DeflectionEquations
 from bayescal.inference.identifiability import Identifiability, angle_label
+from bayescal.inference.lack_of_fit import LackOfFit
 from bayescal.inference.priors import GeometryPrior
 from bayescal.robot.compensator import COMPENSATED_JOINT, stiffness_regressor
 from bayescal.sampling.gibbs import ConditionallyLinear
@@ -188,6 +189,8 @@ class ElastostaticResults:
         Estimates of eqs 33-34 without the exact model's correction.
     summary_table : pandas.DataFrame | None
         :meth:`summary`, once computed.
+    lack_of_fit : LackOfFit | None
+        The lack-of-fit test against the repeats' pure error (None without repeats).
     """
 
     tree: object
@@ -207,6 +210,7 @@ class ElastostaticResults:
     linear_closed_form: ClosedForm | None = None
     summary_table: pd.DataFrame | None = field(default=None, repr=False)
     sampler_name: str = "gibbs"
+    lack_of_fit: LackOfFit | None = None
 
     @property
     def parameter_units(self) -> dict[str, str]:
@@ -277,6 +281,7 @@ class ElastostaticResults:
             "chi2_per_dof": self.chi2_per_dof,
             "nonlinearity_mm": self.nonlinearity / MM,
             "relinearisations": self.iterations,
+            "lack_of_fit": None if self.lack_of_fit is None else self.lack_of_fit.to_json(),
         }
         return report
 

@@ -15,11 +15,15 @@ def test_measured_pose_recovers_the_sag_of_the_unloaded_arm(cell, plan):
     q = plan.q[0]
     sag = twin._deflections(q, np.zeros(6))
     assert np.max(np.abs(sag)) > 0.01
-    names = np.array(list(cell.markers))
+    points = np.array(list(cell.markers.values()))
     unloaded, _ = twin.positions(q, 0.0)
-    assert measured_pose(cell, q, names, unloaded) == pytest.approx(q + sag, abs=1e-9)
+    pose, misfit = measured_pose(cell, q, points, unloaded)
+    assert pose == pytest.approx(q + sag, abs=1e-9) and misfit < 1e-9
     # two markers cannot fix the tool's orientation: the commanded pose is kept
-    assert np.array_equal(measured_pose(cell, q, names[:2], unloaded[:2]), q)
+    assert np.array_equal(measured_pose(cell, q, points[:2], unloaded[:2])[0], q)
+    # markers off the file's places by millimetres: the shape misfit says so
+    moved = points + np.array([[0.002, 0.0, 0.0], [0.0, -0.002, 0.0], [0.0, 0.0, 0.002]])
+    assert measured_pose(cell, q, moved, unloaded)[1] > 0.5e-3
 
 
 def test_the_wrench_turns_with_the_sagging_tool(cell, plan, twin_campaign):

@@ -49,7 +49,7 @@ def test_results_report_the_gain_on_held_out_configurations(cell, twin_campaign,
     results = Critique(cell).run(twin_campaign(["backlash"], seed=3))
     payload = results.to_json()
     assert payload["verdict"] == "misfit" and payload["causes"][0] == "backlash"
-    assert set(payload["evidence"]) == {"compensator", "link_compliance", "tool_compliance", "backlash", "nonlinear_stiffness", "outliers"}
+    assert set(payload["evidence"]) == {"compensator", "link_compliance", "tool_compliance", "backlash", "nonlinear_stiffness", "outliers", "drift"}
     assert payload["evidence"]["backlash"]["named"] and payload["evidence"]["backlash"]["step"] == 1
     gain = payload["gain"]
     assert gain["delta_elpd"] > 2 * gain["se"]
@@ -86,3 +86,41 @@ def test_a_narrower_catalogue_and_unknown_names(cell, twin_campaign):
     # then attributed to the nearest candidate, the q2-dependent joint 2)
     results = Critique(cell, catalogue=("compensator", "link_compliance", "tool_compliance")).run(twin_campaign(["backlash"], seed=9))
     assert results.verdict == "misfit"
+
+
+def _shift_configurations(campaign, rng, size):
+    """Every configuration's loaded readings shifted by one random offset that its repeats share."""
+    configs, index = np.unique(campaign.config, return_inverse=True)
+    offsets = rng.normal(scale=size, size=(configs.size, 3))
+    return replace(campaign, p1=campaign.p1 + offsets[index])
+
+
+def test_a_misfit_of_no_catalogue_shape_that_the_repeats_reveal_is_never_adequate(cell, twin_campaign):
+    campaign = twin_campaign(seed=3)
+    # 30 um per configuration, shared by its repeats: white across configurations, so no
+    # extension or covariate probe matches it, but the repeats' own scatter is far smaller.
+    shifted = _shift_configurations(campaign, np.random.default_rng(0), 30e-6)
+    results = Critique(cell).run(shifted)
+    assert results.lack_of_fit.significant()
+    assert results.verdict == "misfit"
+    assert "unexplained" in results.causes
+    payload = results.to_json()
+    assert payload["lack_of_fit"]["p_value"] < 0.01
+    assert set(payload["tied_with"]) <= set(results.causes)
+
+
+def test_the_lack_of_fit_of_a_campaign_without_effect_is_not_significant(cell, twin_campaign):
+    results = Critique(cell).run(twin_campaign(seed=3))
+    assert not results.lack_of_fit.significant()
+    assert results.lack_of_fit.dof[1] > 0
+
+
+def test_markers_off_the_cell_file_by_millimetres_leave_the_campaign_adequate(cell, twin_campaign):
+    # the twin measures a tool whose markers each sit 2-3 mm from where the cell file says:
+    # fitted to the file's places, every pose would turn by a few degrees
+    offsets = np.array([[0.002, -0.002, 0.001], [-0.001, 0.003, 0.0], [0.0, -0.001, -0.003]])
+    moved = {name: point + offset for (name, point), offset in zip(cell.markers.items(), offsets)}
+    campaign = twin_campaign(seed=3, cell_=replace(cell, markers=moved))
+    results = Critique(cell).run(campaign)
+    assert results.verdict == "adequate"
+    assert not results.lack_of_fit.significant()

@@ -1,0 +1,144 @@
+"""Lack of fit against pure error: does the model explain the configurations as well as the repeats allow?
+
+A campaign of the paper's kind measures every configuration several times
+(Table III: three repeats).  The scatter of one marker's repeated deflections
+about their own mean measures the tracker noise with no model at all (the
+*pure error*); the scatter of the configuration means about the fitted model
+adds whatever the model gets wrong.  The classical lack-of-fit test (Draper and
+Smith, *Applied Regression Analysis*, 3rd ed., section 2.1) compares the two::
+
+    F = (SS_lof / dof_lof) / (SS_pe / dof_pe),   SS_res = SS_lof + SS_pe
+
+where a *cell* is one coordinate of one marker in one configuration, ``SS_pe``
+sums the squared deviations of its repeats from the cell mean, ``SS_lof`` the
+squared cell means of the residuals (times the number of repeats), each
+weighted by the tracker noise model's relative variance of the cell, and
+``dof_lof = cells - parameters``, ``dof_pe = readings - cells``.  Under the
+model, ``F`` follows the F distribution with ``(dof_lof, dof_pe)`` degrees of
+freedom whatever the noise level, which need not be known.
+
+What it assumes:
+
+* the repeats of one configuration see the same deflection: the load is
+  re-applied to the same arm at the same joint angles.  Scatter that the
+  repeats do not share (re-hanging the load at a slightly different point,
+  tracker drift between configurations) counts as lack of fit, as it should:
+  the model does not describe it;
+* the tracker noise model gives each cell's variance up to one common factor
+  (the cell file's distance law); a noise model far off in its *shape* makes the
+  test conservative or liberal;
+* residuals are taken at one parameter value with ``parameters`` free
+  coefficients (the least-squares fit, or a posterior mean under a weak prior).
+
+Without repeats there is no pure error: :func:`lack_of_fit` returns ``None``, and
+the caller falls back on the residuals against the configured noise level
+(χ²/dof), which cannot tell a misfit from a tracker noisier than configured.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+__all__ = ["LackOfFit", "LACK_OF_FIT_LEVEL", "lack_of_fit", "replicate_cells"]
+
+LACK_OF_FIT_LEVEL = 0.01
+"""p-value below which a lack of fit is reported (``calibrate`` warns, ``critique`` calls a misfit).
+
+One per cent rather than five so that a campaign without any effect is called a
+misfit by this test alone in one campaign of a hundred; the test's size at both
+levels is measured in ``docs/critique.md``."""
+
+
+@dataclass(frozen=True)
+class LackOfFit:
+    """The lack-of-fit F test of a fitted campaign.
+
+    Attributes
+    ----------
+    statistic : float
+        ``F``, the lack-of-fit mean square over the pure-error mean square.
+    p_value : float
+        Upper tail of ``F(dof_lof, dof_pe)`` at the statistic.
+    dof : tuple of int
+        ``(dof_lof, dof_pe)``.
+    factor : float
+        ``sqrt(F)``: how many times the scatter of the configuration means about the
+        model exceeds what the repeats' own scatter predicts.
+    """
+
+    statistic: float
+    p_value: float
+    dof: tuple[int, int]
+
+    @property
+    def factor(self) -> float:
+        return float(np.sqrt(max(self.statistic, 0.0)))
+
+    def significant(self, level: float = LACK_OF_FIT_LEVEL) -> bool:
+        """Whether the model misses the configuration means at ``level``."""
+        return self.p_value < level
+
+    def describe(self) -> str:
+        """One line for a person: the factor and the p-value."""
+        return (
+            f"the configuration means scatter {self.factor:.2f} times as much about the model as the repeats allow "
+            f"(lack-of-fit F = {self.statistic:.2f} on {self.dof[0]} and {self.dof[1]} degrees of freedom, p = {self.p_value:.2g})"
+        )
+
+    def to_json(self) -> dict:
+        return {"statistic": self.statistic, "p_value": self.p_value, "dof": list(self.dof), "factor": self.factor}
+
+
+def replicate_cells(config: np.ndarray, marker: np.ndarray) -> np.ndarray:
+    """``(3 N,)`` labels of the cells of a campaign's equations: one per configuration, marker and coordinate.
+
+    Parameters
+    ----------
+    config, marker
+        ``(N,)`` each row's configuration label and marker name; the equations are
+        the rows' three coordinates in order (``x, y, z`` of row 0, then row 1 …).
+    """
+    _, rows = np.unique(np.column_stack([np.asarray(config).astype(str), np.asarray(marker).astype(str)]), axis=0, return_inverse=True)
+    return (3 * rows.reshape(-1)[:, None] + np.arange(3)).reshape(-1)
+
+
+def lack_of_fit(residual: np.ndarray, scale: np.ndarray, cells: np.ndarray, n_parameters: int) -> LackOfFit | None:
+    """The lack-of-fit F test of residuals about a fitted model, or None without repeats.
+
+    Parameters
+    ----------
+    residual
+        ``(n,)`` residuals of the equations (any unit).
+    scale
+        ``(n,)`` the noise model's sd of each equation, same unit up to a common factor.
+    cells
+        ``(n,)`` cell labels (:func:`replicate_cells`): equations of one cell are repeats.
+    n_parameters
+        Free coefficients of the fit the residuals come from.
+
+    Returns
+    -------
+    LackOfFit or None
+        None when no cell is repeated or the cells do not outnumber the parameters.
+
+    Raises
+    ------
+    ValueError
+        When a residual or a scale is not finite.
+    """
+    r = np.asarray(residual, dtype=float) / np.asarray(scale, dtype=float)
+    if not np.all(np.isfinite(r)):
+        raise ValueError("the residuals and their scales must be finite")
+    labels, index, counts = np.unique(cells, return_inverse=True, return_counts=True)
+    mean = np.bincount(index, weights=r) / counts
+    ss_pe = float(np.sum((r - mean[index]) ** 2))
+    ss_lof = float(np.sum(counts * mean**2))
+    dof_pe = int(r.size - labels.size)
+    dof_lof = int(labels.size - n_parameters)
+    if dof_pe < 1 or dof_lof < 1 or ss_pe <= 0:
+        return None
+    statistic = (ss_lof / dof_lof) / (ss_pe / dof_pe)
+    return LackOfFit(float(statistic), float(stats.f.sf(statistic, dof_lof, dof_pe)), (dof_lof, dof_pe))

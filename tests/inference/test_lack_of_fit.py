@@ -1,0 +1,74 @@
+import numpy as np
+import pytest
+
+from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, lack_of_fit, replicate_cells
+
+
+def _regression(rng, n_levels=12, repeats=3, curvature=0.0, scale=None):
+    """A straight-line fit to data at ``n_levels`` abscissae, each read ``repeats`` times."""
+    x = np.repeat(np.linspace(-1.0, 1.0, n_levels), repeats)
+    cells = np.repeat(np.arange(n_levels), repeats)
+    sd = np.ones_like(x) if scale is None else scale(x)
+    y = 1.0 + 2.0 * x + curvature * x**2 + sd * rng.normal(size=x.size)
+    X = np.column_stack([np.ones_like(x), x])
+    beta = np.linalg.lstsq(X / sd[:, None], y / sd, rcond=None)[0]
+    return y - X @ beta, sd, cells
+
+
+def test_size_is_nominal_under_the_model():
+    rng = np.random.default_rng(0)
+    p = np.array([lack_of_fit(*_regression(rng), n_parameters=2).p_value for _ in range(2000)])
+    # 2000 draws: binomial sd of a 5 % rate is 0.5 %.
+    assert abs(np.mean(p < 0.05) - 0.05) < 0.015
+    assert abs(np.mean(p < 0.01) - 0.01) < 0.007
+
+
+def test_size_holds_with_a_noise_level_that_varies_as_the_scale_says():
+    rng = np.random.default_rng(1)
+    scale = lambda x: 0.2 + np.abs(x)  # noqa: E731
+    p = np.array([lack_of_fit(*_regression(rng, scale=scale), n_parameters=2).p_value for _ in range(2000)])
+    assert abs(np.mean(p < 0.05) - 0.05) < 0.015
+
+
+def test_an_omitted_curvature_is_found():
+    rng = np.random.default_rng(2)
+    result = lack_of_fit(*_regression(rng, curvature=3.0), n_parameters=2)
+    assert result.significant()
+    assert result.factor > 2
+    assert "lack-of-fit F" in result.describe()
+    assert set(result.to_json()) == {"statistic", "p_value", "dof", "factor"}
+
+
+def test_degrees_of_freedom():
+    rng = np.random.default_rng(3)
+    result = lack_of_fit(*_regression(rng, n_levels=10, repeats=4), n_parameters=2)
+    assert result.dof == (10 - 2, 10 * 3)
+
+
+def test_no_repeats_no_test():
+    rng = np.random.default_rng(4)
+    assert lack_of_fit(*_regression(rng, repeats=1), n_parameters=2) is None
+
+
+def test_cells_are_configuration_marker_and_coordinate():
+    config = np.array([1, 1, 1, 1, 2, 2])
+    marker = np.array(["M1", "M2", "M1", "M2", "M1", "M1"])
+    cells = replicate_cells(config, marker)
+    assert cells.shape == (18,)
+    assert np.array_equal(cells[0:3], cells[6:9])  # config 1, M1, two repeats
+    assert not np.array_equal(cells[0:3], cells[3:6])  # another marker
+    assert np.array_equal(cells[12:15], cells[15:18])
+    assert len(np.unique(cells)) == 3 * 3
+
+
+def test_level_is_stricter_than_five_percent():
+    assert 0 < LACK_OF_FIT_LEVEL <= 0.05
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_non_finite_residuals_are_refused(bad):
+    rng = np.random.default_rng(5)
+    residual, scale, cells = _regression(rng)
+    residual[0] = bad
+    with pytest.raises(ValueError, match="finite"):
+        lack_of_fit(residual, scale, cells, n_parameters=2)
