@@ -52,7 +52,7 @@ from bayescal.robot.compensator import COMPENSATED_JOINT, CompensatorGeometry, s
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.gibbs import GibbsSampler
 from bayescal.sampling.protocol import Sampler
-from bayescal.sampling.summary import diagnostics, summarize, warn_if_unconverged
+from bayescal.sampling.summary import converged, diagnostics, summarize, warn_if_unconverged
 from bayescal.units import MM, N_PER_MM, URAD_PER_NM
 
 __all__ = ["ElastostaticModel", "default_sampler", "restore_results"]
@@ -90,6 +90,10 @@ DETERMINED_FRACTION = 0.25
 CHI2_TOLERANCE = 2.0
 """chi2/dof of the fit against the config's tracker model beyond which (or below whose inverse) the tracker model
 is reported as not describing the data: with a few hundred equations chi2/dof has an sd below 0.1."""
+EXTENSIONS = 2
+"""Doublings of the kept draws ``bayescal calibrate`` allows by default: up to 4 × 600 draws per chain.  On
+Table III with twice the twin's link compliance (seeds 0-5), 16 × 600 draws left R-hat above 1.01 or the tail
+ESS under 400 in 2 of 6 campaigns."""
 SPRING_SCALE = np.array([0.005, 0.05, 0.02])
 """Typical posterior sd of joint 2's equivalent stiffness (relative), ``log K_c`` and ``s0`` (relative) when the data determine them:
 the scale of the Gibbs sampler's mode search and of emcee's initial ball."""
@@ -166,6 +170,11 @@ class ElastostaticModel:
     hanging_only
         The cell's end-effector hangs masses only (``cell.loading``): vertical loads are
         no mistake, and k1's not-identifiable reason says so in place of the parallel-loads warning.
+    extensions
+        Times the sampling may be run again with twice the kept draws per chain while
+        R-hat or the ESS fall short of :func:`bayescal.sampling.summary.converged`'s
+        thresholds (0: never; ``bayescal calibrate`` uses :data:`EXTENSIONS` unless
+        ``--draws`` is given).  A misspecified campaign can leave the default draws short.
     """
 
     robot: Robot
@@ -179,6 +188,7 @@ class ElastostaticModel:
     tracker: TrackerNoise | None = None
     max_iterations: int = 10
     hanging_only: bool = False
+    extensions: int = 0
 
     @classmethod
     def from_cell(cls, cell: Cell, geometry: GeometryPrior | None = None, **options) -> ElastostaticModel:
@@ -251,13 +261,12 @@ class ElastostaticModel:
         equations, ident, offset, cf = prepared.equations, prepared.identifiability, prepared.offset, prepared.closed_form
         corrected = replace(equations, y=equations.y - offset)
         static = self._static_columns(campaign, equations, prepared) if self.model == "exact" and ident.compensator else None
-        tree, draws, residual, n_free = self._sample(corrected.whitened(), ident, cf, rng, static)
+        tree, draws, residual, n_free, summary = self._sample_until_converged(corrected.whitened(), ident, cf, rng, static)
         tree.attrs.update(
             {"model": self.model, "noise": self.noise, "sampler": type(self.sampler).__name__, "geometry": self.geometry.source}
         )
         if corrected.scale is not None:
             residual = residual * corrected.scale
-        summary = summarize(tree)
         practical = self._practical(summary, equations, ident, cf)
         # What a later user of the saved posterior (bayescal compensate) must know without the campaign:
         # the robot it belongs to and which sampled parameters the data did not determine.
@@ -494,6 +503,27 @@ class ElastostaticModel:
             joints = tuple(j for j in range(equations.n_joints) if j != COMPENSATED_JOINT and f"k{j + 1}" not in ident.reasons)
             return compensated_posterior(equations, joints, self.geometry, static, GRAVITY_SD), joints
         return per_angle_posterior(equations, ident.identifiable), None
+
+    def _sample_until_converged(self, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm, rng, static):
+        """:meth:`_sample` and the tree's summary, sampled again with twice the draws per chain (at most
+        :attr:`extensions` times) while the diagnostics fall short; an extension is announced."""
+        model = self
+        for extension in range(self.extensions + 1):
+            tree, draws, residual, n_free = model._sample(equations, ident, cf, rng, static)
+            summary = summarize(tree)
+            report = diagnostics(tree, summary)
+            if converged(report) or extension == self.extensions or not hasattr(model.sampler, "n_draws"):
+                break
+            model = replace(model, sampler=replace(model.sampler, n_draws=2 * model.sampler.n_draws))
+        if model is not self:
+            warnings.warn(
+                f"the elastostatic posterior was sampled again with {report['n_draws']} draws per chain to converge "
+                f"(R-hat max {report['r_hat_max']:.3f}, ESS min {min(report['ess_bulk_min'], report['ess_tail_min']):.0f}): "
+                "a misspecified model mixes slower, see bayescal critique",
+                UserWarning,
+                stacklevel=3,
+            )
+        return tree, draws, residual, n_free, summary
 
     def _sample(self, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm, rng, static=None):
         """The posterior tree, its draws, the residuals (whitened) at the posterior mean and the number of parameters

@@ -169,6 +169,11 @@ def diagnostics(tree: xr.DataTree, summary: pd.DataFrame | None = None) -> dict[
     }
 
 
+def converged(report: dict[str, float | int]) -> bool:
+    """Whether the diagnostics of :func:`diagnostics` meet the thresholds :func:`warn_if_unconverged` warns under."""
+    return report["r_hat_max"] <= R_HAT_LIMIT and min(report["ess_bulk_min"], report["ess_tail_min"]) >= ESS_LIMIT
+
+
 def warn_if_unconverged(report: dict[str, float | int], *, what: str) -> None:
     """Warn when the diagnostics of :func:`diagnostics` fall short of the usual thresholds.
 
