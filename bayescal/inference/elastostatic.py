@@ -52,7 +52,7 @@ from bayescal.robot.compensator import COMPENSATED_JOINT, CompensatorGeometry, s
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.gibbs import GibbsSampler
 from bayescal.sampling.protocol import Sampler
-from bayescal.sampling.summary import converged, diagnostics, summarize, warn_if_unconverged
+from bayescal.sampling.summary import diagnostics, sample_until_converged, summarize, warn_if_unconverged
 from bayescal.units import MM, N_PER_MM, URAD_PER_NM
 
 __all__ = ["ElastostaticModel", "default_sampler", "restore_results"]
@@ -173,7 +173,7 @@ class ElastostaticModel:
     extensions
         Times the sampling may be run again with twice the kept draws per chain while
         R-hat or the ESS fall short of :func:`bayescal.sampling.summary.converged`'s
-        thresholds (0: never; ``bayescal calibrate`` uses :data:`EXTENSIONS` unless
+        thresholds (:func:`bayescal.sampling.summary.sample_until_converged`) (0: never; ``bayescal calibrate`` uses :data:`EXTENSIONS` unless
         ``--draws`` is given).  A misspecified campaign can leave the default draws short.
     """
 
@@ -261,7 +261,12 @@ class ElastostaticModel:
         equations, ident, offset, cf = prepared.equations, prepared.identifiability, prepared.offset, prepared.closed_form
         corrected = replace(equations, y=equations.y - offset)
         static = self._static_columns(campaign, equations, prepared) if self.model == "exact" and ident.compensator else None
-        tree, draws, residual, n_free, summary = self._sample_until_converged(corrected.whitened(), ident, cf, rng, static)
+        (tree, draws, residual, n_free), summary = sample_until_converged(
+            lambda sampler: replace(self, sampler=sampler)._sample(corrected.whitened(), ident, cf, rng, static),
+            self.sampler,
+            self.extensions,
+            what="the elastostatic posterior",
+        )
         tree.attrs.update(
             {"model": self.model, "noise": self.noise, "sampler": type(self.sampler).__name__, "geometry": self.geometry.source}
         )
@@ -503,27 +508,6 @@ class ElastostaticModel:
             joints = tuple(j for j in range(equations.n_joints) if j != COMPENSATED_JOINT and f"k{j + 1}" not in ident.reasons)
             return compensated_posterior(equations, joints, self.geometry, static, GRAVITY_SD), joints
         return per_angle_posterior(equations, ident.identifiable), None
-
-    def _sample_until_converged(self, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm, rng, static):
-        """:meth:`_sample` and the tree's summary, sampled again with twice the draws per chain (at most
-        :attr:`extensions` times) while the diagnostics fall short; an extension is announced."""
-        model = self
-        for extension in range(self.extensions + 1):
-            tree, draws, residual, n_free = model._sample(equations, ident, cf, rng, static)
-            summary = summarize(tree)
-            report = diagnostics(tree, summary)
-            if converged(report) or extension == self.extensions or not hasattr(model.sampler, "n_draws"):
-                break
-            model = replace(model, sampler=replace(model.sampler, n_draws=2 * model.sampler.n_draws))
-        if model is not self:
-            warnings.warn(
-                f"the elastostatic posterior was sampled again with {report['n_draws']} draws per chain to converge "
-                f"(R-hat max {report['r_hat_max']:.3f}, ESS min {min(report['ess_bulk_min'], report['ess_tail_min']):.0f}): "
-                "a misspecified model mixes slower, see bayescal critique",
-                UserWarning,
-                stacklevel=3,
-            )
-        return tree, draws, residual, n_free, summary
 
     def _sample(self, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm, rng, static=None):
         """The posterior tree, its draws, the residuals (whitened) at the posterior mean and the number of parameters
