@@ -173,8 +173,9 @@ class ElastostaticModel:
     extensions
         Times the sampling may be run again with twice the kept draws per chain while
         R-hat or the ESS fall short of :func:`bayescal.sampling.summary.converged`'s
-        thresholds (:func:`bayescal.sampling.summary.sample_until_converged`) (0: never; ``bayescal calibrate`` uses :data:`EXTENSIONS` unless
-        ``--draws`` is given).  A misspecified campaign can leave the default draws short.
+        thresholds (:func:`bayescal.sampling.summary.sample_until_converged`); 0 never
+        extends, ``bayescal calibrate`` uses :data:`EXTENSIONS` unless ``--draws`` is
+        given.  A misspecified campaign can leave the default draws short.
     """
 
     robot: Robot
