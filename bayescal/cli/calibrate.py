@@ -34,7 +34,7 @@ def add_parser(subparsers) -> None:
         "--draws",
         type=whole_number(MIN_DRAWS, "fewer give no usable R-hat or effective sample size"),
         default=None,
-        help=f"kept draws per chain, at least {MIN_DRAWS} (default: the sampler's, 600 for gibbs, 800 for emcee)",
+        help=f"kept draws per chain, at least {MIN_DRAWS} (default: the sampler's, 600 for gibbs, 800 for emcee, doubled up to twice while R-hat or ESS fall short)",
     )
     add_common_options(parser)
     parser.set_defaults(run=run)
@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
     from bayescal.cell.campaign import read_campaign
     from bayescal.cell.config import load_cell
-    from bayescal.inference.elastostatic import ElastostaticModel, default_sampler
+    from bayescal.inference.elastostatic import EXTENSIONS, ElastostaticModel, default_sampler
     from bayescal.inference.priors import posterior_geometry
     from bayescal.errors import InputError
     from bayescal.robot.stiffness import EquilibriumError
@@ -63,7 +63,13 @@ def run(args: argparse.Namespace) -> CommandOutput:
     geometry = posterior_geometry(args.geometry, cell.compensator) if args.geometry else None
     campaign = read_campaign(args.campaign, cell=cell)
     model = ElastostaticModel.from_cell(
-        cell, geometry, model=args.model, sampler=default_sampler(args.sampler, args.draws), noise=args.noise
+        cell,
+        geometry,
+        model=args.model,
+        sampler=default_sampler(args.sampler, args.draws),
+        noise=args.noise,
+        # Draws the user chose are kept as chosen; the default ones grow until they converge.
+        extensions=EXTENSIONS if args.draws is None else 0,
     )
     try:
         results = model.fit(campaign, np.random.default_rng(args.seed))

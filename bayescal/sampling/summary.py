@@ -8,8 +8,9 @@ self-describing.  Intervals follow the paper: ``lo3``/``hi3`` are the mean
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from datetime import datetime, timezone
 from os import PathLike
 from typing import Any
@@ -21,7 +22,7 @@ import xarray as xr
 from bayescal import __version__
 from bayescal.sampling.diagnostics import ess_bulk, ess_tail, rhat
 
-__all__ = ["posterior_tree", "summarize", "diagnostics", "warn_if_unconverged", "ConvergenceWarning", "parameters_json", "save", "load"]
+__all__ = ["posterior_tree", "summarize", "diagnostics", "converged", "sample_until_converged", "warn_if_unconverged", "ConvergenceWarning", "parameters_json", "save", "load"]
 
 R_HAT_LIMIT = 1.01
 """Largest rank-normalised split R-hat accepted as converged (Vehtari et al. 2021)."""
@@ -167,6 +168,48 @@ def diagnostics(tree: xr.DataTree, summary: pd.DataFrame | None = None) -> dict[
         "n_chains": int(posterior.sizes["chain"]),
         "n_draws": int(posterior.sizes["draw"]),
     }
+
+
+def converged(report: dict[str, float | int]) -> bool:
+    """Whether the diagnostics of :func:`diagnostics` meet the thresholds :func:`warn_if_unconverged` warns under."""
+    return report["r_hat_max"] <= R_HAT_LIMIT and min(report["ess_bulk_min"], report["ess_tail_min"]) >= ESS_LIMIT
+
+
+def sample_until_converged(run: Callable[[Any], tuple], sampler: Any, extensions: int, *, what: str):
+    """``run(sampler)``, run again with twice the sampler's kept draws while the diagnostics fall short.
+
+    Parameters
+    ----------
+    run
+        Samples with the sampler it is given; returns a tuple whose first item is the posterior tree.
+    sampler
+        The first sampler: a dataclass with an ``n_draws`` field (others are run once).
+    extensions
+        Most doublings of the draws.
+    what
+        The posterior, as the user knows it, for the warning that announces an extension.
+
+    Returns
+    -------
+    tuple
+        ``run``'s last output and the tree's :func:`summarize`.
+    """
+    for extension in range(extensions + 1):
+        output = run(sampler)
+        summary = summarize(output[0])
+        report = diagnostics(output[0], summary)
+        if converged(report) or extension == extensions or not hasattr(sampler, "n_draws"):
+            break
+        sampler = dataclasses.replace(sampler, n_draws=2 * sampler.n_draws)
+    if extension:
+        warnings.warn(
+            f"{what} was sampled again with {report['n_draws']} draws per chain to converge (R-hat max "
+            f"{report['r_hat_max']:.3f}, ESS min {min(report['ess_bulk_min'], report['ess_tail_min']):.0f}): "
+            "slow mixing often comes with a model that misfits its data, which bayescal critique tests",
+            UserWarning,
+            stacklevel=3,
+        )
+    return output, summary
 
 
 def warn_if_unconverged(report: dict[str, float | int], *, what: str) -> None:

@@ -315,3 +315,36 @@ def test_default_samplers_are_sized_alike_by_the_same_number_of_draws():
     assert default_sampler("emcee", 400).n_draws == 100
     with pytest.raises(ValueError, match="gibbs"):
         default_sampler("nuts")
+
+
+def _fit_recording(model, campaign, seed):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        results = model.fit(campaign, seed)
+    return results, [str(w.message) for w in caught]
+
+
+def test_short_chains_are_doubled_and_the_extension_announced(cell, twin_campaign):
+    campaign = twin_campaign(["link_compliance=2"], seed=5)
+    short = GibbsSampler(n_chains=2, n_tune=20, n_draws=20)
+    kept, messages = _fit_recording(ElastostaticModel.from_cell(cell, model="linear", sampler=short), campaign, 0)
+    assert kept.diagnostics()["n_draws"] == 20
+    assert not any("sampled again" in m for m in messages)
+    grown, messages = _fit_recording(ElastostaticModel.from_cell(cell, model="linear", sampler=short, extensions=2), campaign, 0)
+    # 2 chains of at most 80 draws cannot reach an ESS of 400: both doublings are spent, and said.
+    assert grown.diagnostics()["n_draws"] == 80
+    assert any("sampled again with 80 draws per chain" in m for m in messages)
+    assert any("may not have converged" in m for m in messages)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("effect", ["link_compliance=2", "backlash=0.03"])
+def test_default_calibration_converges_on_misspecified_campaigns(cell, twin_campaign, effect):
+    from bayescal.inference.elastostatic import EXTENSIONS
+    from bayescal.sampling.summary import converged
+
+    for seed in range(40):
+        campaign = twin_campaign([effect], seed=1000 + seed)
+        results, _ = _fit_recording(ElastostaticModel.from_cell(cell, extensions=EXTENSIONS), campaign, seed)
+        report = results.diagnostics()
+        assert converged(report), (seed, report)

@@ -112,3 +112,13 @@ def test_summary_gives_the_central_interval_beside_mean_plus_minus_3_sd():
     assert row["q_lo3"] == pytest.approx(-np.log(1 - 0.00135), rel=0.2)
     assert row["q_hi3"] == pytest.approx(-np.log(0.00135), rel=0.05)
     assert set(parameters_json(summary)["x"]) == {"mean", "sd", "lo3", "hi3", "q_lo3", "q_hi3", "unit"}
+
+
+def test_converged_needs_rhat_and_both_effective_sizes():
+    from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, converged
+
+    good = {"r_hat_max": R_HAT_LIMIT, "ess_bulk_min": ESS_LIMIT, "ess_tail_min": ESS_LIMIT}
+    assert converged(good)
+    assert not converged(good | {"r_hat_max": R_HAT_LIMIT + 0.001})
+    assert not converged(good | {"ess_tail_min": ESS_LIMIT - 1})
+    assert not converged(good | {"r_hat_max": float("nan")})
