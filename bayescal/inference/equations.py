@@ -43,8 +43,16 @@ MAX_DEFLECTION = 50 * MM
 MAX_MARKER_DISTANCE = 2.0
 """Largest distance (m) of a marker from the flange origin: a tool is smaller than this."""
 MARKER_TOLERANCE = 10 * MM
-"""How far a marker's position on the tool may scatter between rows (gravity sag and
-the exact model's correction move it by a few mm at most)."""
+"""How far a marker's position on the tool may scatter between rows once each configuration's
+tool is turned onto the others (:func:`_unsagged`): the markers' noise and the tool's own
+deflection, a fraction of a mm; a swapped label moves a marker by the markers' spacing."""
+SAG_ROTATION = 0.1
+"""Largest rotation (rad, 5.7 deg) of a configuration's whole tool taken as the arm's sag.
+
+A heavy arm with a spring far stiffer than its weight needs sags by degrees before any
+load (the twin's KR-270 with a spring 20 times the cell's: 1.7 deg), which moves every
+marker by tens of mm in the flange frame computed at the commanded joints; a swap of two
+labels on a symmetric tool is a half turn, far beyond it."""
 COUPLE_TOLERANCE = 5.0
 """Largest difference (N·m) between a wrench's couple and its force's moment at the load point taken as
 rounding: the moment of the KR-270's 2,650 N rated load over 2 mm of load point."""
@@ -330,6 +338,35 @@ def _reject_largest(campaign: Campaign, vectors: np.ndarray, limit: float, suffi
         )
 
 
+def _unsagged(campaign: Campaign, points: np.ndarray) -> np.ndarray:
+    """(N, 3) the rows' flange-frame marker points with each configuration's sag turned out.
+
+    The points come from the unloaded readings at the commanded joints, so the arm's
+    sag moves all markers of a configuration together, as one rigid motion of the
+    tool.  Each configuration with three or more markers is turned and shifted onto
+    the markers' median places (the least-squares rigid fit), when that motion is a
+    turn of at most :data:`SAG_ROTATION`; other configurations are left as they are.
+    """
+    labels = np.asarray(campaign.marker).astype(str)
+    names = sorted(set(labels))
+    median = {name: np.median(points[labels == name], axis=0) for name in names}
+    aligned = np.array(points, dtype=float)
+    for config in np.unique(campaign.config):
+        rows = np.flatnonzero(campaign.config == config)
+        seen = sorted(set(labels[rows]))
+        if len(seen) < 3:
+            continue
+        mine = np.array([points[rows[labels[rows] == name]].mean(axis=0) for name in seen])
+        target = np.array([median[name] for name in seen])
+        mine_c, target_c = mine - mine.mean(axis=0), target - target.mean(axis=0)
+        u, _, vt = np.linalg.svd(mine_c.T @ target_c)
+        flip = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
+        rotation = (u @ flip @ vt).T
+        if np.arccos(np.clip((np.trace(rotation) - 1) / 2, -1.0, 1.0)) <= SAG_ROTATION:
+            aligned[rows] = (points[rows] - mine.mean(axis=0)) @ rotation.T + target.mean(axis=0)
+    return aligned
+
+
 def _check_markers(campaign: Campaign, points: np.ndarray) -> None:
     """Each marker label must name one point of the tool, measured in several configurations.
 
@@ -340,6 +377,7 @@ def _check_markers(campaign: Campaign, points: np.ndarray) -> None:
     bias the compliances.
     """
     labels = sorted(set(campaign.marker))
+    aligned = _unsagged(campaign, points)
     configurations = {label: np.unique(campaign.config[campaign.marker == label]) for label in labels}
     repeated = [label for label in labels if configurations[label].size >= 2]
     for label in labels:
@@ -353,8 +391,8 @@ def _check_markers(campaign: Campaign, points: np.ndarray) -> None:
                 line=int(campaign.lines[rows[0]]) or None,
                 column="marker",
             )
-        centre = np.median(points[rows], axis=0)
-        offset = np.linalg.norm(points[rows] - centre, axis=1)
+        centre = np.median(aligned[rows], axis=0)
+        offset = np.linalg.norm(aligned[rows] - centre, axis=1)
         worst = int(np.argmax(offset))
         if offset[worst] > MARKER_TOLERANCE:
             raise InputError(
