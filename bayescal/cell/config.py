@@ -19,11 +19,11 @@ from typing import Any
 
 import numpy as np
 
-from bayescal.robot.compensator import COMPENSATED_JOINT, Compensator
+from bayescal.robot.compensator import Compensator
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
 from bayescal.cell.tracker import TrackerNoise
-from bayescal.units import DEG, MM, N_PER_MM, UM, URAD_PER_NM
+from bayescal.units import DEG, MM, N_PER_MM, UM, UM_PER_N, URAD_PER_NM
 
 __all__ = ["Cell", "DesignLimits", "load_cell", "OVERLOAD_FACTOR", "MIN_LOAD_FRACTION", "SCHEMA"]
 
@@ -47,15 +47,18 @@ load.  A campaign whose largest force is below it is far more likely a wrench
 written in kN (1000 times smaller) than one measured so.
 """
 
+DEFAULT_COMPENSATED_JOINT = 1
+"""Index (0-based) of the compensated joint when ``[compensator]`` gives no ``joint``: A2, as on the KR-270."""
+
 SCHEMA: dict[str, frozenset[str] | None] = {
-    "robot": frozenset({"urdf", "flange", "payload_kg"}),
-    "joints": frozenset({"k_urad_per_Nm"}),
-    "compensator": frozenset({"L_mm", "a_x_mm", "a_y_mm", "phi_deg", "K_c_N_per_mm", "s0_mm"}),
+    "robot": frozenset({"urdf", "flange", "payload_kg", "joints", "locked_deg", "locked_mm"}),
+    "joints": frozenset({"k_urad_per_Nm", "k_um_per_N"}),
+    "compensator": frozenset({"joint", "L_mm", "a_x_mm", "a_y_mm", "phi_deg", "K_c_N_per_mm", "s0_mm"}),
     "tool": frozenset({"load_point_mm", "markers_mm"}),
     "tool.markers_mm": None,
     "tracker": frozenset({"position_mm", "U0_um", "U1_um_per_m", "factor"}),
     "load": frozenset({"mass_kg", "gravity_m_per_s2"}),
-    "test_pose": frozenset({"q_deg", "wrench_N_Nm", "point_mm"}),
+    "test_pose": frozenset({"q_deg", "q_mm", "wrench_N_Nm", "point_mm"}),
     "design": frozenset({"mass_kg", "acceptance_deg", "floor_z_mm", "hanging_clearance_mm"}),
 }
 """The tables of a cell file and their keys (``None``: any key, e.g. marker names).
@@ -94,9 +97,10 @@ class Cell:
     ----------
     robot : Robot
     compliances : numpy.ndarray
-        (nq,) joint compliances, rad/(N·m); joint 2's excludes the compensator.
+        (nq,) joint compliances, rad/(N·m) for a revolute joint and m/N for a prismatic
+        one; the compensated joint's excludes the compensator.
     compensator : Compensator or None
-        The spring compensator on joint 2.
+        The spring compensator, on the joint :attr:`compensated_joint`.
     load_point : numpy.ndarray
         (3,) where loads hang on the tool, flange frame, m.
     markers : dict of str to numpy.ndarray
@@ -107,7 +111,7 @@ class Cell:
     gravity : float
         Gravitational acceleration (m/s²) that turns load masses into forces.
     test_q : numpy.ndarray
-        (nq,) test pose, rad.
+        (nq,) test pose, rad (m for a prismatic joint).
     test_wrench : numpy.ndarray
         (6,) wrench at the test pose, ``[f (N); m (N·m)]`` at the flange origin, base axes.
     test_point : numpy.ndarray
@@ -118,6 +122,9 @@ class Cell:
         The robot's rated payload, kg (``robot.payload_kg``), when the file gives it.
     design : DesignLimits
         The ``[design]`` table: what campaigns of this cell may load and where they must keep clear.
+    compensator_joint : int
+        Index (0-based) of the joint the compensator acts on (``[compensator] joint``, 1-based,
+        default 2); meaningless without a compensator (read :attr:`compensated_joint`).
     """
 
     robot: Robot
@@ -134,11 +141,12 @@ class Cell:
     source: str
     payload_kg: float | None = None
     design: DesignLimits = DesignLimits()
+    compensator_joint: int = DEFAULT_COMPENSATED_JOINT
 
     @property
     def compensated_joint(self) -> int | None:
         """Index (0-based) of the joint that carries the compensator, or ``None`` when the cell has none."""
-        return None if self.compensator is None else COMPENSATED_JOINT
+        return None if self.compensator is None else self.compensator_joint
 
     @property
     def capacity_weight(self) -> float:
@@ -312,6 +320,76 @@ def _design_limits(reader: _Reader) -> DesignLimits:
     )
 
 
+def _read_robot(reader: _Reader, file: Path) -> Robot:
+    """The ``[robot]`` table: the URDF reduced to the named chain, other joints locked at their values."""
+    urdf = file.parent / reader.text("robot", "urdf")
+    flange = reader.text("robot", "flange", default="flange")
+    table = reader.table("robot")
+    joints = None
+    if "joints" in table:
+        joints = table["joints"]
+        if not isinstance(joints, list) or not joints or not all(isinstance(name, str) and name for name in joints):
+            reader.fail(f"expected a list of joint names from the base to the flange, got {joints!r}", "robot", "joints")
+    locked: dict[str, tuple[float, str]] = {}
+    for key, scale, unit, kind in (("locked_deg", DEG, "deg", "revolute"), ("locked_mm", MM, "mm", "prismatic")):
+        values = table.get(key, {})
+        ok = isinstance(values, Mapping) and all(not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) for v in values.values())
+        if not ok:
+            reader.fail(f"expected a table of joint names and positions in {unit}, e.g. {{ finger = 0 }}, got {values!r}", "robot", key)
+        locked |= {str(name): (float(value) * scale, kind) for name, value in values.items()}
+    _check_urdf_xml(urdf)
+    try:
+        robot = Robot.from_urdf(urdf, flange=flange, joints=joints, locked=locked)
+    except InputError as error:
+        key = "flange" if error.what.startswith("the model has no frame") else (error.column or "robot.urdf").split(".")[-1]
+        reader.fail(f"{error.what} ({urdf})", "robot", key)
+    return robot
+
+
+def _per_joint(reader: _Reader, robot: Robot, table: str, keys: tuple[str, str], scales: tuple[float, float]) -> np.ndarray:
+    """(nq,) values in SI from a list for the revolute joints and one for the prismatic joints, each in chain order."""
+    values = np.empty(robot.nq)
+    for key, scale, prismatic in zip(keys, scales, (False, True)):
+        joints = np.flatnonzero(robot.prismatic == prismatic)
+        unit = key.split("_", 1)[1]
+        if joints.size == 0:
+            if key in reader.table(table):
+                reader.fail(f"the robot has no {'prismatic' if prismatic else 'revolute'} joint: remove '{key}'", table, key)
+            continue
+        names = ", ".join(robot.joint_names[j] for j in joints)
+        values[joints] = reader.vector(table, key, joints.size, unit=f"{unit} for {names}") * scale
+    return values
+
+
+def _read_compensator(reader: _Reader, robot: Robot) -> tuple[Compensator | None, int]:
+    """The ``[compensator]`` table: the spring of eqs 4-9 and the (0-based) joint it acts on, or ``None``."""
+    if reader.table("compensator", required=False) is None:
+        return None, DEFAULT_COMPENSATED_JOINT
+    table = reader.table("compensator")
+    joint = DEFAULT_COMPENSATED_JOINT
+    if "joint" in table:
+        number = table["joint"]
+        if isinstance(number, bool) or not isinstance(number, int) or not 1 <= number <= robot.nq:
+            reader.fail(f"expected a joint number from 1 to {robot.nq} (1-based, base first), got {number!r}", "compensator", "joint")
+        joint = number - 1
+    elif robot.nq <= joint:
+        reader.fail(f"the robot has {robot.nq} joint(s): give the compensated joint as joint = <1..{robot.nq}>", "compensator")
+    if robot.prismatic[joint]:
+        reader.fail(f"joint {joint + 1} ({robot.joint_names[joint]}) is prismatic: the spring compensator of eqs 4-9 turns a revolute joint", "compensator", "joint")
+    values = {
+        "L": reader.number("compensator", "L_mm", unit="mm", positive=True) * MM,
+        "a_x": reader.number("compensator", "a_x_mm", unit="mm") * MM,
+        "a_y": reader.number("compensator", "a_y_mm", unit="mm") * MM,
+        "phi": reader.number("compensator", "phi_deg", unit="deg") * DEG,
+        "K_c": reader.number("compensator", "K_c_N_per_mm", unit="N/mm", non_negative=True) * N_PER_MM,
+        "s0": reader.number("compensator", "s0_mm", unit="mm", non_negative=True) * MM,
+    }
+    try:
+        return Compensator(**values), joint
+    except ValueError as exc:
+        reader.fail(str(exc), "compensator")
+
+
 def load_cell(path: str | PathLike[str]) -> Cell:
     """Read a cell TOML file (schema in ``docs/twin.md``) and convert it to SI.
 
@@ -348,37 +426,15 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     reader = _Reader(data, text, source)
     reader.check_keys()
 
-    urdf = file.parent / reader.text("robot", "urdf")
-    flange = reader.text("robot", "flange", default="flange")
-    _check_urdf_xml(urdf)
-    try:
-        robot = Robot.from_urdf(urdf, flange=flange)
-    except InputError as error:
-        key = "flange" if error.what.startswith("the model has no frame") else "urdf"
-        reader.fail(f"{error.what} ({urdf})", "robot", key)
-
+    robot = _read_robot(reader, file)
     payload = None
     if "payload_kg" in reader.table("robot"):
         payload = reader.number("robot", "payload_kg", unit="kg", positive=True)
 
-    compliances = reader.vector("joints", "k_urad_per_Nm", robot.nq, unit="μrad/(N·m)") * URAD_PER_NM
+    compliances = _per_joint(reader, robot, "joints", ("k_urad_per_Nm", "k_um_per_N"), (URAD_PER_NM, UM_PER_N))
     if np.any(compliances <= 0):
-        reader.fail("expected positive joint compliances in μrad/(N·m)", "joints", "k_urad_per_Nm")
-
-    compensator = None
-    if reader.table("compensator", required=False) is not None:
-        values = {
-            "L": reader.number("compensator", "L_mm", unit="mm", positive=True) * MM,
-            "a_x": reader.number("compensator", "a_x_mm", unit="mm") * MM,
-            "a_y": reader.number("compensator", "a_y_mm", unit="mm") * MM,
-            "phi": reader.number("compensator", "phi_deg", unit="deg") * DEG,
-            "K_c": reader.number("compensator", "K_c_N_per_mm", unit="N/mm", non_negative=True) * N_PER_MM,
-            "s0": reader.number("compensator", "s0_mm", unit="mm", non_negative=True) * MM,
-        }
-        try:
-            compensator = Compensator(**values)
-        except ValueError as exc:
-            reader.fail(str(exc), "compensator")
+        reader.fail("expected positive joint compliances in μrad/(N·m) (revolute) and μm/N (prismatic)", "joints")
+    compensator, compensator_joint = _read_compensator(reader, robot)
 
     load_point = reader.vector("tool", "load_point_mm", 3, unit="mm") * MM
     marker_table = reader.table("tool.markers_mm")
@@ -401,11 +457,11 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     load_mass = reader.number("load", "mass_kg", unit="kg", positive=True)
     gravity = reader.number("load", "gravity_m_per_s2", unit="m/s²", positive=True, default=9.80665)
 
-    test_q = reader.vector("test_pose", "q_deg", robot.nq, unit="deg") * DEG
+    test_q = _per_joint(reader, robot, "test_pose", ("q_deg", "q_mm"), (DEG, MM))
     try:
         robot.check_limits(test_q)
     except InputError as error:
-        reader.fail(error.what, "test_pose", "q_deg")
+        reader.fail(error.what, "test_pose", "q_mm" if error.column.endswith("_mm") else "q_deg")
 
     test_wrench = reader.vector("test_pose", "wrench_N_Nm", 6, unit="N and N·m")
     cell = Cell(
@@ -423,6 +479,7 @@ def load_cell(path: str | PathLike[str]) -> Cell:
         test_point=reader.vector("test_pose", "point_mm", 3, unit="mm") * MM,
         source=source,
         payload_kg=payload,
+        compensator_joint=compensator_joint,
     )
     force = float(np.linalg.norm(test_wrench[:3]))
     if force > cell.max_force:

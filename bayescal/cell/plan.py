@@ -1,7 +1,7 @@
 """Calibration plans: the robot configurations of an elastostatic campaign and their loads.
 
 A plan CSV has one row per configuration with the controller's joint angles
-``q1_deg`` … ``q<n>_deg`` and, optionally, the mass ``load_kg`` hung at the tool's
+``q1_deg`` … ``q<n>_deg`` (``q<j>_mm``, in mm, for a prismatic joint) and, optionally, the mass ``load_kg`` hung at the tool's
 load point in that configuration.  Configurations are numbered 1, 2, … in file
 order; lines starting with ``#`` are provenance notes.
 """
@@ -19,7 +19,7 @@ import numpy as np
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
 from bayescal.tables import read_header, read_table
-from bayescal.units import DEG
+from bayescal.units import DEG, MM
 
 __all__ = ["Plan", "read_plan", "write_plan"]
 
@@ -31,18 +31,21 @@ class Plan:
     Attributes
     ----------
     q : numpy.ndarray
-        (M, nq) joint angles, rad.
+        (M, nq) joint positions, rad (m for a prismatic joint).
     load_kg : numpy.ndarray or None
         (M,) load masses, kg; ``None`` when the plan leaves them to the cell.
     lines : numpy.ndarray
         (M,) line numbers in the source file.
     source : str
+    prismatic : numpy.ndarray of bool or None
+        (nq,) which joints are prismatic (written in mm); ``None``: all revolute.
     """
 
     q: np.ndarray
     load_kg: np.ndarray | None
     lines: np.ndarray
     source: str = "<memory>"
+    prismatic: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.q)
@@ -73,9 +76,9 @@ def read_plan(path: str | PathLike[str], robot: Robot, *, max_load_kg: float | N
         limits, or a load that is not positive or above ``max_load_kg``.
     """
     source = str(path)
-    joints = [f"q{j}_deg" for j in range(1, robot.nq + 1)]
+    joints = list(robot.position_columns)
     header = read_header(path)
-    extra = [name for name in (header[1] if header else []) if re.fullmatch(r"q[0-9]+_deg", name) and name not in joints]
+    extra = [name for name in (header[1] if header else []) if re.fullmatch(r"q[0-9]+_(deg|mm)", name) and name not in joints]
     if extra:
         raise InputError(
             f"the plan has a column {extra[0]} but the robot ({robot.source}) has {robot.nq} joints: "
@@ -88,9 +91,9 @@ def read_plan(path: str | PathLike[str], robot: Robot, *, max_load_kg: float | N
         path,
         {name: "number" for name in joints},
         optional={"load_kg": "number"},
-        units={name: "deg" for name in joints} | {"load_kg": "kg"},
+        units={name: unit for name, unit in zip(joints, robot.position_units)} | {"load_kg": "kg"},
     )
-    q = frame[joints].to_numpy(dtype=float) * DEG
+    q = frame[joints].to_numpy(dtype=float) * robot.position_scale
     for line, row in zip(frame.index, q):
         robot.check_limits(row, source=source, line=int(line))
     load = None
@@ -113,21 +116,25 @@ def read_plan(path: str | PathLike[str], robot: Robot, *, max_load_kg: float | N
                 line=int(frame.index[row]),
                 column="load_kg",
             )
-    return Plan(q=q, load_kg=load, lines=frame.index.to_numpy(dtype=int), source=source)
+    prismatic = robot.prismatic.copy() if robot.prismatic.any() else None
+    return Plan(q=q, load_kg=load, lines=frame.index.to_numpy(dtype=int), source=source, prismatic=prismatic)
 
 
 def write_plan(plan: Plan, path: str | PathLike[str], *, comments: Sequence[str] = ()) -> None:
     """Write ``plan`` in the format :func:`read_plan` reads; ``comments`` become leading ``#`` lines.
 
     Joint angles are written with 3 decimals in deg (about 17 μrad, far below the
-    controllers' repeatability), loads with 1 decimal in kg.
+    controllers' repeatability), prismatic joints' positions with 3 decimals in mm,
+    loads with 1 decimal in kg.
     """
     lines = [f"# {line}" for comment in comments for line in str(comment).splitlines()]
-    joints = [f"q{j}_deg" for j in range(1, plan.q.shape[1] + 1)]
+    prismatic = np.zeros(plan.q.shape[1], dtype=bool) if plan.prismatic is None else plan.prismatic
+    joints = [f"q{j + 1}_{'mm' if linear else 'deg'}" for j, linear in enumerate(prismatic)]
+    scale = np.where(prismatic, MM, DEG)
     lines.append(",".join(joints + ([] if plan.load_kg is None else ["load_kg"])))
     for number, q in enumerate(plan.q):
         # "+ 0.0" turns a rounded -0.0 into 0.0 so the file does not depend on rounding sign.
-        fields = [f"{round(float(value / DEG), 3) + 0.0:.3f}" for value in q]
+        fields = [f"{round(float(value / unit), 3) + 0.0:.3f}" for value, unit in zip(q, scale)]
         if plan.load_kg is not None:
             fields.append(f"{float(plan.load_kg[number]):.1f}")
         lines.append(",".join(fields))

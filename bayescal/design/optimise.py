@@ -321,7 +321,8 @@ class PlanDesigner:
         raise InputError(f"no random feasible plan with {angles} angles found (most frequent reason: {reasons.most_common(1)})", source="--angles")
 
     def _plan(self, q: np.ndarray) -> Plan:
-        return Plan(q=q, load_kg=np.full(len(q), self.mass), lines=np.zeros(len(q), dtype=int), source="optimised")
+        prismatic = self.cell.robot.prismatic.copy() if self.cell.robot.prismatic.any() else None
+        return Plan(q=q, load_kg=np.full(len(q), self.mass), lines=np.zeros(len(q), dtype=int), source="optimised", prismatic=prismatic)
 
     # ----------------------------------------------------------------- optimisation
 

@@ -63,7 +63,8 @@ def random_plan(cell: Cell, angles: int, per_angle: int, rng: np.random.Generato
     q2 = rng.uniform(edges[:-1], edges[1:])
     q = rng.uniform(low, high, (angles * per_angle, robot.nq))
     q[:, COMPENSATED_JOINT] = np.repeat(q2, per_angle)
-    return Plan(q=q, load_kg=None, lines=np.zeros(len(q), dtype=int), source="random plan")
+    prismatic = cell.robot.prismatic.copy() if cell.robot.prismatic.any() else None
+    return Plan(q=q, load_kg=None, lines=np.zeros(len(q), dtype=int), source="random plan", prismatic=prismatic)
 
 
 def elastostatic_coverage(
