@@ -149,6 +149,15 @@ class Cell:
         return None if self.compensator is None else self.compensator_joint
 
     @property
+    def plan_joint(self) -> int:
+        """Index (0-based) of the joint whose angles group a campaign's configurations.
+
+        The compensated joint, whose compliance the identification takes per angle; without
+        a compensator the same default joint, kept so that plans keep their structure.
+        """
+        return min(self.compensator_joint, self.robot.nq - 1)
+
+    @property
     def capacity_weight(self) -> float:
         """Weight (N) of the larger of the rated payload and the calibration load: the scale of plausible loads."""
         return max(self.payload_kg or 0.0, self.load_mass) * self.gravity

@@ -33,7 +33,6 @@ from bayescal.critique.covariates import COVARIATES, Rows, campaign_rows, pose_r
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
 from bayescal.errors import InputError
 from bayescal.inference.equations import check_campaign
-from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.units import DEG, MM
 
 __all__ = ["Critique", "CritiqueResults", "Outcome", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED", "passes", "strongest", "check_candidates"]
@@ -189,7 +188,7 @@ def _residual_table(rows: Rows, y: np.ndarray, base: CrossValidation, final: Cro
             "marker": repeat(rows.marker),
             "axis": np.tile(np.array(["x", "y", "z"]), len(rows)),
             "order": repeat(rows.order),
-            "q2_deg": repeat(rows.q[:, COMPENSATED_JOINT] / DEG),
+            "q2_deg": repeat(rows.q[:, rows.plan_joint] / DEG),
             "reach_mm": repeat(np.hypot(rows.position[:, 0], rows.position[:, 1]) / MM),
             "tracker_distance_mm": repeat(rows.tracker_distance / MM),
             "load_N": repeat(np.linalg.norm(rows.wrench[:, :3], axis=1)),

@@ -44,7 +44,6 @@ from dataclasses import replace
 
 from bayescal.cell.config import Cell
 from bayescal.reference import published
-from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.robot.stiffness import ElasticArm, compliance_design
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import MM, N_PER_MM, URAD_PER_NM
@@ -101,7 +100,7 @@ def compliance_chain(cell: Cell, q2: float) -> tuple[np.ndarray, np.ndarray]:
     chain = np.eye(cell.robot.nq, len(parameter_names(cell)))
     compensator = cell.compensator
     if compensator is not None:
-        j2 = COMPENSATED_JOINT
+        j2 = cell.compensated_joint
         effective[j2] = 1.0 / (1.0 / k[j2] + compensator.stiffness(q2))
         # K_c·a·L·η = C1·K_c + C2·s0·K_c (eq 35): derivatives C1 + s0·C2 in K_c and K_c·C2 in s0.
         _, c1, c2 = compensator.regressor(q2)
@@ -132,7 +131,7 @@ def configuration_design(cell: Cell, q, wrench) -> tuple[np.ndarray, np.ndarray]
         (3·markers,) standard deviation of each deflection coordinate (m): ``√2 σ(p)``.
     """
     q = np.asarray(q, dtype=float)
-    _, chain = compliance_chain(cell, float(q[COMPENSATED_JOINT]))
+    _, chain = compliance_chain(cell, float(q[cell.plan_joint]))
     chain = chain * nominal_parameters(cell)[np.newaxis, :]
     points = list(cell.markers.values())
     rows = [compliance_design(cell.robot, q, point, wrench) @ chain for point in points]
@@ -155,7 +154,7 @@ def configuration_information(cell: Cell, q, mass: float, repeats: int = 1, *, e
 
 def test_pose_design(cell: Cell) -> np.ndarray:
     """(3, p) derivative of the test point's deflection (m) under the test wrench in the relative parameters."""
-    _, chain = compliance_chain(cell, float(cell.test_q[COMPENSATED_JOINT]))
+    _, chain = compliance_chain(cell, float(cell.test_q[cell.plan_joint]))
     chain = chain * nominal_parameters(cell)[np.newaxis, :]
     return compliance_design(cell.robot, cell.test_q, cell.test_point, cell.test_wrench) @ chain
 
@@ -182,7 +181,7 @@ def solve_equilibrium(cell: Cell, q, wrench, load_point) -> np.ndarray:
 
     Raises :class:`~bayescal.robot.stiffness.EquilibriumError` when there is none.
     """
-    return ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, load_point=load_point).equilibrium(q, wrench)
+    return ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, load_point=load_point, compensated_joint=cell.compensated_joint).equilibrium(q, wrench)
 
 
 def test_deflection(cell: Cell) -> np.ndarray:

@@ -32,7 +32,7 @@ from os import PathLike
 import numpy as np
 import pandas as pd
 
-from bayescal.cell.config import Cell
+from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT, Cell
 from bayescal.cell.plan import Plan, write_plan
 from bayescal.design.constraints import DesignSpace, Feasibility, load_design_space
 from bayescal.design.criteria import (
@@ -46,7 +46,6 @@ from bayescal.design.criteria import (
     test_pose_design,
 )
 from bayescal.errors import InputError
-from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.units import DEG, MM
 
 __all__ = ["PlanDesign", "PlanDesigner"]
@@ -122,6 +121,8 @@ class PlanDesign:
         Size of the candidate set.
     seed : int or None
         The seed the optimisation ran with, when given as an integer.
+    plan_joint : int
+        Index (0-based) of the joint whose angles group the plan (the cell's).
     """
 
     plan: Plan
@@ -133,6 +134,7 @@ class PlanDesign:
     starts: list[float] = field(default_factory=list)
     candidates: int = 0
     seed: int | None = None
+    plan_joint: int = DEFAULT_COMPENSATED_JOINT
 
     def summary(self) -> pd.DataFrame:
         """Predicted precision per parameter (see :meth:`PlanPrediction.summary`)."""
@@ -140,7 +142,7 @@ class PlanDesign:
 
     def to_json(self) -> dict:
         """``criterion`` (ρ0, mm), the optimised criterion, the plan's angles and each parameter's ±3σ width."""
-        q2 = np.unique(np.round(self.plan.q[:, COMPENSATED_JOINT] / DEG, 3))
+        q2 = np.unique(np.round(self.plan.q[:, self.plan_joint] / DEG, 3))
         return self.prediction.to_json() | {
             "model": "exact",
             "linear_model": self.linear.to_json(),
@@ -197,7 +199,7 @@ class PlanDesigner:
         self.mass = self.space.mass_range[1]
         self._test_design = test_pose_design(cell)
         robot = cell.robot
-        j2 = COMPENSATED_JOINT
+        j2 = cell.plan_joint
         self.q2_range = (float(robot.lower[j2]), float(robot.upper[j2]))
 
     # ----------------------------------------------------------------- scoring
@@ -265,7 +267,7 @@ class PlanDesigner:
         robot = self.cell.robot
         for _ in range(tries):
             q = rng.uniform(robot.lower, robot.upper)
-            q[COMPENSATED_JOINT] = q2
+            q[self.cell.plan_joint] = q2
             reason = self.feasibility.violation(q, self.mass)
             if reason is None:
                 return q
@@ -401,6 +403,7 @@ class PlanDesigner:
             starts=scores,
             candidates=len(configurations),
             seed=seed,
+            plan_joint=self.cell.plan_joint,
         )
 
     def _separated(self, values: list[float]) -> bool:
@@ -455,7 +458,7 @@ class PlanDesigner:
 
     def _refine(self, q: np.ndarray, angles: int, per_angle: int, criterion: str, rng: np.random.Generator, steps: int):
         robot = self.cell.robot
-        j2 = COMPENSATED_JOINT
+        j2 = self.cell.plan_joint
         q = q.copy()
         parts = np.array([self.information(row, self.mass) for row in q])
         current = self._score(parts.sum(axis=0), criterion)

@@ -48,7 +48,8 @@ from bayescal.inference.identifiability import Identifiability, analyse, grouped
 from bayescal.inference.likelihood import compensated_posterior, per_angle_posterior
 from bayescal.inference.priors import GeometryPrior, config_geometry
 from bayescal.inference.results import ElastostaticDraws, ElastostaticResults, parameter_units
-from bayescal.robot.compensator import COMPENSATED_JOINT, CompensatorGeometry, stiffness_regressor
+from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
+from bayescal.robot.compensator import CompensatorGeometry, stiffness_regressor
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.gibbs import GibbsSampler
 from bayescal.sampling.protocol import Sampler
@@ -163,6 +164,8 @@ class ElastostaticModel:
         The tracker's noise model: weights the equations by its distance-dependent
         error and gives the chi-square of the fit against the nominal noise.
         None: equal weights, no chi-square.
+    compensated_joint
+        Index (0-based) of the joint the compensator acts on: the cell's.
     """
 
     robot: Robot
@@ -175,6 +178,7 @@ class ElastostaticModel:
     load_point: np.ndarray | None = None
     tracker: TrackerNoise | None = None
     max_iterations: int = 10
+    compensated_joint: int = DEFAULT_COMPENSATED_JOINT
 
     @classmethod
     def from_cell(cls, cell: Cell, geometry: GeometryPrior | None = None, **options) -> ElastostaticModel:
@@ -193,6 +197,7 @@ class ElastostaticModel:
             nominal_spring=spring,
             load_point=cell.load_point,
             tracker=cell.tracker,
+            compensated_joint=cell.compensated_joint,
             **options,
         )
 
@@ -204,7 +209,9 @@ class ElastostaticModel:
     def _prepare(self, campaign: Campaign, *, announce: bool = True) -> _Prepared:
         if self.model not in ("exact", "linear"):
             raise ValueError(f"model must be 'exact' or 'linear', got {self.model!r}")
-        equations, torque, points = deflection_equations(self.robot, campaign, noise=self.noise, tracker=self.tracker)
+        equations, torque, points = deflection_equations(
+            self.robot, campaign, noise=self.noise, tracker=self.tracker, joint=self.compensated_joint
+        )
         check_campaign(self.robot, campaign, points)
         if announce:
             check_load_point(self.robot, campaign, self.load_point)
@@ -342,6 +349,7 @@ class ElastostaticModel:
             closed_form=cf,
             model=self.model,
             q2=equations.q2,
+            joint=equations.joint,
             draws=draws,
             geometry=self.geometry,
             n_equations=equations.n,
@@ -397,7 +405,7 @@ class ElastostaticModel:
         share = 100.0 * np.abs(compensator.stiffness(equations.q2)) * k2
         columns = [c for c, keep in zip(equations.per_angle_columns(), ident.identifiable) if keep]
         sd = np.sqrt(np.diag(cf.cov))
-        resolution = [300.0 * sd[i] / cf.per_angle[i] for i, (joint, _) in enumerate(columns) if joint == COMPENSATED_JOINT]
+        resolution = [300.0 * sd[i] / cf.per_angle[i] for i, (joint, _) in enumerate(columns) if joint == equations.joint]
         return (
             f"the compensator changes the joint-2 stiffness by {share.min():.2f}–{share.max():.2f} % across the "
             f"campaign's {equations.q2.size} q2 angles (at the config's K_c = {Kc / N_PER_MM:.4g} N/mm, "
@@ -418,7 +426,7 @@ class ElastostaticModel:
         """
         compliances = np.where(np.isfinite(cf.compliances) & (cf.compliances > 0), cf.compliances, self.nominal_compliances)
         compensator = CompensatorGeometry(*self.geometry.mean).with_spring(*(spring or self.nominal_spring))
-        nominal_k2 = compensator.equivalent_compliance(equations.q2, self.nominal_compliances[COMPENSATED_JOINT])
+        nominal_k2 = compensator.equivalent_compliance(equations.q2, self.nominal_compliances[equations.joint])
         k2 = np.where(np.isfinite(cf.k2) & (cf.k2 > 0), cf.k2, nominal_k2)
         return linearisation_offset(robot or self.robot, campaign, equations, compliances, k2, compensator, self.load_point)
 
@@ -476,7 +484,7 @@ class ElastostaticModel:
     def _posterior(self, equations: DeflectionEquations, ident: Identifiability, static=None):
         """The posterior density of the (whitened) equations and, in the compensated model, the joints it samples."""
         if ident.compensator:
-            joints = tuple(j for j in range(equations.n_joints) if j != COMPENSATED_JOINT and f"k{j + 1}" not in ident.reasons)
+            joints = tuple(j for j in range(equations.n_joints) if j != equations.joint and f"k{j + 1}" not in ident.reasons)
             return compensated_posterior(equations, joints, self.geometry, static, GRAVITY_SD), joints
         return per_angle_posterior(equations, ident.identifiable), None
 

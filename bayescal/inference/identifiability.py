@@ -38,7 +38,6 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from bayescal.robot.compensator import COMPENSATED_JOINT
 
 __all__ = [
     "Identifiability",
@@ -197,7 +196,8 @@ def analyse(
     condition = float(singular.max() / singular.min()) if singular.size else math.inf
     vif = dict(zip([names[i] for i in kept], np.diag(np.linalg.inv(scaled.T @ scaled)))) if kept.size else {}
 
-    joint2_angles = sorted({columns[i][1] for i in kept if columns[i][0] == COMPENSATED_JOINT})
+    # Only the compensated joint's compliance has one column per angle.
+    joint2_angles = sorted({columns[i][1] for i in kept if columns[i][1] is not None})
     compensator = len(joint2_angles) >= _MIN_ANGLES
     if not compensator:
         listed = ", ".join(f"{math.degrees(q2[a]):.2f}" for a in joint2_angles) or "none"

@@ -12,7 +12,8 @@ from bayescal.inference.closedform import ClosedForm
 from bayescal.inference.equations import ANGLE_DECIMALS, DeflectionEquations
 from bayescal.inference.identifiability import Identifiability, angle_label
 from bayescal.inference.priors import GeometryPrior
-from bayescal.robot.compensator import COMPENSATED_JOINT, stiffness_regressor
+from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
+from bayescal.robot.compensator import stiffness_regressor
 from bayescal.sampling.gibbs import ConditionallyLinear
 from bayescal.sampling.summary import diagnostics
 from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
@@ -188,6 +189,8 @@ class ElastostaticResults:
         Estimates of eqs 33-34 without the exact model's correction.
     summary_table : pandas.DataFrame | None
         :meth:`summary`, once computed.
+    joint : int
+        Index (0-based) of the compensated joint, whose compliance is per angle.
     """
 
     tree: object
@@ -206,6 +209,7 @@ class ElastostaticResults:
     residuals: np.ndarray = field(default_factory=lambda: np.empty((0, 3)), repr=False)
     linear_closed_form: ClosedForm | None = None
     summary_table: pd.DataFrame | None = field(default=None, repr=False)
+    joint: int = DEFAULT_COMPENSATED_JOINT
     sampler_name: str = "gibbs"
 
     @property
@@ -343,7 +347,7 @@ class ElastostaticResults:
         """
         d = self.draws
         n_joints = self.closed_form.compliances.size
-        missing = [j for j in range(n_joints) if j != COMPENSATED_JOINT and f"k{j + 1}" not in d.compliances]
+        missing = [j for j in range(n_joints) if j != self.joint and f"k{j + 1}" not in d.compliances]
         if missing and fill is None:
             return None
         if d.spring is not None:
@@ -354,7 +358,7 @@ class ElastostaticResults:
                 return None
             k2 = d.k2[..., match[0]].reshape(-1)
         columns = [
-            k2 if j == COMPENSATED_JOINT else np.full(k2.size, fill[j]) if j in missing else d.compliances[f"k{j + 1}"].reshape(-1)
+            k2 if j == self.joint else np.full(k2.size, fill[j]) if j in missing else d.compliances[f"k{j + 1}"].reshape(-1)
             for j in range(n_joints)
         ]
         return np.column_stack(columns)

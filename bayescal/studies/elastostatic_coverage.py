@@ -24,7 +24,6 @@ from bayescal.cell.config import Cell
 from bayescal.cell.plan import Plan
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.exact import scale_masses
-from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.sampling.protocol import Sampler
 from bayescal.studies.parallel import seeded_map
 from bayescal.twin.simulator import DigitalTwin
@@ -59,10 +58,10 @@ def random_plan(cell: Cell, angles: int, per_angle: int, rng: np.random.Generato
     robot = cell.robot
     low = robot.lower + LIMIT_MARGIN * (robot.upper - robot.lower)
     high = robot.upper - LIMIT_MARGIN * (robot.upper - robot.lower)
-    edges = np.linspace(low[COMPENSATED_JOINT], high[COMPENSATED_JOINT], angles + 1)
+    edges = np.linspace(low[cell.plan_joint], high[cell.plan_joint], angles + 1)
     q2 = rng.uniform(edges[:-1], edges[1:])
     q = rng.uniform(low, high, (angles * per_angle, robot.nq))
-    q[:, COMPENSATED_JOINT] = np.repeat(q2, per_angle)
+    q[:, cell.plan_joint] = np.repeat(q2, per_angle)
     prismatic = cell.robot.prismatic.copy() if cell.robot.prismatic.any() else None
     return Plan(q=q, load_kg=None, lines=np.zeros(len(q), dtype=int), source="random plan", prismatic=prismatic)
 
