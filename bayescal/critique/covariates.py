@@ -115,11 +115,15 @@ class Rows:
 
     def take(self, index: np.ndarray) -> Rows:
         """The rows ``index``."""
-        return Rows(**{name: getattr(self, name)[index] for name in self.__dataclass_fields__})
+        rows = {name: getattr(self, name)[index] for name in self.__dataclass_fields__ if name != "plan_joint"}
+        return Rows(**rows, plan_joint=self.plan_joint)
 
     def extend(self, other: Rows) -> Rows:
         """These rows followed by ``other``'s."""
-        return Rows(**{name: np.concatenate([getattr(self, name), getattr(other, name)]) for name in self.__dataclass_fields__})
+        if other.plan_joint != self.plan_joint:
+            raise ValueError("rows of cells with different plan joints cannot be joined")
+        fields = [name for name in self.__dataclass_fields__ if name != "plan_joint"]
+        return Rows(**{name: np.concatenate([getattr(self, name), getattr(other, name)]) for name in fields}, plan_joint=self.plan_joint)
 
 
 def _static_torque(cell: Cell, q: np.ndarray) -> np.ndarray:
