@@ -191,8 +191,10 @@ class Robot:
             self._local_placement(point_in_flange),
             pin.LOCAL_WORLD_ALIGNED,
         )
-        # The binding exposes Pinocchio's column-major tensor with its axes reversed.
-        return np.ascontiguousarray(np.asarray(hessian).transpose(2, 1, 0))
+        # The binding copies Pinocchio's column-major (6, nv, nv) tensor element by element
+        # into a row-major array of the same shape: read its memory back in column-major order.
+        flat = np.asarray(hessian).ravel(order="K")
+        return np.ascontiguousarray(flat.reshape((6, self.model.nv, self.model.nv), order="F"))
 
     def gravity_torque(self, q) -> np.ndarray:
         """(nq,) joint torques (N·m) that hold the arm against its own weight: Pinocchio's ``g(q)``."""

@@ -74,6 +74,20 @@ def test_point_hessian_is_the_derivative_of_the_jacobian(robot):
     np.testing.assert_allclose(robot.point_hessian(q, point), numeric, atol=1e-8)
 
 
+def test_point_hessian_of_a_seven_joint_arm_is_the_derivative_of_its_jacobian(data_dir):
+    # With seven joints the tensor's axes are no longer all of one length (6, 7, 7).
+    robot = Robot.from_urdf(data_dir / "robots" / "arm7.urdf")
+    q = np.radians([10, -50, 30, 70, -20, 40, 60])
+    point = np.array([0.25, 0.0, 0.2])
+
+    def full(q):
+        return np.vstack([robot.point_jacobian(q, point), robot.flange_jacobian(q)[3:]])
+
+    h = 1e-6
+    numeric = np.stack([(full(q + h * e) - full(q - h * e)) / (2 * h) for e in np.eye(7)], axis=2)
+    np.testing.assert_allclose(robot.point_hessian(q, point), numeric, atol=1e-8)
+
+
 def test_gravity_torque_holds_the_horizontal_arm_up(robot):
     torque = robot.gravity_torque(np.zeros(6))
     # the arm's weight pulls toward +A2 (down), so the drive holds it with a negative torque
