@@ -51,7 +51,7 @@ DEFAULT_COMPENSATED_JOINT = 1
 """Index (0-based) of the compensated joint when ``[compensator]`` gives no ``joint``: A2, as on the KR-270."""
 
 SCHEMA: dict[str, frozenset[str] | None] = {
-    "robot": frozenset({"urdf", "flange", "payload_kg", "joints", "locked_deg", "locked_mm"}),
+    "robot": frozenset({"urdf", "flange", "payload_kg", "joints", "locked_deg", "locked_mm", "reference_csv"}),
     "joints": frozenset({"k_urad_per_Nm", "k_um_per_N"}),
     "compensator": frozenset({"joint", "L_mm", "a_x_mm", "a_y_mm", "phi_deg", "K_c_N_per_mm", "s0_mm"}),
     "tool": frozenset({"load_point_mm", "markers_mm"}),
@@ -122,6 +122,9 @@ class Cell:
         The robot's rated payload, kg (``robot.payload_kg``), when the file gives it.
     design : DesignLimits
         The ``[design]`` table: what campaigns of this cell may load and where they must keep clear.
+    reference : pathlib.Path or None
+        Published results of this robot to set beside ours (``robot.reference_csv``, the
+        format of ``data/paper_reference.csv``); ``None``: no comparison is shown.
     compensator_joint : int
         Index (0-based) of the joint the compensator acts on (``[compensator] joint``, 1-based,
         default 2); meaningless without a compensator (read :attr:`compensated_joint`).
@@ -142,6 +145,7 @@ class Cell:
     payload_kg: float | None = None
     design: DesignLimits = DesignLimits()
     compensator_joint: int = DEFAULT_COMPENSATED_JOINT
+    reference: Path | None = None
 
     @property
     def compensated_joint(self) -> int | None:
@@ -355,6 +359,16 @@ def _read_robot(reader: _Reader, file: Path) -> Robot:
     return robot
 
 
+def _reference_file(reader: _Reader, file: Path) -> Path | None:
+    """The ``robot.reference_csv`` file of published results, checked to exist, or ``None``."""
+    if "reference_csv" not in reader.table("robot"):
+        return None
+    path = file.parent / reader.text("robot", "reference_csv")
+    if not path.is_file():
+        reader.fail(f"the reference table {path} is not a file", "robot", "reference_csv")
+    return path
+
+
 def _per_joint(reader: _Reader, robot: Robot, table: str, keys: tuple[str, str], scales: tuple[float, float]) -> np.ndarray:
     """(nq,) values in SI from a list for the revolute joints and one for the prismatic joints, each in chain order."""
     values = np.empty(robot.nq)
@@ -489,6 +503,7 @@ def load_cell(path: str | PathLike[str]) -> Cell:
         source=source,
         payload_kg=payload,
         compensator_joint=compensator_joint,
+        reference=_reference_file(reader, file),
     )
     force = float(np.linalg.norm(test_wrench[:3]))
     if force > cell.max_force:

@@ -115,4 +115,5 @@ class DigitalTwin:
             p1=np.vstack(rows["p1"]),
             lines=np.zeros(len(rows["config"]), dtype=int),
             source="simulated",
+            prismatic=self.cell.robot.prismatic.copy() if self.cell.robot.prismatic.any() else None,
         )
