@@ -99,7 +99,8 @@ def check_regression(
     if singular[-1] > 1e-8 * singular[0]:
         return ident
     reason = "the eq 34 regressor of the campaign's q2 angles is rank deficient: K_c and s0*K_c cannot be separated"
-    reasons = dict(ident.reasons) | {name: reason for name in ("k2", "K_c", "s0")}
+    joint = next(j for j, angle in columns if angle is not None)
+    reasons = dict(ident.reasons) | {name: reason for name in (f"k{joint + 1}", "K_c", "s0")}
     return replace(ident, reasons=reasons, compensator=False)
 
 

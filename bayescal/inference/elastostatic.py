@@ -395,7 +395,7 @@ class ElastostaticModel:
         prior_sd |= {name: None for name in summary.index if label_angle(name) is not None}
         context = {}
         if "K_c" in summary.index:
-            context["K_c"] = self._compensator_context(equations, ident, cf, summary.loc["k2", "mean"] * URAD_PER_NM)
+            context["K_c"] = self._compensator_context(equations, ident, cf, summary.loc[f"k{equations.joint + 1}", "mean"] * URAD_PER_NM)
         return practical_reasons(summary, prior_sd, requires={"s0": "K_c"}, context=context)
 
     def _compensator_context(self, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm, k2: float) -> str:
@@ -520,7 +520,7 @@ class ElastostaticModel:
             spring_sd = SPRING_SCALE * np.abs([start[len(joints)], 1.0, spring[2]])
             scale = np.concatenate([k_sd, spring_sd, np.full(gravity.size, GRAVITY_SD), geometry_sd, log_sigma_scale])
             raw = self.sampler.sample(posterior, start, scale, rng)
-            draws = ElastostaticDraws.compensated(posterior, joints, raw)
+            draws = ElastostaticDraws.compensated(posterior, joints, raw, equations.joint)
         else:
             start = np.concatenate([cf.per_angle, np.log(cf.sigma)])
             raw = self.sampler.sample(posterior, start, np.concatenate([sd, log_sigma_scale]), rng)

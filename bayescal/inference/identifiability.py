@@ -205,7 +205,8 @@ def analyse(
             f"the campaign has {len(joint2_angles)} q2 angle(s) with an identifiable joint-2 compliance "
             f"({listed} deg); K_theta2^0, K_c and s0*K_c of eq 34 need at least {_MIN_ANGLES}"
         )
-        for name in ("k2", "K_c", "s0"):
+        per_angle_joint = next((j for j, angle in columns if angle is not None), None)
+        for name in ([f"k{per_angle_joint + 1}"] if per_angle_joint is not None else []) + ["K_c", "s0"]:
             reasons[name] = why
     return Identifiability(
         names=names,

@@ -59,14 +59,14 @@ class ElastostaticDraws:
     gravity: np.ndarray | None = None
 
     @classmethod
-    def compensated(cls, posterior: ConditionallyLinear, joints: tuple[int, ...], raw: np.ndarray) -> ElastostaticDraws:
-        """From draws ``(chain, draw, ndim)`` of :func:`~bayescal.inference.likelihood.compensated_posterior`."""
+    def compensated(cls, posterior: ConditionallyLinear, joints: tuple[int, ...], raw: np.ndarray, joint: int) -> ElastostaticDraws:
+        """From draws ``(chain, draw, ndim)`` of :func:`~bayescal.inference.likelihood.compensated_posterior`; ``joint`` is the compensated one (0-based)."""
         p, block = len(joints), posterior.block
         z = raw[..., p : p + block.ndim]
         k2 = block.evaluate(z.reshape(-1, block.ndim))[0].reshape(*raw.shape[:2], -1)
         compliances = {f"k{j + 1}": raw[..., i] for i, j in enumerate(joints)}
         spring = block.spring(z.reshape(-1, block.ndim)).reshape(*raw.shape[:2], 3)
-        compliances["k2"] = 1.0 / spring[..., 0]
+        compliances[f"k{joint + 1}"] = 1.0 / spring[..., 0]
         gravity = block.gravity_scale(z.reshape(-1, block.ndim))
         a = block.n_adapted
         return cls(
@@ -118,10 +118,11 @@ class ElastostaticDraws:
         chains_draws = values("sigma").shape[:2]
         k2 = np.full((*chains_draws, equations.q2.size), np.nan)
         k2[..., [angles.index(a) for a in saved]] = values("k2_q2") * URAD_PER_NM
-        compliances = {f"k{j}": values(f"k{j}") * URAD_PER_NM for j in range(1, 7) if f"k{j}" in posterior}
+        names = [f"k{j + 1}" for j in range(equations.n_joints)]
+        compliances = {name: values(name) * URAD_PER_NM for name in names if name in posterior}
         spring = None
         if "K_c" in posterior:
-            spring = np.stack([1.0 / compliances["k2"], values("K_c") * N_PER_MM, values("s0") * MM], axis=-1)
+            spring = np.stack([1.0 / compliances[f"k{equations.joint + 1}"], values("K_c") * N_PER_MM, values("s0") * MM], axis=-1)
         geometry = None
         if "L" in posterior:
             geometry = np.stack([values(name) * factor for name, factor in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG))], axis=-1)
@@ -320,7 +321,7 @@ class ElastostaticResults:
             ratio = math.sqrt(linear.cov[index, index] / exact.cov[index, index])
             pairs[name] = (exact.per_angle[index] / URAD_PER_NM, linear.per_angle[index] / URAD_PER_NM, ratio)
         if exact.spring is not None and linear.spring is not None:
-            pairs["k2"] = (1.0 / exact.spring[0] / URAD_PER_NM, 1.0 / linear.spring[0] / URAD_PER_NM, math.nan)
+            pairs[f"k{self.joint + 1}"] = (1.0 / exact.spring[0] / URAD_PER_NM, 1.0 / linear.spring[0] / URAD_PER_NM, math.nan)
             pairs["K_c"] = (exact.spring[1] / N_PER_MM, linear.spring[1] / N_PER_MM, math.nan)
             pairs["s0"] = (exact.spring[2] / MM, linear.spring[2] / MM, math.nan)
         summary = self.summary()
