@@ -199,7 +199,7 @@ def fit_against_truth(
     summary = results.summary()
     not_identifiable = results.identifiability.not_identifiable
     r_hat = results.diagnostics()["r_hat_max"]
-    values = {f"k{j + 1}": truth.compliances[j] / URAD_PER_NM for j in range(cell.robot.nq) if j != 0}
+    values = {f"k{j + 1}": truth.compliances[j] / URAD_PER_NM for j in range(cell.robot.nq)}
     values |= {"K_c": truth.spring[0] / N_PER_MM, "s0": truth.spring[1] / MM, "gravity_scale": truth.masses}
     out = []
     for name, value in values.items():
