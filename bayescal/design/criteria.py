@@ -43,7 +43,7 @@ import pandas as pd
 from dataclasses import replace
 
 from bayescal.cell.config import Cell
-from bayescal.reference import published
+from bayescal.reference import read_paper_reference
 from bayescal.robot.stiffness import ElasticArm, compliance_design
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import MM, N_PER_MM, URAD_PER_NM
@@ -261,6 +261,9 @@ class PlanPrediction:
         plan cannot predict it.
     log_det : float
         log det of the excited block of the information matrix (relative parameters); -inf when singular.
+    published_width_pct : dict of str to float or None
+        ±3σ widths (% of the value) of the cell's published results (its ``reference_csv``,
+        Table IV for the KR-270); ``None`` when the cell names none.
     """
 
     names: list[str]
@@ -269,6 +272,7 @@ class PlanPrediction:
     covariance: np.ndarray
     rho0: float
     log_det: float
+    published_width_pct: dict[str, float] | None = None
 
     @property
     def relative_sd(self) -> np.ndarray:
@@ -279,20 +283,16 @@ class PlanPrediction:
         """Predicted precision per parameter in the paper's units.
 
         Columns ``value``, ``sd``, ``width_3sd_pct`` (3 sd in % of the value),
-        ``table_iv_pct`` (Klimchik et al., Table IV) and ``unit``.
+        ``table_iv_pct`` (the cell's published widths, Klimchik et al.'s Table IV for the
+        KR-270; only when the cell names them) and ``unit``.
         """
         factors = np.array([_unit(name)[0] for name in self.names])
         sd = self.relative_sd * np.abs(self.nominal)
-        return pd.DataFrame(
-            {
-                "value": self.nominal * factors,
-                "sd": sd * factors,
-                "width_3sd_pct": 300.0 * self.relative_sd,
-                "table_iv_pct": [_table_iv_pct(name) for name in self.names],
-                "unit": [_unit(name)[1] for name in self.names],
-            },
-            index=pd.Index(self.names, name="parameter"),
-        )
+        columns = {"value": self.nominal * factors, "sd": sd * factors, "width_3sd_pct": 300.0 * self.relative_sd}
+        if self.published_width_pct is not None:
+            columns["table_iv_pct"] = [self.published_width_pct.get(name, math.nan) for name in self.names]
+        columns["unit"] = [_unit(name)[1] for name in self.names]
+        return pd.DataFrame(columns, index=pd.Index(self.names, name="parameter"))
 
     def to_json(self) -> dict:
         """``criterion`` (ρ0 in mm, null when not predictable) and each parameter's ±3σ width."""
@@ -343,7 +343,15 @@ def predict(cell: Cell, information: np.ndarray, *, test_design: np.ndarray | No
         G0 = test_pose_design(cell) if test_design is None else test_design
         rho0 = math.sqrt(max(float(np.trace(G0[:, excited] @ inverse @ G0[:, excited].T)), 0.0))
         log_det = float(np.sum(np.log(values)) - 2.0 * np.sum(np.log(scale)))
-    return PlanPrediction(names=names, nominal=nominal_parameters(cell), excited=excited, covariance=covariance, rho0=rho0, log_det=log_det)
+    return PlanPrediction(
+        names=names,
+        nominal=nominal_parameters(cell),
+        excited=excited,
+        covariance=covariance,
+        rho0=rho0,
+        log_det=log_det,
+        published_width_pct=_published_widths(cell),
+    )
 
 
 def criterion_value(prediction: PlanPrediction, criterion: str) -> float:
@@ -416,9 +424,13 @@ def _unit(name: str) -> tuple[float, str]:
     return 1.0 / URAD_PER_NM, "urad/(N m)"
 
 
-def _table_iv_pct(name: str) -> float:
-    value, half_width = published("IV").get(name, (np.nan, np.nan))
-    return 100.0 * half_width / value
+def _published_widths(cell: Cell) -> dict[str, float] | None:
+    """±3σ widths (% of the value) of the cell's published elastostatic results (Table IV's rows), or None."""
+    if cell.reference is None:
+        return None
+    rows = read_paper_reference(cell.reference)
+    rows = rows[rows["table"] == "IV"]
+    return {str(name): 100.0 * float(row["ci3"]) / float(row["value"]) for name, row in rows.iterrows()}
 
 
 def _finite(value: float) -> float | None:
