@@ -170,13 +170,14 @@ def _text(results, test_pose, args, reference_file) -> str:
         if weak:
             listed = ", ".join(weak)
             lines.append(f"  The posterior of {listed} is kept in the DataTree and in the JSON's weakly_determined block.")
+    j = results.joint + 1
     per_angle = [
-        f"  q2 = {angle:>8.2f} deg  {entry['mean']:.4g} ± {entry['hi3'] - entry['mean']:.2g} urad/(N m)"
+        f"  q{j} = {angle:>8.2f} deg  {entry['mean']:.4g} ± {entry['hi3'] - entry['mean']:.2g} urad/(N m)"
         for angle, entry in _k2_by_angle(results).items()
         if "mean" in entry
     ]
     if per_angle:
-        lines += ["", "Joint 2 with its compensator at each campaign angle (±3σ; the paper's Fig. 7):", *per_angle]
+        lines += ["", f"Joint {j} with its compensator at each campaign angle (±3σ; the paper's Fig. 7):", *per_angle]
     d = results.diagnostics()
     lines += [
         "",

@@ -406,10 +406,11 @@ class ElastostaticModel:
         columns = [c for c, keep in zip(equations.per_angle_columns(), ident.identifiable) if keep]
         sd = np.sqrt(np.diag(cf.cov))
         resolution = [300.0 * sd[i] / cf.per_angle[i] for i, (joint, _) in enumerate(columns) if joint == equations.joint]
+        j = equations.joint + 1
         return (
-            f"the compensator changes the joint-2 stiffness by {share.min():.2f}–{share.max():.2f} % across the "
-            f"campaign's {equations.q2.size} q2 angles (at the config's K_c = {Kc / N_PER_MM:.4g} N/mm, "
-            f"s0 = {s0 / MM:.4g} mm), while the per-angle joint-2 compliances are resolved to "
+            f"the compensator changes the joint-{j} stiffness by {share.min():.2f}–{share.max():.2f} % across the "
+            f"campaign's {equations.q2.size} q{j} angles (at the config's K_c = {Kc / N_PER_MM:.4g} N/mm, "
+            f"s0 = {s0 / MM:.4g} mm), while the per-angle joint-{j} compliances are resolved to "
             f"±{np.median(resolution):.2f} % (3σ, median over the angles)"
         )
 
