@@ -350,6 +350,7 @@ class ElastostaticModel:
             model=self.model,
             q2=equations.q2,
             joint=equations.joint,
+            prismatic=equations.prismatic,
             draws=draws,
             geometry=self.geometry,
             n_equations=equations.n,

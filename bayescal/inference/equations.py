@@ -84,6 +84,8 @@ class DeflectionEquations:
     joint
         Index (0-based) of the joint whose compliance is taken per angle (the cell's
         compensated joint); ``angle`` and ``q2`` are that joint's.
+    prismatic
+        Which joints are prismatic (their compliances in m/N); empty: all revolute.
     """
 
     y: np.ndarray
@@ -94,6 +96,7 @@ class DeflectionEquations:
     group_names: tuple[str, ...]
     scale: np.ndarray | None = None
     joint: int = DEFAULT_COMPENSATED_JOINT
+    prismatic: tuple[bool, ...] = ()
 
     def __post_init__(self) -> None:
         n = self.y.shape[0]
@@ -199,6 +202,7 @@ def deflection_equations(
         group_names=names,
         scale=None if tracker is None else np.repeat(_relative_noise(tracker, campaign), 3),
         joint=joint,
+        prismatic=tuple(bool(p) for p in robot.prismatic) if robot.prismatic.any() else (),
     )
     return equations, torque, points
 

@@ -18,16 +18,20 @@ from bayescal.sampling.gibbs import ConditionallyLinear
 from bayescal.sampling.summary import diagnostics
 from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
 
-__all__ = ["ElastostaticResults", "ElastostaticDraws", "parameter_units", "COMPLIANCE_UNIT"]
+__all__ = ["ElastostaticResults", "ElastostaticDraws", "parameter_units", "COMPLIANCE_UNIT", "PRISMATIC_COMPLIANCE_UNIT"]
 
 COMPLIANCE_UNIT = "urad/(N m)"
+PRISMATIC_COMPLIANCE_UNIT = "um/N"
+"""A prismatic joint's compliance at the edges (μm/N: the same factor 1e-6 from SI as μrad/(N·m))."""
 """Unit of the joint compliances at the edges."""
 
 
-def parameter_units(n_joints: int) -> dict[str, str]:
+def parameter_units(n_joints: int, prismatic: tuple[bool, ...] = ()) -> dict[str, str]:
     """The reported parameters and their units: ``k1``..``k<n>`` (``k2`` is ``1/K_theta2^0``, joint 2
     without its compensator), ``K_c`` and ``s0``."""
-    return {f"k{j + 1}": COMPLIANCE_UNIT for j in range(n_joints)} | {"K_c": "N/mm", "s0": "mm"}
+    linear = set(np.flatnonzero(prismatic).tolist()) if len(prismatic) else set()
+    units = {f"k{j + 1}": PRISMATIC_COMPLIANCE_UNIT if j in linear else COMPLIANCE_UNIT for j in range(n_joints)}
+    return units | {"K_c": "N/mm", "s0": "mm"}
 
 
 @dataclass(frozen=True)
@@ -134,7 +138,7 @@ class ElastostaticDraws:
         from bayescal.sampling.summary import posterior_tree
 
         values: dict[str, np.ndarray] = {name: value / URAD_PER_NM for name, value in sorted(self.compliances.items())}
-        units = {name: COMPLIANCE_UNIT for name in values}
+        units = {name: parameter_units(equations.n_joints, equations.prismatic)[name] for name in values}
         if self.spring is not None:
             values["K_c"] = self.spring[..., 1] / N_PER_MM
             values["s0"] = self.spring[..., 2] / MM
@@ -192,6 +196,8 @@ class ElastostaticResults:
         :meth:`summary`, once computed.
     joint : int
         Index (0-based) of the compensated joint, whose compliance is per angle.
+    prismatic : tuple of bool
+        Which joints are prismatic (compliance in μm/N at the edges); empty: all revolute.
     """
 
     tree: object
@@ -211,12 +217,13 @@ class ElastostaticResults:
     linear_closed_form: ClosedForm | None = None
     summary_table: pd.DataFrame | None = field(default=None, repr=False)
     joint: int = DEFAULT_COMPENSATED_JOINT
+    prismatic: tuple[bool, ...] = ()
     sampler_name: str = "gibbs"
 
     @property
     def parameter_units(self) -> dict[str, str]:
         """The reported parameters and their units (:func:`parameter_units` for this robot's joints)."""
-        return parameter_units(self.closed_form.compliances.size)
+        return parameter_units(self.closed_form.compliances.size, self.prismatic)
 
     def save(self, path) -> None:
         """Write the posterior DataTree to NetCDF at ``path``."""
