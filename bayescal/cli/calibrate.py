@@ -18,7 +18,7 @@ def add_parser(subparsers) -> None:
         "calibrate",
         help="identify joint compliances and the compensator spring from a campaign, with ±3σ intervals",
         description=(
-            "Identify the joint compliances k1..k6 and the compensator's K_c and s0 from a campaign CSV "
+            "Identify the joint compliances k1..kn and the compensator's K_c and s0 from a campaign CSV "
             "(Klimchik et al., eqs 30-35), with posterior ±3σ intervals, the parameters the campaign cannot "
             "identify, and the positioning error left at the config's test pose (eqs 38-39)."
         ),

@@ -1,6 +1,6 @@
 """How good a calibration plan is before it is measured: eqs 37-40 on the linearised compensated model.
 
-The identification's parameters are ``θ = [k1..k6, K_c, s0]`` (rad/(N·m), N/m,
+The identification's parameters are ``θ = [k1..kn, K_c, s0]`` (rad/(N·m), N/m,
 m), ``k2`` being joint 2 without its compensator.  Around the cell's nominal
 values, a marker's deflection in configuration ``q`` under the wrench ``F`` is
 ``Δp ≈ A(q, F) k_eff(q2)`` (eq 31) with the equivalent joint-2 compliance

@@ -278,8 +278,13 @@ def _parameter_section(page: Page, results: ElastostaticResults, facts: _Facts, 
     page.table(
         "parameters",
         frame,
-        caption="k1..k6 in μrad/(N·m) (k2 without the compensator), K_c in N/mm, s0 in mm; "
-        "not identifiable parameters have no estimate (see the next section)",
+        caption=(
+            "k1..k6 in μrad/(N·m) (k2 without the compensator), K_c in N/mm, s0 in mm; "
+            if table_iv is not None
+            else f"k1..k{results.closed_form.compliances.size} in the unit of their row (k{results.joint + 1} without the compensator), "
+            "K_c in N/mm, s0 in mm; "
+        )
+        + "not identifiable parameters have no estimate (see the next section)",
     )
     per_angle = summary.loc[[name for name in summary.index if name.startswith("k2_q2[")]]
     if not per_angle.empty:
