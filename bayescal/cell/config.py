@@ -360,13 +360,15 @@ def _read_robot(reader: _Reader, file: Path) -> Robot:
 
 
 def _reference_file(reader: _Reader, file: Path) -> Path | None:
-    """The ``robot.reference_csv`` file of published results, checked to exist, or ``None``."""
+    """The ``robot.reference_csv`` file of published results, or ``None`` without the key or the file.
+
+    A cell file copied from ``data/kr270.toml`` to describe another robot keeps the key but
+    not the KR-270's published table beside it: its results are then compared with nothing.
+    """
     if "reference_csv" not in reader.table("robot"):
         return None
     path = file.parent / reader.text("robot", "reference_csv")
-    if not path.is_file():
-        reader.fail(f"the reference table {path} is not a file", "robot", "reference_csv")
-    return path
+    return path if path.is_file() else None
 
 
 def _per_joint(reader: _Reader, robot: Robot, table: str, keys: tuple[str, str], scales: tuple[float, float]) -> np.ndarray:
