@@ -67,13 +67,13 @@ def _locked_configuration(model: pin.Model, locked: Mapping[str, tuple[float, st
     q = pin.neutral(model)
     names = list(model.names)
     for name, (value, kind) in locked.items():
+        key = "locked_mm" if kind == "prismatic" else "locked_deg"
         if name not in names:
-            raise InputError(f"the URDF has no joint '{name}' to lock", source=source, column="robot.locked_deg")
+            raise InputError(f"the URDF has no joint '{name}' to lock", source=source, column=f"robot.{key}")
         joint_id = names.index(name)
         if joint_id in keep:
-            raise InputError(f"joint '{name}' is in the chain and cannot also be locked", source=source, column="robot.locked_deg")
+            raise InputError(f"joint '{name}' is in the chain and cannot also be locked", source=source, column=f"robot.{key}")
         if joint_kind(model.joints[joint_id]) != kind:
-            key = "locked_mm" if kind == "prismatic" else "locked_deg"
             raise InputError(
                 f"joint '{name}' is a {model.joints[joint_id].shortname()}, not a {kind} joint: "
                 "list revolute joints in locked_deg and prismatic ones in locked_mm",
