@@ -19,11 +19,12 @@ from typing import Any
 
 import numpy as np
 
+from bayescal.cell.joints import DEFAULT_COMPENSATED_JOINT, per_joint, read_compensator, reference_file
 from bayescal.robot.compensator import Compensator
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
 from bayescal.cell.tracker import TrackerNoise
-from bayescal.units import DEG, MM, N_PER_MM, UM, UM_PER_N, URAD_PER_NM
+from bayescal.units import DEG, MM, UM, UM_PER_N, URAD_PER_NM
 
 __all__ = ["Cell", "DesignLimits", "load_cell", "OVERLOAD_FACTOR", "MIN_LOAD_FRACTION", "SCHEMA"]
 
@@ -46,9 +47,6 @@ moves them by at most about 90 μm, two or three times the noise: not a calibrat
 load.  A campaign whose largest force is below it is far more likely a wrench
 written in kN (1000 times smaller) than one measured so.
 """
-
-DEFAULT_COMPENSATED_JOINT = 1
-"""Index (0-based) of the compensated joint when ``[compensator]`` gives no ``joint``: A2, as on the KR-270."""
 
 SCHEMA: dict[str, frozenset[str] | None] = {
     "robot": frozenset({"urdf", "flange", "payload_kg", "joints", "locked_deg", "locked_mm", "reference_csv"}),
@@ -359,62 +357,6 @@ def _read_robot(reader: _Reader, file: Path) -> Robot:
     return robot
 
 
-def _reference_file(reader: _Reader, file: Path) -> Path | None:
-    """The ``robot.reference_csv`` file of published results, or ``None`` without the key or the file.
-
-    A cell file copied from ``data/kr270.toml`` to describe another robot keeps the key but
-    not the KR-270's published table beside it: its results are then compared with nothing.
-    """
-    if "reference_csv" not in reader.table("robot"):
-        return None
-    path = file.parent / reader.text("robot", "reference_csv")
-    return path if path.is_file() else None
-
-
-def _per_joint(reader: _Reader, robot: Robot, table: str, keys: tuple[str, str], scales: tuple[float, float]) -> np.ndarray:
-    """(nq,) values in SI from a list for the revolute joints and one for the prismatic joints, each in chain order."""
-    values = np.empty(robot.nq)
-    for key, scale, prismatic in zip(keys, scales, (False, True)):
-        joints = np.flatnonzero(robot.prismatic == prismatic)
-        unit = key.split("_", 1)[1]
-        if joints.size == 0:
-            if key in reader.table(table):
-                reader.fail(f"the robot has no {'prismatic' if prismatic else 'revolute'} joint: remove '{key}'", table, key)
-            continue
-        names = ", ".join(robot.joint_names[j] for j in joints)
-        values[joints] = reader.vector(table, key, joints.size, unit=f"{unit} for {names}") * scale
-    return values
-
-
-def _read_compensator(reader: _Reader, robot: Robot) -> tuple[Compensator | None, int]:
-    """The ``[compensator]`` table: the spring of eqs 4-9 and the (0-based) joint it acts on, or ``None``."""
-    if reader.table("compensator", required=False) is None:
-        return None, DEFAULT_COMPENSATED_JOINT
-    table = reader.table("compensator")
-    joint = DEFAULT_COMPENSATED_JOINT
-    if "joint" in table:
-        number = table["joint"]
-        if isinstance(number, bool) or not isinstance(number, int) or not 1 <= number <= robot.nq:
-            reader.fail(f"expected a joint number from 1 to {robot.nq} (1-based, base first), got {number!r}", "compensator", "joint")
-        joint = number - 1
-    elif robot.nq <= joint:
-        reader.fail(f"the robot has {robot.nq} joint(s): give the compensated joint as joint = <1..{robot.nq}>", "compensator")
-    if robot.prismatic[joint]:
-        reader.fail(f"joint {joint + 1} ({robot.joint_names[joint]}) is prismatic: the spring compensator of eqs 4-9 turns a revolute joint", "compensator", "joint")
-    values = {
-        "L": reader.number("compensator", "L_mm", unit="mm", positive=True) * MM,
-        "a_x": reader.number("compensator", "a_x_mm", unit="mm") * MM,
-        "a_y": reader.number("compensator", "a_y_mm", unit="mm") * MM,
-        "phi": reader.number("compensator", "phi_deg", unit="deg") * DEG,
-        "K_c": reader.number("compensator", "K_c_N_per_mm", unit="N/mm", non_negative=True) * N_PER_MM,
-        "s0": reader.number("compensator", "s0_mm", unit="mm", non_negative=True) * MM,
-    }
-    try:
-        return Compensator(**values), joint
-    except ValueError as exc:
-        reader.fail(str(exc), "compensator")
-
-
 def load_cell(path: str | PathLike[str]) -> Cell:
     """Read a cell TOML file (schema in ``docs/twin.md``) and convert it to SI.
 
@@ -456,10 +398,10 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     if "payload_kg" in reader.table("robot"):
         payload = reader.number("robot", "payload_kg", unit="kg", positive=True)
 
-    compliances = _per_joint(reader, robot, "joints", ("k_urad_per_Nm", "k_um_per_N"), (URAD_PER_NM, UM_PER_N))
+    compliances = per_joint(reader, robot, "joints", ("k_urad_per_Nm", "k_um_per_N"), (URAD_PER_NM, UM_PER_N))
     if np.any(compliances <= 0):
         reader.fail("expected positive joint compliances in μrad/(N·m) (revolute) and μm/N (prismatic)", "joints")
-    compensator, compensator_joint = _read_compensator(reader, robot)
+    compensator, compensator_joint = read_compensator(reader, robot)
 
     load_point = reader.vector("tool", "load_point_mm", 3, unit="mm") * MM
     marker_table = reader.table("tool.markers_mm")
@@ -482,7 +424,7 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     load_mass = reader.number("load", "mass_kg", unit="kg", positive=True)
     gravity = reader.number("load", "gravity_m_per_s2", unit="m/s²", positive=True, default=9.80665)
 
-    test_q = _per_joint(reader, robot, "test_pose", ("q_deg", "q_mm"), (DEG, MM))
+    test_q = per_joint(reader, robot, "test_pose", ("q_deg", "q_mm"), (DEG, MM))
     try:
         robot.check_limits(test_q)
     except InputError as error:
@@ -505,7 +447,7 @@ def load_cell(path: str | PathLike[str]) -> Cell:
         source=source,
         payload_kg=payload,
         compensator_joint=compensator_joint,
-        reference=_reference_file(reader, file),
+        reference=reference_file(reader, file),
     )
     force = float(np.linalg.norm(test_wrench[:3]))
     if force > cell.max_force:

@@ -149,13 +149,11 @@ def _text(results, test_pose, args, reference_file) -> str:
         + (f"   | {'Table IV':>9}{'±3σ':>8}{'width':>8}" if compared else ""),
     ]
     for name, row in paper.iterrows():
-        published = ""
-        if compared:
-            published = "   | " + (
-                f"{row['published']:>9.4g}{row['published_half_width_3sd']:>8.3g}{row['published_width_pct']:>7.1f}%"
-                if math.isfinite(row["published"])
-                else f"{'–':>9}"
-            )
+        published = "" if not compared else "   | " + (
+            f"{row['published']:>9.4g}{row['published_half_width_3sd']:>8.3g}{row['published_width_pct']:>7.1f}%"
+            if math.isfinite(row["published"])
+            else f"{'–':>9}"
+        )
         unit = units[name]
         if "mean" in parameters[name]:
             lines.append(f"{name:<10}{unit:<12}{row['mean']:>10.4g}{row['half_width_3sd']:>10.3g}{row['width_3sd_pct']:>7.1f}%{published}")
