@@ -222,6 +222,7 @@ class ElastostaticModel:
             equations.q2,
             torque[configs],
             equations.angle[3 * configs],
+            equations.prismatic,
         )
         if ident.compensator:
             ident = check_regression(ident, equations.per_angle_columns(), equations.q2, self.geometry.mean)

@@ -146,6 +146,7 @@ def analyse(
     q2: np.ndarray,
     torque: np.ndarray,
     torque_angle: np.ndarray,
+    prismatic: Sequence[bool] = (),
 ) -> Identifiability:
     """Rank, conditioning and identifiability of the per-angle design.
 
@@ -158,18 +159,24 @@ def analyse(
     q2
         Distinct joint-2 angles (rad) the angle indices refer to.
     torque
-        ``(r, 6)`` joint torques (N·m) the loads exert, one row per loaded configuration.
+        ``(r, nq)`` generalized forces the loads exert on the joints, one row per loaded
+        configuration: torques (N·m), forces (N) along a prismatic joint.
     torque_angle
         ``(r,)`` angle index of each row of ``torque``.
+    prismatic
+        Which joints are prismatic; empty: all revolute.
     """
     names = [angle_label(q2[a]) if a is not None else f"k{j + 1}" for j, a in columns]
     norms = np.linalg.norm(design, axis=0)
-    largest_torque = float(np.abs(torque).max(initial=0.0))
+    linear = np.zeros(torque.shape[1], dtype=bool)
+    linear[: len(prismatic)] = np.asarray(prismatic, dtype=bool)
+    # A revolute joint's torque is compared with the other torques only.
+    largest = {kind: float(np.abs(torque[:, linear == kind]).max(initial=0.0)) for kind in (False, True)}
     reasons: dict[str, str] = {}
     identifiable = norms > RANK_TOLERANCE * max(norms.max(initial=0.0), np.finfo(float).tiny)
     for i, (joint, angle) in enumerate(columns):
         if not identifiable[i]:
-            reasons[names[i]] = _unloaded_reason(joint, angle, q2, torque, torque_angle, largest_torque)
+            reasons[names[i]] = _unloaded_reason(joint, angle, q2, torque, torque_angle, largest[bool(linear[joint])], bool(linear[joint]))
 
     kept = np.flatnonzero(identifiable)
     scaled = design[:, kept] / norms[kept]
@@ -219,10 +226,18 @@ def analyse(
     )
 
 
-def _unloaded_reason(joint: int, angle: int | None, q2, torque, torque_angle, largest: float) -> str:
+def _unloaded_reason(joint: int, angle: int | None, q2, torque, torque_angle, largest: float, prismatic: bool = False) -> str:
     rows = torque[:, joint] if angle is None else torque[torque_angle == angle, joint]
     biggest = float(np.abs(rows).max(initial=0.0))
     where = "" if angle is None else f" at q2 = {math.degrees(q2[angle]):.2f} deg"
+    # A slide's force (N) is set against the largest force or torque over a 1 m arm (N·m / m) on any joint.
+    if prismatic and biggest <= _NO_TORQUE * max(largest, float(np.abs(torque).max(initial=0.0))):
+        return (
+            f"no load of the campaign{where} exerts a force along the axis of the prismatic joint {joint + 1} "
+            f"(largest |f{joint + 1}| = {biggest:.3g} N)"
+        )
+    if prismatic:
+        return f"the markers do not move when joint {joint + 1} slides{where}: the design column is zero"
     if biggest <= _NO_TORQUE * largest:
         return (
             f"no load of the campaign{where} exerts a torque about the axis of joint {joint + 1} "
