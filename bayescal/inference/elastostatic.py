@@ -188,7 +188,11 @@ class ElastostaticModel:
         ``options`` are the other fields (``model``, ``sampler``, ``n_draws`` …).
         """
         if cell.compensator is None:
-            raise InputError("the cell has no [compensator]: the elastostatic model needs its geometry", source=cell.source)
+            raise InputError(
+                "the cell has no [compensator]: the elastostatic model identifies a compensated joint per angle and does "
+                "not yet handle a robot without one (simulate, plan and critique do)",
+                source=cell.source,
+            )
         spring = (cell.compensator.K_c, cell.compensator.s0)
         return cls(
             robot=cell.robot,
