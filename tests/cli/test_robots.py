@@ -40,7 +40,7 @@ def test_simulate_calibrate_plan_critique_and_report_run(capsys, tmp_path, data_
 
     posterior = tmp_path / "posterior.nc"
     calibration = run(
-        capsys, ["calibrate", str(campaign), "--config", str(config), "--draws", "150", "--seed", "1", "--posterior", str(posterior)]
+        capsys, ["calibrate", str(campaign), "--config", str(config), "--draws", "100", "--seed", "1", "--posterior", str(posterior)]
     )
     compensated = f"k{cell.compensated_joint + 1}"
     parameters = calibration["parameters"]
@@ -51,9 +51,10 @@ def test_simulate_calibrate_plan_critique_and_report_run(capsys, tmp_path, data_
         if "mean" in entry:
             assert entry["lo3"] <= cell.compliances[joint] * 1e6 <= entry["hi3"], (joint, entry)
     assert "mean" in parameters[compensated]
-    text_main = main(["calibrate", str(campaign), "--config", str(config), "--draws", "150", "--seed", "1"])
-    text = capsys.readouterr().out
-    assert text_main == 0 and "Table IV" not in text
+    if name == "arm6_j3":
+        # The text too names no published table: the cell names none.
+        assert main(["calibrate", str(campaign), "--config", str(config), "--draws", "100", "--seed", "1"]) == 0
+        assert "Table IV" not in capsys.readouterr().out
 
     plan_json = tmp_path / "plan.json"
     scored = run(capsys, ["plan", "--config", str(config), "--evaluate", str(plan)])

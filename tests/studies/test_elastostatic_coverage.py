@@ -77,10 +77,10 @@ def _robot_cell(data_dir, name):
 
 
 @pytest.mark.parametrize("name", TEST_ROBOTS)
-def test_intervals_of_the_test_robots_are_not_grossly_miscalibrated_on_four_campaigns(data_dir, name):
+def test_intervals_of_the_test_robots_are_not_grossly_miscalibrated_on_three_campaigns(data_dir, name):
     cell = _robot_cell(data_dir, name)
     sampler = GibbsSampler(n_chains=2, n_tune=150, n_draws=300)
-    table = elastostatic_coverage(cell, 4, 41, sampler=sampler, angles=5, per_angle=3, repeats=2)
+    table = elastostatic_coverage(cell, 3, 41, sampler=sampler, angles=5, per_angle=3, repeats=2)
     group = table[table["identifiable"] & table["parameter"].str.fullmatch(r"k[0-9]+")]
     # The compensated joint's own compliance is identified on every robot.
     assert f"k{cell.compensated_joint + 1}" in set(group["parameter"])
