@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["MM", "DEG", "URAD_PER_NM", "N_PER_MM", "UM"]
+__all__ = ["MM", "DEG", "URAD_PER_NM", "UM_PER_N", "N_PER_MM", "UM"]
 
 MM = 1e-3
 """One millimetre in metres."""
@@ -19,5 +19,7 @@ DEG = math.pi / 180.0
 """One degree in radians."""
 URAD_PER_NM = 1e-6
 """One μrad/(N·m) in rad/(N·m): the paper's unit of joint compliance."""
+UM_PER_N = 1e-6
+"""One μm/N in m/N: the unit of a prismatic joint's compliance (a linear track's)."""
 N_PER_MM = 1e3
 """One N/mm in N/m: the unit of the compensator spring stiffness K_c."""

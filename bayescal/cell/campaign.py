@@ -10,7 +10,8 @@ data, one row per marker per repeat per configuration::
   unloaded/loaded measurement in that configuration (both whole numbers, any
   sign: they are labels, not counts);
 * ``q<j>_deg`` are the controller's joint angles; a robot with another number of
-  joints has columns ``q1_deg`` … ``q<n>_deg``;
+  joints has columns ``q1_deg`` … ``q<n>_deg``, and a prismatic joint (a linear
+  track) has ``q<j>_mm``, its position in mm;
 * the wrench is the one applied to the robot, referred to the origin of the
   ``flange`` frame and expressed in the base axes (N, N·m);
 * positions are in the robot base frame in mm, ``0`` unloaded and ``1`` loaded;
@@ -70,11 +71,12 @@ The KR-270 cell hangs its load 0.39 m from the flange (``data/kr270.toml``).  A
 moment that needs a longer arm for its force is a moment column in N·mm."""
 _RADIAN_SPAN = 3.2
 """Joint angles (in the file's deg) all within ± this are most likely radians: π rad is 3.14."""
-_JOINT_COLUMN = re.compile(r"q([0-9]+)_deg")
+_JOINT_COLUMN = re.compile(r"q([0-9]+)_(deg|mm)")
 
 
-def _joint_columns(n: int) -> list[str]:
-    return [f"q{j}_deg" for j in range(1, n + 1)]
+def _joint_columns(n: int, prismatic: np.ndarray | None = None) -> list[str]:
+    """``q<j>_deg`` per joint, ``q<j>_mm`` for the joints ``prismatic`` flags."""
+    return [f"q{j + 1}_{'mm' if prismatic is not None and prismatic[j] else 'deg'}" for j in range(n)]
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,6 +100,8 @@ class Campaign:
     load_point : numpy.ndarray or None, shape (N, 3)
         Flange-frame point (m) where each row's load force acts; None: not given
         (the cell's tool load point applies).
+    prismatic : numpy.ndarray of bool or None, shape (nq,)
+        Which joints are prismatic (positions in m, written in mm); None: all revolute.
     """
 
     config: np.ndarray
@@ -110,6 +114,7 @@ class Campaign:
     lines: np.ndarray
     source: str = "<memory>"
     load_point: np.ndarray | None = None
+    prismatic: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.config)
@@ -144,7 +149,8 @@ class Campaign:
     def to_frame(self) -> pd.DataFrame:
         """The campaign as the CSV's columns, in mm, deg, N and N·m."""
         frame = pd.DataFrame({"config": self.config.astype(int), "repeat": self.repeat.astype(int)})
-        for name, values in zip(_joint_columns(self.q.shape[1]), (self.q / DEG).T):
+        scale = np.where(self.prismatic, MM, DEG) if self.prismatic is not None else DEG
+        for name, values in zip(_joint_columns(self.q.shape[1], self.prismatic), (self.q / scale).T):
             frame[name] = values
         for name, values in zip(WRENCH_COLUMNS, self.wrench.T):
             frame[name] = values
@@ -166,7 +172,7 @@ def write_campaign(campaign: Campaign, path: str | PathLike[str], *, comments: S
     tracker resolution.
     """
     frame = campaign.to_frame()
-    decimals = {name: 6 for name in frame.columns if name.endswith("_deg")}
+    decimals = {name: 6 for name in frame.columns if _JOINT_COLUMN.fullmatch(name)}
     decimals |= {name: 4 for name in WRENCH_COLUMNS}
     decimals |= {name: 5 for name in POSITION_COLUMNS + LOAD_POINT_COLUMNS}
     out = io.StringIO()
@@ -183,17 +189,17 @@ def write_campaign(campaign: Campaign, path: str | PathLike[str], *, comments: S
     Path(path).write_text(out.getvalue(), encoding="utf-8")
 
 
-def _joint_count(path: Path, cell: Cell | None) -> int:
-    """Number of joint columns to read: the robot's, or the consecutive ``q<j>_deg`` of the header."""
+def _joint_layout(path: Path, cell: Cell | None) -> np.ndarray:
+    """(nq,) which joint columns to read are prismatic: the robot's, or the consecutive ``q<j>_deg``/``q<j>_mm`` of the header."""
     header = read_header(path)
     names = [] if header is None else header[1]
     if cell is None:
-        n = 0
-        while f"q{n + 1}_deg" in names:
-            n += 1
-        return max(n, 1)
-    expected = _joint_columns(cell.robot.nq)
-    present = sorted({name for name in names if _JOINT_COLUMN.fullmatch(name)}, key=lambda name: int(name[1:-4]))
+        prismatic: list[bool] = []
+        while f"q{len(prismatic) + 1}_deg" in names or f"q{len(prismatic) + 1}_mm" in names:
+            prismatic.append(f"q{len(prismatic) + 1}_mm" in names)
+        return np.array(prismatic or [False], dtype=bool)
+    expected = list(cell.robot.position_columns)
+    present = sorted({name for name in names if _JOINT_COLUMN.fullmatch(name)}, key=lambda name: int(_JOINT_COLUMN.fullmatch(name)[1]))
     # A repeated column is read_table's to report; here only which joints are there matters.
     if header is not None and present and present != expected:
         extra = [name for name in present if name not in expected]
@@ -206,7 +212,7 @@ def _joint_count(path: Path, cell: Cell | None) -> int:
             line=header[0],
             column=(missing or extra)[0],
         )
-    return cell.robot.nq
+    return cell.robot.prismatic.copy()
 
 
 def read_campaign(
@@ -243,13 +249,16 @@ def read_campaign(
         outside its limits or in radians, and implausible wrenches.
     """
     source = str(path)
-    n_joints = _joint_count(Path(path), cell)
+    prismatic = _joint_layout(Path(path), cell)
+    n_joints = prismatic.size
+    joint_columns = _joint_columns(n_joints, prismatic)
+    joint_scale = np.where(prismatic, MM, DEG)
     columns: dict[str, str] = {"config": "integer", "repeat": "integer"}
-    columns |= {name: "number" for name in _joint_columns(n_joints)}
+    columns |= {name: "number" for name in joint_columns}
     columns |= {name: "number" for name in WRENCH_COLUMNS}
     columns["marker"] = "text"
     columns |= {name: "number" for name in POSITION_COLUMNS}
-    units = {name: "deg" for name in _joint_columns(n_joints)}
+    units = {name: name.rsplit("_", 1)[1] for name in joint_columns}
     units |= {name: "N" for name in WRENCH_COLUMNS[:3]} | {name: "N·m" for name in WRENCH_COLUMNS[3:]}
     units |= {name: "mm" for name in POSITION_COLUMNS + LOAD_POINT_COLUMNS}
     try:
@@ -298,7 +307,7 @@ def read_campaign(
             source=source,
             column=missing,
         )
-    shared = _joint_columns(n_joints) + list(WRENCH_COLUMNS) + given
+    shared = joint_columns + list(WRENCH_COLUMNS) + given
     values = frame[shared].to_numpy(dtype=float)
     config = frame["config"].to_numpy(dtype=int)
     reference_row: dict[int, int] = {}
@@ -318,7 +327,7 @@ def read_campaign(
 
     if cell is not None:
         firsts = np.array(sorted(reference_row.values()))
-        _check_angles(cell, values[firsts, :n_joints] * DEG, frame.index[firsts], source)
+        _check_angles(cell, values[firsts, :n_joints] * joint_scale, frame.index[firsts], source)
         check_wrench(cell, values[firsts, n_joints : n_joints + len(WRENCH_COLUMNS)], frame.index[firsts], source)
 
     positions = frame[list(POSITION_COLUMNS)].to_numpy(dtype=float) * MM
@@ -336,13 +345,14 @@ def read_campaign(
         config=config,
         repeat=frame["repeat"].to_numpy(dtype=int),
         marker=frame["marker"].to_numpy(dtype=str),
-        q=frame[_joint_columns(n_joints)].to_numpy(dtype=float) * DEG,
+        q=frame[joint_columns].to_numpy(dtype=float) * joint_scale,
         wrench=frame[list(WRENCH_COLUMNS)].to_numpy(dtype=float),
         p0=positions[:, :3],
         p1=positions[:, 3:],
         lines=frame.index.to_numpy(dtype=int),
         source=source,
         load_point=frame[given].to_numpy(dtype=float) * MM if given else None,
+        prismatic=prismatic if prismatic.any() else None,
     )
 
 
@@ -351,13 +361,15 @@ def _check_angles(cell: Cell, q: np.ndarray, lines: Sequence[int], source: str) 
     robot = cell.robot
     for row, line in zip(q, lines):
         robot.check_limits(row, source=source, line=int(line))
-    if len(q) >= 2 and np.max(np.abs(q)) <= _RADIAN_SPAN * DEG and np.ptp(q, axis=0).max() > 0:
+    angles = q[:, ~robot.prismatic]
+    if len(q) >= 2 and angles.size and np.max(np.abs(angles)) <= _RADIAN_SPAN * DEG and np.ptp(angles, axis=0).max() > 0:
+        columns = [name for name in robot.position_columns if name.endswith("_deg")]
         raise InputError(
             f"every joint angle of the {len(q)} configurations lies within ±{_RADIAN_SPAN:g} deg, as angles in radians "
-            f"would: write q1_deg..q{robot.nq}_deg in degrees",
+            f"would: write {columns[0]}..{columns[-1]} in degrees",
             source=source,
             line=int(lines[0]),
-            column="q1_deg",
+            column=columns[0],
         )
 
 

@@ -19,12 +19,13 @@ from typing import Any
 
 import numpy as np
 
-from bayescal.robot.compensator import COMPENSATED_JOINT, Compensator
+from bayescal.cell.joints import DEFAULT_COMPENSATED_JOINT, per_joint, read_compensator, reference_file
+from bayescal.robot.compensator import Compensator
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
 from bayescal.cell.loading import DIRECTIONS, Loading
 from bayescal.cell.tracker import TrackerNoise
-from bayescal.units import DEG, MM, N_PER_MM, UM, URAD_PER_NM
+from bayescal.units import DEG, MM, UM, UM_PER_N, URAD_PER_NM
 
 __all__ = ["Cell", "DesignLimits", "load_cell", "OVERLOAD_FACTOR", "MIN_LOAD_FRACTION", "SCHEMA"]
 
@@ -48,20 +49,15 @@ load.  A campaign whose largest force is below it is far more likely a wrench
 written in kN (1000 times smaller) than one measured so.
 """
 
-MAX_COMPENSATOR_LENGTH = 5.0
-"""Longest (m) lever L or pivot offset a_x, a_y of a compensator: longer than any industrial arm's link
-(ESTIMATE; the KR-270's are 0.18 and 0.70 m, Klimchik et al. Table II)."""
-
-
 SCHEMA: dict[str, frozenset[str] | None] = {
-    "robot": frozenset({"urdf", "flange", "payload_kg"}),
-    "joints": frozenset({"k_urad_per_Nm"}),
-    "compensator": frozenset({"L_mm", "a_x_mm", "a_y_mm", "phi_deg", "K_c_N_per_mm", "s0_mm"}),
+    "robot": frozenset({"urdf", "flange", "payload_kg", "joints", "locked_deg", "locked_mm", "reference_csv"}),
+    "joints": frozenset({"k_urad_per_Nm", "k_um_per_N"}),
+    "compensator": frozenset({"joint", "L_mm", "a_x_mm", "a_y_mm", "phi_deg", "K_c_N_per_mm", "s0_mm"}),
     "tool": frozenset({"load_point_mm", "markers_mm", "tcp_mm"}),
     "tool.markers_mm": None,
     "tracker": frozenset({"position_mm", "U0_um", "U1_um_per_m", "factor"}),
     "load": frozenset({"mass_kg", "gravity_m_per_s2", "directions", "force_max_N", "couple_max_Nm"}),
-    "test_pose": frozenset({"q_deg", "wrench_N_Nm", "point_mm"}),
+    "test_pose": frozenset({"q_deg", "q_mm", "wrench_N_Nm", "point_mm"}),
     "design": frozenset({"mass_kg", "acceptance_deg", "floor_z_mm", "hanging_clearance_mm"}),
 }
 """The tables of a cell file and their keys (``None``: any key, e.g. marker names).
@@ -100,9 +96,10 @@ class Cell:
     ----------
     robot : Robot
     compliances : numpy.ndarray
-        (nq,) joint compliances, rad/(N·m); joint 2's excludes the compensator.
+        (nq,) joint compliances, rad/(N·m) for a revolute joint and m/N for a prismatic
+        one; the compensated joint's excludes the compensator.
     compensator : Compensator or None
-        The spring compensator on joint 2.
+        The spring compensator, on the joint :attr:`compensated_joint`.
     load_point : numpy.ndarray
         (3,) where loads hang on the tool, flange frame, m.
     markers : dict of str to numpy.ndarray
@@ -113,7 +110,7 @@ class Cell:
     gravity : float
         Gravitational acceleration (m/s²) that turns load masses into forces.
     test_q : numpy.ndarray
-        (nq,) test pose, rad.
+        (nq,) test pose, rad (m for a prismatic joint).
     test_wrench : numpy.ndarray
         (6,) wrench at the test pose, ``[f (N); m (N·m)]`` at the flange origin, base axes.
     test_point : numpy.ndarray
@@ -129,6 +126,12 @@ class Cell:
         The ``[design]`` table: what campaigns of this cell may load and where they must keep clear.
     loading : Loading
         What the end-effector can apply (``[load] directions``, ``force_max_N``, ``couple_max_Nm``).
+    reference : pathlib.Path or None
+        Published results of this robot to set beside ours (``robot.reference_csv``, the
+        format of ``data/paper_reference.csv``); ``None``: no comparison is shown.
+    compensator_joint : int
+        Index (0-based) of the joint the compensator acts on (``[compensator] joint``, 1-based,
+        default 2); meaningless without a compensator (read :attr:`compensated_joint`).
     """
 
     robot: Robot
@@ -152,11 +155,22 @@ class Cell:
     def tool_point(self) -> np.ndarray:
         """(3,) the machining tool's point in the flange frame, m: ``tool.tcp_mm``, else ``test_pose.point_mm``."""
         return self.test_point if self.tcp is None else self.tcp
+    compensator_joint: int = DEFAULT_COMPENSATED_JOINT
+    reference: Path | None = None
 
     @property
     def compensated_joint(self) -> int | None:
         """Index (0-based) of the joint that carries the compensator, or ``None`` when the cell has none."""
-        return None if self.compensator is None else COMPENSATED_JOINT
+        return None if self.compensator is None else self.compensator_joint
+
+    @property
+    def plan_joint(self) -> int:
+        """Index (0-based) of the joint whose angles group a campaign's configurations.
+
+        The compensated joint, whose compliance the identification takes per angle; without
+        a compensator the same default joint, kept so that plans keep their structure.
+        """
+        return min(self.compensator_joint, self.robot.nq - 1)
 
     @property
     def capacity_weight(self) -> float:
@@ -345,6 +359,30 @@ def _loading(reader: _Reader) -> Loading:
         reader.fail('missing key \'force_max_N\' (eq 41\'s F_max in N), required with directions = "any"', "load")
     couple_max = reader.number("load", "couple_max_Nm", unit="N·m", non_negative=True, default=0.0)
     return Loading(directions=directions, force_max=force_max, couple_max=couple_max)
+def _read_robot(reader: _Reader, file: Path) -> Robot:
+    """The ``[robot]`` table: the URDF reduced to the named chain, other joints locked at their values."""
+    urdf = file.parent / reader.text("robot", "urdf")
+    flange = reader.text("robot", "flange", default="flange")
+    table = reader.table("robot")
+    joints = None
+    if "joints" in table:
+        joints = table["joints"]
+        if not isinstance(joints, list) or not joints or not all(isinstance(name, str) and name for name in joints):
+            reader.fail(f"expected a list of joint names from the base to the flange, got {joints!r}", "robot", "joints")
+    locked: dict[str, tuple[float, str]] = {}
+    for key, scale, unit, kind in (("locked_deg", DEG, "deg", "revolute"), ("locked_mm", MM, "mm", "prismatic")):
+        values = table.get(key, {})
+        ok = isinstance(values, Mapping) and all(not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) for v in values.values())
+        if not ok:
+            reader.fail(f"expected a table of joint names and positions in {unit}, e.g. {{ finger = 0 }}, got {values!r}", "robot", key)
+        locked |= {str(name): (float(value) * scale, kind) for name, value in values.items()}
+    _check_urdf_xml(urdf)
+    try:
+        robot = Robot.from_urdf(urdf, flange=flange, joints=joints, locked=locked)
+    except InputError as error:
+        key = "flange" if error.what.startswith("the model has no frame") else (error.column or "robot.urdf").split(".")[-1]
+        reader.fail(f"{error.what} ({urdf})", "robot", key)
+    return robot
 
 
 def load_cell(path: str | PathLike[str]) -> Cell:
@@ -383,45 +421,15 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     reader = _Reader(data, text, source)
     reader.check_keys()
 
-    urdf = file.parent / reader.text("robot", "urdf")
-    flange = reader.text("robot", "flange", default="flange")
-    _check_urdf_xml(urdf)
-    try:
-        robot = Robot.from_urdf(urdf, flange=flange)
-    except InputError as error:
-        key = "flange" if error.what.startswith("the model has no frame") else "urdf"
-        reader.fail(f"{error.what} ({urdf})", "robot", key)
-
+    robot = _read_robot(reader, file)
     payload = None
     if "payload_kg" in reader.table("robot"):
         payload = reader.number("robot", "payload_kg", unit="kg", positive=True)
 
-    compliances = reader.vector("joints", "k_urad_per_Nm", robot.nq, unit="μrad/(N·m)") * URAD_PER_NM
+    compliances = per_joint(reader, robot, "joints", ("k_urad_per_Nm", "k_um_per_N"), (URAD_PER_NM, UM_PER_N))
     if np.any(compliances <= 0):
-        reader.fail("expected positive joint compliances in μrad/(N·m)", "joints", "k_urad_per_Nm")
-
-    compensator = None
-    if reader.table("compensator", required=False) is not None:
-        values = {
-            "L": reader.number("compensator", "L_mm", unit="mm", positive=True) * MM,
-            "a_x": reader.number("compensator", "a_x_mm", unit="mm") * MM,
-            "a_y": reader.number("compensator", "a_y_mm", unit="mm") * MM,
-            "phi": reader.number("compensator", "phi_deg", unit="deg") * DEG,
-            "K_c": reader.number("compensator", "K_c_N_per_mm", unit="N/mm", non_negative=True) * N_PER_MM,
-            "s0": reader.number("compensator", "s0_mm", unit="mm", non_negative=True) * MM,
-        }
-        for name in ("L", "a_x", "a_y"):
-            if abs(values[name]) > MAX_COMPENSATOR_LENGTH:
-                reader.fail(
-                    f"{values[name] / MM:g} mm is longer than any compensator linkage ({MAX_COMPENSATOR_LENGTH / MM:g} mm); "
-                    "is it in μm instead of mm?",
-                    "compensator",
-                    f"{name}_mm",
-                )
-        try:
-            compensator = Compensator(**values)
-        except ValueError as exc:
-            reader.fail(str(exc), "compensator")
+        reader.fail("expected positive joint compliances in μrad/(N·m) (revolute) and μm/N (prismatic)", "joints")
+    compensator, compensator_joint = read_compensator(reader, robot)
 
     load_point = reader.vector("tool", "load_point_mm", 3, unit="mm") * MM
     marker_table = reader.table("tool.markers_mm")
@@ -445,11 +453,11 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     load_mass = reader.number("load", "mass_kg", unit="kg", positive=True)
     gravity = reader.number("load", "gravity_m_per_s2", unit="m/s²", positive=True, default=9.80665)
 
-    test_q = reader.vector("test_pose", "q_deg", robot.nq, unit="deg") * DEG
+    test_q = per_joint(reader, robot, "test_pose", ("q_deg", "q_mm"), (DEG, MM))
     try:
         robot.check_limits(test_q)
     except InputError as error:
-        reader.fail(error.what, "test_pose", "q_deg")
+        reader.fail(error.what, "test_pose", "q_mm" if error.column.endswith("_mm") else "q_deg")
 
     test_wrench = reader.vector("test_pose", "wrench_N_Nm", 6, unit="N and N·m")
     cell = Cell(
@@ -469,6 +477,8 @@ def load_cell(path: str | PathLike[str]) -> Cell:
         source=source,
         payload_kg=payload,
         tcp=reader.vector("tool", "tcp_mm", 3, unit="mm") * MM if "tcp_mm" in reader.table("tool") else None,
+        compensator_joint=compensator_joint,
+        reference=reference_file(reader, file),
     )
     force = float(np.linalg.norm(test_wrench[:3]))
     if force > cell.max_force:

@@ -1,12 +1,12 @@
 """Calibration plans: the robot configurations of an elastostatic campaign and their loads.
 
 A plan CSV has one row per configuration with the controller's joint angles
-``q1_deg`` … ``q<n>_deg`` and, optionally, its load: either the mass ``load_kg``
-hung at the tool's load point, or a force ``fx_N, fy_N, fz_N`` (base axes)
-applied through the load point by an end-effector that can push or pull in any
-direction (:mod:`bayescal.cell.loading`); either may come with a couple
-``mx_Nm, my_Nm, mz_Nm`` (base axes).  Configurations are numbered 1, 2, … in
-file order; lines starting with ``#`` are provenance notes.
+``q1_deg`` … ``q<n>_deg`` (``q<j>_mm``, in mm, for a prismatic joint) and, optionally, its
+load: either the mass ``load_kg`` hung at the tool's load point, or a force
+``fx_N, fy_N, fz_N`` (base axes) applied through the load point by an end-effector
+that can push or pull in any direction (:mod:`bayescal.cell.loading`); either may
+come with a couple ``mx_Nm, my_Nm, mz_Nm`` (base axes).  Configurations are
+numbered 1, 2, … in file order; lines starting with ``#`` are provenance notes.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from bayescal.cell.loading import Loading
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
 from bayescal.tables import read_header, read_table
-from bayescal.units import DEG
+from bayescal.units import DEG, MM
 
 __all__ = ["FORCE_COLUMNS", "COUPLE_COLUMNS", "Plan", "read_plan", "write_plan"]
 
@@ -44,7 +44,7 @@ class Plan:
     Attributes
     ----------
     q : numpy.ndarray
-        (M, nq) joint angles, rad.
+        (M, nq) joint positions, rad (m for a prismatic joint).
     load_kg : numpy.ndarray or None
         (M,) load masses, kg; ``None`` when the plan leaves them to the cell.
     lines : numpy.ndarray
@@ -54,6 +54,8 @@ class Plan:
         (M, 3) forces through the load point, base axes, N; when given, ``load_kg`` is ``None``.
     couple : numpy.ndarray or None
         (M, 3) couples, base axes, N·m.
+    prismatic : numpy.ndarray of bool or None
+        (nq,) which joints are prismatic (written in mm); ``None``: all revolute.
     """
 
     q: np.ndarray
@@ -62,6 +64,7 @@ class Plan:
     source: str = "<memory>"
     force: np.ndarray | None = None
     couple: np.ndarray | None = None
+    prismatic: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.q)
@@ -130,9 +133,9 @@ def read_plan(
         the end-effector cannot apply.
     """
     source = str(path)
-    joints = [f"q{j}_deg" for j in range(1, robot.nq + 1)]
+    joints = list(robot.position_columns)
     header = read_header(path)
-    extra = [name for name in (header[1] if header else []) if re.fullmatch(r"q[0-9]+_deg", name) and name not in joints]
+    extra = [name for name in (header[1] if header else []) if re.fullmatch(r"q[0-9]+_(deg|mm)", name) and name not in joints]
     if extra:
         raise InputError(
             f"the plan has a column {extra[0]} but the robot ({robot.source}) has {robot.nq} joints: "
@@ -146,9 +149,10 @@ def read_plan(
         path,
         {name: "number" for name in joints},
         optional={"load_kg": "number"} | {name: "number" for name in FORCE_COLUMNS + COUPLE_COLUMNS},
-        units={name: "deg" for name in joints} | {"load_kg": "kg"} | dict.fromkeys(FORCE_COLUMNS, "N") | dict.fromkeys(COUPLE_COLUMNS, "N·m"),
+        units={name: unit for name, unit in zip(joints, robot.position_units)} | {"load_kg": "kg"}
+        | dict.fromkeys(FORCE_COLUMNS, "N") | dict.fromkeys(COUPLE_COLUMNS, "N·m"),
     )
-    q = frame[joints].to_numpy(dtype=float) * DEG
+    q = frame[joints].to_numpy(dtype=float) * robot.position_scale
     for line, row in zip(frame.index, q):
         robot.check_limits(row, source=source, line=int(line))
     load = None
@@ -174,7 +178,8 @@ def read_plan(
     force = frame[list(FORCE_COLUMNS)].to_numpy(dtype=float) if FORCE_COLUMNS[0] in frame else None
     couple = frame[list(COUPLE_COLUMNS)].to_numpy(dtype=float) if COUPLE_COLUMNS[0] in frame else None
     _check_wrenches(frame.index, force, couple, max_load_kg, loading, source)
-    return Plan(q=q, load_kg=load, lines=frame.index.to_numpy(dtype=int), source=source, force=force, couple=couple)
+    prismatic = robot.prismatic.copy() if robot.prismatic.any() else None
+    return Plan(q=q, load_kg=load, lines=frame.index.to_numpy(dtype=int), source=source, force=force, couple=couple, prismatic=prismatic)
 
 
 def _check_load_columns(header: tuple[int, list[str]] | None, source: str) -> None:
@@ -218,15 +223,18 @@ def write_plan(plan: Plan, path: str | PathLike[str], *, comments: Sequence[str]
     """Write ``plan`` in the format :func:`read_plan` reads; ``comments`` become leading ``#`` lines.
 
     Joint angles are written with 3 decimals in deg (about 17 μrad, far below the
-    controllers' repeatability), loads with 1 decimal in kg, forces in N and couples in N·m.
+    controllers' repeatability), prismatic joints' positions with 3 decimals in mm,
+    loads with 1 decimal in kg, forces in N and couples in N·m.
     """
     lines = [f"# {line}" for comment in comments for line in str(comment).splitlines()]
-    joints = [f"q{j}_deg" for j in range(1, plan.q.shape[1] + 1)]
+    prismatic = np.zeros(plan.q.shape[1], dtype=bool) if plan.prismatic is None else plan.prismatic
+    joints = [f"q{j + 1}_{'mm' if linear else 'deg'}" for j, linear in enumerate(prismatic)]
+    scale = np.where(prismatic, MM, DEG)
     columns = joints + ([] if plan.load_kg is None else ["load_kg"])
     columns += list(FORCE_COLUMNS) * (plan.force is not None) + list(COUPLE_COLUMNS) * (plan.couple is not None)
     lines.append(",".join(columns))
     for number, q in enumerate(plan.q):
-        fields = [_decimal(value / DEG, 3) for value in q]
+        fields = [_decimal(value / unit, 3) for value, unit in zip(q, scale)]
         if plan.load_kg is not None:
             fields.append(f"{float(plan.load_kg[number]):.1f}")
         for values in (plan.force, plan.couple):

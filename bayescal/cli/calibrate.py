@@ -18,7 +18,7 @@ def add_parser(subparsers) -> None:
         "calibrate",
         help="identify joint compliances and the compensator spring from a campaign, with ±3σ intervals",
         description=(
-            "Identify the joint compliances k1..k6 and the compensator's K_c and s0 from a campaign CSV "
+            "Identify the joint compliances k1..kn and the compensator's K_c and s0 from a campaign CSV "
             "(Klimchik et al., eqs 30-35), with posterior ±3σ intervals, the parameters the campaign cannot "
             "identify, and the positioning error left at the config's test pose (eqs 38-39)."
         ),
@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         payload["linear_vs_exact"] = {
             str(name): {"shift_in_sd": row["shift_in_sd"], "sd_ratio": row["sd_ratio"]} for name, row in comparison.iterrows()
         }
-    return CommandOutput(payload=_finite(payload), text=_text(results, test_pose, args))
+    return CommandOutput(payload=_finite(payload), text=_text(results, test_pose, args, cell.reference))
 
 
 def _k2_by_angle(results) -> dict[float, dict]:
@@ -127,39 +127,45 @@ def _finite(value):
     return value
 
 
-def _text(results, test_pose, args) -> str:
+def _text(results, test_pose, args, reference_file) -> str:
     import textwrap
 
     import pandas as pd
 
     from bayescal.inference.identifiability import grouped
-    from bayescal.reference import beside_published
+    from bayescal.reference import beside_published, read_paper_reference
 
     parameters = results.parameters()
     estimates = pd.DataFrame(
         {name: (entry.get("mean", math.nan), entry.get("sd", math.nan)) for name, entry in parameters.items()}, index=["mean", "sd"]
     ).T
-    paper = beside_published(estimates, "IV")
+    # Only a cell that names published results of its own robot is compared with them.
+    compared = reference_file is not None
+    if compared:
+        paper = beside_published(estimates, "IV", read_paper_reference(reference_file))
+    else:
+        paper = estimates.assign(half_width_3sd=3 * estimates["sd"], width_3sd_pct=300 * estimates["sd"] / estimates["mean"].abs())
     units = results.parameter_units
     reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in units}
     lines = [
         f"{args.campaign}: {results.n_equations} equations ({results.n_rows} rows x 3 coordinates), "
         f"{results.model} model, {results.sampler_name}, seed {args.seed}",
         "",
-        f"{'parameter':<10}{'unit':<12}{'mean':>10}{'±3σ':>10}{'width':>8}   | {'Table IV':>9}{'±3σ':>8}{'width':>8}",
+        f"{'parameter':<10}{'unit':<12}{'mean':>10}{'±3σ':>10}{'width':>8}"
+        + (f"   | {'Table IV':>9}{'±3σ':>8}{'width':>8}" if compared else ""),
     ]
     for name, row in paper.iterrows():
-        published = (
+        published = "" if not compared else "   | " + (
             f"{row['published']:>9.4g}{row['published_half_width_3sd']:>8.3g}{row['published_width_pct']:>7.1f}%"
             if math.isfinite(row["published"])
             else f"{'–':>9}"
         )
         unit = units[name]
         if "mean" in parameters[name]:
-            lines.append(f"{name:<10}{unit:<12}{row['mean']:>10.4g}{row['half_width_3sd']:>10.3g}{row['width_3sd_pct']:>7.1f}%   | {published}")
+            lines.append(f"{name:<10}{unit:<12}{row['mean']:>10.4g}{row['half_width_3sd']:>10.3g}{row['width_3sd_pct']:>7.1f}%{published}")
         else:
-            lines.append(f"{name:<10}{unit:<12}{'not identifiable':>28}   | {published}")
-    lines.append("Intervals are mean ± 3 sd, widths 3 sd / |mean| (Table IV: Klimchik et al.).")
+            lines.append(f"{name:<10}{unit:<12}{'not identifiable':>28}{published}")
+    lines.append("Intervals are mean ± 3 sd, widths 3 sd / |mean|" + (" (Table IV: Klimchik et al.)." if compared else "."))
     if reasons:
         lines += ["", "Not identifiable:"]
         for names, reason in grouped(reasons):
@@ -168,13 +174,14 @@ def _text(results, test_pose, args) -> str:
         if weak:
             listed = ", ".join(weak)
             lines.append(f"  The posterior of {listed} is kept in the DataTree and in the JSON's weakly_determined block.")
+    j = results.joint + 1
     per_angle = [
-        f"  q2 = {angle:>8.2f} deg  {entry['mean']:.4g} ± {entry['hi3'] - entry['mean']:.2g} urad/(N m)"
+        f"  q{j} = {angle:>8.2f} deg  {entry['mean']:.4g} ± {entry['hi3'] - entry['mean']:.2g} urad/(N m)"
         for angle, entry in _k2_by_angle(results).items()
         if "mean" in entry
     ]
     if per_angle:
-        lines += ["", "Joint 2 with its compensator at each campaign angle (±3σ; the paper's Fig. 7):", *per_angle]
+        lines += ["", f"Joint {j} with its compensator at each campaign angle (±3σ; the paper's Fig. 7):", *per_angle]
     d = results.diagnostics()
     lines += [
         "",

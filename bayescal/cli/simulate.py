@@ -35,7 +35,7 @@ def add_parser(subparsers) -> None:
         ),
         formatter_class=_EffectsHelp,
     )
-    parser.add_argument("--plan", required=True, help="plan CSV: q1_deg..q6_deg and optionally load_kg per configuration")
+    parser.add_argument("--plan", required=True, help="plan CSV: q1_deg..q<n>_deg (q<j>_mm for a prismatic joint) and optionally load_kg per configuration")
     parser.add_argument("--config", required=True, help="cell TOML file (robot, stiffness, compensator, tool, tracker)")
     parser.add_argument("--repeats", type=whole_number(1), default=3, help="measurements of each configuration (default 3)")
     parser.add_argument("-o", "--output", required=True, help="campaign CSV to write")

@@ -20,7 +20,6 @@ import pinocchio as pin
 
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
-from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.robot.stiffness import ElasticArm, EquilibriumError
 
 __all__ = ["Rows", "campaign_rows", "pose_rows", "measured_pose", "predicted_pose", "wrench_at_pose", "COVARIATES"]
@@ -91,6 +90,8 @@ class Rows:
         the unloaded and loaded positions.
     tracker_distance : numpy.ndarray
         (N,) distance of the marker from the tracker, m.
+    plan_joint : int
+        Index (0-based) of the joint whose angles group the campaign (the cell's :attr:`~bayescal.cell.config.Cell.plan_joint`).
     """
 
     y: np.ndarray
@@ -109,6 +110,7 @@ class Rows:
     marker: np.ndarray
     noise: np.ndarray
     tracker_distance: np.ndarray
+    plan_joint: int
 
     def __len__(self) -> int:
         return len(self.y)
@@ -120,18 +122,22 @@ class Rows:
 
     def take(self, index: np.ndarray) -> Rows:
         """The rows ``index``."""
-        return Rows(**{name: getattr(self, name)[index] for name in self.__dataclass_fields__})
+        rows = {name: getattr(self, name)[index] for name in self.__dataclass_fields__ if name != "plan_joint"}
+        return Rows(**rows, plan_joint=self.plan_joint)
 
     def extend(self, other: Rows) -> Rows:
         """These rows followed by ``other``'s."""
-        return Rows(**{name: np.concatenate([getattr(self, name), getattr(other, name)]) for name in self.__dataclass_fields__})
+        if other.plan_joint != self.plan_joint:
+            raise ValueError("rows of cells with different plan joints cannot be joined")
+        fields = [name for name in self.__dataclass_fields__ if name != "plan_joint"]
+        return Rows(**{name: np.concatenate([getattr(self, name), getattr(other, name)]) for name in fields}, plan_joint=self.plan_joint)
 
 
 def _static_torque(cell: Cell, q: np.ndarray) -> np.ndarray:
     """Torque the joint springs carry with the arm unloaded at ``q``: minus gravity minus the compensator's moment."""
     torque = -cell.robot.gravity_torque(q)
     if cell.compensator is not None:
-        torque[COMPENSATED_JOINT] -= cell.compensator.torque(float(q[COMPENSATED_JOINT]))
+        torque[cell.compensated_joint] -= cell.compensator.torque(float(q[cell.compensated_joint]))
     return torque
 
 
@@ -178,6 +184,7 @@ def _build(cell: Cell, q, wrench, point, position, y, config, repeat, marker, no
         marker=marker,
         noise=noise,
         tracker_distance=np.linalg.norm(position - cell.tracker.position, axis=1),
+        plan_joint=cell.plan_joint,
     )
 
 

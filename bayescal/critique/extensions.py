@@ -43,7 +43,6 @@ import numpy as np
 
 from bayescal.cell.config import Cell
 from bayescal.critique.covariates import COVARIATES, Rows
-from bayescal.robot.compensator import COMPENSATED_JOINT
 
 __all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "OUTLIER_DOF"]
 
@@ -88,12 +87,12 @@ def base_columns(rows: Rows, cell: Cell) -> np.ndarray:
 
 
 def _compensator(rows: Rows, cell: Cell) -> np.ndarray:
-    q2 = rows.q[:, COMPENSATED_JOINT]
+    q2 = rows.q[:, rows.plan_joint]
     if cell.compensator is not None:
         shape = cell.compensator.regressor(q2)[:, 1:]
     else:
         shape = np.column_stack([q2, q2**2])
-    return rows.design[:, :, COMPENSATED_JOINT, np.newaxis] * shape[:, np.newaxis, :]
+    return rows.design[:, :, rows.plan_joint, np.newaxis] * shape[:, np.newaxis, :]
 
 
 def _beams(cell: Cell, rows: Rows) -> list[tuple[int, int]]:
@@ -231,13 +230,13 @@ def _lever(rows: Rows) -> np.ndarray:
 
 
 def _q2(rows: Rows) -> np.ndarray:
-    q2 = rows.q[:, COMPENSATED_JOINT]
+    q2 = rows.q[:, rows.plan_joint]
     return np.column_stack([q2, q2**2])
 
 
 _COVARIATE_VALUES: dict[str, Callable[[Rows], np.ndarray]] = {
     "q2": _q2,
-    "other joints": lambda rows: np.delete(rows.q, COMPENSATED_JOINT, axis=1),
+    "other joints": lambda rows: np.delete(rows.q, rows.plan_joint, axis=1),
     "torques": lambda rows: rows.load_torque,
     "torque signs": lambda rows: np.sign(rows.static_torque + rows.load_torque),
     "load": lambda rows: rows.wrench[:, :3],

@@ -35,7 +35,6 @@ from bayescal.errors import InputError
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.equations import check_campaign
 from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit, lack_of_fit, replicate_cells
-from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG, MM
 
@@ -251,7 +250,7 @@ def _residual_table(rows: Rows, y: np.ndarray, base: CrossValidation, final: Cro
             "marker": repeat(rows.marker),
             "axis": np.tile(np.array(["x", "y", "z"]), len(rows)),
             "order": repeat(rows.order),
-            "q2_deg": repeat(rows.q[:, COMPENSATED_JOINT] / DEG),
+            "q2_deg": repeat(rows.q[:, rows.plan_joint] / DEG),
             "reach_mm": repeat(np.hypot(rows.position[:, 0], rows.position[:, 1]) / MM),
             "tracker_distance_mm": repeat(rows.tracker_distance / MM),
             "load_N": repeat(np.linalg.norm(rows.wrench[:, :3], axis=1)),

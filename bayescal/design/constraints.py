@@ -41,7 +41,9 @@ __all__ = ["DesignSpace", "Feasibility", "load_design_space"]
 
 LINK_RADII = (0.40, 0.30, 0.25, 0.20, 0.15)
 """Radii (m) of the capsules around base→A1, A1→A2, A2→A3, A3→A4 and A4→A5 (ESTIMATES of the
-KR-270's castings, which the URDF does not describe); the wrist beyond A5 is left to the incidence test."""
+KR-270's castings, which the URDF does not describe); the wrist beyond A5 is left to the incidence test.
+For a robot of another number of joints the radii are spread over its nq - 1 segments from the
+base to its last but one joint, from the base's radius down to the wrist's (ESTIMATES too)."""
 
 ACCEPTANCE_DEG = 60.0
 """Largest angle (deg) between a marker's facing direction and the line to the tracker: an
@@ -164,8 +166,15 @@ class Feasibility:
         self.space = space
         self._markers = np.array(list(cell.markers.values()))
         self._tool = np.vstack([np.zeros(3), self._markers])
-        if len(space.link_radii) != 5 or cell.robot.nq != 6:
-            raise InputError("the visibility model needs a six-joint arm and five link radii", source=space.source)
+        segments = cell.robot.nq - 1
+        radii = np.asarray(space.link_radii, dtype=float)
+        if radii.size != segments and tuple(space.link_radii) == LINK_RADII and segments >= 1:
+            radii = np.interp(np.linspace(0.0, radii.size - 1.0, segments), np.arange(radii.size), radii)
+        elif radii.size != segments:
+            raise InputError(
+                f"the visibility model needs {segments} link radii for a {cell.robot.nq}-joint arm, got {radii.size}", source=space.source
+            )
+        self._radii = radii
 
     def violation(self, q, mass: float) -> str | None:
         """Why ``q`` loaded with ``mass`` kg is infeasible, or None when it is feasible.
@@ -225,9 +234,9 @@ class Feasibility:
             angle = math.degrees(math.acos(np.clip(cosine[worst], -1.0, 1.0)))
             return f"marker {name} faces {angle:.0f} deg away from the tracker"
         joints = self.cell.robot.joint_origins(q)
-        start = np.vstack([[joints[0, 0], joints[0, 1], self.space.floor_z], joints[:4]])
-        end = joints[:5]
-        radii = np.asarray(self.space.link_radii)
+        start = np.vstack([[joints[0, 0], joints[0, 1], self.space.floor_z], joints[:-2]])
+        end = joints[:-1]
+        radii = self._radii
         for name, marker in zip(self.cell.markers, markers):
             if np.any(_segment_distance(tracker, marker, start, end) < radii):
                 return f"the arm hides marker {name} from the tracker"

@@ -1,6 +1,6 @@
 """How good a calibration plan is before it is measured: eqs 37-40 on the linearised compensated model.
 
-The identification's parameters are ``θ = [k1..k6, K_c, s0]`` (rad/(N·m), N/m,
+The identification's parameters are ``θ = [k1..kn, K_c, s0]`` (rad/(N·m), N/m,
 m), ``k2`` being joint 2 without its compensator.  Around the cell's nominal
 values, a marker's deflection in configuration ``q`` under the wrench ``F`` is
 ``Δp ≈ A(q, F) k_eff(q2)`` (eq 31) with the equivalent joint-2 compliance
@@ -43,8 +43,7 @@ import pandas as pd
 from dataclasses import replace
 
 from bayescal.cell.config import Cell
-from bayescal.reference import published
-from bayescal.robot.compensator import COMPENSATED_JOINT
+from bayescal.reference import read_paper_reference
 from bayescal.robot.stiffness import ElasticArm, compliance_design
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import MM, N_PER_MM, URAD_PER_NM
@@ -102,7 +101,7 @@ def compliance_chain(cell: Cell, q2: float) -> tuple[np.ndarray, np.ndarray]:
     chain = np.eye(cell.robot.nq, len(parameter_names(cell)))
     compensator = cell.compensator
     if compensator is not None:
-        j2 = COMPENSATED_JOINT
+        j2 = cell.compensated_joint
         effective[j2] = 1.0 / (1.0 / k[j2] + compensator.stiffness(q2))
         # K_c·a·L·η = C1·K_c + C2·s0·K_c (eq 35): derivatives C1 + s0·C2 in K_c and K_c·C2 in s0.
         _, c1, c2 = compensator.regressor(q2)
@@ -133,7 +132,7 @@ def configuration_design(cell: Cell, q, wrench) -> tuple[np.ndarray, np.ndarray]
         (3·markers,) standard deviation of each deflection coordinate (m): ``√2 σ(p)``.
     """
     q = np.asarray(q, dtype=float)
-    _, chain = compliance_chain(cell, float(q[COMPENSATED_JOINT]))
+    _, chain = compliance_chain(cell, float(q[cell.plan_joint]))
     chain = chain * nominal_parameters(cell)[np.newaxis, :]
     points = list(cell.markers.values())
     rows = [compliance_design(cell.robot, q, point, wrench) @ chain for point in points]
@@ -162,7 +161,7 @@ def wrench_information(cell: Cell, q, wrench, repeats: int = 1, *, exact: ExactL
 
 def test_pose_design(cell: Cell) -> np.ndarray:
     """(3, p) derivative of the test point's deflection (m) under the test wrench in the relative parameters."""
-    _, chain = compliance_chain(cell, float(cell.test_q[COMPENSATED_JOINT]))
+    _, chain = compliance_chain(cell, float(cell.test_q[cell.plan_joint]))
     chain = chain * nominal_parameters(cell)[np.newaxis, :]
     return compliance_design(cell.robot, cell.test_q, cell.test_point, cell.test_wrench) @ chain
 
@@ -189,7 +188,7 @@ def solve_equilibrium(cell: Cell, q, wrench, load_point) -> np.ndarray:
 
     Raises :class:`~bayescal.robot.stiffness.EquilibriumError` when there is none.
     """
-    return ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, load_point=load_point).equilibrium(q, wrench)
+    return ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, load_point=load_point, compensated_joint=cell.compensated_joint).equilibrium(q, wrench)
 
 
 def test_deflection(cell: Cell) -> np.ndarray:
@@ -277,6 +276,9 @@ class PlanPrediction:
         plan cannot predict it.
     log_det : float
         log det of the excited block of the information matrix (relative parameters); -inf when singular.
+    published_width_pct : dict of str to float or None
+        ±3σ widths (% of the value) of the cell's published results (its ``reference_csv``,
+        Table IV for the KR-270); ``None`` when the cell names none.
     """
 
     names: list[str]
@@ -285,6 +287,7 @@ class PlanPrediction:
     covariance: np.ndarray
     rho0: float
     log_det: float
+    published_width_pct: dict[str, float] | None = None
 
     @property
     def relative_sd(self) -> np.ndarray:
@@ -295,20 +298,16 @@ class PlanPrediction:
         """Predicted precision per parameter in the paper's units.
 
         Columns ``value``, ``sd``, ``width_3sd_pct`` (3 sd in % of the value),
-        ``table_iv_pct`` (Klimchik et al., Table IV) and ``unit``.
+        ``table_iv_pct`` (the cell's published widths, Klimchik et al.'s Table IV for the
+        KR-270; only when the cell names them) and ``unit``.
         """
         factors = np.array([_unit(name)[0] for name in self.names])
         sd = self.relative_sd * np.abs(self.nominal)
-        return pd.DataFrame(
-            {
-                "value": self.nominal * factors,
-                "sd": sd * factors,
-                "width_3sd_pct": 300.0 * self.relative_sd,
-                "table_iv_pct": [_table_iv_pct(name) for name in self.names],
-                "unit": [_unit(name)[1] for name in self.names],
-            },
-            index=pd.Index(self.names, name="parameter"),
-        )
+        columns = {"value": self.nominal * factors, "sd": sd * factors, "width_3sd_pct": 300.0 * self.relative_sd}
+        if self.published_width_pct is not None:
+            columns["table_iv_pct"] = [self.published_width_pct.get(name, math.nan) for name in self.names]
+        columns["unit"] = [_unit(name)[1] for name in self.names]
+        return pd.DataFrame(columns, index=pd.Index(self.names, name="parameter"))
 
     def to_json(self) -> dict:
         """``criterion`` (ρ0 in mm, null when not predictable) and each parameter's ±3σ width."""
@@ -359,7 +358,15 @@ def predict(cell: Cell, information: np.ndarray, *, test_design: np.ndarray | No
         G0 = test_pose_design(cell) if test_design is None else test_design
         rho0 = math.sqrt(max(float(np.trace(G0[:, excited] @ inverse @ G0[:, excited].T)), 0.0))
         log_det = float(np.sum(np.log(values)) - 2.0 * np.sum(np.log(scale)))
-    return PlanPrediction(names=names, nominal=nominal_parameters(cell), excited=excited, covariance=covariance, rho0=rho0, log_det=log_det)
+    return PlanPrediction(
+        names=names,
+        nominal=nominal_parameters(cell),
+        excited=excited,
+        covariance=covariance,
+        rho0=rho0,
+        log_det=log_det,
+        published_width_pct=_published_widths(cell),
+    )
 
 
 def criterion_value(prediction: PlanPrediction, criterion: str) -> float:
@@ -432,9 +439,13 @@ def _unit(name: str) -> tuple[float, str]:
     return 1.0 / URAD_PER_NM, "urad/(N m)"
 
 
-def _table_iv_pct(name: str) -> float:
-    value, half_width = published("IV").get(name, (np.nan, np.nan))
-    return 100.0 * half_width / value
+def _published_widths(cell: Cell) -> dict[str, float] | None:
+    """±3σ widths (% of the value) of the cell's published elastostatic results (Table IV's rows), or None."""
+    if cell.reference is None:
+        return None
+    rows = read_paper_reference(cell.reference)
+    rows = rows[rows["table"] == "IV"]
+    return {str(name): 100.0 * float(row["ci3"]) / float(row["value"]) for name, row in rows.iterrows()}
 
 
 def _finite(value: float) -> float | None:

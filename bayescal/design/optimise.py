@@ -34,7 +34,7 @@ from os import PathLike
 import numpy as np
 import pandas as pd
 
-from bayescal.cell.config import Cell
+from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT, Cell
 from bayescal.cell.plan import Plan, write_plan
 from bayescal.design.constraints import DesignSpace, Feasibility, load_design_space
 from bayescal.design.criteria import (
@@ -51,7 +51,6 @@ from bayescal.design.criteria import (
 from bayescal.design.loads import free_candidates, load_sizes, loads_json, turned
 from bayescal.design.progress import Progress
 from bayescal.errors import InputError
-from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.units import DEG, MM
 
 __all__ = ["PlanDesign", "PlanDesigner"]
@@ -105,6 +104,8 @@ class PlanDesign:
         Size of the candidate set.
     seed : int or None
         The seed the optimisation ran with, when given as an integer.
+    plan_joint : int
+        Index (0-based) of the joint whose angles group the plan (the cell's).
     """
 
     plan: Plan
@@ -116,6 +117,7 @@ class PlanDesign:
     starts: list[float] = field(default_factory=list)
     candidates: int = 0
     seed: int | None = None
+    plan_joint: int = DEFAULT_COMPENSATED_JOINT
 
     def summary(self) -> pd.DataFrame:
         """Predicted precision per parameter (see :meth:`PlanPrediction.summary`)."""
@@ -123,7 +125,7 @@ class PlanDesign:
 
     def to_json(self) -> dict:
         """``criterion`` (ρ0, mm), the optimised criterion, the plan's angles and each parameter's ±3σ width."""
-        q2 = np.unique(np.round(self.plan.q[:, COMPENSATED_JOINT] / DEG, 3))
+        q2 = np.unique(np.round(self.plan.q[:, self.plan_joint] / DEG, 3))
         return self.prediction.to_json() | {
             "model": "exact",
             "linear_model": self.linear.to_json(),
@@ -183,7 +185,7 @@ class PlanDesigner:
         self._down = np.array([0.0, 0.0, -self.force_size, 0.0, 0.0, 0.0])
         self._test_design = test_pose_design(cell)
         robot = cell.robot
-        j2 = COMPENSATED_JOINT
+        j2 = cell.plan_joint
         self.q2_range = (float(robot.lower[j2]), float(robot.upper[j2]))
 
     # ----------------------------------------------------------------- scoring
@@ -266,7 +268,7 @@ class PlanDesigner:
         robot = self.cell.robot
         for _ in range(tries):
             q = rng.uniform(robot.lower, robot.upper)
-            q[COMPENSATED_JOINT] = q2
+            q[self.cell.plan_joint] = q2
             reason = self._violation(q, self._down)
             if reason is None:
                 return q
@@ -328,9 +330,13 @@ class PlanDesigner:
 
     def _plan(self, q: np.ndarray, loads: np.ndarray) -> Plan:
         lines = np.zeros(len(q), dtype=int)
+        prismatic = self.cell.robot.prismatic.copy() if self.cell.robot.prismatic.any() else None
         if not self.free:
-            return Plan(q=q, load_kg=np.full(len(q), self.mass), lines=lines, source="optimised")
-        return Plan(q=q, load_kg=None, lines=lines, source="optimised", force=loads[:, :3], couple=loads[:, 3:] if self.couple_size > 0 else None)
+            return Plan(q=q, load_kg=np.full(len(q), self.mass), lines=lines, source="optimised", prismatic=prismatic)
+        return Plan(
+            q=q, load_kg=None, lines=lines, source="optimised", force=loads[:, :3],
+            couple=loads[:, 3:] if self.couple_size > 0 else None, prismatic=prismatic,
+        )
 
     # ----------------------------------------------------------------- optimisation
 
@@ -409,6 +415,7 @@ class PlanDesigner:
             starts=scores,
             candidates=len(configurations),
             seed=seed,
+            plan_joint=self.cell.plan_joint,
         )
 
     def _separated(self, values: list[float]) -> bool:
@@ -463,7 +470,7 @@ class PlanDesigner:
 
     def _refine(self, q: np.ndarray, loads: np.ndarray, angles: int, per_angle: int, criterion: str, rng: np.random.Generator, steps: int):
         robot = self.cell.robot
-        j2 = COMPENSATED_JOINT
+        j2 = self.cell.plan_joint
         q, loads = q.copy(), loads.copy()
         parts = np.array([self._load_information(row, load) for row, load in zip(q, loads)])
         current = self._score(parts.sum(axis=0), criterion)

@@ -13,7 +13,7 @@ import numpy as np
 
 from bayescal.inference.equations import DeflectionEquations
 from bayescal.inference.identifiability import Identifiability
-from bayescal.robot.compensator import COMPENSATED_JOINT, CompensatorGeometry
+from bayescal.robot.compensator import CompensatorGeometry
 
 __all__ = ["ClosedForm", "closed_form", "check_regression"]
 
@@ -83,7 +83,7 @@ def closed_form(
         C = CompensatorGeometry(*geometry).regressor(equations.q2[known])
         w = np.linalg.lstsq(C, 1.0 / k2[known], rcond=None)[0]
         spring = np.array([w[0], w[1], w[2] / w[1] if w[1] != 0 else np.nan])
-        compliances[COMPENSATED_JOINT] = 1.0 / w[0]
+        compliances[equations.joint] = 1.0 / w[0]
     return ClosedForm(per_angle=k, columns=columns, cov=cov, sigma=sigma, compliances=compliances, spring=spring, k2=k2, k2_sd=k2_sd)
 
 
@@ -99,7 +99,8 @@ def check_regression(
     if singular[-1] > 1e-8 * singular[0]:
         return ident
     reason = "the eq 34 regressor of the campaign's q2 angles is rank deficient: K_c and s0*K_c cannot be separated"
-    reasons = dict(ident.reasons) | {name: reason for name in ("k2", "K_c", "s0")}
+    joint = next(j for j, angle in columns if angle is not None)
+    reasons = dict(ident.reasons) | {name: reason for name in (f"k{joint + 1}", "K_c", "s0")}
     return replace(ident, reasons=reasons, compensator=False)
 
 

@@ -49,7 +49,8 @@ from bayescal.inference.lack_of_fit import LackOfFit, lack_of_fit, replicate_cel
 from bayescal.inference.likelihood import compensated_posterior, per_angle_posterior
 from bayescal.inference.priors import GeometryPrior, config_geometry
 from bayescal.inference.results import ElastostaticDraws, ElastostaticResults, parameter_units
-from bayescal.robot.compensator import COMPENSATED_JOINT, CompensatorGeometry, stiffness_regressor
+from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
+from bayescal.robot.compensator import CompensatorGeometry, stiffness_regressor
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.gibbs import GibbsSampler
 from bayescal.sampling.protocol import Sampler
@@ -177,6 +178,8 @@ class ElastostaticModel:
         thresholds (:func:`bayescal.sampling.summary.sample_until_converged`); 0 never
         extends, ``bayescal calibrate`` uses :data:`EXTENSIONS` unless ``--draws`` is
         given.  A misspecified campaign can leave the default draws short.
+    compensated_joint
+        Index (0-based) of the joint the compensator acts on: the cell's.
     """
 
     robot: Robot
@@ -191,6 +194,7 @@ class ElastostaticModel:
     max_iterations: int = 10
     hanging_only: bool = False
     extensions: int = 0
+    compensated_joint: int = DEFAULT_COMPENSATED_JOINT
 
     @classmethod
     def from_cell(cls, cell: Cell, geometry: GeometryPrior | None = None, **options) -> ElastostaticModel:
@@ -200,7 +204,11 @@ class ElastostaticModel:
         ``options`` are the other fields (``model``, ``sampler``, ``n_draws`` …).
         """
         if cell.compensator is None:
-            raise InputError("the cell has no [compensator]: the elastostatic model needs its geometry", source=cell.source)
+            raise InputError(
+                "the cell has no [compensator]: the elastostatic model identifies a compensated joint per angle and does "
+                "not yet handle a robot without one (simulate, plan and critique do)",
+                source=cell.source,
+            )
         spring = (cell.compensator.K_c, cell.compensator.s0)
         return cls(
             robot=cell.robot,
@@ -209,6 +217,7 @@ class ElastostaticModel:
             nominal_spring=spring,
             load_point=cell.load_point,
             tracker=cell.tracker,
+            compensated_joint=cell.compensated_joint,
             **({"hanging_only": cell.loading.hanging_only} | options),
         )
 
@@ -229,7 +238,9 @@ class ElastostaticModel:
     def _prepare(self, campaign: Campaign, *, announce: bool = True) -> _Prepared:
         if self.model not in ("exact", "linear"):
             raise ValueError(f"model must be 'exact' or 'linear', got {self.model!r}")
-        equations, torque, points = deflection_equations(self.robot, campaign, noise=self.noise, tracker=self.tracker)
+        equations, torque, points = deflection_equations(
+            self.robot, campaign, noise=self.noise, tracker=self.tracker, joint=self.compensated_joint
+        )
         check_campaign(self.robot, campaign, points, hanging_only=self.hanging_only)
         if announce:
             check_load_point(self.robot, campaign, self.load_point)
@@ -240,6 +251,7 @@ class ElastostaticModel:
             equations.q2,
             torque[configs],
             equations.angle[3 * configs],
+            equations.prismatic,
         )
         if self.hanging_only and "k1" in ident.reasons:
             ident.reasons["k1"] += f"; {HANGING_ONLY_REASON}"
@@ -391,6 +403,8 @@ class ElastostaticModel:
             closed_form=cf,
             model=self.model,
             q2=equations.q2,
+            joint=equations.joint,
+            prismatic=equations.prismatic,
             draws=draws,
             geometry=self.geometry,
             n_equations=equations.n,
@@ -442,7 +456,7 @@ class ElastostaticModel:
         prior_sd |= {name: None for name in summary.index if label_angle(name) is not None}
         context = {}
         if "K_c" in summary.index:
-            context["K_c"] = self._compensator_context(equations, ident, cf, summary.loc["k2", "mean"] * URAD_PER_NM)
+            context["K_c"] = self._compensator_context(equations, ident, cf, summary.loc[f"k{equations.joint + 1}", "mean"] * URAD_PER_NM)
         return practical_reasons(summary, prior_sd, requires={"s0": "K_c"}, context=context)
 
     def _compensator_context(self, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm, k2: float) -> str:
@@ -452,11 +466,12 @@ class ElastostaticModel:
         share = 100.0 * np.abs(compensator.stiffness(equations.q2)) * k2
         columns = [c for c, keep in zip(equations.per_angle_columns(), ident.identifiable) if keep]
         sd = np.sqrt(np.diag(cf.cov))
-        resolution = [300.0 * sd[i] / cf.per_angle[i] for i, (joint, _) in enumerate(columns) if joint == COMPENSATED_JOINT]
+        resolution = [300.0 * sd[i] / cf.per_angle[i] for i, (joint, _) in enumerate(columns) if joint == equations.joint]
+        j = equations.joint + 1
         return (
-            f"the compensator changes the joint-2 stiffness by {share.min():.2f}–{share.max():.2f} % across the "
-            f"campaign's {equations.q2.size} q2 angles (at the config's K_c = {Kc / N_PER_MM:.4g} N/mm, "
-            f"s0 = {s0 / MM:.4g} mm), while the per-angle joint-2 compliances are resolved to "
+            f"the compensator changes the joint-{j} stiffness by {share.min():.2f}–{share.max():.2f} % across the "
+            f"campaign's {equations.q2.size} q{j} angles (at the config's K_c = {Kc / N_PER_MM:.4g} N/mm, "
+            f"s0 = {s0 / MM:.4g} mm), while the per-angle joint-{j} compliances are resolved to "
             f"±{np.median(resolution):.2f} % (3σ, median over the angles)"
         )
 
@@ -473,7 +488,7 @@ class ElastostaticModel:
         """
         compliances = np.where(np.isfinite(cf.compliances) & (cf.compliances > 0), cf.compliances, self.nominal_compliances)
         compensator = CompensatorGeometry(*self.geometry.mean).with_spring(*(spring or self.nominal_spring))
-        nominal_k2 = compensator.equivalent_compliance(equations.q2, self.nominal_compliances[COMPENSATED_JOINT])
+        nominal_k2 = compensator.equivalent_compliance(equations.q2, self.nominal_compliances[equations.joint])
         k2 = np.where(np.isfinite(cf.k2) & (cf.k2 > 0), cf.k2, nominal_k2)
         return linearisation_offset(robot or self.robot, campaign, equations, compliances, k2, compensator, self.load_point)
 
@@ -531,7 +546,7 @@ class ElastostaticModel:
     def _posterior(self, equations: DeflectionEquations, ident: Identifiability, static=None):
         """The posterior density of the (whitened) equations and, in the compensated model, the joints it samples."""
         if ident.compensator:
-            joints = tuple(j for j in range(equations.n_joints) if j != COMPENSATED_JOINT and f"k{j + 1}" not in ident.reasons)
+            joints = tuple(j for j in range(equations.n_joints) if j != equations.joint and f"k{j + 1}" not in ident.reasons)
             return compensated_posterior(equations, joints, self.geometry, static, GRAVITY_SD), joints
         return per_angle_posterior(equations, ident.identifiable), None
 
@@ -567,7 +582,7 @@ class ElastostaticModel:
             spring_sd = SPRING_SCALE * np.abs([start[len(joints)], 1.0, spring[2]])
             scale = np.concatenate([k_sd, spring_sd, np.full(gravity.size, GRAVITY_SD), geometry_sd, log_sigma_scale])
             raw = self.sampler.sample(posterior, start, scale, rng)
-            draws = ElastostaticDraws.compensated(posterior, joints, raw)
+            draws = ElastostaticDraws.compensated(posterior, joints, raw, equations.joint)
         else:
             start = np.concatenate([cf.per_angle, np.log(cf.sigma)])
             raw = self.sampler.sample(posterior, start, np.concatenate([sd, log_sigma_scale]), rng)

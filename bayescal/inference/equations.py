@@ -18,7 +18,7 @@ import numpy as np
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError
-from bayescal.robot.compensator import COMPENSATED_JOINT
+from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.robot.kinematics import Robot
 from bayescal.robot.stiffness import compliance_design
 from bayescal.units import DEG, MM
@@ -89,6 +89,11 @@ class DeflectionEquations:
         ``(n,)`` known relative noise sd of each equation (e.g. from the
         tracker's distance-dependent error); the group's unknown sigma
         multiplies it.  None: all equal.
+    joint
+        Index (0-based) of the joint whose compliance is taken per angle (the cell's
+        compensated joint); ``angle`` and ``q2`` are that joint's.
+    prismatic
+        Which joints are prismatic (their compliances in m/N); empty: all revolute.
     """
 
     y: np.ndarray
@@ -98,6 +103,8 @@ class DeflectionEquations:
     group: np.ndarray
     group_names: tuple[str, ...]
     scale: np.ndarray | None = None
+    joint: int = DEFAULT_COMPENSATED_JOINT
+    prismatic: tuple[bool, ...] = ()
 
     def __post_init__(self) -> None:
         n = self.y.shape[0]
@@ -126,8 +133,8 @@ class DeflectionEquations:
         """``(joint, angle)`` of each per-angle column: joint 2 once per angle, the others once."""
         columns: list[tuple[int, int | None]] = []
         for joint in range(self.n_joints):
-            if joint == COMPENSATED_JOINT:
-                columns.extend((COMPENSATED_JOINT, a) for a in range(self.q2.size))
+            if joint == self.joint:
+                columns.extend((joint, a) for a in range(self.q2.size))
             else:
                 columns.append((joint, None))
         return columns
@@ -145,7 +152,12 @@ class DeflectionEquations:
 
 
 def deflection_equations(
-    robot: Robot, campaign: Campaign, *, noise: str = "axis", tracker: TrackerNoise | None = None
+    robot: Robot,
+    campaign: Campaign,
+    *,
+    noise: str = "axis",
+    tracker: TrackerNoise | None = None,
+    joint: int = DEFAULT_COMPENSATED_JOINT,
 ) -> tuple[DeflectionEquations, np.ndarray, np.ndarray]:
     """The scalar equations of eq 30 for a campaign, with the loads' joint torques.
 
@@ -161,6 +173,8 @@ def deflection_equations(
         When given, each equation's noise is taken proportional to the tracker's
         error at the unloaded and loaded positions, ``sqrt(s(p0)^2 + s(p1)^2)``
         (scaled to mean 1; the unknown level per group multiplies it).
+    joint
+        Index (0-based) of the joint whose compliance is taken per angle: the cell's compensated joint.
 
     Returns
     -------
@@ -179,7 +193,7 @@ def deflection_equations(
         points[i] = robot.point_in_flange(campaign.q[i], campaign.p0[i])
         design[i] = compliance_design(robot, campaign.q[i], points[i], campaign.wrench[i])
         torque[i] = robot.flange_jacobian(campaign.q[i]).T @ campaign.wrench[i]
-    values, angle = group_angles(campaign.q[:, COMPENSATED_JOINT])
+    values, angle = group_angles(campaign.q[:, joint])
     if noise == "axis":
         group, names = np.tile(np.arange(3), n), ("x", "y", "z")
     elif noise == "marker":
@@ -195,6 +209,8 @@ def deflection_equations(
         group=group,
         group_names=names,
         scale=None if tracker is None else np.repeat(_relative_noise(tracker, campaign), 3),
+        joint=joint,
+        prismatic=tuple(bool(p) for p in robot.prismatic) if robot.prismatic.any() else (),
     )
     return equations, torque, points
 

@@ -15,7 +15,7 @@ import pinocchio as pin
 
 from bayescal.cell.campaign import Campaign
 from bayescal.inference.equations import DeflectionEquations
-from bayescal.robot.compensator import COMPENSATED_JOINT, Compensator
+from bayescal.robot.compensator import Compensator
 from bayescal.robot.kinematics import Robot
 from bayescal.robot.stiffness import ElasticArm
 
@@ -32,6 +32,7 @@ def exact_deflections(
     points_in_flange: np.ndarray | None = None,
     unloaded_positions: np.ndarray | None = None,
     load_point: np.ndarray | None = None,
+    compensated_joint: int | None = None,
 ) -> np.ndarray:
     """Deflections (m) of tool points between the unloaded and the loaded static equilibria.
 
@@ -49,15 +50,15 @@ def exact_deflections(
     wrench
         ``(6,)`` load at the flange origin in base axes (N, N·m), as applied at ``q``.
     compliances
-        ``(nq,)`` joint compliances (rad/(N·m)), ``compliances[1] = 1/K_theta2^0``.
+        ``(nq,)`` joint compliances (rad/(N·m)); the compensated joint's is ``1/K_theta2^0``.
     compensator
-        The spring compensator of joint 2.
+        The spring compensator, on the joint ``compensated_joint`` (0-based; required with a compensator).
     points_in_flange, unloaded_positions
         ``(k, 3)`` points, one of the two (m).
     load_point
         Flange-frame point where the load's force acts (a hanging mass); None: flange origin, dead load.
     """
-    arm = ElasticArm.linear(robot, compliances, compensator=compensator, load_point=load_point)
+    arm = ElasticArm.linear(robot, compliances, compensator=compensator, load_point=load_point, compensated_joint=compensated_joint)
     unloaded = q + arm.equilibrium(q, np.zeros(6))
     loaded = q + arm.equilibrium(q, wrench)
     if points_in_flange is None:
@@ -107,7 +108,7 @@ def linearisation_offset(
         rows = np.flatnonzero(campaign.config == config)
         q = campaign.q[rows[0]]
         k = np.array(compliances, dtype=float)
-        k[COMPENSATED_JOINT] = compensator.own_compliance(q[COMPENSATED_JOINT], k2[row_angle[rows[0]]])
+        k[equations.joint] = compensator.own_compliance(q[equations.joint], k2[row_angle[rows[0]]])
         exact[rows] = exact_deflections(
             robot,
             q,
@@ -116,7 +117,8 @@ def linearisation_offset(
             compensator,
             unloaded_positions=campaign.p0[rows],
             load_point=load_point if campaign.load_point is None else campaign.load_point[rows[0]],
+            compensated_joint=equations.joint,
         )
     per_row = np.repeat(np.asarray(compliances, dtype=float)[None, :], equations.n, axis=0)
-    per_row[:, COMPENSATED_JOINT] = k2[equations.angle]
+    per_row[:, equations.joint] = k2[equations.angle]
     return exact.reshape(-1) - np.einsum("ij,ij->i", equations.design, per_row)

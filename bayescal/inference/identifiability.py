@@ -38,7 +38,6 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from bayescal.robot.compensator import COMPENSATED_JOINT
 
 __all__ = [
     "Identifiability",
@@ -147,6 +146,7 @@ def analyse(
     q2: np.ndarray,
     torque: np.ndarray,
     torque_angle: np.ndarray,
+    prismatic: Sequence[bool] = (),
 ) -> Identifiability:
     """Rank, conditioning and identifiability of the per-angle design.
 
@@ -159,18 +159,24 @@ def analyse(
     q2
         Distinct joint-2 angles (rad) the angle indices refer to.
     torque
-        ``(r, 6)`` joint torques (N·m) the loads exert, one row per loaded configuration.
+        ``(r, nq)`` generalized forces the loads exert on the joints, one row per loaded
+        configuration: torques (N·m), forces (N) along a prismatic joint.
     torque_angle
         ``(r,)`` angle index of each row of ``torque``.
+    prismatic
+        Which joints are prismatic; empty: all revolute.
     """
     names = [angle_label(q2[a]) if a is not None else f"k{j + 1}" for j, a in columns]
     norms = np.linalg.norm(design, axis=0)
-    largest_torque = float(np.abs(torque).max(initial=0.0))
+    linear = np.zeros(torque.shape[1], dtype=bool)
+    linear[: len(prismatic)] = np.asarray(prismatic, dtype=bool)
+    # A revolute joint's torque is compared with the other torques only.
+    largest = {kind: float(np.abs(torque[:, linear == kind]).max(initial=0.0)) for kind in (False, True)}
     reasons: dict[str, str] = {}
     identifiable = norms > RANK_TOLERANCE * max(norms.max(initial=0.0), np.finfo(float).tiny)
     for i, (joint, angle) in enumerate(columns):
         if not identifiable[i]:
-            reasons[names[i]] = _unloaded_reason(joint, angle, q2, torque, torque_angle, largest_torque)
+            reasons[names[i]] = _unloaded_reason(joint, angle, q2, torque, torque_angle, largest[bool(linear[joint])], bool(linear[joint]))
 
     kept = np.flatnonzero(identifiable)
     scaled = design[:, kept] / norms[kept]
@@ -197,7 +203,8 @@ def analyse(
     condition = float(singular.max() / singular.min()) if singular.size else math.inf
     vif = dict(zip([names[i] for i in kept], np.diag(np.linalg.inv(scaled.T @ scaled)))) if kept.size else {}
 
-    joint2_angles = sorted({columns[i][1] for i in kept if columns[i][0] == COMPENSATED_JOINT})
+    # Only the compensated joint's compliance has one column per angle.
+    joint2_angles = sorted({columns[i][1] for i in kept if columns[i][1] is not None})
     compensator = len(joint2_angles) >= _MIN_ANGLES
     if not compensator:
         listed = ", ".join(f"{math.degrees(q2[a]):.2f}" for a in joint2_angles) or "none"
@@ -205,7 +212,8 @@ def analyse(
             f"the campaign has {len(joint2_angles)} q2 angle(s) with an identifiable joint-2 compliance "
             f"({listed} deg); K_theta2^0, K_c and s0*K_c of eq 34 need at least {_MIN_ANGLES}"
         )
-        for name in ("k2", "K_c", "s0"):
+        per_angle_joint = next((j for j, angle in columns if angle is not None), None)
+        for name in ([f"k{per_angle_joint + 1}"] if per_angle_joint is not None else []) + ["K_c", "s0"]:
             reasons[name] = why
     return Identifiability(
         names=names,
@@ -218,10 +226,18 @@ def analyse(
     )
 
 
-def _unloaded_reason(joint: int, angle: int | None, q2, torque, torque_angle, largest: float) -> str:
+def _unloaded_reason(joint: int, angle: int | None, q2, torque, torque_angle, largest: float, prismatic: bool = False) -> str:
     rows = torque[:, joint] if angle is None else torque[torque_angle == angle, joint]
     biggest = float(np.abs(rows).max(initial=0.0))
     where = "" if angle is None else f" at q2 = {math.degrees(q2[angle]):.2f} deg"
+    # A slide's force (N) is set against the largest force or torque over a 1 m arm (N·m / m) on any joint.
+    if prismatic and biggest <= _NO_TORQUE * max(largest, float(np.abs(torque).max(initial=0.0))):
+        return (
+            f"no load of the campaign{where} exerts a force along the axis of the prismatic joint {joint + 1} "
+            f"(largest |f{joint + 1}| = {biggest:.3g} N)"
+        )
+    if prismatic:
+        return f"the markers do not move when joint {joint + 1} slides{where}: the design column is zero"
     if biggest <= _NO_TORQUE * largest:
         return (
             f"no load of the campaign{where} exerts a torque about the axis of joint {joint + 1} "

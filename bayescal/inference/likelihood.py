@@ -34,7 +34,7 @@ import numpy as np
 
 from bayescal.inference.equations import DeflectionEquations
 from bayescal.inference.priors import GeometryPrior
-from bayescal.robot.compensator import COMPENSATED_JOINT, stiffness_regressor
+from bayescal.robot.compensator import stiffness_regressor
 from bayescal.sampling.gibbs import ConditionallyLinear
 
 __all__ = ["CompensatorBlock", "per_angle_posterior", "compensated_posterior", "SPRING"]
@@ -217,14 +217,14 @@ def compensated_posterior(
     linearisation point ``[K_c, K_c s0]`` (N/m, N) and the ``(n, 3)`` columns
     ``W`` of the exact model's correction (:class:`CompensatorBlock`).
     """
-    if COMPENSATED_JOINT in joints:
-        raise ValueError("joint 2 is described by the compensator parameters, not by a free compliance")
+    if equations.joint in joints:
+        raise ValueError("the compensated joint is described by the compensator parameters, not by a free compliance")
     return ConditionallyLinear(
         y=equations.y,
         X=equations.design[:, list(joints)],
         group=equations.group,
         n_groups=len(equations.group_names),
-        b=equations.design[:, COMPENSATED_JOINT],
+        b=equations.design[:, equations.joint],
         level=equations.angle,
         block=CompensatorBlock(
             equations.q2,

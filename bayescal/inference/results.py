@@ -13,21 +13,26 @@ from bayescal.inference.equations import ANGLE_DECIMALS, DeflectionEquations
 from bayescal.inference.identifiability import Identifiability, angle_label
 from bayescal.inference.lack_of_fit import LackOfFit
 from bayescal.inference.priors import GeometryPrior
-from bayescal.robot.compensator import COMPENSATED_JOINT, stiffness_regressor
+from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
+from bayescal.robot.compensator import stiffness_regressor
 from bayescal.sampling.gibbs import ConditionallyLinear
 from bayescal.sampling.summary import diagnostics
 from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
 
-__all__ = ["ElastostaticResults", "ElastostaticDraws", "parameter_units", "COMPLIANCE_UNIT"]
+__all__ = ["ElastostaticResults", "ElastostaticDraws", "parameter_units", "COMPLIANCE_UNIT", "PRISMATIC_COMPLIANCE_UNIT"]
 
 COMPLIANCE_UNIT = "urad/(N m)"
+PRISMATIC_COMPLIANCE_UNIT = "um/N"
+"""A prismatic joint's compliance at the edges (μm/N: the same factor 1e-6 from SI as μrad/(N·m))."""
 """Unit of the joint compliances at the edges."""
 
 
-def parameter_units(n_joints: int) -> dict[str, str]:
+def parameter_units(n_joints: int, prismatic: tuple[bool, ...] = ()) -> dict[str, str]:
     """The reported parameters and their units: ``k1``..``k<n>`` (``k2`` is ``1/K_theta2^0``, joint 2
     without its compensator), ``K_c`` and ``s0``."""
-    return {f"k{j + 1}": COMPLIANCE_UNIT for j in range(n_joints)} | {"K_c": "N/mm", "s0": "mm"}
+    linear = set(np.flatnonzero(prismatic).tolist()) if len(prismatic) else set()
+    units = {f"k{j + 1}": PRISMATIC_COMPLIANCE_UNIT if j in linear else COMPLIANCE_UNIT for j in range(n_joints)}
+    return units | {"K_c": "N/mm", "s0": "mm"}
 
 
 @dataclass(frozen=True)
@@ -59,14 +64,14 @@ class ElastostaticDraws:
     gravity: np.ndarray | None = None
 
     @classmethod
-    def compensated(cls, posterior: ConditionallyLinear, joints: tuple[int, ...], raw: np.ndarray) -> ElastostaticDraws:
-        """From draws ``(chain, draw, ndim)`` of :func:`~bayescal.inference.likelihood.compensated_posterior`."""
+    def compensated(cls, posterior: ConditionallyLinear, joints: tuple[int, ...], raw: np.ndarray, joint: int) -> ElastostaticDraws:
+        """From draws ``(chain, draw, ndim)`` of :func:`~bayescal.inference.likelihood.compensated_posterior`; ``joint`` is the compensated one (0-based)."""
         p, block = len(joints), posterior.block
         z = raw[..., p : p + block.ndim]
         k2 = block.evaluate(z.reshape(-1, block.ndim))[0].reshape(*raw.shape[:2], -1)
         compliances = {f"k{j + 1}": raw[..., i] for i, j in enumerate(joints)}
         spring = block.spring(z.reshape(-1, block.ndim)).reshape(*raw.shape[:2], 3)
-        compliances["k2"] = 1.0 / spring[..., 0]
+        compliances[f"k{joint + 1}"] = 1.0 / spring[..., 0]
         gravity = block.gravity_scale(z.reshape(-1, block.ndim))
         a = block.n_adapted
         return cls(
@@ -118,10 +123,11 @@ class ElastostaticDraws:
         chains_draws = values("sigma").shape[:2]
         k2 = np.full((*chains_draws, equations.q2.size), np.nan)
         k2[..., [angles.index(a) for a in saved]] = values("k2_q2") * URAD_PER_NM
-        compliances = {f"k{j}": values(f"k{j}") * URAD_PER_NM for j in range(1, 7) if f"k{j}" in posterior}
+        names = [f"k{j + 1}" for j in range(equations.n_joints)]
+        compliances = {name: values(name) * URAD_PER_NM for name in names if name in posterior}
         spring = None
         if "K_c" in posterior:
-            spring = np.stack([1.0 / compliances["k2"], values("K_c") * N_PER_MM, values("s0") * MM], axis=-1)
+            spring = np.stack([1.0 / compliances[f"k{equations.joint + 1}"], values("K_c") * N_PER_MM, values("s0") * MM], axis=-1)
         geometry = None
         if "L" in posterior:
             geometry = np.stack([values(name) * factor for name, factor in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG))], axis=-1)
@@ -133,7 +139,7 @@ class ElastostaticDraws:
         from bayescal.sampling.summary import posterior_tree
 
         values: dict[str, np.ndarray] = {name: value / URAD_PER_NM for name, value in sorted(self.compliances.items())}
-        units = {name: COMPLIANCE_UNIT for name in values}
+        units = {name: parameter_units(equations.n_joints, equations.prismatic)[name] for name in values}
         if self.spring is not None:
             values["K_c"] = self.spring[..., 1] / N_PER_MM
             values["s0"] = self.spring[..., 2] / MM
@@ -191,6 +197,10 @@ class ElastostaticResults:
         :meth:`summary`, once computed.
     lack_of_fit : LackOfFit | None
         The lack-of-fit test against the repeats' pure error (None without repeats).
+    joint : int
+        Index (0-based) of the compensated joint, whose compliance is per angle.
+    prismatic : tuple of bool
+        Which joints are prismatic (compliance in μm/N at the edges); empty: all revolute.
     """
 
     tree: object
@@ -209,13 +219,15 @@ class ElastostaticResults:
     residuals: np.ndarray = field(default_factory=lambda: np.empty((0, 3)), repr=False)
     linear_closed_form: ClosedForm | None = None
     summary_table: pd.DataFrame | None = field(default=None, repr=False)
+    joint: int = DEFAULT_COMPENSATED_JOINT
+    prismatic: tuple[bool, ...] = ()
     sampler_name: str = "gibbs"
     lack_of_fit: LackOfFit | None = None
 
     @property
     def parameter_units(self) -> dict[str, str]:
         """The reported parameters and their units (:func:`parameter_units` for this robot's joints)."""
-        return parameter_units(self.closed_form.compliances.size)
+        return parameter_units(self.closed_form.compliances.size, self.prismatic)
 
     def save(self, path) -> None:
         """Write the posterior DataTree to NetCDF at ``path``."""
@@ -321,7 +333,7 @@ class ElastostaticResults:
             ratio = math.sqrt(linear.cov[index, index] / exact.cov[index, index])
             pairs[name] = (exact.per_angle[index] / URAD_PER_NM, linear.per_angle[index] / URAD_PER_NM, ratio)
         if exact.spring is not None and linear.spring is not None:
-            pairs["k2"] = (1.0 / exact.spring[0] / URAD_PER_NM, 1.0 / linear.spring[0] / URAD_PER_NM, math.nan)
+            pairs[f"k{self.joint + 1}"] = (1.0 / exact.spring[0] / URAD_PER_NM, 1.0 / linear.spring[0] / URAD_PER_NM, math.nan)
             pairs["K_c"] = (exact.spring[1] / N_PER_MM, linear.spring[1] / N_PER_MM, math.nan)
             pairs["s0"] = (exact.spring[2] / MM, linear.spring[2] / MM, math.nan)
         summary = self.summary()
@@ -348,7 +360,7 @@ class ElastostaticResults:
         """
         d = self.draws
         n_joints = self.closed_form.compliances.size
-        missing = [j for j in range(n_joints) if j != COMPENSATED_JOINT and f"k{j + 1}" not in d.compliances]
+        missing = [j for j in range(n_joints) if j != self.joint and f"k{j + 1}" not in d.compliances]
         if missing and fill is None:
             return None
         if d.spring is not None:
@@ -359,7 +371,7 @@ class ElastostaticResults:
                 return None
             k2 = d.k2[..., match[0]].reshape(-1)
         columns = [
-            k2 if j == COMPENSATED_JOINT else np.full(k2.size, fill[j]) if j in missing else d.compliances[f"k{j + 1}"].reshape(-1)
+            k2 if j == self.joint else np.full(k2.size, fill[j]) if j in missing else d.compliances[f"k{j + 1}"].reshape(-1)
             for j in range(n_joints)
         ]
         return np.column_stack(columns)

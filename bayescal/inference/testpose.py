@@ -21,7 +21,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.cell.config import Cell
 from bayescal.robot.compensator import Compensator
 from bayescal.inference.exact import exact_deflections
@@ -138,23 +137,30 @@ def predict_test_pose(
         ``(3,)`` true deflection (simulations): the error is then measured from it.
     """
     q0 = np.asarray(q0, dtype=float)
-    draws = results.compliance_draws(float(q0[COMPENSATED_JOINT]), fill=nominal_compliances)
+    draws = results.compliance_draws(float(q0[results.joint]), fill=nominal_compliances)
     if draws is None:
         return TestPosePrediction(
             deflection=np.empty((0, 3)),
             reference=np.full(3, math.nan),
             rho0=math.nan,
             available=False,
-            reason=_unavailable(results, float(q0[COMPENSATED_JOINT]), nominal_compliances is None),
+            reason=_unavailable(results, float(q0[results.joint]), nominal_compliances is None),
         )
     A0 = designs(robot, q0[np.newaxis], np.reshape(point, (1, 3)), np.reshape(wrench0, (1, 6)))[0]
     deflection = deflection_draws(A0[np.newaxis], draws)[0].T
     mean_k = draws.mean(axis=0)
     if results.model == "exact" and nominal_compensator is not None:
         own = mean_k.copy()
-        own[COMPENSATED_JOINT] = 1.0 / (1.0 / mean_k[COMPENSATED_JOINT] - nominal_compensator.stiffness(float(q0[COMPENSATED_JOINT])))
+        own[results.joint] = 1.0 / (1.0 / mean_k[results.joint] - nominal_compensator.stiffness(float(q0[results.joint])))
         exact = exact_deflections(
-            robot, q0, wrench0, own, nominal_compensator, points_in_flange=np.atleast_2d(point), load_point=load_point
+            robot,
+            q0,
+            wrench0,
+            own,
+            nominal_compensator,
+            points_in_flange=np.atleast_2d(point),
+            load_point=load_point,
+            compensated_joint=results.joint,
         )[0]
         deflection = deflection + (exact - A0 @ mean_k)
     cov = np.cov(draws, rowvar=False)
@@ -163,7 +169,7 @@ def predict_test_pose(
     assumed = {
         f"k{j + 1}": float(draws[0, j])
         for j in range(draws.shape[1])
-        if j != COMPENSATED_JOINT and f"k{j + 1}" not in results.draws.compliances
+        if j != results.joint and f"k{j + 1}" not in results.draws.compliances
     }
     return TestPosePrediction(deflection=deflection, reference=reference, rho0=rho0, assumed=assumed)
 
@@ -191,7 +197,7 @@ def _unavailable(results: ElastostaticResults, q2: float, no_fill: bool) -> str:
     """Why the campaign cannot predict the test pose, naming the compliance that is missing."""
     reasons = results.identifiability.not_identifiable
     joints = range(results.closed_form.compliances.size)
-    missing = [f"k{j + 1}" for j in joints if j != COMPENSATED_JOINT and f"k{j + 1}" not in results.draws.compliances]
+    missing = [f"k{j + 1}" for j in joints if j != results.joint and f"k{j + 1}" not in results.draws.compliances]
     if missing and no_fill:
         names = ", ".join(missing)
         return f"{names} not identified by the campaign ({reasons.get(missing[0], 'not sampled')}) and no nominal value given"

@@ -27,7 +27,7 @@ from bayescal.cell.config import Cell
 from bayescal.inference.equations import deflection_noise
 from bayescal.inference.results import ElastostaticResults
 from bayescal.inference.testpose import TestPosePrediction
-from bayescal.reference import published
+from bayescal.reference import published, read_paper_reference
 from bayescal.reports.compensation import compensation_section
 from bayescal.reports.page import HTML_FILE, JSON_FILE, MARKDOWN_FILE, Page, finite_number, format_value, generic
 from bayescal.reports.figures import plot_error_distribution, plot_evidence, plot_pairs, plot_rank, plot_residuals
@@ -105,7 +105,7 @@ def render_review(inputs: ReviewInputs) -> dict[str, bytes]:
     _overview(page, inputs, facts)
     # Results first, for the reader who stops after the first screen; then what they rest on.
     if inputs.results is not None:
-        _parameter_section(page, inputs.results, facts)
+        _parameter_section(page, inputs.results, facts, _published_iv(inputs.cell))
         _identifiability_section(page, inputs.results, facts)
     if inputs.test_pose is not None:
         _test_pose_section(page, inputs.test_pose, inputs.cell)
@@ -122,7 +122,7 @@ def render_review(inputs: ReviewInputs) -> dict[str, bytes]:
         _critique_section(page, inputs.critique, inputs.sources.get("critique", ""))
     _convergence_section(page, inputs, facts)
     if inputs.results is not None:
-        _pairs_section(page, inputs.results, inputs.seed)
+        _pairs_section(page, inputs.results, inputs.seed, _published_iv(inputs.cell))
     if inputs.plan is not None:
         _plan_section(page, inputs.plan, inputs.sources.get("plan", ""))
     if inputs.study is not None:
@@ -255,15 +255,25 @@ def _geometry_section(page: Page, tree, seed: int) -> None:
     page.close()
 
 
-def _parameter_section(page: Page, results: ElastostaticResults, facts: _Facts) -> None:
-    page.heading("parameters", "Elastostatic parameters beside Table IV")
+def _published_iv(cell: Cell | None) -> dict[str, tuple[float, float]] | None:
+    """``{parameter: (value, ±3σ half-width)}`` of the cell's published Table IV, or None when it names none."""
+    if cell is None or cell.reference is None:
+        return None
+    rows = read_paper_reference(cell.reference)
+    rows = rows[rows["table"] == "IV"]
+    return {str(name): (float(row["value"]), float(row["ci3"])) for name, row in rows.iterrows()}
+
+
+def _parameter_section(page: Page, results: ElastostaticResults, facts: _Facts, table_iv: dict | None) -> None:
+    page.heading("parameters", "Elastostatic parameters" + (" beside Table IV" if table_iv is not None else ""))
     summary, parameters = facts.summary, facts.parameters
-    table_iv = published("IV")
     rows = {}
     for name, value in parameters.items():
-        paper = table_iv.get(name, (math.nan, math.nan))
-        row = {"mean": math.nan, "±3σ": math.nan, "±3σ [% of mean]": math.nan, "Table IV": paper[0], "Table IV ±3σ": paper[1]}
-        row |= {"Table IV ±3σ [%]": 100 * paper[1] / paper[0] if paper[0] else math.nan, "R-hat": math.nan, "unit": _unit(results.parameter_units[name])}
+        row = {"mean": math.nan, "±3σ": math.nan, "±3σ [% of mean]": math.nan}
+        if table_iv is not None:
+            paper = table_iv.get(name, (math.nan, math.nan))
+            row |= {"Table IV": paper[0], "Table IV ±3σ": paper[1], "Table IV ±3σ [%]": 100 * paper[1] / paper[0] if paper[0] else math.nan}
+        row |= {"R-hat": math.nan, "unit": _unit(results.parameter_units[name])}
         if "mean" in value:
             row |= {"mean": value["mean"], "±3σ": value["hi3"] - value["mean"], "R-hat": summary.loc[name, "r_hat"]}
             row["±3σ [% of mean]"] = 100 * (value["hi3"] - value["mean"]) / abs(value["mean"])
@@ -274,8 +284,13 @@ def _parameter_section(page: Page, results: ElastostaticResults, facts: _Facts) 
     page.table(
         "parameters",
         frame,
-        caption="k1..k6 in μrad/(N·m) (k2 without the compensator), K_c in N/mm, s0 in mm; "
-        "not identifiable parameters have no estimate (see the next section)",
+        caption=(
+            "k1..k6 in μrad/(N·m) (k2 without the compensator), K_c in N/mm, s0 in mm; "
+            if table_iv is not None
+            else f"k1..k{results.closed_form.compliances.size} in the unit of their row (k{results.joint + 1} without the compensator), "
+            "K_c in N/mm, s0 in mm; "
+        )
+        + "not identifiable parameters have no estimate (see the next section)",
     )
     per_angle = summary.loc[[name for name in summary.index if name.startswith("k2_q2[")]]
     if not per_angle.empty:
@@ -346,13 +361,14 @@ def _convergence_section(page: Page, inputs: ReviewInputs, facts: _Facts | None)
     page.close()
 
 
-def _pairs_section(page: Page, results: ElastostaticResults, seed: int) -> None:
+def _pairs_section(page: Page, results: ElastostaticResults, seed: int, table_iv: dict | None) -> None:
     tree = results.tree["posterior"]
     names = [name for name in ("K_c", "s0", "k2", "k3") if name in tree]
     if len(names) < 2:
         return
     page.heading("pairs", "Posterior pairs")
-    table_iv = published("IV")
+    compared = table_iv is not None
+    table_iv = table_iv or {}
     labels = {name: f"{name} [{_unit(results.parameter_units[name])}]" for name in names}
     draws = {labels[name]: np.asarray(tree[name].values).ravel() for name in names}
     reference = {labels[n]: table_iv[n][0] for n in names if n in table_iv}
@@ -360,7 +376,9 @@ def _pairs_section(page: Page, results: ElastostaticResults, seed: int) -> None:
     page.figure(
         "pairs_elastostatic",
         plot_pairs(draws, reference=reference, reference_label="Table IV", seed=seed),
-        "Pairs of K_c, s0, k2 (joint 2 without compensator) and k3, with their correlation ρ; dashed: Table IV.",
+        "Pairs of K_c, s0, k2 (joint 2 without compensator) and k3, with their correlation ρ; dashed: Table IV."
+        if compared
+        else "Pairs of K_c, s0, k2 and k3 (the compensated joint's without its compensator), with their correlation ρ.",
     )
     page.close()
 

@@ -32,10 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["COMPENSATED_JOINT", "CompensatorGeometry", "Compensator", "stiffness_regressor"]
-
-COMPENSATED_JOINT = 1
-"""Index (0-based) of the joint the compensator acts on: joint 2, as in the paper."""
+__all__ = ["CompensatorGeometry", "Compensator", "stiffness_regressor"]
 
 
 def _out(value: np.ndarray) -> np.ndarray | float:

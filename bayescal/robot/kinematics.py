@@ -3,9 +3,10 @@
 Everything is computed by Pinocchio; this module only fixes the conventions the
 rest of the package relies on:
 
-* joint angles ``q`` are the controller's, in rad, one per joint (every joint
-  must be a one-degree-of-freedom revolute joint: angles are read in deg and
-  compliances are in rad/(N·m));
+* joint positions ``q`` are the controller's, one per chain joint: rad for a
+  revolute joint (deg in files, column ``q<j>_deg``), m for a prismatic one (mm in
+  files, column ``q<j>_mm``); compliances are rad/(N·m) and m/N, μrad/(N·m) and
+  μm/N at the edges (the chain and the locked joints: :mod:`bayescal.robot.chain`);
 * points on the tool are given in the ``flange`` frame, in m;
 * velocities and Jacobians are expressed in the base axes at the point they
   describe (Pinocchio's ``LOCAL_WORLD_ALIGNED``), rows ordered ``[v; ω]``;
@@ -15,7 +16,6 @@ rest of the package relies on:
 
 from __future__ import annotations
 
-import math
 from os import PathLike
 from pathlib import Path
 
@@ -23,11 +23,13 @@ import numpy as np
 import pinocchio as pin
 
 from bayescal.errors import InputError
+from bayescal.robot.chain import joint_kind, reduce_to_chain
+from bayescal.units import DEG, MM
 
 __all__ = ["Robot"]
 
 _LIMIT_TOLERANCE = 1e-9
-"""Slack (rad) on joint limits so that a plan written at a limit in deg is accepted."""
+"""Slack on joint limits (rad; times 1 mm/m, m, for a prismatic joint) so that a plan written at a limit in deg or mm is accepted."""
 
 
 class Robot:
@@ -49,21 +51,28 @@ class Robot:
         Number of joints.
     joint_names : tuple of str
     lower, upper : numpy.ndarray
-        Joint limits, rad.
+        Joint limits, rad or m.
+    prismatic : numpy.ndarray of bool
+        (nq,) which joints are prismatic.
+    position_scale : numpy.ndarray
+        (nq,) SI value of one file unit of each joint's position: :data:`~bayescal.units.DEG` or :data:`~bayescal.units.MM`.
+    position_units, compliance_units : tuple of str
+        Each joint's units at the edges: ``"deg"`` or ``"mm"``; ``"μrad/(N·m)"`` or ``"μm/N"``.
+    position_columns : tuple of str
+        The campaign and plan files' column of each joint: ``q<j>_deg`` or ``q<j>_mm``.
     flange : str
         Name of the flange frame.
     """
 
     def __init__(self, model: pin.Model, *, flange: str = "flange", source: str | None = None) -> None:
-        if model.nq != model.nv:
+        kinds = [joint_kind(joint) for joint in list(model.joints)[1:]]
+        if None in kinds:
+            name = list(model.names)[1 + kinds.index(None)]
             raise InputError(
-                "every joint must be a single revolute joint (found a joint with more coordinates "
-                "than velocities, e.g. a 'continuous' joint)",
+                f"joint '{name}' is neither revolute nor prismatic (a 'continuous' joint has two coordinates: "
+                "give it limits and type 'revolute')",
                 source=source,
             )
-        prismatic = [name for name, joint in zip(list(model.names)[1:], list(model.joints)[1:]) if joint.shortname().startswith("JointModelP")]
-        if prismatic:
-            raise InputError(f"joint '{prismatic[0]}' is prismatic; every joint must be revolute", source=source)
         if not model.existFrame(flange):
             raise InputError(f"the model has no frame named '{flange}'", source=source)
         self.model = model
@@ -71,6 +80,11 @@ class Robot:
         self.joint_names = tuple(str(name) for name in list(model.names)[1:])
         self.lower = np.array(model.lowerPositionLimit, dtype=float)
         self.upper = np.array(model.upperPositionLimit, dtype=float)
+        self.prismatic = np.array([kind == "prismatic" for kind in kinds], dtype=bool)
+        self.position_scale = np.where(self.prismatic, MM, DEG)
+        self.position_units = tuple("mm" if p else "deg" for p in self.prismatic)
+        self.compliance_units = tuple("μm/N" if p else "μrad/(N·m)" for p in self.prismatic)
+        self.position_columns = tuple(f"q{j + 1}_{unit}" for j, unit in enumerate(self.position_units))
         self.flange = flange
         self.source = source
         self._data = model.createData()
@@ -82,8 +96,19 @@ class Robot:
         return Robot(self.model.copy(), flange=self.flange, source=self.source)
 
     @classmethod
-    def from_urdf(cls, path: str | PathLike[str], *, flange: str = "flange") -> Robot:
-        """Load a robot from a URDF file; ``flange`` names the tool frame (a link or fixed joint)."""
+    def from_urdf(
+        cls,
+        path: str | PathLike[str],
+        *,
+        flange: str = "flange",
+        joints: list[str] | None = None,
+        locked: dict[str, tuple[float, str]] | None = None,
+    ) -> Robot:
+        """Load a robot from a URDF file; ``flange`` names the tool frame (a link or fixed joint).
+
+        ``joints`` names the chain's joints base to flange and ``locked`` the values and kinds
+        of joints locked away from 0 (:func:`~bayescal.robot.chain.reduce_to_chain`).
+        """
         file = Path(path)
         if not file.is_file():
             raise InputError("URDF file not found", source=str(path))
@@ -91,6 +116,9 @@ class Robot:
             model = pin.buildModelFromUrdf(str(file))
         except (RuntimeError, ValueError) as exc:
             raise InputError(f"cannot read the URDF: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}", source=str(path)) from None
+        if not model.existFrame(flange):
+            raise InputError(f"the model has no frame named '{flange}'", source=str(path))
+        model = reduce_to_chain(model, flange, joints=joints, locked=locked, source=str(path))
         return cls(model, flange=flange, source=str(path))
 
     def _q(self, q) -> np.ndarray:
@@ -163,8 +191,10 @@ class Robot:
             self._local_placement(point_in_flange),
             pin.LOCAL_WORLD_ALIGNED,
         )
-        # The binding exposes Pinocchio's column-major tensor with its axes reversed.
-        return np.ascontiguousarray(np.asarray(hessian).transpose(2, 1, 0))
+        # The binding copies Pinocchio's column-major (6, nv, nv) tensor element by element
+        # into a row-major array of the same shape: read its memory back in column-major order.
+        flat = np.asarray(hessian).ravel(order="K")
+        return np.ascontiguousarray(flat.reshape((6, self.model.nv, self.model.nv), order="F"))
 
     def gravity_torque(self, q) -> np.ndarray:
         """(nq,) joint torques (N·m) that hold the arm against its own weight: Pinocchio's ``g(q)``."""
@@ -177,15 +207,17 @@ class Robot:
     def check_limits(self, q, *, source: str | PathLike[str] | None = None, line: int | None = None) -> None:
         """Raise :class:`~bayescal.errors.InputError` naming the first joint outside its limits.
 
-        The column named in the error is ``q<j>_deg``, the campaign and plan files' column.
+        The column named in the error is the campaign and plan files' (``q<j>_deg`` or ``q<j>_mm``).
         """
         q = self._q(q)
         for j, (value, low, high) in enumerate(zip(q, self.lower, self.upper)):
-            if not (low - _LIMIT_TOLERANCE <= value <= high + _LIMIT_TOLERANCE):
+            slack = _LIMIT_TOLERANCE * (MM if self.prismatic[j] else 1.0)
+            if not (low - slack <= value <= high + slack):
+                scale, unit = self.position_scale[j], self.position_units[j]
                 raise InputError(
-                    f"joint {self.joint_names[j]} at {math.degrees(value):.3f} deg is outside its limits "
-                    f"{math.degrees(low):.1f} to {math.degrees(high):.1f} deg",
+                    f"joint {self.joint_names[j]} at {value / scale:.3f} {unit} is outside its limits "
+                    f"{low / scale:.1f} to {high / scale:.1f} {unit}",
                     source=source,
                     line=line,
-                    column=f"q{j + 1}_deg",
+                    column=self.position_columns[j],
                 )

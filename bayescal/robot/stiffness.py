@@ -31,7 +31,6 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.robot.kinematics import Robot
 
 if TYPE_CHECKING:
@@ -106,15 +105,17 @@ def compliance_design(robot: Robot, q, point_in_flange, wrench) -> np.ndarray:
     return robot.point_jacobian(q, point_in_flange) * torques[np.newaxis, :]
 
 
-def joint_stiffness(q, compliances, compensator: Compensator | None = None) -> np.ndarray:
-    """(nq, nq) joint stiffness ``K_θ(q)`` in N·m/rad: ``diag(1/k)`` plus the compensator on joint 2 (eq 8).
+def joint_stiffness(q, compliances, compensator: Compensator | None = None, joint: int | None = None) -> np.ndarray:
+    """(nq, nq) joint stiffness ``K_θ(q)`` in N·m/rad: ``diag(1/k)`` plus the compensator on ``joint`` (0-based; eq 8).
 
-    ``compliances[1]`` is the compliance of joint 2 without its compensator, ``1/K_θ2^0``.
+    ``compliances[joint]`` is the compliance of that joint without its compensator, ``1/K_θ2^0``.
     """
     k = _compliances(compliances)
     stiffness = np.diag(1.0 / k)
     if compensator is not None:
-        stiffness[COMPENSATED_JOINT, COMPENSATED_JOINT] += compensator.stiffness(float(np.asarray(q)[COMPENSATED_JOINT]))
+        if joint is None:
+            raise ValueError("a compensator needs the index of the joint it acts on")
+        stiffness[joint, joint] += compensator.stiffness(float(np.asarray(q)[joint]))
     return stiffness
 
 
@@ -165,6 +166,9 @@ class ElasticArm:
     load_point
         (3,) flange-frame point (m) where a wrench's force acts and moves with the
         tool (a hanging mass); ``None`` keeps the whole wrench fixed at the flange origin.
+    compensated_joint
+        Index (0-based) of the joint the compensator acts on (the cell's
+        :attr:`~bayescal.cell.config.Cell.compensated_joint`); required with a compensator.
     """
 
     robot: Robot
@@ -172,6 +176,11 @@ class ElasticArm:
     compensator: Compensator | None = None
     gravity: bool = True
     load_point: np.ndarray | None = None
+    compensated_joint: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.compensator is not None and self.compensated_joint is None:
+            raise ValueError("a compensator needs compensated_joint, the index of the joint it acts on (the cell's)")
 
     @classmethod
     def linear(cls, robot: Robot, compliances, **options) -> ElasticArm:
@@ -239,9 +248,10 @@ class ElasticArm:
             torque = torque - self.robot.gravity_torque(linked)
             derivative = derivative - self.robot.gravity_torque_derivative(linked)
         if self.compensator is not None:
-            angle = float(linked[COMPENSATED_JOINT])
-            torque[COMPENSATED_JOINT] -= self.compensator.torque(angle)
-            derivative[COMPENSATED_JOINT, COMPENSATED_JOINT] -= self.compensator.stiffness(angle)
+            j = self.compensated_joint
+            angle = float(linked[j])
+            torque[j] -= self.compensator.torque(angle)
+            derivative[j, j] -= self.compensator.stiffness(angle)
         return torque, derivative
 
     def _solve(self, q, wrench, tol: float, max_iter: int):

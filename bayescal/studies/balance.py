@@ -16,7 +16,6 @@ import numpy as np
 import pandas as pd
 
 from bayescal.cell.config import Cell
-from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.units import DEG, MM
 
 __all__ = ["BALANCE_Q2_DEG", "gravity_balance", "spring_balance"]
@@ -28,14 +27,14 @@ BALANCE_Q2_DEG = np.linspace(-140.0, 0.0, 57)
 def _forearm_horizontal(cell: Cell, q2: np.ndarray) -> np.ndarray:
     """``(n, nq)`` configurations at the joint-2 angles ``q2`` (rad) with the forearm horizontal."""
     q = np.zeros((len(q2), cell.robot.nq))
-    q[:, COMPENSATED_JOINT] = q2
-    q[:, COMPENSATED_JOINT + 1] = -q2
+    q[:, cell.compensated_joint] = q2
+    q[:, cell.compensated_joint + 1] = -q2
     return q
 
 
 def _weight_torque(cell: Cell, q2: np.ndarray) -> np.ndarray:
     """Joint-2 torque (N·m) the drive supplies against the links' weight alone, at each angle of ``q2`` (rad)."""
-    return np.array([cell.robot.gravity_torque(q)[COMPENSATED_JOINT] for q in _forearm_horizontal(cell, q2)])
+    return np.array([cell.robot.gravity_torque(q)[cell.compensated_joint] for q in _forearm_horizontal(cell, q2)])
 
 
 def gravity_balance(cell: Cell, q2_deg: Sequence[float]) -> pd.DataFrame:
@@ -67,7 +66,7 @@ def gravity_balance(cell: Cell, q2_deg: Sequence[float]) -> pd.DataFrame:
             "compensator_torque_Nm": spring,
             "residual_torque_Nm": weight - spring,
             "spring_length_mm": compensator.s(q2) / MM,
-            "compensator_share_pct": 100 * compensator.stiffness(q2) * cell.compliances[COMPENSATED_JOINT],
+            "compensator_share_pct": 100 * compensator.stiffness(q2) * cell.compliances[cell.compensated_joint],
         },
         index=pd.Index(np.asarray(q2_deg, dtype=float), name="q2_deg"),
     )

@@ -25,7 +25,6 @@ from bayescal.cell.plan import Plan
 from bayescal.design.loads import draw_loads
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.exact import scale_masses
-from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.sampling.protocol import Sampler
 from bayescal.studies.parallel import seeded_map
 from bayescal.twin.simulator import DigitalTwin
@@ -62,11 +61,12 @@ def random_plan(cell: Cell, angles: int, per_angle: int, rng: np.random.Generato
     robot = cell.robot
     low = robot.lower + LIMIT_MARGIN * (robot.upper - robot.lower)
     high = robot.upper - LIMIT_MARGIN * (robot.upper - robot.lower)
-    edges = np.linspace(low[COMPENSATED_JOINT], high[COMPENSATED_JOINT], angles + 1)
+    edges = np.linspace(low[cell.plan_joint], high[cell.plan_joint], angles + 1)
     q2 = rng.uniform(edges[:-1], edges[1:])
     q = rng.uniform(low, high, (angles * per_angle, robot.nq))
-    q[:, COMPENSATED_JOINT] = np.repeat(q2, per_angle)
-    plan = Plan(q=q, load_kg=None, lines=np.zeros(len(q), dtype=int), source="random plan")
+    q[:, cell.plan_joint] = np.repeat(q2, per_angle)
+    prismatic = cell.robot.prismatic.copy() if cell.robot.prismatic.any() else None
+    plan = Plan(q=q, load_kg=None, lines=np.zeros(len(q), dtype=int), source="random plan", prismatic=prismatic)
     if cell.loading.hanging_only:
         return plan
     loads = draw_loads(len(q) + 1, cell.loading.force_max, cell.loading.couple_max, rng)[1:]  # the first is straight down

@@ -192,7 +192,7 @@ def unloaded_sag(cell: Cell, plan: Plan) -> pd.DataFrame:
         One row per configuration of ``plan``, columns ``sag_j1_mrad`` … the
         joint deflections of the static equilibrium without load (mrad).
     """
-    arm = ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, load_point=cell.load_point)
+    arm = ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, load_point=cell.load_point, compensated_joint=cell.compensated_joint)
     sag = np.array([arm.equilibrium(q, np.zeros(6)) for q in plan.q])
     frame = pd.DataFrame(sag / _MRAD, columns=[f"sag_j{j + 1}_mrad" for j in range(sag.shape[1])])
     frame.index.name = "configuration"

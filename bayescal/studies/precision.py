@@ -25,7 +25,7 @@ from bayescal.cell.config import Cell
 from bayescal.cell.plan import Plan
 from bayescal.inference.identifiability import label_angle
 from bayescal.reference import published_width_pct, width_3sd_pct
-from bayescal.robot.compensator import COMPENSATED_JOINT, CompensatorGeometry
+from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.robot.stiffness import compliance_design
 from bayescal.twin.effects import Effect
 from bayescal.twin.simulator import DigitalTwin
@@ -55,7 +55,7 @@ def _linear_model(cell: Cell, plan: Plan, repeats: int):
     blocks, sigmas, predicted = [], [], []
     for q, mass in zip(plan.q, plan.masses(cell.load_mass)):
         wrench = cell.load_wrench(q, mass)
-        effective, chain = compliance_chain(cell, float(q[COMPENSATED_JOINT]))
+        effective, chain = compliance_chain(cell, float(q[cell.plan_joint]))
         designs = [compliance_design(robot, q, point, wrench) for point in cell.markers.values()]
         noise = [np.sqrt(2.0) * cell.tracker.sigma(robot.point_position(q, point)) for point in cell.markers.values()]
         # the campaign's row order: repeat, then marker
@@ -229,7 +229,7 @@ def compensator_precision(results: ElastostaticResults, cell: Cell) -> Compensat
     projection = np.linalg.pinv(C)
     cov_w = projection @ cov_K @ projection.T
     Kc, s0 = compensator.K_c, compensator.s0
-    w = np.array([1.0 / cell.compliances[COMPENSATED_JOINT], Kc, s0 * Kc])
+    w = np.array([1.0 / cell.compliances[cell.compensated_joint], Kc, s0 * Kc])
     gradient_s0 = np.array([0.0, -w[2] / w[1] ** 2, 1.0 / w[1]])
     width = {
         "K_c": width_3sd_pct(Kc, np.sqrt(cov_w[1, 1])),
@@ -240,7 +240,7 @@ def compensator_precision(results: ElastostaticResults, cell: Cell) -> Compensat
         {
             "compliance_urad_per_Nm": k2 / URAD_PER_NM,
             "width_3sd_pct": width_3sd_pct(k2, np.sqrt(np.diag(cov_k))),
-            "compensator_share_pct": 100.0 * np.abs(compensator.stiffness(results.q2[angles])) * cell.compliances[COMPENSATED_JOINT],
+            "compensator_share_pct": 100.0 * np.abs(compensator.stiffness(results.q2[angles])) * cell.compliances[cell.compensated_joint],
         },
         index=pd.Index([label_angle(joint2[a]) for a in angles], name="q2_deg"),
     )
@@ -270,7 +270,7 @@ def equivalent_compliance_band(results: ElastostaticResults, cell: Cell, n_point
         ``high_urad_per_Nm`` (the band), ``truth_urad_per_Nm`` (the cell's
         compliance and spring) and ``half_width_pct`` (half the band in % of the median).
     """
-    joint = COMPENSATED_JOINT
+    joint = cell.compensated_joint
     q2 = np.linspace(cell.robot.lower[joint], cell.robot.upper[joint], n_points)
     truth = 1.0 / cell.compensator.joint_stiffness(q2, 1.0 / cell.compliances[joint])
     low, median, high = np.quantile(results.equivalent_compliance(q2), [THREE_SIGMA_TAILS[0], 0.5, THREE_SIGMA_TAILS[1]], axis=0)

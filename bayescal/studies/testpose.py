@@ -19,5 +19,6 @@ def true_test_deflection(cell: Cell) -> np.ndarray:
     """
     point = np.asarray(cell.test_point, dtype=float).reshape(1, 3)
     return exact_deflections(
-        cell.robot, cell.test_q, cell.test_wrench, cell.compliances, cell.compensator, points_in_flange=point, load_point=cell.test_point
+        cell.robot, cell.test_q, cell.test_wrench, cell.compliances, cell.compensator, points_in_flange=point, load_point=cell.test_point,
+        compensated_joint=cell.compensated_joint,
     )[0]

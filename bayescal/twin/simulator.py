@@ -52,7 +52,7 @@ class DigitalTwin:
         for effect in self.effects:
             compensator = effect.compensator(compensator)
             law = effect.joints(law, cell.robot)
-        self.arm = ElasticArm(cell.robot, law, compensator=compensator, load_point=cell.load_point)
+        self.arm = ElasticArm(cell.robot, law, compensator=compensator, load_point=cell.load_point, compensated_joint=cell.compensated_joint)
         self.marker_names = tuple(cell.markers)
         self._points = np.array([cell.markers[name] for name in self.marker_names])
 
@@ -121,4 +121,5 @@ class DigitalTwin:
             p1=np.vstack(rows["p1"]),
             lines=np.zeros(len(rows["config"]), dtype=int),
             source="simulated",
+            prismatic=self.cell.robot.prismatic.copy() if self.cell.robot.prismatic.any() else None,
         )

@@ -212,3 +212,53 @@ def test_the_machining_tool_point_defaults_to_the_test_pose_point(cell, tmp_path
     bad = _edited(data_dir, tmp_path / "bad", "load_point_mm = [250.0, 0.0, 300.0]", "load_point_mm = [250.0, 0.0, 300.0]\ntcp_mm = [410.0, 0.0]")
     with pytest.raises(InputError, match="tcp_mm"):
         load_cell(bad)
+
+
+def _robot_cell(data_dir, tmp_path, name, old="", new=""):
+    """A test robot's cell (data/robots/) with ``old`` replaced by ``new``, beside a copy of its URDFs."""
+    shutil.copytree(data_dir / "robots", tmp_path / "robots", dirs_exist_ok=True)
+    path = tmp_path / "robots" / f"{name}-edited.toml"
+    text = (data_dir / "robots" / f"{name}.toml").read_text()
+    assert old in text
+    path.write_text(text.replace(old, new))
+    return path
+
+
+def test_the_compensator_sits_on_the_joint_the_cell_names(data_dir):
+    assert load_cell(data_dir / "robots" / "arm6_j3.toml").compensated_joint == 2
+    assert load_cell(data_dir / "robots" / "arm6.toml").compensated_joint is None
+    assert load_cell(data_dir / "kr270.toml").compensated_joint == 1
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        ("joint = 3", "joint = 8", "expected a joint number from 1 to 6"),
+        ("joint = 3", "joint = 2.5", "expected a joint number from 1 to 6"),
+        ("k_urad_per_Nm = [0.60, 0.50, 0.80, 4.00, 4.50, 3.50]", "k_urad_per_Nm = [0.60, 0.50]", "a list of 6 numbers"),
+        ('urdf = "arm6.urdf"', 'urdf = "arm6_gripper.urdf"', r'joints = \["J1", "J2", "J3", "J4", "J5", "J6"\]'),
+    ],
+)
+def test_robot_and_compensator_mistakes_are_one_line(data_dir, tmp_path, old, new, message):
+    with pytest.raises(InputError, match=message):
+        load_cell(_robot_cell(data_dir, tmp_path, "arm6_j3", old, new))
+
+
+def test_a_gripper_is_locked_once_the_chain_is_named(data_dir, tmp_path):
+    chain = 'urdf = "arm6_gripper.urdf"\njoints = ["J1", "J2", "J3", "J4", "J5", "J6"]\nlocked_mm = { finger_left = 20.0 }'
+    cell = load_cell(_robot_cell(data_dir, tmp_path, "arm6", 'urdf = "arm6.urdf"', chain))
+    assert cell.robot.nq == 6 and cell.robot.joint_names[-1] == "J6"
+    with pytest.raises(InputError, match="robot.locked_mm.*'J1' is in the chain and cannot also be locked"):
+        load_cell(_robot_cell(data_dir, tmp_path, "arm6", 'urdf = "arm6.urdf"', chain.replace("finger_left", "J1")))
+    with pytest.raises(InputError, match="robot.locked_deg.*not a revolute joint"):
+        load_cell(_robot_cell(data_dir, tmp_path, "arm6", 'urdf = "arm6.urdf"', chain.replace("locked_mm", "locked_deg")))
+
+
+def test_a_linear_track_reads_its_position_in_mm_and_its_compliance_in_um_per_N(data_dir, tmp_path):
+    cell = load_cell(data_dir / "robots" / "track_arm6.toml")
+    assert cell.robot.position_columns[0] == "q1_mm" and cell.test_q[0] == pytest.approx(2.0)
+    assert cell.compliances[0] == pytest.approx(0.01e-6) and cell.compliances[1] == pytest.approx(0.60e-6)
+    with pytest.raises(InputError, match="a list of 1 numbers in um_per_N for T1"):
+        load_cell(_robot_cell(data_dir, tmp_path, "track_arm6", "k_um_per_N = [0.01]", "k_um_per_N = [0.01, 0.02]"))
+    with pytest.raises(InputError, match="no prismatic joint"):
+        load_cell(_robot_cell(data_dir, tmp_path, "arm6", "k_urad_per_Nm", "k_um_per_N = [1.0]\nk_urad_per_Nm"))

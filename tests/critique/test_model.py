@@ -124,3 +124,28 @@ def test_markers_off_the_cell_file_by_millimetres_leave_the_campaign_adequate(ce
     results = Critique(cell).run(campaign)
     assert results.verdict == "adequate"
     assert not results.lack_of_fit.significant()
+
+
+def _robot_campaign(data_dir, name, seed):
+    """A campaign of a test robot (data/robots/) without any effect, its compliances drawn ±20 % around the cell's."""
+    from bayescal.cell.config import load_cell
+    from bayescal.studies.elastostatic_coverage import random_plan
+    from bayescal.twin.simulator import DigitalTwin
+
+    cell = load_cell(data_dir / "robots" / f"{name}.toml")
+    rng = np.random.default_rng(5000 + seed)
+    truth = replace(cell, compliances=cell.compliances * rng.uniform(0.8, 1.2, cell.robot.nq))
+    return cell, DigitalTwin(truth).simulate(random_plan(cell, 5, 4, rng), 2, rng)
+
+
+@pytest.mark.parametrize("name", ["arm7", "arm6_j3", "track_arm6"])
+def test_a_test_robot_without_an_effect_is_adequate(data_dir, name):
+    cell, campaign = _robot_campaign(data_dir, name, 0)
+    assert Critique(cell).run(campaign).verdict == "adequate"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["arm7", "arm6_j3", "track_arm6"])
+def test_a_test_robot_without_an_effect_is_adequate_in_at_least_95_percent_of_40_seeds(data_dir, name):
+    verdicts = [Critique(cell).run(campaign).verdict for cell, campaign in (_robot_campaign(data_dir, name, seed) for seed in range(40))]
+    assert verdicts.count("adequate") >= 38

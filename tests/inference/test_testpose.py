@@ -47,6 +47,7 @@ def test_prediction_covers_the_true_deflection(setup):
         cell.compensator,
         points_in_flange=np.atleast_2d(cell.test_point),
         load_point=cell.test_point,
+        compensated_joint=cell.compensated_joint,
     )[0]
     block = prediction.to_json()["deflection_mm"]
     for i, axis in enumerate("xyz"):

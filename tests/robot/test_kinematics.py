@@ -74,6 +74,20 @@ def test_point_hessian_is_the_derivative_of_the_jacobian(robot):
     np.testing.assert_allclose(robot.point_hessian(q, point), numeric, atol=1e-8)
 
 
+def test_point_hessian_of_a_seven_joint_arm_is_the_derivative_of_its_jacobian(data_dir):
+    # With seven joints the tensor's axes are no longer all of one length (6, 7, 7).
+    robot = Robot.from_urdf(data_dir / "robots" / "arm7.urdf")
+    q = np.radians([10, -50, 30, 70, -20, 40, 60])
+    point = np.array([0.25, 0.0, 0.2])
+
+    def full(q):
+        return np.vstack([robot.point_jacobian(q, point), robot.flange_jacobian(q)[3:]])
+
+    h = 1e-6
+    numeric = np.stack([(full(q + h * e) - full(q - h * e)) / (2 * h) for e in np.eye(7)], axis=2)
+    np.testing.assert_allclose(robot.point_hessian(q, point), numeric, atol=1e-8)
+
+
 def test_gravity_torque_holds_the_horizontal_arm_up(robot):
     torque = robot.gravity_torque(np.zeros(6))
     # the arm's weight pulls toward +A2 (down), so the drive holds it with a negative torque
@@ -129,12 +143,38 @@ def test_another_urdf_works_the_same_way(tmp_path):
         robot.check_limits([0, math.radians(150)])
 
 
-def test_prismatic_joints_are_rejected(tmp_path, data_dir):
-    urdf = (data_dir / "robots" / "kr270.urdf").read_text()
-    first = urdf.index('type="revolute"')
-    (tmp_path / "slide.urdf").write_text(urdf[:first] + 'type="prismatic"' + urdf[first + len('type="revolute"'):])
-    with pytest.raises(InputError, match="is prismatic; every joint must be revolute"):
-        Robot.from_urdf(tmp_path / "slide.urdf")
+def test_a_prismatic_joint_is_read_in_mm_and_its_jacobian_is_the_slide(data_dir):
+    robot = Robot.from_urdf(data_dir / "robots" / "track_arm6.urdf")
+    assert robot.nq == 7 and list(robot.prismatic) == [True] + [False] * 6
+    assert robot.position_columns[:2] == ("q1_mm", "q2_deg") and robot.compliance_units[0] == "μm/N"
+    q = np.array([1.5, 0.3, -0.6, 0.4, 0.2, -0.5, 0.7])
+    step = 1e-6
+    moved = robot.point_position(q + step * np.eye(7)[0], [0.1, 0.0, 0.0])
+    numeric = (moved - robot.point_position(q, [0.1, 0.0, 0.0])) / step
+    np.testing.assert_allclose(robot.point_jacobian(q, [0.1, 0.0, 0.0])[:, 0], numeric, atol=1e-6)
+    np.testing.assert_allclose(numeric, [1.0, 0.0, 0.0], atol=1e-6)
+    with pytest.raises(InputError, match="q1_mm.*|4500.000 mm"):
+        robot.check_limits(np.r_[4.5, q[1:]])
+
+
+def test_joints_off_the_chain_are_named_and_locked_once_the_chain_is_named(data_dir):
+    urdf = data_dir / "robots" / "arm6_gripper.urdf"
+    with pytest.raises(InputError, match=r'finger_left. is not on the path .* joints = \["J1", "J2", "J3", "J4", "J5", "J6"\]'):
+        Robot.from_urdf(urdf)
+    chain = [f"J{j}" for j in range(1, 7)]
+    held = Robot.from_urdf(urdf, joints=chain)
+    bare = Robot.from_urdf(data_dir / "robots" / "arm6.urdf")
+    q = np.radians([10.0, -40.0, 60.0, 20.0, -30.0, 45.0])
+    assert held.joint_names == tuple(chain)
+    np.testing.assert_allclose(held.flange_pose(q)[1], bare.flange_pose(q)[1], atol=1e-12)
+    # The fingers' 1 kg now hangs on the arm as part of its last body.
+    assert abs(held.gravity_torque(q)[1]) > abs(bare.gravity_torque(q)[1])
+    with pytest.raises(InputError, match="'J9'"):
+        Robot.from_urdf(urdf, joints=["J1", "J9"])
+    with pytest.raises(InputError, match="not a revolute joint"):
+        Robot.from_urdf(urdf, joints=chain, locked={"finger_left": (0.1, "revolute")})
+    with pytest.raises(InputError, match="once each, from the base"):
+        Robot.from_urdf(urdf, joints=["J2", "J1", "J3", "J4", "J5", "J6"])
 
 
 def test_joint_origins_end_at_the_flange_joint(robot):

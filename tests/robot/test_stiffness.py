@@ -28,7 +28,7 @@ def test_joint_stiffness_adds_the_compensator_on_joint_2():
     q = np.radians([0, -56.9, 30, 0, 0, 0])
     plain = st.joint_stiffness(q, K)
     np.testing.assert_allclose(np.diag(plain), 1 / K)
-    with_compensator = st.joint_stiffness(q, K, COMPENSATOR)
+    with_compensator = st.joint_stiffness(q, K, COMPENSATOR, joint=1)
     difference = with_compensator - plain
     expected = COMPENSATOR.K_c * COMPENSATOR.a * COMPENSATOR.L * COMPENSATOR.eta(q[1])
     assert difference[1, 1] == pytest.approx(expected, rel=1e-12)
@@ -67,7 +67,7 @@ def test_small_loads_follow_the_linear_model(robot):
 
 def test_equilibrium_satisfies_eq_1(robot):
     wrench = np.array([200.0, -300.0, -2600.0, 50.0, -80.0, 120.0])
-    theta = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).equilibrium(Q, wrench)
+    theta = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR, compensated_joint=1).equilibrium(Q, wrench)
     linked = Q + theta
     torque = robot.flange_jacobian(linked).T @ wrench - robot.gravity_torque(linked)
     torque[1] -= COMPENSATOR.torque(linked[1])
@@ -78,29 +78,29 @@ def test_equilibrium_satisfies_eq_1(robot):
 def test_newton_converges_in_a_few_iterations(robot):
     wrench = np.array([0.0, 0.0, -2700.0, 0.0, 0.0, 0.0])
     with pytest.raises(st.EquilibriumError):
-        st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).equilibrium(Q, wrench, max_iter=1)
-    theta = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).equilibrium(Q, wrench, max_iter=4, tol=1e-12)
-    settled = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).equilibrium(Q, wrench, max_iter=50, tol=1e-15)
+        st.ElasticArm.linear(robot, K, compensator=COMPENSATOR, compensated_joint=1).equilibrium(Q, wrench, max_iter=1)
+    theta = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR, compensated_joint=1).equilibrium(Q, wrench, max_iter=4, tol=1e-12)
+    settled = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR, compensated_joint=1).equilibrium(Q, wrench, max_iter=50, tol=1e-15)
     np.testing.assert_allclose(theta, settled, rtol=0, atol=1e-12)
 
 
 def test_cartesian_stiffness_matches_finite_differences(robot):
     wrench = np.array([200.0, -300.0, -2600.0, 50.0, -80.0, 120.0])
-    stiffness = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).cartesian_stiffness(Q, wrench)
-    base = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).equilibrium(Q, wrench)
+    stiffness = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR, compensated_joint=1).cartesian_stiffness(Q, wrench)
+    base = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR, compensated_joint=1).equilibrium(Q, wrench)
     steps = np.array([10.0, 10.0, 10.0, 3.0, 3.0, 3.0])
     numeric = np.zeros((6, 6))
     for i, h in enumerate(steps):
         e = np.zeros(6)
         e[i] = h
-        plus = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).equilibrium(Q, wrench + e)
-        minus = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR).equilibrium(Q, wrench - e)
+        plus = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR, compensated_joint=1).equilibrium(Q, wrench + e)
+        minus = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR, compensated_joint=1).equilibrium(Q, wrench - e)
         numeric[:, i] = _flange_displacement(robot, Q, minus, plus) / (2 * h)
     compliance = np.linalg.inv(stiffness)
     np.testing.assert_allclose(compliance, numeric, rtol=1e-6, atol=1e-9 * np.abs(compliance).max())
     # The Hessian terms matter: the unloaded-linear compliance differs at the 1e-3 level.
     jacobian = robot.flange_jacobian(Q + base)
-    naive = jacobian @ np.linalg.solve(st.joint_stiffness(Q + base, K, COMPENSATOR), jacobian.T)
+    naive = jacobian @ np.linalg.solve(st.joint_stiffness(Q + base, K, COMPENSATOR, joint=1), jacobian.T)
     assert np.abs(naive - numeric).max() > 1e-4 * np.abs(numeric).max()
 
 
@@ -111,9 +111,9 @@ def test_conservative_loads_give_a_symmetric_compliance(robot):
     load_point = np.array([0.25, 0.0, 0.2])
     rotation, _ = robot.flange_pose(Q)
     wrench[3:] = np.cross(rotation @ load_point, wrench[:3])
-    theta, joint = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR, load_point=load_point).equilibrium_stiffness(Q, wrench)
+    theta, joint = st.ElasticArm.linear(robot, K, compensator=COMPENSATOR, load_point=load_point, compensated_joint=1).equilibrium_stiffness(Q, wrench)
     np.testing.assert_allclose(joint, joint.T, rtol=0, atol=1e-9 * np.abs(joint).max())
-    compliance = np.linalg.inv(st.ElasticArm.linear(robot, K, compensator=COMPENSATOR, load_point=load_point).cartesian_stiffness(Q, wrench))
+    compliance = np.linalg.inv(st.ElasticArm.linear(robot, K, compensator=COMPENSATOR, load_point=load_point, compensated_joint=1).cartesian_stiffness(Q, wrench))
     np.testing.assert_allclose(compliance, compliance.T, atol=1e-9 * np.abs(compliance).max())
     # with the load at the load point, the loaded equilibrium is eq 1 for that point
     linked = Q + theta

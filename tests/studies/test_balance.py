@@ -7,7 +7,6 @@ import dataclasses
 import numpy as np
 import pytest
 
-from bayescal.robot.compensator import COMPENSATED_JOINT
 from bayescal.studies.balance import gravity_balance, spring_balance
 from bayescal.units import DEG, MM
 
@@ -16,9 +15,9 @@ def test_gravity_balance_sets_the_spring_against_the_weight(cell):
     table = gravity_balance(cell, [0.0, -25.24, -140.0])
     assert list(table.index) == [0.0, -25.24, -140.0]
     q = np.zeros(cell.robot.nq)
-    q[COMPENSATED_JOINT], q[COMPENSATED_JOINT + 1] = -25.24 * DEG, 25.24 * DEG
+    q[cell.compensated_joint], q[cell.compensated_joint + 1] = -25.24 * DEG, 25.24 * DEG
     row = table.loc[-25.24]
-    assert row["weight_torque_Nm"] == pytest.approx(cell.robot.gravity_torque(q)[COMPENSATED_JOINT])
+    assert row["weight_torque_Nm"] == pytest.approx(cell.robot.gravity_torque(q)[cell.compensated_joint])
     assert row["compensator_torque_Nm"] == pytest.approx(-cell.compensator.torque(-25.24 * DEG))
     assert row["residual_torque_Nm"] == pytest.approx(row["weight_torque_Nm"] - row["compensator_torque_Nm"])
     assert row["spring_length_mm"] == pytest.approx(cell.compensator.s(-25.24 * DEG) / MM)

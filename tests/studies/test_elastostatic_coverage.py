@@ -97,3 +97,38 @@ def test_k1_covers_at_the_nominal_rate_from_loads_in_any_direction(data_dir):
     rate = hits(k1).mean(axis=0)
     tolerance = 4 * np.sqrt(NOMINAL * (1 - NOMINAL) / len(k1)) + 1.0 / len(k1)
     assert np.all(np.abs(rate - NOMINAL) <= tolerance), (rate, NOMINAL, tolerance)
+
+
+TEST_ROBOTS = ("arm7", "arm6_j3", "track_arm6")
+"""The project's own test robots (data/robots/): seven joints, a compensator on joint 3, a linear track."""
+
+
+def _robot_cell(data_dir, name):
+    from bayescal.cell.config import load_cell
+
+    return load_cell(data_dir / "robots" / f"{name}.toml")
+
+
+@pytest.mark.parametrize("name", TEST_ROBOTS)
+def test_intervals_of_the_test_robots_are_not_grossly_miscalibrated_on_three_campaigns(data_dir, name):
+    cell = _robot_cell(data_dir, name)
+    sampler = GibbsSampler(n_chains=2, n_tune=150, n_draws=300)
+    table = elastostatic_coverage(cell, 3, 41, sampler=sampler, angles=5, per_angle=3, repeats=2)
+    group = table[table["identifiable"] & table["parameter"].str.fullmatch(r"k[0-9]+")]
+    # The compensated joint's own compliance is identified on every robot.
+    assert f"k{cell.compensated_joint + 1}" in set(group["parameter"])
+    counted = hits(group)
+    n = counted.shape[0]
+    low, high = stats.binom.ppf(0.0005, n, NOMINAL), stats.binom.ppf(0.9995, n, NOMINAL)
+    assert np.all((low <= counted.sum(axis=0)) & (counted.sum(axis=0) <= high)), (counted.sum(axis=0), low, high)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", TEST_ROBOTS)
+def test_intervals_of_the_test_robots_cover_at_nominal_rates_on_50_campaigns(data_dir, name):
+    # Truths drawn around the cell's values (compliances ±30 %, spring, masses), random plans, 8 μm noise.
+    table = elastostatic_coverage(_robot_cell(data_dir, name), 50, 31)
+    group = table[table["identifiable"] & table["parameter"].str.fullmatch(r"k[0-9]+")]
+    rates = hits(group).mean(axis=0)
+    tolerance = 4 * np.sqrt(NOMINAL * (1 - NOMINAL) / len(group)) + 1.0 / len(group)
+    assert np.all(np.abs(rates - NOMINAL) <= tolerance), (rates, NOMINAL, tolerance)

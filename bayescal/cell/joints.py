@@ -1,0 +1,95 @@
+"""The cell file's keys that depend on the robot's joints: per-joint lists, the compensator's joint, published results.
+
+A robot's joints are revolute (angles in deg, compliances in μrad/(N·m) at the edges)
+or prismatic (positions in mm, compliances in μm/N); the cell lists each kind's values
+in chain order under its own key.  These readers take the cell file's reader
+(:class:`bayescal.cell.config._Reader`), which names the file, line and key of an error.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from bayescal.robot.compensator import Compensator
+from bayescal.robot.kinematics import Robot
+from bayescal.units import DEG, MM, N_PER_MM
+
+if TYPE_CHECKING:
+    from bayescal.cell.config import _Reader
+
+__all__ = ["DEFAULT_COMPENSATED_JOINT", "per_joint", "read_compensator", "reference_file"]
+
+DEFAULT_COMPENSATED_JOINT = 1
+"""Index (0-based) of the compensated joint when ``[compensator]`` gives no ``joint``: A2, as on the KR-270."""
+
+
+MAX_COMPENSATOR_LENGTH = 5.0
+"""Longest (m) lever L or pivot offset a_x, a_y of a compensator: longer than any industrial arm's link
+(ESTIMATE; the KR-270's are 0.18 and 0.70 m, Klimchik et al. Table II)."""
+
+
+def reference_file(reader: _Reader, file: Path) -> Path | None:
+    """The ``robot.reference_csv`` file of published results, or ``None`` without the key or the file.
+
+    A cell file copied from ``data/kr270.toml`` to describe another robot keeps the key but
+    not the KR-270's published table beside it: its results are then compared with nothing.
+    """
+    if "reference_csv" not in reader.table("robot"):
+        return None
+    path = file.parent / reader.text("robot", "reference_csv")
+    return path if path.is_file() else None
+
+
+def per_joint(reader: _Reader, robot: Robot, table: str, keys: tuple[str, str], scales: tuple[float, float]) -> np.ndarray:
+    """(nq,) values in SI from a list for the revolute joints and one for the prismatic joints, each in chain order."""
+    values = np.empty(robot.nq)
+    for key, scale, prismatic in zip(keys, scales, (False, True)):
+        joints = np.flatnonzero(robot.prismatic == prismatic)
+        unit = key.split("_", 1)[1]
+        if joints.size == 0:
+            if key in reader.table(table):
+                reader.fail(f"the robot has no {'prismatic' if prismatic else 'revolute'} joint: remove '{key}'", table, key)
+            continue
+        names = ", ".join(robot.joint_names[j] for j in joints)
+        values[joints] = reader.vector(table, key, joints.size, unit=f"{unit} for {names}") * scale
+    return values
+
+
+def read_compensator(reader: _Reader, robot: Robot) -> tuple[Compensator | None, int]:
+    """The ``[compensator]`` table: the spring of eqs 4-9 and the (0-based) joint it acts on, or ``None``."""
+    if reader.table("compensator", required=False) is None:
+        return None, DEFAULT_COMPENSATED_JOINT
+    table = reader.table("compensator")
+    joint = DEFAULT_COMPENSATED_JOINT
+    if "joint" in table:
+        number = table["joint"]
+        if isinstance(number, bool) or not isinstance(number, int) or not 1 <= number <= robot.nq:
+            reader.fail(f"expected a joint number from 1 to {robot.nq} (1-based, base first), got {number!r}", "compensator", "joint")
+        joint = number - 1
+    elif robot.nq <= joint:
+        reader.fail(f"the robot has {robot.nq} joint(s): give the compensated joint as joint = <1..{robot.nq}>", "compensator")
+    if robot.prismatic[joint]:
+        reader.fail(f"joint {joint + 1} ({robot.joint_names[joint]}) is prismatic: the spring compensator of eqs 4-9 turns a revolute joint", "compensator", "joint")
+    values = {
+        "L": reader.number("compensator", "L_mm", unit="mm", positive=True) * MM,
+        "a_x": reader.number("compensator", "a_x_mm", unit="mm") * MM,
+        "a_y": reader.number("compensator", "a_y_mm", unit="mm") * MM,
+        "phi": reader.number("compensator", "phi_deg", unit="deg") * DEG,
+        "K_c": reader.number("compensator", "K_c_N_per_mm", unit="N/mm", non_negative=True) * N_PER_MM,
+        "s0": reader.number("compensator", "s0_mm", unit="mm", non_negative=True) * MM,
+    }
+    for name in ("L", "a_x", "a_y"):
+        if abs(values[name]) > MAX_COMPENSATOR_LENGTH:
+            reader.fail(
+                f"{values[name] / MM:g} mm is longer than any compensator linkage ({MAX_COMPENSATOR_LENGTH / MM:g} mm); "
+                "is it in μm instead of mm?",
+                "compensator",
+                f"{name}_mm",
+            )
+    try:
+        return Compensator(**values), joint
+    except ValueError as exc:
+        reader.fail(str(exc), "compensator")
