@@ -231,7 +231,7 @@ def measured_pose(cell: Cell, q, points: np.ndarray, positions: np.ndarray) -> t
 
 def predicted_pose(cell: Cell, q) -> np.ndarray:
     """Link angles (rad) of the unloaded arm at the commanded ``q``: its sag under its weight with the cell's stiffness."""
-    arm = ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator)
+    arm = ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, compensated_joint=cell.compensated_joint)
     try:
         return np.asarray(q, dtype=float) + arm.equilibrium(q, np.zeros(6))
     except EquilibriumError:

@@ -73,7 +73,7 @@ def twin_misses(twin: Cell, program: Program, commands: np.ndarray) -> tuple[np.
     robot = twin.robot
     misses = np.full((2, len(program)), np.nan)
     for p, (q, tcp, wrench, command) in enumerate(zip(program.q, program.tcp, program.wrench, commands)):
-        arm = ElasticArm.linear(robot, twin.compliances, compensator=twin.compensator, load_point=tcp)
+        arm = ElasticArm.linear(robot, twin.compliances, compensator=twin.compensator, compensated_joint=twin.compensated_joint, load_point=tcp)
         target = robot.point_position(q + arm.equilibrium(q, np.zeros(6)), tcp)
         for i, at in enumerate((command, q)):
             if not np.all(np.isfinite(at)):

@@ -50,7 +50,7 @@ def test_the_loaded_arm_at_the_compensated_joints_holds_the_unloaded_links(cell)
     wrench = program.flange_wrench(rotations)
     commands, links, failed = compensate_poses(cell.robot, program.q, wrench, own, cell.compensator, cell.compensated_joint)
     assert not failed.any()
-    arm = ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator)
+    arm = ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, compensated_joint=cell.compensated_joint)
     for q, command, target, w in zip(program.q, commands, links, wrench):
         assert np.allclose(q + arm.equilibrium(q, np.zeros(6)), target, atol=1e-11, rtol=0)
         assert np.allclose(command + arm.equilibrium(command, w), target, atol=1e-11, rtol=0)
