@@ -29,12 +29,15 @@ POSE_MIN_MARKERS = 3
 POSE_ITERATIONS = 10
 POSE_TOLERANCE = 1e-10
 """Gauss-Newton on the pose stops when no joint moves by more than this, rad."""
-POSE_MAX_SHAPE_MISFIT = 0.5e-3
-"""Largest median rms distance (m) between the markers placed as the cell file says and their readings.
+POSE_SHAPE_FACTOR = 2.0
+"""Largest median rms distance between the markers placed as the cell file says and their readings,
+in tracker noise sds (the cell's per-coordinate sd at the readings).
 
-Above it the cell's marker places are wrong by more than the tracker could explain
-(tens of μm after the repeats' averaging), and fitting poses to them would turn
-every pose by up to their error over the markers' spacing (3 mm over 115 mm: 26 mrad)."""
+With the markers where the file says, the misfit left after fitting a pose (6 unknowns)
+to three markers' mean readings (9 coordinates, three repeats each) is about 0.3 sd
+(measured on the twin: 12 μm against 38 μm).  Beyond 2 sd the file's places are off by
+more than the tracker explains, and a pose fitted to them would turn by up to their error
+over the markers' spacing (3 mm over 115 mm: 26 mrad)."""
 POSE_MAX_SAG = 0.15
 """Largest sag (rad, about 9 deg) accepted between commanded and measured pose; beyond it the
 markers are not where the cell file puts them and the commanded pose is used."""
@@ -271,7 +274,7 @@ def campaign_rows(cell: Cell, campaign: Campaign) -> Rows:
         mean = np.array([campaign.p0[rows[names == name]].mean(axis=0) for name in unique]).reshape(-1, 3)
         measured[rows], misfit = measured_pose(cell, q[rows[0]], np.array([cell.markers[name] for name in unique]), mean)
         shape.append(misfit)
-    if shape and np.median(shape) <= POSE_MAX_SHAPE_MISFIT:
+    if shape and np.median(shape) <= POSE_SHAPE_FACTOR * np.median(cell.tracker.sigma(campaign.p0)):
         q = measured
     else:
         # The markers are not where the cell file puts them (or are too few): a pose fitted to
