@@ -49,7 +49,7 @@ from bayescal.design.criteria import (
     wrench_information,
 )
 from bayescal.design.loads import free_candidates, load_sizes, loads_json, turned
-from bayescal.design.progress import Progress
+from bayescal.design.progress import Progress, best_text
 from bayescal.errors import InputError
 from bayescal.units import DEG, MM
 
@@ -402,7 +402,7 @@ class PlanDesigner:
             scores.append(score)
             if best is None or score < best[2]:
                 best = (q, load, score)
-            bar.step(f"best {best[2]:.4g}")
+            bar.step(best_text(best[2], criterion))
         bar.close()
         plan = self._plan(best[0], best[1])
         return PlanDesign(
@@ -505,3 +505,4 @@ class PlanDesigner:
 
 def _finite(value: float) -> float | None:
     return float(value) if math.isfinite(value) else None
+

@@ -2,18 +2,24 @@
 
 from __future__ import annotations
 
+import math
 import sys
 
-__all__ = ["Progress"]
+__all__ = ["Progress", "best_text"]
 
 
 class Progress:
-    """A one-line progress bar on stderr."""
+    """A one-line progress bar on stderr, drawn only when stderr is a terminal.
+
+    Redrawn with carriage returns, a bar written to a log file or a pipe is a
+    single line of hundreds of overwritten states.
+    """
 
     WIDTH = 30
 
     def __init__(self, total: int, label: str, enabled: bool) -> None:
-        self.total, self.label, self.enabled, self.done = max(total, 1), label, enabled, 0
+        self.total, self.label, self.done = max(total, 1), label, 0
+        self.enabled = enabled and sys.stderr.isatty()
 
     def step(self, note: str = "") -> None:
         self.done += 1
@@ -27,3 +33,13 @@ class Progress:
         if self.enabled:
             sys.stderr.write("\n")
             sys.stderr.flush()
+
+
+def best_text(score: float, criterion: str) -> str:
+    """The note on the best plan so far, in the criterion's own terms and unit (``score`` as
+    :func:`bayescal.design.criteria.criterion_value` gives it)."""
+    if criterion == "test-pose":
+        return f"best: {score * 1e6:.2f} um rms left at the test pose"
+    if criterion == "compensator":
+        return f"best: K_c and s0 to {100 * math.sqrt(max(score, 0.0)):.0f} % (1 sd, combined)"
+    return f"best: -log det {score:.4g}"

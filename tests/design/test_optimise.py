@@ -84,3 +84,14 @@ def test_a_tracker_that_sees_no_marker_is_refused(cell):
     hidden = replace(cell, tracker=replace(cell.tracker, position=np.array([0.0, 0.0, 0.3])))  # inside the base
     with pytest.raises(InputError, match=r"no feasible configuration found in the cell \(most frequent reason: "):
         PlanDesigner(hidden, model="linear").optimise(5, 3, rng=0, **SMALL)
+
+
+def test_the_progress_note_names_its_unit_and_the_bar_stays_off_a_log(capsys):
+    from bayescal.design.progress import Progress, best_text
+
+    assert best_text(1.591e-06, "test-pose") == "best: 1.59 um rms left at the test pose"
+    assert "%" in best_text(0.25, "compensator")
+    bar = Progress(3, "plan", True)  # stderr is captured here, not a terminal
+    bar.step("x")
+    bar.close()
+    assert capsys.readouterr().err == ""
