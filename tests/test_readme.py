@@ -28,3 +28,16 @@ def test_the_demos_error_left_at_the_test_pose_is_the_one_the_readme_quotes(caps
     error = json.loads(out)["test_pose"]["residual_error_mm"]
     assert f"{error['rms'] * 1000:.1f}" == quoted.group(1)
     assert f"{error['q99.73'] * 1000:.1f}" == quoted.group(2)
+
+
+def test_the_python_example_runs_and_writes_only_into_its_own_folder(tmp_path, monkeypatch):
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    code = re.search(r"```python\n(.*?)```", readme, re.S).group(1)
+    assert 'out = Path("example")' in code
+    # run from a folder holding only the data, so that anything written elsewhere would show
+    (tmp_path / "data").symlink_to(ROOT / "data")
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, "README.md", "exec"), {"__name__": "readme"})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["data", "example"]
+    written = {p.name for p in (tmp_path / "example").iterdir()}
+    assert {"geometry_posterior.nc", "calibration.nc", "program.csv", "compensated.csv", "plan.csv"} <= written
