@@ -14,7 +14,7 @@ import math
 
 from bayescal.units import MM, UM
 
-__all__ = ["decimals_for", "with_uncertainty", "error_um", "deflection_mm"]
+__all__ = ["decimals_for", "rounded_pair", "with_uncertainty", "error_um", "deflection_mm"]
 
 SIGNIFICANT = 2
 """Significant digits kept of an uncertainty."""
@@ -35,6 +35,18 @@ def decimals_for(uncertainty: float, significant: int = SIGNIFICANT) -> int:
     return max(0, significant - 1 - math.floor(math.log10(uncertainty)))
 
 
+def rounded_pair(mean: float, uncertainty: float, *, significant: int = SIGNIFICANT) -> tuple[str, str]:
+    """``(mean, uncertainty)`` as texts for two table columns, rounded as :func:`with_uncertainty` does; "–" when missing."""
+    if not math.isfinite(mean):
+        return "–", "–"
+    if not math.isfinite(uncertainty):
+        return f"{mean:.4g}", "–"
+    # Rounding may add a digit (0.0996 -> 0.10): the decimals follow the rounded uncertainty.
+    shown = _rounded(uncertainty, significant)
+    places = decimals_for(shown, significant)
+    return f"{mean:.{places}f}", f"{shown:.{places}f}"
+
+
 def with_uncertainty(mean: float, uncertainty: float, unit: str = "", *, significant: int = SIGNIFICANT) -> str:
     """``mean ± uncertainty unit``, the mean rounded to the uncertainty's last kept decimal.
 
@@ -47,14 +59,10 @@ def with_uncertainty(mean: float, uncertainty: float, unit: str = "", *, signifi
     significant : int
         Significant digits kept of the uncertainty.
     """
-    if not math.isfinite(mean):
-        return "–"
-    if not math.isfinite(uncertainty):
-        return f"{mean:.4g}" + (f" {unit}" if unit else "")
-    # Rounding may add a digit (0.0996 -> 0.10): the decimals follow the rounded uncertainty.
-    shown = _rounded(uncertainty, significant)
-    places = decimals_for(shown, significant)
-    text = f"{mean:.{places}f} ± {shown:.{places}f}"
+    mean_text, uncertainty_text = rounded_pair(mean, uncertainty, significant=significant)
+    if mean_text == "–":
+        return mean_text
+    text = mean_text if uncertainty_text == "–" else f"{mean_text} ± {uncertainty_text}"
     return text + (f" {unit}" if unit else "")
 
 

@@ -2,7 +2,7 @@
 
 import math
 
-from bayescal.reports.numbers import decimals_for, deflection_mm, error_um, with_uncertainty
+from bayescal.reports.numbers import decimals_for, deflection_mm, error_um, rounded_pair, with_uncertainty
 
 
 def test_two_significant_digits_of_the_uncertainty_fix_the_mean_s_decimals():
@@ -31,3 +31,9 @@ def test_errors_are_shown_in_micrometres_and_deflections_in_millimetres():
     assert error_um(0.01234, 0.00071) == "12.34 ± 0.71 μm"
     assert deflection_mm(0.43219) == "0.432 mm"
     assert deflection_mm(0.43219, 0.0123) == "0.432 ± 0.012 mm"
+
+
+def test_table_columns_get_the_same_rounding():
+    assert rounded_pair(0.40643, 0.0874) == ("0.406", "0.087")
+    assert rounded_pair(math.nan, 0.1) == ("–", "–")
+    assert rounded_pair(2.0, math.inf) == ("2", "–")

@@ -1,0 +1,52 @@
+"""What a technician does next, derived from a calibration's results: one or two sentences.
+
+The advice follows from the numbers, never from the campaign's name: convergence
+first (an unconverged posterior says nothing), then lack of fit against the
+repeats (the model misses an effect), then identifiability (what the campaign
+cannot tell), then whether the test pose's error left is small enough to use.
+"""
+
+from __future__ import annotations
+
+__all__ = ["calibration_next_steps", "LACK_OF_FIT_P"]
+
+LACK_OF_FIT_P = 0.01
+"""p-value of the lack-of-fit F test below which the model is said to miss an effect."""
+
+
+def calibration_next_steps(diagnostics: dict, not_identifiable: list[str], error_q9973_mm: float | None, converged: bool) -> str:
+    """One or two sentences on what to do with a calibration.
+
+    Parameters
+    ----------
+    diagnostics : dict
+        The results' ``diagnostics()`` (model name, ``lack_of_fit`` block or None).
+    not_identifiable : list of str
+        Parameters the campaign cannot identify (structurally or from the data).
+    error_q9973_mm : float or None
+        99.73 % quantile of the test pose's error left after compensation (mm), None when not predicted.
+    converged : bool
+        Whether R-hat and both ESS meet the sampler's thresholds.
+    """
+    if not converged:
+        return "Next: run again with more --draws (or another --seed); until R-hat and the bulk and tail ESS meet their limits, do not use these numbers."
+    lack = diagnostics.get("lack_of_fit")
+    if lack is not None and lack["p_value"] is not None and lack["p_value"] < LACK_OF_FIT_P:
+        other = "exact" if diagnostics.get("model") == "linear" else "linear"
+        return (
+            f"Next: the model misses an effect the repeats show (scatter {lack['factor']:.1f} times the repeats'); "
+            f"run `bayescal critique` on this campaign to name its cause, compare with --model {other}, "
+            "and do not compensate with this result until the cause is found."
+        )
+    steps = []
+    if not_identifiable:
+        steps.append(
+            f"{', '.join(not_identifiable)} cannot be told from this campaign: to measure them, add the loads or angles "
+            "`bayescal plan` proposes and re-measure; meanwhile they keep the config's values."
+        )
+    if error_q9973_mm is not None:
+        steps.append(
+            f"The result is usable for compensation (`bayescal compensate`) if an error of {error_q9973_mm * 1000:.0f} μm "
+            "(99.73 % at the test pose) is within your tolerance."
+        )
+    return "Next: " + " ".join(steps) if steps else "Next: the fit is consistent with the repeats; the result can be used."
