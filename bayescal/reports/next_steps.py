@@ -8,10 +8,9 @@ cannot tell), then whether the test pose's error left is small enough to use.
 
 from __future__ import annotations
 
-__all__ = ["calibration_next_steps", "LACK_OF_FIT_P"]
+from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL
 
-LACK_OF_FIT_P = 0.01
-"""p-value of the lack-of-fit F test below which the model is said to miss an effect."""
+__all__ = ["calibration_next_steps"]
 
 
 def calibration_next_steps(diagnostics: dict, not_identifiable: list[str], error_q9973_mm: float | None, converged: bool) -> str:
@@ -31,7 +30,7 @@ def calibration_next_steps(diagnostics: dict, not_identifiable: list[str], error
     if not converged:
         return "Next: run again with more --draws (or another --seed); until R-hat and the bulk and tail ESS meet their limits, do not use these numbers."
     lack = diagnostics.get("lack_of_fit")
-    if lack is not None and lack["p_value"] is not None and lack["p_value"] < LACK_OF_FIT_P:
+    if lack is not None and lack["p_value"] is not None and lack["p_value"] < LACK_OF_FIT_LEVEL:
         other = "exact" if diagnostics.get("model") == "linear" else "linear"
         return (
             f"Next: the model misses an effect the repeats show (scatter {lack['factor']:.1f} times the repeats'); "
