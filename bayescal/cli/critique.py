@@ -6,8 +6,10 @@ With ``--geometry POINTS.csv`` the same for the compensator-geometry model on tr
 from __future__ import annotations
 
 import argparse
+import textwrap
 
 from bayescal.output import guard_outputs, write_folder
+from bayescal.reports.next_steps import critique_next_steps
 
 from ._command import CommandOutput, add_common_options
 
@@ -146,4 +148,7 @@ def _text(results, figures: list[str]) -> str:
     ]
     if figures:
         lines.append(f"figures: {', '.join(figures)}")
+    misfit = getattr(results, "lack_of_fit", None)
+    advice = critique_next_steps(list(results.causes), misfit is not None and misfit.significant(), results.test_pose["classical_error_mm"])
+    lines += ["", *textwrap.wrap(advice, width=100)]
     return "\n".join(lines)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL
 
-__all__ = ["calibration_next_steps"]
+__all__ = ["calibration_next_steps", "critique_next_steps"]
 
 
 def calibration_next_steps(diagnostics: dict, not_identifiable: list[str], error_q9973_mm: float | None, converged: bool) -> str:
@@ -49,3 +49,31 @@ def calibration_next_steps(diagnostics: dict, not_identifiable: list[str], error
             "(99.73 % at the test pose) is within your tolerance."
         )
     return "Next: " + " ".join(steps) if steps else "Next: the fit is consistent with the repeats; the result can be used."
+
+
+def critique_next_steps(causes: list[str], lack_of_fit: bool, classical_error_mm: float) -> str:
+    """One or two sentences on what to do after a critique of the elastostatic model.
+
+    Parameters
+    ----------
+    causes : list of str
+        The named causes in order of gain (empty when the verdict is adequate); may end with ``"unexplained"``.
+    lack_of_fit : bool
+        Whether the final model misses the configuration means by more than the repeats allow.
+    classical_error_mm : float
+        How far the classical model's test-pose prediction lies from the extended one's (mm).
+    """
+    gap = f"{classical_error_mm * 1000:.0f} μm"
+    if not causes and not lack_of_fit:
+        return "Next: the classical model is enough for this campaign; calibrate with it (`bayescal calibrate`) and compensate with its result."
+    named = [cause for cause in causes if cause != "unexplained"]
+    if not named:
+        return (
+            "Next: the repeats show a misfit that no cause of the catalogue matches; re-measure a few configurations, "
+            "check the markers and the tracker's registration, and do not compensate with this campaign until the misfit is gone."
+        )
+    return (
+        f"Next: the classical model misses {', '.join(named)} (largest gain first; `docs/critique.md` says what each means and how to "
+        f"remove it at the measurement). At the test pose the classical prediction is {gap} from the extended one's: "
+        "compensate with the classical calibration only if that is within your tolerance."
+    )

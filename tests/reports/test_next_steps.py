@@ -1,6 +1,6 @@
 """The calibration's next step follows from its results, in order: convergence, lack of fit, identifiability, use."""
 
-from bayescal.reports.next_steps import calibration_next_steps
+from bayescal.reports.next_steps import calibration_next_steps, critique_next_steps
 
 FIT = {"model": "exact", "lack_of_fit": {"p_value": 0.4, "factor": 1.1}}
 
@@ -19,3 +19,11 @@ def test_a_good_fit_names_what_is_not_identified_and_the_error_to_compare_with_t
     text = calibration_next_steps(FIT, ["K_c", "k1"], 0.0431, True)
     assert "K_c, k1 cannot be told" in text and "bayescal plan" in text and "43 μm" in text and "bayescal compensate" in text
     assert calibration_next_steps(FIT | {"lack_of_fit": None}, [], None, True).startswith("Next: the fit is consistent")
+
+
+def test_the_critique_s_next_step_follows_its_verdict_causes_and_repeats():
+    assert "classical model is enough" in critique_next_steps([], False, 0.002)
+    assert "no cause of the catalogue" in critique_next_steps([], True, 0.002)
+    assert "no cause of the catalogue" in critique_next_steps(["unexplained"], True, 0.002)
+    text = critique_next_steps(["outliers", "unexplained"], True, 0.0123)
+    assert "misses outliers (" in text and "12 μm" in text and "tolerance" in text
