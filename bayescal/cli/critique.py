@@ -9,7 +9,6 @@ import argparse
 import textwrap
 
 from bayescal.output import guard_outputs, write_folder
-from bayescal.reports.next_steps import critique_next_steps
 
 from ._command import CommandOutput, add_common_options
 
@@ -133,6 +132,8 @@ def _geometry_text(results) -> str:
 
 
 def _text(results, figures: list[str]) -> str:
+    from bayescal.reports.next_steps import critique_next_steps
+
     before, after = results.before, results.after
     lines = [f"{results.source}: {results.n_equations} equations in {results.n_configs} configurations"]
     lines += _outcome_lines(results, "configurations", "the classical model")
