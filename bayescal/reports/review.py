@@ -278,6 +278,9 @@ def _parameter_section(page: Page, results: ElastostaticResults, facts: _Facts, 
         if "mean" in value:
             row |= {"mean": value["mean"], "±3σ": value["hi3"] - value["mean"], "R-hat": summary.loc[name, "r_hat"]}
             row["±3σ [% of mean]"] = 100 * (value["hi3"] - value["mean"]) / abs(value["mean"])
+        # A compliance or a spring stiffness cannot be negative: an interval reaching below 0 says so rather than print it.
+        crosses = "mean" in value and value["lo3"] < 0
+        row["lower end"] = "cut at 0: cannot be negative, the data do not bound it from below" if crosses else ""
         row["identifiable"] = "mean" in value
         rows[name] = row
     frame = pd.DataFrame.from_dict(rows, orient="index")
