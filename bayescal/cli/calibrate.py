@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import textwrap
 
 from ._command import CommandOutput, add_common_options, check_output, whole_number, write_atomically
 
@@ -128,12 +129,11 @@ def _finite(value):
 
 
 def _text(results, test_pose, args, reference_file) -> str:
-    import textwrap
-
     import pandas as pd
 
     from bayescal.inference.identifiability import grouped
     from bayescal.reference import beside_published, read_paper_reference
+    from bayescal.reports.numbers import rounded_pair, with_uncertainty
 
     parameters = results.parameters()
     estimates = pd.DataFrame(
@@ -162,10 +162,11 @@ def _text(results, test_pose, args, reference_file) -> str:
         )
         unit = units[name]
         if "mean" in parameters[name]:
-            lines.append(f"{name:<10}{unit:<12}{row['mean']:>10.4g}{row['half_width_3sd']:>10.3g}{row['width_3sd_pct']:>7.1f}%{published}")
+            mean, half = rounded_pair(row["mean"], row["half_width_3sd"])
+            lines.append(f"{name:<10}{unit:<12}{mean:>10}{half:>10}{row['width_3sd_pct']:>7.1f}%{published}")
         else:
             lines.append(f"{name:<10}{unit:<12}{'not identifiable':>28}{published}")
-    lines.append("Intervals are mean ± 3 sd, widths 3 sd / |mean|" + (" (Table IV: Klimchik et al.)." if compared else "."))
+    lines.append("Intervals are mean ± 3 sd, rounded to two digits of the 3 sd; widths 3 sd / |mean|" + (" (Table IV: Klimchik et al.)." if compared else "."))
     if reasons:
         lines += ["", "Not identifiable:"]
         for names, reason in grouped(reasons):
@@ -176,29 +177,42 @@ def _text(results, test_pose, args, reference_file) -> str:
             lines.append(f"  The posterior of {listed} is kept in the DataTree and in the JSON's weakly_determined block.")
     j = results.joint + 1
     per_angle = [
-        f"  q{j} = {angle:>8.2f} deg  {entry['mean']:.4g} ± {entry['hi3'] - entry['mean']:.2g} urad/(N m)"
+        f"  q{j} = {angle:>8.2f} deg  {with_uncertainty(entry['mean'], entry['hi3'] - entry['mean'], 'urad/(N m)')}"
         for angle, entry in _k2_by_angle(results).items()
         if "mean" in entry
     ]
     if per_angle:
         lines += ["", f"Joint {j} with its compensator at each campaign angle (±3σ; the paper's Fig. 7):", *per_angle]
+    lines += _closing_lines(results, test_pose, reasons)
+    return "\n".join(lines)
+
+
+
+def _closing_lines(results, test_pose, reasons) -> list[str]:
+    """Diagnostics, the test pose (errors in μm, deflections in mm) and what to do next."""
+    from bayescal.reports.next_steps import calibration_next_steps
+    from bayescal.reports.numbers import deflection_mm, error_um
+    from bayescal.sampling.summary import converged
+
     d = results.diagnostics()
-    lines += [
+    lines = [
         "",
-        f"R-hat max {d['r_hat_max']:.3f}, ESS bulk min {d['ess_bulk_min']:.0f}, residual rms {d['residual_rms_mm'] * 1000:.1f} um"
-        + (f", chi2/dof {d['chi2_per_dof']:.2f}" if d["chi2_per_dof"] is not None else ""),
+        f"R-hat max {d['r_hat_max']:.3f}, bulk ESS min {d['ess_bulk_min']:.0f}, tail ESS min {d['ess_tail_min']:.0f}, "
+        f"residual rms {error_um(d['residual_rms_mm'])}" + (f", χ²/dof {d['chi2_per_dof']:.2f}" if d["chi2_per_dof"] is not None else ""),
         f"identifiability: rank {results.identifiability.rank} of {len(results.identifiability.names)}, "
-        f"condition number {results.identifiability.condition_number:.3g}",
+        f"condition number {results.identifiability.condition_number:.3g} (unit columns)",
     ]
     block = test_pose.to_json()
+    q9973 = None
     if block.get("available", True):
         error = block["residual_error_mm"]
         norm = block["deflection_norm_mm"]
-        lines += [
-            f"test pose: deflection {norm['mean']:.3f} mm (±3σ {3 * norm['sd']:.3f} mm); error left after compensation "
-            f"rms {error['rms']:.4f} mm, 95% {error['q95']:.4f} mm, 99.73% {error['q99.73']:.4f} mm "
-            f"(rho0 from covariance {error['rho0_from_covariance']:.4f} mm)",
-        ]
+        q9973 = error["q99.73"]
+        lines.append(
+            f"test pose: deflection {deflection_mm(norm['mean'], 3 * norm['sd'])} (±3σ); error left after compensation "
+            f"rms {error_um(error['rms'])}, 95% {error_um(error['q95'])}, 99.73% {error_um(error['q99.73'])} "
+            f"(ρ0 from covariance {error_um(error['rho0_from_covariance'])})"
+        )
         for name, entry in block["assumed"].items():
             lines.append(
                 f"  {name} is taken from the config ({entry['value']:.4g} {entry['unit']}) because the campaign cannot "
@@ -206,5 +220,5 @@ def _text(results, test_pose, args, reference_file) -> str:
             )
     else:
         lines.append(f"test pose: not predicted: {block['reason']}")
-    return "\n".join(lines)
-
+    advice = calibration_next_steps(d, sorted(reasons), q9973, converged(d))
+    return lines + ["", *textwrap.wrap(advice, width=100)]

@@ -6,6 +6,7 @@ With ``--geometry POINTS.csv`` the same for the compensator-geometry model on tr
 from __future__ import annotations
 
 import argparse
+import textwrap
 
 from bayescal.output import guard_outputs, write_folder
 
@@ -131,6 +132,8 @@ def _geometry_text(results) -> str:
 
 
 def _text(results, figures: list[str]) -> str:
+    from bayescal.reports.next_steps import critique_next_steps
+
     before, after = results.before, results.after
     lines = [f"{results.source}: {results.n_equations} equations in {results.n_configs} configurations"]
     lines += _outcome_lines(results, "configurations", "the classical model")
@@ -146,4 +149,7 @@ def _text(results, figures: list[str]) -> str:
     ]
     if figures:
         lines.append(f"figures: {', '.join(figures)}")
+    misfit = getattr(results, "lack_of_fit", None)
+    advice = critique_next_steps(list(results.causes), misfit is not None and misfit.significant(), results.test_pose["classical_error_mm"])
+    lines += ["", *textwrap.wrap(advice, width=100)]
     return "\n".join(lines)

@@ -127,7 +127,7 @@ def _text(args, summary, closed_table, result, reference) -> str:
     sense = result.closed_form.lever
     lines += [
         "",
-        f"R-hat max {d['r_hat_max']:.4f}, ESS bulk min {d['ess_bulk_min']:.0f}, ESS tail min {d['ess_tail_min']:.0f} "
+        f"R-hat max {d['r_hat_max']:.4f}, bulk ESS min {d['ess_bulk_min']:.0f}, tail ESS min {d['ess_tail_min']:.0f} "
         f"({d['n_chains']} chains x {d['n_draws']} draws)",
         f"residual rms at the posterior mean [mm]: {rms}",
         f"P1 arc: {'clockwise' if sense.sense < 0 else 'counter-clockwise'} in (x, y) as q2 increases "

@@ -175,7 +175,7 @@ def _report_text(points, points_path, paper, closed, concentric, rigid, summary,
         "## Posterior (concentric cylinder markers, the paper's model)",
         "",
         f"Sampler: {concentric.tree.attrs['sampler']}. {d['n_chains']} chains × {d['n_draws']} draws: "
-        f"R-hat max {d['r_hat_max']:.4f}, ESS bulk min {d['ess_bulk_min']:.0f}, ESS tail min {d['ess_tail_min']:.0f}. "
+        f"R-hat max {d['r_hat_max']:.4f}, bulk ESS min {d['ess_bulk_min']:.0f}, tail ESS min {d['ess_tail_min']:.0f}. "
         "`lo3`/`hi3` are mean ∓ 3 sd, the paper's ±3σ.",
         "",
         _markdown(summary[["mean", "sd", "lo3", "hi3", "r_hat", "ess_bulk", "unit"]], 4),

@@ -163,8 +163,9 @@ def _overview(page: Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
         page.record("elastostatic_diagnostics", {key: report[key] for key in ("r_hat_max", "ess_bulk_min", "ess_tail_min", "chi2_per_dof")})
         converged = report["r_hat_max"] <= R_HAT_LIMIT and min(report["ess_bulk_min"], report["ess_tail_min"]) >= ESS_LIMIT
         lines.append(
-            f"Elastostatic posterior: R-hat ≤ {report['r_hat_max']:.3f}, ESS ≥ {min(report['ess_bulk_min'], report['ess_tail_min']):.0f} "
-            f"({'converged' if converged else f'NOT converged by the thresholds R-hat ≤ {R_HAT_LIMIT}, ESS ≥ {ESS_LIMIT}'})."
+            f"Elastostatic posterior: R-hat ≤ {report['r_hat_max']:.3f}, bulk ESS ≥ {report['ess_bulk_min']:.0f}, "
+            f"tail ESS ≥ {report['ess_tail_min']:.0f} ({'converged' if converged else f'NOT converged by the thresholds '
+            f'R-hat ≤ {R_HAT_LIMIT}, bulk and tail ESS ≥ {ESS_LIMIT}'}; the words are defined in docs/glossary.md)."
         )
         if report["chi2_per_dof"] is not None:
             lines.append(f"Fit against the tracker's noise model: χ²/dof = {report['chi2_per_dof']:.3f} (1 when the model describes the data).")
@@ -242,7 +243,7 @@ def _geometry_section(page: Page, tree, seed: int) -> None:
                 (summary.loc[n, "mean"] - table_ii[n][0]) / summary.loc[n, "sd"] if n in table_ii else math.nan for n in names
             ],
             "R-hat": summary["r_hat"],
-            "ESS bulk": summary["ess_bulk"],
+            "bulk ESS": summary["ess_bulk"],
             "unit": [_unit(u) for u in summary["unit"]],
         },
         index=pd.Index(names, name="parameter"),
@@ -277,6 +278,9 @@ def _parameter_section(page: Page, results: ElastostaticResults, facts: _Facts, 
         if "mean" in value:
             row |= {"mean": value["mean"], "±3σ": value["hi3"] - value["mean"], "R-hat": summary.loc[name, "r_hat"]}
             row["±3σ [% of mean]"] = 100 * (value["hi3"] - value["mean"]) / abs(value["mean"])
+        # A compliance or a spring stiffness cannot be negative: an interval reaching below 0 says so rather than print it.
+        crosses = "mean" in value and value["lo3"] < 0
+        row["lower end"] = "cut at 0: cannot be negative, the data do not bound it from below" if crosses else ""
         row["identifiable"] = "mean" in value
         rows[name] = row
     frame = pd.DataFrame.from_dict(rows, orient="index")
@@ -347,7 +351,7 @@ def _convergence_section(page: Page, inputs: ReviewInputs, facts: _Facts | None)
         rows[name]["sampler"] = str(tree.attrs.get("sampler", "not recorded"))
     frame = pd.DataFrame.from_dict(rows, orient="index")
     frame.index.name = "posterior"
-    page.table("worst", frame, caption=f"Worst case over all variables; thresholds R-hat ≤ {R_HAT_LIMIT}, ESS ≥ {ESS_LIMIT}")
+    page.table("worst", frame, caption=f"Worst case over all variables; thresholds R-hat ≤ {R_HAT_LIMIT}, bulk and tail ESS ≥ {ESS_LIMIT}")
     if inputs.results is not None:
         tree = inputs.results.tree["posterior"]
         units = inputs.results.parameter_units

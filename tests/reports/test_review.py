@@ -93,6 +93,8 @@ def test_numbers_are_those_of_the_posteriors(report, short_calibration, cell):
         if "mean" in value:
             assert shown[name]["mean"] == pytest.approx(value["mean"], rel=1e-12)
             assert shown[name]["±3σ"] == pytest.approx(value["hi3"] - value["mean"], rel=1e-12)
+            # an interval reaching below zero is flagged, one that does not is not
+            assert bool(shown[name]["lower end"]) == (value["lo3"] < 0)
         else:
             assert shown[name]["mean"] is None and shown[name]["identifiable"] is False
     assert shown["k4"]["Table IV"] == 3.002

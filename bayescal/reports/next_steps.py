@@ -1,0 +1,79 @@
+"""What a technician does next, derived from a calibration's results: one or two sentences.
+
+The advice follows from the numbers, never from the campaign's name: convergence
+first (an unconverged posterior says nothing), then lack of fit against the
+repeats (the model misses an effect), then identifiability (what the campaign
+cannot tell), then whether the test pose's error left is small enough to use.
+"""
+
+from __future__ import annotations
+
+from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL
+
+__all__ = ["calibration_next_steps", "critique_next_steps"]
+
+
+def calibration_next_steps(diagnostics: dict, not_identifiable: list[str], error_q9973_mm: float | None, converged: bool) -> str:
+    """One or two sentences on what to do with a calibration.
+
+    Parameters
+    ----------
+    diagnostics : dict
+        The results' ``diagnostics()`` (model name, ``lack_of_fit`` block or None).
+    not_identifiable : list of str
+        Parameters the campaign cannot identify (structurally or from the data).
+    error_q9973_mm : float or None
+        99.73 % quantile of the test pose's error left after compensation (mm), None when not predicted.
+    converged : bool
+        Whether R-hat and both ESS meet the sampler's thresholds.
+    """
+    if not converged:
+        return "Next: run again with more --draws (or another --seed); until R-hat and the bulk and tail ESS meet their limits, do not use these numbers."
+    lack = diagnostics.get("lack_of_fit")
+    if lack is not None and lack["p_value"] is not None and lack["p_value"] < LACK_OF_FIT_LEVEL:
+        other = "exact" if diagnostics.get("model") == "linear" else "linear"
+        return (
+            f"Next: the model misses an effect the repeats show (scatter {lack['factor']:.1f} times the repeats'); "
+            f"run `bayescal critique` on this campaign to name its cause, compare with --model {other}, "
+            "and do not compensate with this result until the cause is found."
+        )
+    steps = []
+    if not_identifiable:
+        steps.append(
+            f"{', '.join(not_identifiable)} cannot be told from this campaign: to measure them, add the loads or angles "
+            "`bayescal plan` proposes and re-measure; meanwhile they keep the config's values."
+        )
+    if error_q9973_mm is not None:
+        steps.append(
+            f"The result is usable for compensation (`bayescal compensate`) if an error of {error_q9973_mm * 1000:.0f} μm "
+            "(99.73 % at the test pose) is within your tolerance."
+        )
+    return "Next: " + " ".join(steps) if steps else "Next: the fit is consistent with the repeats; the result can be used."
+
+
+def critique_next_steps(causes: list[str], lack_of_fit: bool, classical_error_mm: float) -> str:
+    """One or two sentences on what to do after a critique of the elastostatic model.
+
+    Parameters
+    ----------
+    causes : list of str
+        The named causes in order of gain (empty when the verdict is adequate); may end with ``"unexplained"``.
+    lack_of_fit : bool
+        Whether the final model misses the configuration means by more than the repeats allow.
+    classical_error_mm : float
+        How far the classical model's test-pose prediction lies from the extended one's (mm).
+    """
+    gap = f"{classical_error_mm * 1000:.0f} μm"
+    if not causes and not lack_of_fit:
+        return "Next: the classical model is enough for this campaign; calibrate with it (`bayescal calibrate`) and compensate with its result."
+    named = [cause for cause in causes if cause != "unexplained"]
+    if not named:
+        return (
+            "Next: the repeats show a misfit that no cause of the catalogue matches; re-measure a few configurations, "
+            "check the markers and the tracker's registration, and do not compensate with this campaign until the misfit is gone."
+        )
+    return (
+        f"Next: the classical model misses {', '.join(named)} (largest gain first; `docs/critique.md` says what each means and how to "
+        f"remove it at the measurement). At the test pose the classical prediction is {gap} from the extended one's: "
+        "compensate with the classical calibration only if that is within your tolerance."
+    )

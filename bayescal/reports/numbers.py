@@ -1,0 +1,86 @@
+"""One way to show a number to a person: rounded to its uncertainty, in the unit the person thinks in.
+
+A posterior mean is shown to the decimal of the second significant digit of its
+uncertainty (the sd, or the ±3σ half-width when that is what the row shows), so
+``1.23456 ± 0.04321`` reads ``1.235 ± 0.043``. Lengths are shown in μm when they
+are errors left after compensation (tens of μm) and in mm when they are
+deflections (tenths of a mm); parameters keep the paper's units. These
+functions build text only: JSON fields stay numeric.
+"""
+
+from __future__ import annotations
+
+import math
+
+from bayescal.units import MM, UM
+
+__all__ = ["decimals_for", "rounded_pair", "with_uncertainty", "error_um", "deflection_mm"]
+
+SIGNIFICANT = 2
+"""Significant digits kept of an uncertainty."""
+
+
+def decimals_for(uncertainty: float, significant: int = SIGNIFICANT) -> int:
+    """Decimals that keep ``significant`` digits of ``uncertainty`` (never negative).
+
+    Parameters
+    ----------
+    uncertainty : float
+        An sd or a half-width, any unit; zero, negative or not finite gives 0 decimals.
+    significant : int
+        Significant digits kept of the uncertainty.
+    """
+    if not math.isfinite(uncertainty) or uncertainty <= 0:
+        return 0
+    return max(0, significant - 1 - math.floor(math.log10(uncertainty)))
+
+
+def rounded_pair(mean: float, uncertainty: float, *, significant: int = SIGNIFICANT) -> tuple[str, str]:
+    """``(mean, uncertainty)`` as texts for two table columns, rounded as :func:`with_uncertainty` does; "–" when missing."""
+    if not math.isfinite(mean):
+        return "–", "–"
+    if not math.isfinite(uncertainty):
+        return f"{mean:.4g}", "–"
+    # Rounding may add a digit (0.0996 -> 0.10): the decimals follow the rounded uncertainty.
+    shown = _rounded(uncertainty, significant)
+    places = decimals_for(shown, significant)
+    return f"{mean:.{places}f}", f"{shown:.{places}f}"
+
+
+def with_uncertainty(mean: float, uncertainty: float, unit: str = "", *, significant: int = SIGNIFICANT) -> str:
+    """``mean ± uncertainty unit``, the mean rounded to the uncertainty's last kept decimal.
+
+    Parameters
+    ----------
+    mean, uncertainty : float
+        In the same unit (the one named by ``unit``); ``uncertainty`` is printed as given (sd or 3 sd).
+    unit : str
+        Appended after a space when not empty.
+    significant : int
+        Significant digits kept of the uncertainty.
+    """
+    mean_text, uncertainty_text = rounded_pair(mean, uncertainty, significant=significant)
+    if mean_text == "–":
+        return mean_text
+    text = mean_text if uncertainty_text == "–" else f"{mean_text} ± {uncertainty_text}"
+    return text + (f" {unit}" if unit else "")
+
+
+def error_um(value_mm: float, uncertainty_mm: float | None = None) -> str:
+    """An error left after compensation, given in mm, shown in μm (to 0.1 μm or to its uncertainty)."""
+    value = value_mm * MM / UM
+    if uncertainty_mm is None:
+        return f"{value:.1f} μm"
+    return with_uncertainty(value, uncertainty_mm * MM / UM, "μm")
+
+
+def deflection_mm(value_mm: float, uncertainty_mm: float | None = None) -> str:
+    """A deflection, given in mm, shown in mm (to 1 μm or to its uncertainty)."""
+    if uncertainty_mm is None:
+        return f"{value_mm:.3f} mm"
+    return with_uncertainty(value_mm, uncertainty_mm, "mm")
+
+
+def _rounded(value: float, significant: int) -> float:
+    """``value`` rounded to ``significant`` significant digits."""
+    return round(value, decimals_for(value, significant)) if value > 0 else value
