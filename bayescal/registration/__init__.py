@@ -1,6 +1,8 @@
-"""Tracker registration from joint sweeps: the robot's joint axes in the tracker frame."""
+"""Tracker registration from joint sweeps: the robot's joint axes and frames in the tracker frame."""
 
 from bayescal.registration.axes import AxisFit, fit_axis
+from bayescal.registration.frames import Frame
+from bayescal.registration.register import Registration, register
 from bayescal.registration.sweeps import Sweeps, read_sweeps
 
-__all__ = ["AxisFit", "Sweeps", "fit_axis", "read_sweeps"]
+__all__ = ["AxisFit", "Frame", "Registration", "Sweeps", "fit_axis", "read_sweeps", "register"]
