@@ -2,7 +2,7 @@
 
 from bayescal.registration.axes import AxisFit, fit_axis
 from bayescal.registration.frames import Frame
-from bayescal.registration.register import Registration, register
+from bayescal.registration.register import Registration, read_frame, register
 from bayescal.registration.sweeps import Sweeps, read_sweeps
 
-__all__ = ["AxisFit", "Frame", "Registration", "Sweeps", "fit_axis", "read_sweeps", "register"]
+__all__ = ["AxisFit", "Frame", "Registration", "Sweeps", "fit_axis", "read_frame", "read_sweeps", "register"]

@@ -64,6 +64,10 @@ class Frame:
     translation_cov: np.ndarray
     from_nominal: str
 
+    def from_tracker(self, points) -> np.ndarray:
+        """(..., 3) tracker-frame points, m -> this frame, m (``Rᵀ (p - t)``)."""
+        return (np.asarray(points, dtype=float) - self.translation) @ self.rotation
+
     def to_json(self) -> dict:
         """A JSON-ready dictionary, units in the keys."""
         return {

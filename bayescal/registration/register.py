@@ -16,7 +16,7 @@ from bayescal.registration.frames import Frame, frames_with_uncertainty, urdf_ax
 from bayescal.registration.sweeps import Sweeps
 from bayescal.units import DEG, MM
 
-__all__ = ["Registration", "register"]
+__all__ = ["Registration", "read_frame", "register"]
 
 
 @dataclass(frozen=True)
@@ -135,3 +135,32 @@ def register(sweeps: Sweeps, cell: Cell, rng: np.random.Generator | int | None =
         nominal = urdf_axes(cell.robot, home)
         frames = {f.name: f for f in frames_with_uncertainty(axes[0], axes[1], nominal, rng, draws)}
     return Registration(axes, frames, home, sweeps.source)
+
+
+def read_frame(path: str | PathLike[str], name: str) -> Frame:
+    """The frame ``name`` (``"paper"`` or ``"base"``) of a registration file written by :meth:`Registration.save`.
+
+    Raises
+    ------
+    InputError
+        Not JSON, no such frame, or a rotation that is not a 3×3 rotation matrix (to 1e-6).
+    """
+    source = str(path)
+    try:
+        with open(path, encoding="utf-8") as file:
+            data = json.load(file)
+        entry = data["frames"][name]
+        rotation = np.array(entry["rotation"], dtype=float)
+        translation = np.array(entry["translation_mm"], dtype=float) * MM
+        rotation_cov = np.array(entry["rotation_cov_mrad2"], dtype=float) * 1e-6
+        translation_cov = np.array(entry["translation_cov_mm2"], dtype=float) * MM**2
+    except OSError as error:
+        raise InputError(f"cannot read the registration ({error.strerror})", source=source) from None
+    except (ValueError, KeyError, TypeError) as error:
+        raise InputError(f"expected a registration file from `bayescal axes -o` with a '{name}' frame "
+                         f"(problem: {type(error).__name__} {error})", source=source) from None
+    shapes = rotation.shape == (3, 3) and translation.shape == (3,) and rotation_cov.shape == translation_cov.shape == (3, 3)
+    if not shapes or not np.allclose(rotation.T @ rotation, np.eye(3), atol=1e-6) or np.linalg.det(rotation) < 0:
+        raise InputError(f"the '{name}' frame's rotation is not a 3×3 rotation matrix, or its translation not 3 numbers",
+                         source=source)
+    return Frame(name, rotation, translation, rotation_cov, translation_cov, str(entry.get("from_nominal", "")))

@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 from scipy.stats import norm
 
 from bayescal.errors import InputError
-from bayescal.registration import read_sweeps, register
+from bayescal.registration import read_frame, read_sweeps, register
 from bayescal.registration.frames import paper_frame, urdf_axes
 from bayescal.twin.sweeps import random_placement, simulate_sweeps
 from bayescal.units import DEG
@@ -100,3 +100,23 @@ def test_registration_coverage_over_200_simulated_registrations(cell, tmp_path):
         covered = np.mean(np.abs(z) < k, axis=0)
         assert abs(np.mean(covered) - nominal) < tolerance / 2, (k, np.mean(covered))
         assert np.all(np.abs(covered - nominal) < tolerance), (k, covered)
+
+
+def test_saved_base_frame_moves_tracker_points_into_the_base_frame(cell, tmp_path):
+    rng = np.random.default_rng(21)
+    placement, registration = _registration(cell, rng, tmp_path)
+    registration.save(tmp_path / "registration.json")
+    frame = read_frame(tmp_path / "registration.json", "base")
+    points = rng.uniform(-1.5, 1.5, size=(20, 3)) + [1.0, 0.0, 1.0]  # m, in the base frame
+    moved = frame.from_tracker(placement.to_tracker(points))
+    # A point r from the frame's origin moves by about |r|·rotation error plus the translation error.
+    sd = np.sqrt(np.trace(frame.rotation_cov)) * np.linalg.norm(points, axis=1) + np.sqrt(np.trace(frame.translation_cov))
+    assert np.all(np.linalg.norm(moved - points, axis=1) < 5 * sd)
+
+
+def test_a_registration_without_frames_is_refused(cell, tmp_path):
+    rng = np.random.default_rng(4)
+    _, registration = _registration(cell, rng, tmp_path, joints=(1,))
+    registration.save(tmp_path / "one_joint.json")
+    with pytest.raises(InputError, match="'base' frame"):
+        read_frame(tmp_path / "one_joint.json", "base")
