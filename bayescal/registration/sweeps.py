@@ -1,0 +1,133 @@
+"""Reading joint-sweep files: reflector readings taken while one joint at a time moves."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from os import PathLike
+
+import numpy as np
+
+from bayescal.errors import InputError
+from bayescal.tables import read_table
+from bayescal.units import DEG, MM
+
+__all__ = ["Sweeps", "read_sweeps", "MAX_JOINTS", "MIN_ANGLES"]
+
+MAX_JOINTS = 12
+"""Most joint-angle columns ``q1_deg … q12_deg`` a sweep file may hold."""
+
+MIN_ANGLES = 3
+"""Fewest distinct angles per reflector and joint that fix a circle with known angles."""
+
+_STILL = 1e-6 * DEG
+"""Largest change (rad) of a joint that is taken as not moving: below any controller's resolution."""
+
+
+@dataclass(frozen=True)
+class Sweeps:
+    """Reflector readings of joint sweeps, SI units.
+
+    Attributes
+    ----------
+    joint
+        (n,) 0-based index of the joint that moves in each reading.
+    q
+        (n, m) joint angles of each reading, rad.
+    marker
+        (n,) reflector name of each reading.
+    xyz
+        (n, 3) reflector position in the tracker frame, m.
+    line
+        (n,) 1-based line of each reading in ``source``.
+    source
+        The file read.
+    """
+
+    joint: np.ndarray
+    q: np.ndarray
+    marker: np.ndarray
+    xyz: np.ndarray
+    line: np.ndarray
+    source: str
+
+    @property
+    def swept_joints(self) -> list[int]:
+        """0-based indices of the joints swept, ascending."""
+        return sorted({int(j) for j in self.joint})
+
+    def of(self, joint: int) -> Sweeps:
+        """The readings of the sweep of ``joint`` (0-based)."""
+        keep = self.joint == joint
+        return Sweeps(self.joint[keep], self.q[keep], self.marker[keep], self.xyz[keep], self.line[keep], self.source)
+
+
+def read_sweeps(path: str | PathLike[str]) -> Sweeps:
+    """Read a sweep file.
+
+    Parameters
+    ----------
+    path
+        CSV file with columns ``joint`` (1-based index of the joint that
+        moves), ``q1_deg … qm_deg``, ``marker``, ``x_mm, y_mm, z_mm`` (tracker
+        frame); one row per reflector reading; ``#`` lines are comments.
+
+    Returns
+    -------
+    Sweeps
+        In SI units (rad, m).
+
+    Raises
+    ------
+    InputError
+        One line naming the file, line and column: a missing column or bad
+        value, a joint index outside ``1 … m``, a sweep in which another joint
+        than the named one moves, a reflector swept through fewer than
+        :data:`MIN_ANGLES` angles.
+    """
+    source = str(path)
+    q_columns = {f"q{k}_deg": "number" for k in range(1, MAX_JOINTS + 1)}
+    frame = read_table(
+        path,
+        {"joint": "integer", "marker": "text", "x_mm": "number", "y_mm": "number", "z_mm": "number"},
+        optional=q_columns,
+        units={"x_mm": "mm", "y_mm": "mm", "z_mm": "mm", **{c: "deg" for c in q_columns}},
+    )
+    present = [c for c in q_columns if c in frame]
+    expected = [f"q{k}_deg" for k in range(1, len(present) + 1)]
+    if not present or present != expected:
+        raise InputError(f"expected joint-angle columns q1_deg … qm_deg without gaps, got {present or 'none'}", source=source, line=1)
+    lines = frame.index.to_numpy()
+    joint = frame["joint"].to_numpy(dtype=int)
+    bad = np.flatnonzero((joint < 1) | (joint > len(present)))
+    if bad.size:
+        raise InputError(
+            f"expected a joint index 1 … {len(present)}, got {joint[bad[0]]}", source=source, line=int(lines[bad[0]]), column="joint"
+        )
+    sweeps = Sweeps(joint - 1, frame[present].to_numpy() * DEG, frame["marker"].to_numpy(dtype=str),
+                    frame[["x_mm", "y_mm", "z_mm"]].to_numpy() * MM, lines, source)
+    for j in sweeps.swept_joints:
+        _check_sweep(sweeps.of(j), j)
+    return sweeps
+
+
+def _check_sweep(sweep: Sweeps, j: int) -> None:
+    """Reject a sweep of joint ``j`` in which another joint moves or a reflector has too few angles."""
+    others = np.delete(sweep.q, j, axis=1)
+    moved = np.abs(others - others[0]) > _STILL
+    if moved.any():
+        row, col = np.argwhere(moved)[0]
+        k = col if col < j else col + 1
+        raise InputError(
+            f"in the sweep of joint {j + 1} joint {k + 1} moves too ({np.degrees(others[row, col]):.6g} deg "
+            f"against {np.degrees(others[0, col]):.6g} deg on line {sweep.line[0]}): sweep one joint at a time",
+            source=sweep.source, line=int(sweep.line[row]), column=f"q{k + 1}_deg",
+        )
+    for name in dict.fromkeys(sweep.marker):
+        rows = sweep.marker == name
+        angles = np.unique(np.round(sweep.q[rows, j] / _STILL))
+        if angles.size < MIN_ANGLES:
+            raise InputError(
+                f"reflector '{name}' is read at {angles.size} angle(s) of joint {j + 1}, "
+                f"expected at least {MIN_ANGLES} to fix its circle",
+                source=sweep.source, line=int(sweep.line[np.flatnonzero(rows)[0]]), column=f"q{j + 1}_deg",
+            )

@@ -1,0 +1,80 @@
+"""Axis fits checked on sweeps drawn by Rodrigues rotation, written apart from the fit's model."""
+
+import numpy as np
+import pytest
+
+from bayescal.cell.tracker import TrackerNoise
+from bayescal.errors import InputError
+from bayescal.registration import Sweeps, fit_axis
+
+
+def _rotate(v, axis, angle):
+    """Rodrigues' formula: ``v`` turned by ``angle`` about unit ``axis``."""
+    k = axis / np.linalg.norm(axis)
+    return v * np.cos(angle) + np.cross(k, v) * np.sin(angle) + k * (k @ v) * (1 - np.cos(angle))
+
+
+def _sweep(rng, axis, point, reflectors, angles, noise):
+    """Readings of reflectors (positions at q = 0) turned about the axis through ``point``."""
+    rows = [(name, q, point + _rotate(p0 - point, axis, q)) for name, p0 in reflectors.items() for q in angles]
+    xyz = noise.measure(np.array([r[2] for r in rows]), rng)
+    q = np.array([[r[1], 0.0] for r in rows])
+    n = len(rows)
+    return Sweeps(np.zeros(n, int), q, np.array([r[0] for r in rows]), xyz, np.arange(2, n + 2), "sim.csv")
+
+
+def _case(rng):
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    point = rng.uniform(-3, 3, size=3)
+    reflectors = {name: point + rng.uniform(-0.8, 0.8, size=3) for name in ("R1", "R2", "R3")}
+    return axis, point, reflectors
+
+
+def test_recovers_axis_within_its_uncertainty():
+    rng = np.random.default_rng(7)
+    noise = TrackerNoise()
+    z = []
+    for _ in range(40):
+        axis, point, reflectors = _case(rng)
+        fit = fit_axis(_sweep(rng, axis, point, reflectors, np.radians(np.linspace(-60, 60, 9)), noise), 0, noise)
+        nearest = point - (point @ axis) * axis
+        assert fit.direction @ axis > 0.999
+        err = np.concatenate([fit.direction - axis, fit.point - nearest])
+        w, V = np.linalg.eigh(fit.cov)
+        keep = w > w.max() * 1e-9
+        z.append(float(np.sum((V[:, keep].T @ err) ** 2 / w[keep])))
+    # chi-square with 4 degrees of freedom: mean 4; 40 draws give an sd of the mean of about 0.45
+    assert np.mean(z) == pytest.approx(4.0, abs=1.5)
+    assert fit.direction_sd * 1e3 < 0.5 and fit.residual_rms < 0.2e-3
+    assert set(fit.to_json()) >= {"direction", "point_mm", "direction_sd_mrad", "point_sd_mm", "rms_mm"}
+
+
+def test_mislabelled_reflector_is_reported():
+    rng = np.random.default_rng(3)
+    noise = TrackerNoise()
+    axis, point, reflectors = _case(rng)
+    sweep = _sweep(rng, axis, point, reflectors, np.radians(np.linspace(-60, 60, 9)), noise)
+    swap = np.flatnonzero(sweep.marker == "R2")[4]
+    marker = sweep.marker.copy()
+    marker[swap] = "R3"
+    bad = Sweeps(sweep.joint, sweep.q, marker, sweep.xyz, sweep.line, sweep.source)
+    with pytest.raises(InputError, match=r"sim.csv:\d+.*'marker'.*mislabelled"):
+        fit_axis(bad, 0, noise)
+
+
+@pytest.mark.slow
+def test_coverage_nominal_over_200_registrations():
+    rng = np.random.default_rng(11)
+    noise = TrackerNoise()
+    z = []
+    for _ in range(200):
+        axis, point, reflectors = _case(rng)
+        fit = fit_axis(_sweep(rng, axis, point, reflectors, np.radians(np.linspace(-60, 60, 9)), noise), 0, noise)
+        err = np.concatenate([fit.direction - axis, fit.point - (point - (point @ axis) * axis)])
+        w, V = np.linalg.eigh(fit.cov)
+        keep = w > w.max() * 1e-9
+        z.extend(np.abs(V[:, keep].T @ err) / np.sqrt(w[keep]))
+    z = np.array(z)
+    for k, nominal in ((1, 0.6827), (2, 0.9545), (3, 0.9973)):
+        assert abs(np.mean(z < k) - nominal) < 3 * np.sqrt(nominal * (1 - nominal) / z.size) + 1 / z.size
