@@ -40,7 +40,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
+from scipy.special import fdtrc
 
 __all__ = ["LackOfFit", "LACK_OF_FIT_LEVEL", "lack_of_fit", "replicate_cells"]
 
@@ -141,4 +141,4 @@ def lack_of_fit(residual: np.ndarray, scale: np.ndarray, cells: np.ndarray, n_pa
     if dof_pe < 1 or dof_lof < 1 or ss_pe <= 0:
         return None
     statistic = (ss_lof / dof_lof) / (ss_pe / dof_pe)
-    return LackOfFit(float(statistic), float(stats.f.sf(statistic, dof_lof, dof_pe)), (dof_lof, dof_pe))
+    return LackOfFit(float(statistic), float(fdtrc(dof_lof, dof_pe, statistic)), (dof_lof, dof_pe))

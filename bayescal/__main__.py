@@ -1,0 +1,7 @@
+"""``python -m bayescal``: the same as the ``bayescal`` command."""
+
+import sys
+
+from bayescal.cli import main
+
+sys.exit(main())
