@@ -189,10 +189,11 @@ def deflection_equations(
     design = np.empty((n, 3, robot.nq))
     torque = np.empty((n, robot.nq))
     points = np.empty((n, 3))
+    workspace = robot.workspace()
     for i in range(n):
-        points[i] = robot.point_in_flange(campaign.q[i], campaign.p0[i])
-        design[i] = compliance_design(robot, campaign.q[i], points[i], campaign.wrench[i])
-        torque[i] = robot.flange_jacobian(campaign.q[i]).T @ campaign.wrench[i]
+        points[i] = workspace.point_in_flange(campaign.q[i], campaign.p0[i])
+        design[i] = compliance_design(workspace, campaign.q[i], points[i], campaign.wrench[i])
+        torque[i] = workspace.flange_jacobian(campaign.q[i]).T @ campaign.wrench[i]
     values, angle = group_angles(campaign.q[:, joint])
     if noise == "axis":
         group, names = np.tile(np.arange(3), n), ("x", "y", "z")
@@ -320,8 +321,9 @@ def check_load_point(robot: Robot, campaign: Campaign, load_point: np.ndarray | 
     if campaign.load_point is not None:
         points = campaign.load_point
     discrepancy = np.zeros(configs.size)
+    workspace = robot.workspace()
     for index, row in enumerate(configs):
-        rotation, _ = robot.flange_pose(campaign.q[row])
+        rotation, _ = workspace.flange_pose(campaign.q[row])
         force, couple = campaign.wrench[row, :3], campaign.wrench[row, 3:]
         discrepancy[index] = np.linalg.norm(couple - np.cross(rotation @ points[row], force))
     worst = int(np.argmax(discrepancy)) if discrepancy.size else 0

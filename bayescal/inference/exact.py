@@ -61,9 +61,10 @@ def exact_deflections(
     arm = ElasticArm.linear(robot, compliances, compensator=compensator, load_point=load_point, compensated_joint=compensated_joint)
     unloaded = q + arm.equilibrium(q, np.zeros(6))
     loaded = q + arm.equilibrium(q, wrench)
+    workspace = robot.workspace()
     if points_in_flange is None:
-        points_in_flange = robot.point_in_flange(unloaded, unloaded_positions)
-    return robot.point_position(loaded, points_in_flange) - robot.point_position(unloaded, points_in_flange)
+        points_in_flange = workspace.point_in_flange(unloaded, unloaded_positions)
+    return workspace.point_position(loaded, points_in_flange) - workspace.point_position(unloaded, points_in_flange)
 
 
 def scale_masses(robot: Robot, factor: float) -> Robot:

@@ -27,7 +27,7 @@ in ``log sigma``); the compensator geometry ``(L, a_x, a_y, phi)`` Gaussian
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
@@ -75,7 +75,6 @@ class CompensatorBlock:
     q_ref: float
     static: np.ndarray | None = None
     gravity_sd: float = 0.0
-    _last_geometry: list = field(default_factory=lambda: [(None, None)], init=False, repr=False, compare=False)
 
     @property
     def ndim(self) -> int:
@@ -160,26 +159,11 @@ class CompensatorBlock:
             return np.where(positive, 1.0 / total, np.nan), np.where(ok, log_prior, -np.inf)
 
     def _geometry_terms(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray | float, np.ndarray | float]:
-        """The eq-35 rows at the campaign's angles, the spring's longest length and the geometry's log prior at ``z``.
-
-        A sampler moves the spring and the geometry in separate steps, so most
-        calls repeat the previous call's geometry; the terms of the last geometry
-        are kept (as one tuple, so that threads sharing a block read a
-        consistent pair) and reused when it recurs.
-        """
+        """The eq-35 rows at the campaign's angles, the spring's longest length and the geometry's log prior at ``z``."""
         if self.geometry.fixed:
             return self._fixed_regressor[None], self._longest, 0.0
         g = self._geometry(z)
-        key, terms = self._last_geometry[0]
-        if key is not None and key.shape == g.shape and np.array_equal(key, g):
-            return terms
-        terms = (
-            self._regressor(z, self.q2),
-            np.hypot(g[:, 1], g[:, 2]) + g[:, 0],
-            self.geometry.log_density(g),
-        )
-        self._last_geometry[0] = (g.copy(), terms)
-        return terms
+        return self._regressor(z, self.q2), np.hypot(g[:, 1], g[:, 2]) + g[:, 0], self.geometry.log_density(g)
 
     @cached_property
     def _fixed_regressor(self) -> np.ndarray:

@@ -26,7 +26,7 @@ from bayescal.errors import InputError
 from bayescal.robot.chain import joint_kind, reduce_to_chain
 from bayescal.units import DEG, MM
 
-__all__ = ["Robot"]
+__all__ = ["Robot", "Workspace"]
 
 _LIMIT_TOLERANCE = 1e-9
 """Slack on joint limits (rad; times 1 mm/m, m, for a prismatic joint) so that a plan written at a limit in deg or mm is accepted."""
@@ -87,13 +87,8 @@ class Robot:
         self.position_columns = tuple(f"q{j + 1}_{unit}" for j, unit in enumerate(self.position_units))
         self.flange = flange
         self.source = source
-        self._data = model.createData()
         self._flange_id = model.getFrameId(flange)
         self._flange_frame = model.frames[self._flange_id]
-
-    def copy(self) -> Robot:
-        """The same robot with its own Pinocchio data: one per thread, since a data object holds each call's results."""
-        return Robot(self.model.copy(), flange=self.flange, source=self.source)
 
     @classmethod
     def from_urdf(
@@ -127,82 +122,49 @@ class Robot:
             raise ValueError(f"expected {self.nq} joint angles, got shape {q.shape}")
         return q
 
-    def _placement(self, q) -> pin.SE3:
-        pin.framesForwardKinematics(self.model, self._data, self._q(q))
-        return self._data.oMf[self._flange_id]
+    def workspace(self) -> Workspace:
+        """A new workspace of this robot: the Pinocchio data one task computes in (see :class:`Workspace`)."""
+        return Workspace(self, self.model.createData())
+
+    # The calls below each run in a workspace of their own, so that any thread or
+    # process may call them on a shared robot; a loop over many configurations
+    # holds one workspace instead (creating one costs several kinematic calls).
 
     def flange_pose(self, q) -> tuple[np.ndarray, np.ndarray]:
-        """Rotation (3, 3) and origin (3,) of the flange frame in the base frame, m."""
-        placement = self._placement(q)
-        return placement.rotation.copy(), placement.translation.copy()
+        """Rotation (3, 3) and origin (3,) of the flange frame in the base frame, m (:meth:`Workspace.flange_pose`)."""
+        return self.workspace().flange_pose(q)
 
     def point_position(self, q, point_in_flange) -> np.ndarray:
-        """Base-frame position (m) of a point given in the flange frame; (3,) or (k, 3) like the input."""
-        rotation, origin = self.flange_pose(q)
-        point = np.asarray(point_in_flange, dtype=float)
-        return point @ rotation.T + origin
+        """Base-frame position (m) of a flange-frame point (:meth:`Workspace.point_position`)."""
+        return self.workspace().point_position(q, point_in_flange)
 
     def joint_origins(self, q) -> np.ndarray:
-        """(nq, 3) base-frame positions (m) of the joint frames' origins, in joint order."""
-        pin.forwardKinematics(self.model, self._data, self._q(q))
-        return np.array([self._data.oMi[j].translation for j in range(1, self.model.njoints)])
+        """(nq, 3) base-frame positions (m) of the joint frames' origins (:meth:`Workspace.joint_origins`)."""
+        return self.workspace().joint_origins(q)
 
     def point_in_flange(self, q, point_in_base) -> np.ndarray:
-        """Flange-frame coordinates (m) of a point given in the base frame: the inverse of :meth:`point_position`."""
-        rotation, origin = self.flange_pose(q)
-        point = np.asarray(point_in_base, dtype=float)
-        return (point - origin) @ rotation
-
-    def _local_placement(self, point_in_flange) -> pin.SE3:
-        """Placement, relative to the flange's parent joint, of a frame at the point with the flange's axes."""
-        offset = pin.SE3(np.eye(3), np.asarray(point_in_flange, dtype=float).reshape(3))
-        return self._flange_frame.placement * offset
+        """Flange-frame coordinates (m) of a base-frame point (:meth:`Workspace.point_in_flange`)."""
+        return self.workspace().point_in_flange(q, point_in_base)
 
     def point_jacobian(self, q, point_in_flange) -> np.ndarray:
-        """(3, nq) Jacobian of the linear velocity of a material point of the flange body, base axes."""
-        pin.computeJointJacobians(self.model, self._data, self._q(q))
-        jacobian = pin.getFrameJacobian(
-            self.model,
-            self._data,
-            self._flange_frame.parentJoint,
-            self._local_placement(point_in_flange),
-            pin.LOCAL_WORLD_ALIGNED,
-        )
-        return np.array(jacobian[:3])
+        """(3, nq) Jacobian of a material point of the flange body, base axes (:meth:`Workspace.point_jacobian`)."""
+        return self.workspace().point_jacobian(q, point_in_flange)
 
     def flange_jacobian(self, q) -> np.ndarray:
-        """(6, nq) Jacobian at the flange origin, base axes, rows ``[v; ω]``."""
-        return np.array(
-            pin.computeFrameJacobian(self.model, self._data, self._q(q), self._flange_id, pin.LOCAL_WORLD_ALIGNED)
-        )
+        """(6, nq) Jacobian at the flange origin, base axes, rows ``[v; ω]`` (:meth:`Workspace.flange_jacobian`)."""
+        return self.workspace().flange_jacobian(q)
 
     def point_hessian(self, q, point_in_flange) -> np.ndarray:
-        """(6, nq, nq) kinematic Hessian of a frame at a material point of the flange body.
-
-        ``H[:, i, j]`` is the derivative with respect to ``q[j]`` of column ``i`` of the
-        ``LOCAL_WORLD_ALIGNED`` Jacobian of that point, rows ``[v; ω]``.
-        """
-        pin.computeJointJacobians(self.model, self._data, self._q(q))
-        pin.computeJointKinematicHessians(self.model, self._data)
-        hessian = pin.getFrameKinematicHessian(
-            self.model,
-            self._data,
-            self._flange_frame.parentJoint,
-            self._local_placement(point_in_flange),
-            pin.LOCAL_WORLD_ALIGNED,
-        )
-        # The binding copies Pinocchio's column-major (6, nv, nv) tensor element by element
-        # into a row-major array of the same shape: read its memory back in column-major order.
-        flat = np.asarray(hessian).ravel(order="K")
-        return np.ascontiguousarray(flat.reshape((6, self.model.nv, self.model.nv), order="F"))
+        """(6, nq, nq) kinematic Hessian at a material point of the flange body (:meth:`Workspace.point_hessian`)."""
+        return self.workspace().point_hessian(q, point_in_flange)
 
     def gravity_torque(self, q) -> np.ndarray:
-        """(nq,) joint torques (N·m) that hold the arm against its own weight: Pinocchio's ``g(q)``."""
-        return np.array(pin.computeGeneralizedGravity(self.model, self._data, self._q(q)))
+        """(nq,) joint torques (N·m) that hold the arm against its own weight (:meth:`Workspace.gravity_torque`)."""
+        return self.workspace().gravity_torque(q)
 
     def gravity_torque_derivative(self, q) -> np.ndarray:
-        """(nq, nq) derivative ``∂g/∂q`` of :meth:`gravity_torque` (symmetric: the Hessian of the potential energy)."""
-        return np.array(pin.computeGeneralizedGravityDerivatives(self.model, self._data, self._q(q)))
+        """(nq, nq) ``∂g/∂q`` (:meth:`Workspace.gravity_torque_derivative`)."""
+        return self.workspace().gravity_torque_derivative(q)
 
     def check_limits(self, q, *, source: str | PathLike[str] | None = None, line: int | None = None) -> None:
         """Raise :class:`~bayescal.errors.InputError` naming the first joint outside its limits.
@@ -221,3 +183,103 @@ class Robot:
                     line=line,
                     column=self.position_columns[j],
                 )
+
+
+class Workspace:
+    """One task's Pinocchio data for a shared, read-only :class:`Robot`: Pinocchio's ``Model``/``Data`` split.
+
+    Each kinematic call writes its intermediate results into the workspace's
+    data, so a workspace belongs to one task at a time (a campaign of a study,
+    a configuration's equilibrium, a loop over a plan); the robot itself holds
+    no mutable state and is shared by every thread and process.
+
+    Parameters
+    ----------
+    robot
+        The robot.
+    data
+        A ``pinocchio.Data`` of ``robot.model`` (:meth:`Robot.workspace` makes one).
+    """
+
+    __slots__ = ("robot", "data")
+
+    def __init__(self, robot: Robot, data: pin.Data) -> None:
+        self.robot = robot
+        self.data = data
+
+    def _placement(self, q) -> pin.SE3:
+        pin.framesForwardKinematics(self.robot.model, self.data, self.robot._q(q))
+        return self.data.oMf[self.robot._flange_id]
+
+    def flange_pose(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """Rotation (3, 3) and origin (3,) of the flange frame in the base frame, m."""
+        placement = self._placement(q)
+        return placement.rotation.copy(), placement.translation.copy()
+
+    def point_position(self, q, point_in_flange) -> np.ndarray:
+        """Base-frame position (m) of a point given in the flange frame; (3,) or (k, 3) like the input."""
+        rotation, origin = self.flange_pose(q)
+        point = np.asarray(point_in_flange, dtype=float)
+        return point @ rotation.T + origin
+
+    def joint_origins(self, q) -> np.ndarray:
+        """(nq, 3) base-frame positions (m) of the joint frames' origins, in joint order."""
+        pin.forwardKinematics(self.robot.model, self.data, self.robot._q(q))
+        return np.array([self.data.oMi[j].translation for j in range(1, self.robot.model.njoints)])
+
+    def point_in_flange(self, q, point_in_base) -> np.ndarray:
+        """Flange-frame coordinates (m) of a point given in the base frame: the inverse of :meth:`point_position`."""
+        rotation, origin = self.flange_pose(q)
+        point = np.asarray(point_in_base, dtype=float)
+        return (point - origin) @ rotation
+
+    def _local_placement(self, point_in_flange) -> pin.SE3:
+        """Placement, relative to the flange's parent joint, of a frame at the point with the flange's axes."""
+        offset = pin.SE3(np.eye(3), np.asarray(point_in_flange, dtype=float).reshape(3))
+        return self.robot._flange_frame.placement * offset
+
+    def point_jacobian(self, q, point_in_flange) -> np.ndarray:
+        """(3, nq) Jacobian of the linear velocity of a material point of the flange body, base axes."""
+        pin.computeJointJacobians(self.robot.model, self.data, self.robot._q(q))
+        jacobian = pin.getFrameJacobian(
+            self.robot.model,
+            self.data,
+            self.robot._flange_frame.parentJoint,
+            self._local_placement(point_in_flange),
+            pin.LOCAL_WORLD_ALIGNED,
+        )
+        return np.array(jacobian[:3])
+
+    def flange_jacobian(self, q) -> np.ndarray:
+        """(6, nq) Jacobian at the flange origin, base axes, rows ``[v; ω]``."""
+        return np.array(
+            pin.computeFrameJacobian(self.robot.model, self.data, self.robot._q(q), self.robot._flange_id, pin.LOCAL_WORLD_ALIGNED)
+        )
+
+    def point_hessian(self, q, point_in_flange) -> np.ndarray:
+        """(6, nq, nq) kinematic Hessian of a frame at a material point of the flange body.
+
+        ``H[:, i, j]`` is the derivative with respect to ``q[j]`` of column ``i`` of the
+        ``LOCAL_WORLD_ALIGNED`` Jacobian of that point, rows ``[v; ω]``.
+        """
+        pin.computeJointJacobians(self.robot.model, self.data, self.robot._q(q))
+        pin.computeJointKinematicHessians(self.robot.model, self.data)
+        hessian = pin.getFrameKinematicHessian(
+            self.robot.model,
+            self.data,
+            self.robot._flange_frame.parentJoint,
+            self._local_placement(point_in_flange),
+            pin.LOCAL_WORLD_ALIGNED,
+        )
+        # The binding copies Pinocchio's column-major (6, nv, nv) tensor element by element
+        # into a row-major array of the same shape: read its memory back in column-major order.
+        flat = np.asarray(hessian).ravel(order="K")
+        return np.ascontiguousarray(flat.reshape((6, self.robot.model.nv, self.robot.model.nv), order="F"))
+
+    def gravity_torque(self, q) -> np.ndarray:
+        """(nq,) joint torques (N·m) that hold the arm against its own weight: Pinocchio's ``g(q)``."""
+        return np.array(pin.computeGeneralizedGravity(self.robot.model, self.data, self.robot._q(q)))
+
+    def gravity_torque_derivative(self, q) -> np.ndarray:
+        """(nq, nq) derivative ``∂g/∂q`` of :meth:`gravity_torque` (symmetric: the Hessian of the potential energy)."""
+        return np.array(pin.computeGeneralizedGravityDerivatives(self.robot.model, self.data, self.robot._q(q)))

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from bayescal.robot.kinematics import Robot
+from bayescal.robot.kinematics import Robot, Workspace
 
 if TYPE_CHECKING:
     from bayescal.robot.compensator import Compensator
@@ -79,13 +79,13 @@ def _compliances(compliances) -> np.ndarray:
     return k
 
 
-def compliance_design(robot: Robot, q, point_in_flange, wrench) -> np.ndarray:
+def compliance_design(robot: Robot | Workspace, q, point_in_flange, wrench) -> np.ndarray:
     """Matrix ``A`` of eq 31 for one marker: ``Δp ≈ A @ k`` for joint compliances ``k`` (rad/(N·m)).
 
     Parameters
     ----------
     robot
-        The robot.
+        The robot, or one of its workspaces (a loop over configurations passes its own).
     q
         (nq,) joint angles, rad.
     point_in_flange
@@ -101,8 +101,9 @@ def compliance_design(robot: Robot, q, point_in_flange, wrench) -> np.ndarray:
         ``A[:, j] k_j`` is the marker's displacement due to joint ``j``'s spring.
     """
     wrench = np.asarray(wrench, dtype=float).reshape(6)
-    torques = robot.flange_jacobian(q).T @ wrench
-    return robot.point_jacobian(q, point_in_flange) * torques[np.newaxis, :]
+    workspace = robot.workspace() if isinstance(robot, Robot) else robot
+    torques = workspace.flange_jacobian(q).T @ wrench
+    return workspace.point_jacobian(q, point_in_flange) * torques[np.newaxis, :]
 
 
 def joint_stiffness(q, compliances, compensator: Compensator | None = None, joint: int | None = None) -> np.ndarray:
@@ -122,25 +123,25 @@ def joint_stiffness(q, compliances, compensator: Compensator | None = None, join
 class _Load:
     """The external load as a force at a material point of the tool plus a dead couple."""
 
-    def __init__(self, robot: Robot, q: np.ndarray, wrench, load_point) -> None:
+    def __init__(self, workspace: Workspace, q: np.ndarray, wrench, load_point) -> None:
         wrench = np.asarray(wrench, dtype=float).reshape(6)
         if not np.all(np.isfinite(wrench)):
             raise ValueError(f"the wrench must be finite, got {wrench}")
         self.point = np.zeros(3) if load_point is None else np.asarray(load_point, dtype=float).reshape(3)
         force = wrench[:3]
-        rotation, _ = robot.flange_pose(q)
+        rotation, _ = workspace.flange_pose(q)
         couple = wrench[3:] - np.cross(rotation @ self.point, force)
         self.generalized = np.concatenate([force, couple])
-        self.robot = robot
+        self.workspace = workspace
 
     def torque(self, q: np.ndarray) -> np.ndarray:
         """Generalized force of the load with the arm at ``q``."""
-        jacobian = np.vstack([self.robot.point_jacobian(q, self.point), self.robot.flange_jacobian(q)[3:]])
+        jacobian = np.vstack([self.workspace.point_jacobian(q, self.point), self.workspace.flange_jacobian(q)[3:]])
         return jacobian.T @ self.generalized
 
     def torque_derivative(self, q: np.ndarray) -> np.ndarray:
         """``∂τ_ext/∂q`` (nq, nq): the load's Hessian term of eq 3."""
-        hessian = self.robot.point_hessian(q, self.point)
+        hessian = self.workspace.point_hessian(q, self.point)
         return np.einsum("r,rij->ij", self.generalized, hessian)
 
 
@@ -245,8 +246,8 @@ class ElasticArm:
         torque = load.torque(linked)
         derivative = load.torque_derivative(linked)
         if self.gravity:
-            torque = torque - self.robot.gravity_torque(linked)
-            derivative = derivative - self.robot.gravity_torque_derivative(linked)
+            torque = torque - load.workspace.gravity_torque(linked)
+            derivative = derivative - load.workspace.gravity_torque_derivative(linked)
         if self.compensator is not None:
             j = self.compensated_joint
             angle = float(linked[j])
@@ -257,7 +258,8 @@ class ElasticArm:
     def _solve(self, q, wrench, tol: float, max_iter: int):
         robot, law = self.robot, self.joints
         q = np.asarray(q, dtype=float).reshape(robot.nq)
-        load = _Load(robot, q, wrench, self.load_point)
+        # One workspace per solve: the arm, shared by threads, holds none.
+        load = _Load(robot.workspace(), q, wrench, self.load_point)
         theta = np.zeros(robot.nq)
 
         def residual(theta):

@@ -22,11 +22,9 @@ of workers.
 
 from __future__ import annotations
 
-import copy
 import math
-import os
 from collections.abc import Sequence
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor
 
 import numpy as np
 import pandas as pd
@@ -34,6 +32,7 @@ import pandas as pd
 from bayescal.cell.config import Cell
 from bayescal.design.optimise import CANDIDATES_PER_ANGLE, PlanDesigner
 from bayescal.errors import InputError
+from bayescal.studies.parallel import seeded_map
 from bayescal.units import MM
 
 __all__ = ["TARGETS_PCT", "identification_cost", "q2_angle_study"]
@@ -45,11 +44,11 @@ NOISE_FRACTIONS = (1.0, 0.1)
 """Tracker noise levels of the study, as fractions of the cell's."""
 
 
-def _design(designer: PlanDesigner, candidates, angles: int, per_angle: int, criterion: str, seed) -> list[dict]:
-    """One task: the plan for (angles, per_angle) and its prediction at each noise level."""
-    # A Robot keeps one Pinocchio data object: tasks on threads of one process must not share it.
-    designer = copy.deepcopy(designer)
-    design = designer.optimise(angles, per_angle, criterion, rng=np.random.default_rng(seed), starts=1, refine_steps=0, candidates=candidates)
+def _design(pair: tuple[int, int], rng: np.random.Generator, designer: PlanDesigner, candidates, criterion: str) -> list[dict]:
+    """One task of :func:`~bayescal.studies.parallel.seeded_map`: the plan for (angles, per_angle) and its
+    prediction at each noise level."""
+    angles, per_angle = pair
+    design = designer.optimise(angles, per_angle, criterion, rng=rng, starts=1, refine_steps=0, candidates=candidates)
     prediction = design.prediction
     rows = []
     for fraction in NOISE_FRACTIONS:
@@ -105,23 +104,7 @@ def q2_angle_study(
     designer = PlanDesigner(cell, repeats=repeats, model="exact")
     candidates = designer.candidates(np.random.default_rng(candidate_seed), per_angle=candidates_per_angle)
     pairs = [(a, c) for a in angles for c in per_angle]
-    own = executor is None
-    executor = ProcessPoolExecutor(max_workers=os.cpu_count()) if own else executor
-    try:
-        results = list(
-            executor.map(
-                _design,
-                [designer] * len(pairs),
-                [candidates] * len(pairs),
-                [a for a, _ in pairs],
-                [c for _, c in pairs],
-                [criterion] * len(pairs),
-                design_seeds,
-            )
-        )
-    finally:
-        if own:
-            executor.shutdown()
+    results = seeded_map(_design, pairs, design_seeds, executor=executor, designer=designer, candidates=candidates, criterion=criterion)
     return pd.DataFrame([row for rows in results for row in rows])
 
 

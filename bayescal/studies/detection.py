@@ -12,11 +12,9 @@ number of workers.
 
 from __future__ import annotations
 
-import threading
 import warnings
 from collections.abc import Mapping, Sequence
-from concurrent.futures import Executor, ProcessPoolExecutor
-from functools import lru_cache
+from concurrent.futures import Executor
 from os import PathLike
 
 import numpy as np
@@ -25,25 +23,12 @@ import pandas as pd
 __all__ = ["detection_power", "power_threshold", "markdown_table"]
 
 
-@lru_cache(maxsize=16)
-def _setup(config: str, plan: str, thread: int):
-    """The cell and plan, one copy per thread: a robot's Pinocchio workspace is not shared between threads."""
-    from bayescal.cell.config import load_cell
-    from bayescal.cell.plan import read_plan
-
-    cell = load_cell(config)
-    return cell, read_plan(plan, cell.robot)
-
-
-def _one(task: tuple) -> list[str]:
-    """The causes the critique names in one simulated campaign (runs in a worker process)."""
+def _one(effects: tuple[str, ...], rng: np.random.Generator, cell, plan, repeats: int) -> list[str]:
+    """The causes the critique names in one simulated campaign (a task of :func:`~bayescal.studies.parallel.seeded_map`)."""
     from bayescal.critique import Critique
     from bayescal.twin.effects import parse_effect
     from bayescal.twin.simulator import DigitalTwin
 
-    config, plan_path, effects, repeats, seed = task
-    cell, plan = _setup(config, plan_path, threading.get_ident())
-    rng = np.random.default_rng(seed)
     campaign = DigitalTwin(cell, [parse_effect(e) for e in effects]).simulate(plan, repeats, rng)
     with warnings.catch_warnings():
         # the plan's warnings (e.g. all loads parallel) are the same for every campaign of the study
@@ -79,7 +64,7 @@ def detection_power(
     seed
         Root of the :class:`numpy.random.SeedSequence` every campaign's seed is spawned from.
     executor
-        Runs the campaigns; default a :class:`concurrent.futures.ProcessPoolExecutor`.
+        Runs the campaigns (:func:`~bayescal.studies.parallel.seeded_map`; default a process pool).
 
     Returns
     -------
@@ -88,6 +73,9 @@ def detection_power(
         ``effect, magnitude, unit, n, found_first, found, misfit`` (fractions of ``n``):
         named as the first cause, named at all, any cause named.
     """
+    from bayescal.cell.config import load_cell
+    from bayescal.cell.plan import read_plan
+    from bayescal.studies.parallel import seeded_map
     from bayescal.twin.effects import EFFECTS
 
     root = np.random.SeedSequence(seed)
@@ -97,14 +85,10 @@ def detection_power(
     for name, values in magnitudes.items():
         for magnitude in values:
             cases.append((name, float(magnitude), (f"{name}={magnitude!r}",), shared))
-    tasks = [(str(config), str(plan), effects, repeats, s) for _, _, effects, seeds in cases for s in seeds]
-    own = executor is None
-    executor = executor or ProcessPoolExecutor()
-    try:
-        results = list(executor.map(_one, tasks))
-    finally:
-        if own:
-            executor.shutdown()
+    cell = load_cell(config)
+    items = [effects for _, _, effects, seeds in cases for _ in seeds]
+    streams = [s for _, _, _, seeds in cases for s in seeds]
+    results = seeded_map(_one, items, streams, executor=executor, cell=cell, plan=read_plan(plan, cell.robot), repeats=repeats)
     records, start = [], 0
     for name, magnitude, _, seeds in cases:
         causes = results[start : start + len(seeds)]

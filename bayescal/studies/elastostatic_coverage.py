@@ -184,8 +184,6 @@ def fit_against_truth(
         ``parameter``, ``truth``, ``mean``, ``sd``, ``z`` = (truth - mean) / sd,
         ``identifiable``, and the fit's worst ``r_hat``.
     """
-    # Tasks may share a thread pool: each works on its own robot, whose Pinocchio data holds every call's results.
-    cell = dataclasses.replace(cell, robot=cell.robot.copy())
     tracker = cell.tracker
     if noise_um is not None:
         # A tracker whose error does not grow with distance: U1 = 0, U0 scaled to the sd wanted.

@@ -12,7 +12,7 @@ executor instead (for example ``dask.distributed.Client().get_executor()``).
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor
 from functools import partial
 from typing import Any, TypeVar
@@ -27,7 +27,7 @@ T = TypeVar("T")
 def seeded_map(
     task: Callable[..., T],
     items: Iterable[Any],
-    seed: int | np.random.SeedSequence,
+    seed: int | np.random.SeedSequence | Sequence[np.random.SeedSequence],
     *,
     executor: Executor | None = None,
     **shared: Any,
@@ -42,7 +42,9 @@ def seeded_map(
     items
         What each task works on (a campaign index, a plan, a magnitude...).
     seed
-        Root of the random streams: the ``i``-th item gets the ``i``-th child.
+        Root of the random streams: the ``i``-th item gets the ``i``-th child; or one
+        :class:`numpy.random.SeedSequence` per item, for a study whose items share
+        streams (the same campaigns planted with several magnitudes of an effect).
     executor
         Where the tasks run; None: a process pool on all cores, shut down on return.
     **shared
@@ -54,8 +56,13 @@ def seeded_map(
         The tasks' results, in the order of ``items``.
     """
     items = list(items)
-    root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-    generators = [np.random.default_rng(child) for child in root.spawn(len(items))]
+    if isinstance(seed, Sequence):
+        if len(seed) != len(items):
+            raise ValueError(f"seed gives {len(seed)} streams for {len(items)} items")
+        streams = list(seed)
+    else:
+        streams = (seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)).spawn(len(items))
+    generators = [np.random.default_rng(stream) for stream in streams]
     call = partial(_call, task, shared)
     if executor is not None:
         return list(executor.map(call, items, generators))

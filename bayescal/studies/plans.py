@@ -30,10 +30,9 @@ same noise streams (a paired comparison).
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping
-from concurrent.futures import Executor, ProcessPoolExecutor
-from dataclasses import dataclass, replace
+from concurrent.futures import Executor
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -50,6 +49,7 @@ from bayescal.design.criteria import (
     with_parameters,
     wrench_information,
 )
+from bayescal.studies.parallel import seeded_map
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import MM
 
@@ -126,11 +126,12 @@ class CampaignModel:
         )
 
 
-def _campaign(model: CampaignModel, seed: np.random.SeedSequence) -> tuple[np.ndarray, np.ndarray]:
-    """One simulated campaign: the test point's error left (m) and the relative parameter errors."""
-    truth_seed, noise_seed = seed.spawn(2)
-    # A Robot keeps one Pinocchio data object: tasks on threads of one process must not share it.
-    cell = replace(model.cell, robot=model.cell.robot.copy())
+def _campaign(index: int, rng: np.random.Generator, model: CampaignModel) -> tuple[np.ndarray, np.ndarray]:
+    """One simulated campaign (a task of :func:`~bayescal.studies.parallel.seeded_map`): the test point's error
+    left (m) and the relative parameter errors."""
+    # Truths and noise from two streams of the campaign's own, so that every plan meets the same truths.
+    truth_seed, noise_seed = rng.bit_generator.seed_seq.spawn(2)
+    cell = model.cell
     names = parameter_names(cell)
     spread = np.array([TRUTH_SPREAD["k"] if name.startswith("k") else TRUTH_SPREAD[name] for name in names])
     relative_truth = np.where(model.varied, np.random.default_rng(truth_seed).normal(size=len(names)) * spread, 0.0)
@@ -188,14 +189,7 @@ def simulate_plan(
     if campaigns < 2:
         raise ValueError(f"expected at least 2 campaigns, got {campaigns}")
     model = CampaignModel.build(cell, plan, repeats) if model is None else model
-    seeds = np.random.SeedSequence(seed).spawn(campaigns)
-    own = executor is None
-    executor = ProcessPoolExecutor(max_workers=os.cpu_count()) if own else executor
-    try:
-        results = list(executor.map(_campaign, [model] * campaigns, seeds))
-    finally:
-        if own:
-            executor.shutdown()
+    results = seeded_map(_campaign, range(campaigns), seed, executor=executor, model=model)
     return {
         "errors": np.array([r[0] for r in results]),
         "parameter_errors": np.array([r[1] for r in results]),
@@ -250,42 +244,36 @@ def compare_plans(
         ``predicted_linear_width_3sd_pct`` and ``simulated_width_3sd_pct``
         (300 × rms relative error of the estimates).
     """
-    own = executor is None
-    executor = ProcessPoolExecutor(max_workers=os.cpu_count()) if own else executor
     rows, width_rows, squares = {}, [], []
-    try:
-        for name, plan in plans.items():
-            model = CampaignModel.build(cell, plan, repeats, vary_all=vary_all)
-            weighted = model.design / model.sigma[:, np.newaxis]
-            exact = predict(cell, repeats * weighted.T @ weighted, test_design=model.test_design)
-            linear = predict(cell, sum(wrench_information(cell, q, w, repeats) for q, w in zip(plan.q, plan.wrenches(cell))))
-            result = simulate_plan(cell, plan, campaigns=campaigns, repeats=repeats, seed=seed, executor=executor, model=model)
-            squared = np.sum(result["errors"] ** 2, axis=1)
-            squares.append(squared)
-            mean_squared = squared.mean()
-            rows[name] = {
-                "criterion_mm": exact.rho0 / MM,
-                "criterion_linear_mm": linear.rho0 / MM,
-                "simulated_rms_mm": np.sqrt(mean_squared) / MM,
-                "simulated_rms_se_mm": squared.std(ddof=1) / np.sqrt(campaigns) / (2.0 * np.sqrt(mean_squared)) / MM,
-                "simulated_q95_mm": np.quantile(np.sqrt(squared), 0.95) / MM,
-                **_paired_ratio(squared, squares[0]),
-                "campaigns": campaigns,
-            }
-            simulated = 300.0 * np.sqrt(np.mean(result["parameter_errors"] ** 2, axis=0))
-            for i, parameter in enumerate(exact.names):
-                width_rows.append(
-                    {
-                        "plan": name,
-                        "parameter": parameter,
-                        "predicted_width_3sd_pct": 300.0 * exact.relative_sd[i],
-                        "predicted_linear_width_3sd_pct": 300.0 * linear.relative_sd[i],
-                        "simulated_width_3sd_pct": simulated[i] if result["excited"][i] else np.nan,
-                    }
-                )
-    finally:
-        if own:
-            executor.shutdown()
+    for name, plan in plans.items():
+        model = CampaignModel.build(cell, plan, repeats, vary_all=vary_all)
+        weighted = model.design / model.sigma[:, np.newaxis]
+        exact = predict(cell, repeats * weighted.T @ weighted, test_design=model.test_design)
+        linear = predict(cell, sum(wrench_information(cell, q, w, repeats) for q, w in zip(plan.q, plan.wrenches(cell))))
+        result = simulate_plan(cell, plan, campaigns=campaigns, repeats=repeats, seed=seed, executor=executor, model=model)
+        squared = np.sum(result["errors"] ** 2, axis=1)
+        squares.append(squared)
+        mean_squared = squared.mean()
+        rows[name] = {
+            "criterion_mm": exact.rho0 / MM,
+            "criterion_linear_mm": linear.rho0 / MM,
+            "simulated_rms_mm": np.sqrt(mean_squared) / MM,
+            "simulated_rms_se_mm": squared.std(ddof=1) / np.sqrt(campaigns) / (2.0 * np.sqrt(mean_squared)) / MM,
+            "simulated_q95_mm": np.quantile(np.sqrt(squared), 0.95) / MM,
+            **_paired_ratio(squared, squares[0]),
+            "campaigns": campaigns,
+        }
+        simulated = 300.0 * np.sqrt(np.mean(result["parameter_errors"] ** 2, axis=0))
+        for i, parameter in enumerate(exact.names):
+            width_rows.append(
+                {
+                    "plan": name,
+                    "parameter": parameter,
+                    "predicted_width_3sd_pct": 300.0 * exact.relative_sd[i],
+                    "predicted_linear_width_3sd_pct": 300.0 * linear.relative_sd[i],
+                    "simulated_width_3sd_pct": simulated[i] if result["excited"][i] else np.nan,
+                }
+            )
     scores = pd.DataFrame.from_dict(rows, orient="index")
     scores.index.name = "plan"
     return scores, pd.DataFrame(width_rows).set_index(["plan", "parameter"])

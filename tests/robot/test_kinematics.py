@@ -185,3 +185,22 @@ def test_joint_origins_end_at_the_flange_joint(robot):
     # The flange frame sits at the A6 origin (data/robots/kr270.urdf).
     np.testing.assert_allclose(origins[-1], flange, atol=1e-12)
     np.testing.assert_allclose(origins[0], [0.0, 0.0, 0.75], atol=1e-12)
+
+
+def test_threads_share_one_robot_each_with_its_own_workspace(robot):
+    """The robot holds no mutable state: threads calling it at once get what one thread gets alone."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    rng = np.random.default_rng(3)
+    poses = rng.uniform(robot.lower, robot.upper, size=(64, robot.nq)) * 0.5
+    point = np.array([0.1, -0.05, 0.3])
+
+    def kinematics(q):
+        workspace = robot.workspace()
+        return np.concatenate([workspace.point_jacobian(q, point).ravel(), robot.gravity_torque(q), robot.point_position(q, point)])
+
+    alone = np.array([kinematics(q) for q in poses])
+    with ThreadPoolExecutor(8) as pool:
+        shared = np.array(list(pool.map(kinematics, poses)))
+    np.testing.assert_array_equal(shared, alone)
+    assert not hasattr(robot, "_data") and not hasattr(robot, "copy")

@@ -58,7 +58,7 @@ def test_spring_moment_is_eq_7(cell):
 
 
 def test_null_campaign_agrees_with_the_package_model(cell, plan, null):
-    arm = ElasticArm.linear(cell.robot.copy(), cell.compliances, compensator=cell.compensator, compensated_joint=cell.compensated_joint, load_point=cell.load_point)
+    arm = ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, compensated_joint=cell.compensated_joint, load_point=cell.load_point)
     markers = np.array(list(cell.markers.values()))
     for number, (q, mass) in enumerate(zip(plan.q, plan.masses(cell.load_mass))):
         unloaded = cell.robot.point_position(q + arm.equilibrium(q, np.zeros(6)), markers)
