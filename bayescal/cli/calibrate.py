@@ -27,7 +27,10 @@ def add_parser(subparsers) -> None:
     parser.add_argument("campaign", help="campaign CSV (bayescal simulate writes one)")
     parser.add_argument("--config", required=True, help="cell TOML file: robot URDF, compensator, tool load point, tracker, test pose")
     parser.add_argument("--model", choices=("exact", "linear"), default="exact", help="deflection model (default exact)")
-    parser.add_argument("--sampler", choices=("gibbs", "emcee"), default="gibbs", help="posterior sampler (default gibbs)")
+    parser.add_argument(
+        "--sampler", choices=("collapsed", "gibbs", "emcee"), default="collapsed",
+        help="posterior sampler (default collapsed: batched proposals, compliances drawn exactly)",
+    )
     parser.add_argument("--noise", choices=("axis", "marker"), default="axis", help="unknown noise level per axis or per marker")
     parser.add_argument("--geometry", metavar="POSTERIOR.nc", help="geometry posterior from `bayescal geometry --posterior`")
     parser.add_argument("--posterior", metavar="OUT.nc", help="write the posterior as a NetCDF DataTree")
@@ -35,7 +38,7 @@ def add_parser(subparsers) -> None:
         "--draws",
         type=whole_number(MIN_DRAWS, "fewer give no usable R-hat or effective sample size"),
         default=None,
-        help=f"kept draws per chain, at least {MIN_DRAWS} (default: the sampler's, 600 for gibbs, 800 for emcee, doubled up to twice while R-hat or ESS fall short)",
+        help=f"kept draws per chain, at least {MIN_DRAWS} (default: the sampler's, 600 for collapsed and gibbs, 800 for emcee, doubled up to twice while R-hat or ESS fall short)",
     )
     add_common_options(parser)
     parser.set_defaults(run=run)
