@@ -55,8 +55,11 @@ def read_arcs_in_paper_frame(args: argparse.Namespace, path: str):
     return transfer.points, transfer
 
 
-def registration_lines(transfer, source: str) -> list[str]:
-    """The lines a command's text gives a transfer: the frame, what it added, where the tracker stood."""
+def registration_lines(transfer, source: str, lever_mm: float | None = None) -> list[str]:
+    """The lines a command's text gives a transfer: the frame, what it added, where the tracker stood.
+
+    ``lever_mm``: the compensator's |a| (arcs), which the paper frame's turn about axis 2 turns.
+    """
     if transfer is None:
         return []
     d = transfer.diagnostics()
@@ -65,5 +68,9 @@ def registration_lines(transfer, source: str) -> list[str]:
         return [f"registration {source}: positions moved from the tracker frame into the base frame; the tracker "
                 f"stood at ({where}) mm; the rotation's uncertainty adds at most {d['deflection_sd_added_max_um']:.2g} μm "
                 f"to a deflection ({100 * d['added_over_tracker_max']:.2g} % of the tracker's noise)"]
-    return [f"registration {source}: points moved from the tracker frame into the paper's frame; the frame's "
-            f"uncertainty adds {d['sd_added_median_um']:.2g} μm (median, at most {d['sd_added_max_um']:.2g} μm) to a point"]
+    lines = [f"registration {source}: points moved from the tracker frame into the paper's frame; the frame's "
+             f"uncertainty adds {d['sd_added_median_um']:.2g} μm (median, at most {d['sd_added_max_um']:.2g} μm) to a point"]
+    if lever_mm is not None:
+        lines.append(f"its turn about axis 2 (sd {d['turn_about_z_sd_mrad']:.2g} mrad) turns (a_x, a_y) by "
+                     f"{d['turn_about_z_sd_mrad'] * 1e-3 * lever_mm:.2g} mm (sd), which the intervals above leave out")
+    return lines

@@ -54,6 +54,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> CommandOutput:
     """Fit the geometry and return the JSON payload and a readable table."""
+    import numpy as np
+
     from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler
     from bayescal.reference import REFERENCE_FILE, read_paper_reference
     from bayescal.sampling import summary as posterior
@@ -103,7 +105,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
             for name in _PAPER_ROWS
             if name in reference.index
         }
-    text = "\n".join([_text(args, summary, closed_table, result, reference), *registration_lines(transfer, args.registration)])
+    lever = float(np.hypot(summary.loc["a_x", "mean"], summary.loc["a_y", "mean"]))
+    text = "\n".join([_text(args, summary, closed_table, result, reference), *registration_lines(transfer, args.registration, lever)])
     return CommandOutput(payload, text)
 
 

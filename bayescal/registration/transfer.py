@@ -28,7 +28,9 @@ What the models see:
 * compensator arcs: their points move into the paper's frame (Klimchik et al.,
   Section IV.A), which ``bayescal geometry`` expects; the added sd of each point
   is reported, not fed to the geometry posterior, whose noise levels are unknowns
-  estimated from the arcs' own scatter.
+  estimated from the arcs' own scatter.  The frame's turn about axis 2 turns the
+  whole compensator in its plane, and with it ``(a_x, a_y)`` by that turn times
+  ``|a|``; the command reports that sd beside the posterior's.
 
 The rotation error is one turn shared by every reading, not independent per
 reading; taken per reading it is averaged down by the number of readings.  It is
@@ -223,10 +225,17 @@ class ArcTransfer:
             "sd_added_um": _sd_um(self.position_cov),
         })
 
+    @property
+    def turn_sd(self) -> float:
+        """sd (rad) of the frame's turn about its Z (axis 2): it turns the whole compensator, a_x and a_y by it times |a|."""
+        theta = self.frame.rotation.T @ self.frame.rotation_cov @ self.frame.rotation
+        return float(np.sqrt(theta[2, 2]))
+
     def diagnostics(self) -> dict:
-        """The largest and median sd the frame adds to a point, μm."""
+        """The largest and median sd the frame adds to a point (μm), and the sd of its turn about Z (mrad)."""
         sd = _sd_um(self.position_cov)
-        return {"frame": self.frame.name, "sd_added_max_um": float(sd.max()), "sd_added_median_um": float(np.median(sd))}
+        return {"frame": self.frame.name, "sd_added_max_um": float(sd.max()), "sd_added_median_um": float(np.median(sd)),
+                "turn_about_z_sd_mrad": self.turn_sd * 1e3}
 
     def to_json(self) -> dict:
         """:meth:`diagnostics`, JSON-ready."""
