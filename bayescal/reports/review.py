@@ -586,4 +586,13 @@ def _registration_section(page: Page, registration: Mapping, source: str) -> Non
         frame.index = pd.Index([f"{row['joint']} {row.get('marker', '')}" for row in rows], name="joint, reflector")
         page.table("reflectors", frame.drop(columns=["joint"]),
                    caption="Arc residuals per reflector (z_rms: rms standardised residual, about 1 when the tracker model holds)")
+    critique = registration.get("critique")
+    if isinstance(critique, Mapping):
+        page.paragraph(f"Sweep critique (held out one angle at a time): {critique.get('verdict', '–')}", css="verdict")
+        evidence = {f"{joint} {name}": row for joint, entry in critique.get("joints", {}).items() if isinstance(entry, Mapping)
+                    for name, row in entry.get("evidence", {}).items() if isinstance(row, Mapping)}
+        if evidence:
+            frame = pd.DataFrame.from_dict(evidence, orient="index")
+            frame.index.name = "joint, candidate"
+            page.table("sweep_critique", frame, caption="Held-out gain (ΔELPD, nats) of each candidate over the circle model")
     page.close()
