@@ -39,7 +39,7 @@ from scipy.optimize import least_squares
 from scipy.stats import multivariate_normal
 
 from bayescal.cell.tracker import TrackerNoise
-from bayescal.registration.axes import _perpendicular, _start, _unpack
+from bayescal.registration.axes import _perpendicular, _start
 from bayescal.registration.sweeps import Sweeps
 from bayescal.units import DEG, MM, UM
 
@@ -60,23 +60,43 @@ _STEP = 1e-7
 
 def _predict(x: np.ndarray, candidate: str | None, q: np.ndarray, index: np.ndarray, count: int, q_mid: float,
              frame) -> np.ndarray:
-    """(n, 3) readings the model predicts, m: the circle model's parameters first, the candidate's last."""
-    a, c = _unpack(x[:4], *frame)
-    e1, e2 = _perpendicular(a)
-    h, r, phi = x[4 : 4 + 3 * count : 3][index], x[5 : 5 + 3 * count : 3][index], x[6 : 6 + 3 * count : 3][index]
-    extra = x[4 + 3 * count :]
-    angle = q.copy()
+    """(B, n, 3) readings the model predicts (m) at (B, P) parameter vectors: the circle model's first, the candidate's last.
+
+    Batched so that a finite-difference Jacobian is one call.  The axis is ``a0 + θ0 b1 + θ1 b2`` normalised and its
+    point ``c0 + θ2 b1 + θ3 b2`` moved to the foot from the tracker origin, as in the registration's fit; the pair
+    across the axis is built from the start's ``b1`` so that it turns smoothly with the axis.
+    """
+    a0, c0, b1, b2 = frame
+    a = a0 + x[:, :1] * b1 + x[:, 1:2] * b2
+    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    c = c0 + x[:, 2:3] * b1 + x[:, 3:4] * b2
+    c -= np.sum(c * a, axis=1, keepdims=True) * a
+    e1 = b1 - np.sum(b1 * a, axis=1, keepdims=True) * a
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(a, e1)
+    h, r, phi = x[:, 4 : 4 + 3 * count : 3][:, index], x[:, 5 : 5 + 3 * count : 3][:, index], x[:, 6 : 6 + 3 * count : 3][:, index]
+    extra = x[:, 4 + 3 * count :]
+    angle = np.broadcast_to(q, h.shape)
     if candidate == "angle_scale":
-        angle = angle + extra[0] * (q - q_mid)
+        angle = angle + extra[:, :1] * (q - q_mid)
     elif candidate == "transmission":
         for i, harmonic in enumerate(HARMONICS):
-            angle = angle + extra[2 * i] * np.cos(harmonic * q) + extra[2 * i + 1] * np.sin(harmonic * q)
-    p = c + h[:, None] * a + r[:, None] * (np.cos(angle + phi)[:, None] * e1 + np.sin(angle + phi)[:, None] * e2)
+            angle = angle + extra[:, 2 * i, None] * np.cos(harmonic * q) + extra[:, 2 * i + 1, None] * np.sin(harmonic * q)
+    cos, sin = np.cos(angle + phi)[..., None], np.sin(angle + phi)[..., None]
+    p = c[:, None] + h[..., None] * a[:, None] + r[..., None] * (cos * e1[:, None] + sin * e2[:, None])
     if candidate == "wobble":
-        p = p + (q - q_mid)[:, None] * np.cross(extra[0] * e1 + extra[1] * e2, p - c)
+        w = extra[:, :1] * e1 + extra[:, 1:2] * e2
+        p = p + (q - q_mid)[None, :, None] * np.cross(w[:, None], p - c[:, None])
     elif candidate == "tracker_range":
-        p = p + extra[0] * p / np.linalg.norm(p, axis=1, keepdims=True)
+        p = p + extra[:, :1, None] * p / np.linalg.norm(p, axis=2, keepdims=True)
     return p
+
+
+def _jacobian(f, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``f`` at ``x`` (flattened) and its forward-difference Jacobian, from one batched call of ``f`` on (P + 1, P) points."""
+    steps = _STEP * np.maximum(1.0, np.abs(x))
+    values = f(np.vstack([x, x + np.diag(steps)])).reshape(x.size + 1, -1)
+    return values[0], ((values[1:] - values[0]) / steps[:, None]).T
 
 
 @dataclass(frozen=True)
@@ -92,26 +112,22 @@ class _Data:
     frame: tuple
     start: np.ndarray
 
-    def residual(self, x, candidate, keep) -> np.ndarray:
-        p = _predict(x, candidate, self.q[keep], self.index[keep], self.count, self.q_mid, self.frame)
-        return ((p - self.xyz[keep]) / self.sigma[keep, None]).ravel()
+    def _whitened(self, x: np.ndarray, candidate, keep) -> np.ndarray:
+        p = _predict(np.atleast_2d(x), candidate, self.q[keep], self.index[keep], self.count, self.q_mid, self.frame)
+        return ((p - self.xyz[keep]) / self.sigma[keep, None]).reshape(p.shape[0], -1)
 
     def fit(self, candidate: str | None, keep: np.ndarray, x0: np.ndarray):
-        return least_squares(self.residual, x0, args=(candidate, keep), method="lm", x_scale="jac")
+        return least_squares(lambda x: self._whitened(x, candidate, keep)[0], x0, method="lm", x_scale="jac",
+                             jac=lambda x: _jacobian(lambda X: self._whitened(X, candidate, keep), x)[1])
 
     def held_out_density(self, fit, candidate, held: np.ndarray) -> tuple[float, float]:
         """Log predictive density of the readings ``held`` and their sum of squared residuals (m²)."""
         cov_x = np.linalg.pinv(fit.jac.T @ fit.jac)
-        base = _predict(fit.x, candidate, self.q[held], self.index[held], self.count, self.q_mid, self.frame).ravel()
-        J = np.empty((base.size, fit.x.size))
-        for i in range(fit.x.size):
-            step = _STEP * max(1.0, abs(fit.x[i]))
-            dx = fit.x.copy()
-            dx[i] += step
-            J[:, i] = (_predict(dx, candidate, self.q[held], self.index[held], self.count, self.q_mid, self.frame).ravel() - base) / step
+        predicted, J = _jacobian(
+            lambda X: _predict(X, candidate, self.q[held], self.index[held], self.count, self.q_mid, self.frame), fit.x)
         cov = np.diag(np.repeat(self.sigma[held] ** 2, 3)) + J @ cov_x @ J.T
         observed = self.xyz[held].ravel()
-        return float(multivariate_normal.logpdf(observed, base, cov)), float(np.sum((observed - base) ** 2))
+        return float(multivariate_normal.logpdf(observed, predicted, cov)), float(np.sum((observed - predicted) ** 2))
 
 
 def _data(sweep: Sweeps, joint: int, noise: TrackerNoise) -> _Data:

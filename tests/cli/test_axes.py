@@ -116,3 +116,14 @@ def test_registration_that_is_not_one_is_exit_status_2(main, sweeps, tmp_path, c
                      "--registration", str(path)]) == 2
     error = capsys.readouterr().err.strip()
     assert "bayescal axes -o" in error and len(error.splitlines()) == 1
+
+
+def test_critique_flag_adds_the_sweep_critique_to_the_registration(main, sweeps, tmp_path, capsys):
+    path, _ = sweeps
+    out = tmp_path / "registration.json"
+    assert main(["axes", str(path), "--config", str(DATA / "kr270.toml"), "--critique", "--json", "-o", str(out)]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    assert json.loads(out.read_text()) == payload
+    critique = payload["critique"]
+    assert critique["verdict"] in ("adequate", "misfit") and set(critique["joints"]) == {"1", "2"}
+    assert set(critique["joints"]["2"]["evidence"]) == {"angle_scale", "transmission", "wobble", "tracker_range"}
