@@ -31,7 +31,7 @@ from __future__ import annotations
 import csv
 import io
 import re
-from collections.abc import Collection, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
@@ -102,6 +102,10 @@ class Campaign:
         (the cell's tool load point applies).
     prismatic : numpy.ndarray of bool or None, shape (nq,)
         Which joints are prismatic (positions in m, written in mm); None: all revolute.
+    added_variance : numpy.ndarray or None, shape (N,)
+        Variance (m²) per coordinate added to each row's deflection by the frame its positions
+        were moved into (a tracker registration's uncertainty,
+        :mod:`bayescal.registration.transfer`); None: none.
     """
 
     config: np.ndarray
@@ -115,6 +119,7 @@ class Campaign:
     source: str = "<memory>"
     load_point: np.ndarray | None = None
     prismatic: np.ndarray | None = None
+    added_variance: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.config)
@@ -126,6 +131,7 @@ class Campaign:
             "p0": (n, 3),
             "p1": (n, 3),
             "lines": (n,),
+            "added_variance": (n,) if self.added_variance is not None else (),
         }
         for name, shape in shapes.items():
             if getattr(self, name) is not None and np.shape(getattr(self, name)) != shape:
@@ -216,7 +222,11 @@ def _joint_layout(path: Path, cell: Cell | None) -> np.ndarray:
 
 
 def read_campaign(
-    path: str | PathLike[str], *, markers: Collection[str] | None = None, cell: Cell | None = None
+    path: str | PathLike[str],
+    *,
+    markers: Collection[str] | None = None,
+    cell: Cell | None = None,
+    to_base: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> Campaign:
     """Read and validate a campaign CSV.
 
@@ -231,6 +241,10 @@ def read_campaign(
         one joint column per joint of its robot, every configuration must lie
         within the joint limits, and the wrench must be one the arm can carry
         (see :func:`check_wrench`).
+    to_base
+        Maps ``(N, 3)`` positions as read (m) into the base frame, before the
+        checks that compare them with the wrench; None: the file is in the base
+        frame (:mod:`bayescal.registration.transfer` passes a registered frame).
 
     Returns
     -------
@@ -331,6 +345,8 @@ def read_campaign(
         check_wrench(cell, values[firsts, n_joints : n_joints + len(WRENCH_COLUMNS)], frame.index[firsts], source)
 
     positions = frame[list(POSITION_COLUMNS)].to_numpy(dtype=float) * MM
+    if to_base is not None:
+        positions = np.hstack([to_base(positions[:, :3]), to_base(positions[:, 3:])])
     if np.array_equal(positions[:, :3], positions[:, 3:]):
         raise InputError(
             "every loaded position x1_mm, y1_mm, z1_mm equals its unloaded x0_mm, y0_mm, z0_mm: no tracker reads a "

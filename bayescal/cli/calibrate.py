@@ -7,6 +7,7 @@ import math
 import textwrap
 
 from ._command import CommandOutput, add_common_options, check_output, whole_number, write_atomically
+from ._registered import add_registration_option, read_campaign_in_base, registration_lines
 
 __all__ = ["add_parser", "run"]
 
@@ -40,6 +41,7 @@ def add_parser(subparsers) -> None:
         default=None,
         help=f"kept draws per chain, at least {MIN_DRAWS} (default: the sampler's, 600 for collapsed and gibbs, 800 for emcee, doubled up to twice while R-hat or ESS fall short)",
     )
+    add_registration_option(parser, "the campaign's positions")
     add_common_options(parser)
     parser.set_defaults(run=run)
 
@@ -49,7 +51,6 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
     import numpy as np
 
-    from bayescal.cell.campaign import read_campaign
     from bayescal.cell.config import load_cell
     from bayescal.inference.elastostatic import EXTENSIONS, ElastostaticModel, default_sampler
     from bayescal.inference.priors import posterior_geometry
@@ -57,7 +58,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.robot.stiffness import EquilibriumError
     from bayescal.inference.testpose import predict_cell_test_pose
 
-    inputs = {"the campaign": args.campaign, "the config": args.config, "the --geometry posterior": args.geometry}
+    inputs = {"the campaign": args.campaign, "the config": args.config, "the --geometry posterior": args.geometry,
+              "the --registration file": args.registration}
     check_output("--posterior", args.posterior, inputs)
     cell = load_cell(args.config)
     check_output("--posterior", args.posterior, inputs | {"the robot URDF": cell.robot.source})
@@ -65,7 +67,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         what = "is a folder" if Path(args.geometry).is_dir() else "file not found"
         raise InputError(f"{what}; expected the NetCDF file `bayescal geometry --posterior` writes", source=args.geometry)
     geometry = posterior_geometry(args.geometry, cell.compensator) if args.geometry else None
-    campaign = read_campaign(args.campaign, cell=cell)
+    campaign, cell, transfer = read_campaign_in_base(args, args.campaign, cell)
     model = ElastostaticModel.from_cell(
         cell,
         geometry,
@@ -93,11 +95,14 @@ def run(args: argparse.Namespace) -> CommandOutput:
         "identifiability": results.identifiability.to_json(),
         "test_pose": test_pose.to_json(),
     }
+    if transfer is not None:
+        payload["registration"] = {"source": args.registration} | transfer.to_json()
     if comparison is not None:
         payload["linear_vs_exact"] = {
             str(name): {"shift_in_sd": row["shift_in_sd"], "sd_ratio": row["sd_ratio"]} for name, row in comparison.iterrows()
         }
-    return CommandOutput(payload=_finite(payload), text=_text(results, test_pose, args, cell.reference))
+    text = "\n".join([_text(results, test_pose, args, cell.reference), *registration_lines(transfer, args.registration)])
+    return CommandOutput(payload=_finite(payload), text=text)
 
 
 def _k2_by_angle(results) -> dict[float, dict]:

@@ -11,6 +11,7 @@ import textwrap
 from bayescal.output import guard_outputs, write_folder
 
 from ._command import CommandOutput, add_common_options
+from ._registered import add_registration_option, read_arcs_in_paper_frame, read_campaign_in_base, registration_lines
 
 __all__ = ["add_parser", "run"]
 
@@ -37,6 +38,7 @@ def add_parser(subparsers) -> None:
         help="criticise the compensator-geometry model on tracker points (q2_deg, marker, x_mm, y_mm) instead of a campaign",
     )
     parser.add_argument("--figures", metavar="DIR", help="write the figures into this folder: held-out residuals and LOO-PIT (with --geometry: held-out residuals per marker)")
+    add_registration_option(parser, "the campaign's positions (or the --geometry points, with z_mm)")
     add_common_options(parser)
     parser.set_defaults(run=run)
 
@@ -53,16 +55,15 @@ def run(args: argparse.Namespace) -> CommandOutput:
     if args.campaign is None or args.config is None:
         raise InputError("expected a campaign CSV and --config CELL.toml, or --geometry POINTS.csv")
 
-    from bayescal.cell.campaign import read_campaign
     from bayescal.cell.config import load_cell
     from bayescal.critique import Critique
     from bayescal.critique.figures import FIGURES, write_figures
 
-    inputs = {"the campaign": args.campaign, "the config": args.config}
+    inputs = {"the campaign": args.campaign, "the config": args.config, "the --registration file": args.registration}
     guard_outputs(inputs, folders={"--figures": (args.figures, FIGURES)})
     cell = load_cell(args.config)
     guard_outputs(inputs | {"the robot URDF": cell.robot.source}, folders={"--figures": (args.figures, FIGURES)})
-    campaign = read_campaign(args.campaign, cell=cell)
+    campaign, cell, transfer = read_campaign_in_base(args, args.campaign, cell)
     results = Critique(cell).run(campaign, np.random.default_rng(args.seed))
     figures = []
     if args.figures is not None:
@@ -70,18 +71,24 @@ def run(args: argparse.Namespace) -> CommandOutput:
     payload = results.to_json() | {"seed": args.seed}
     if figures:
         payload["figures"] = figures
-    return CommandOutput(payload=payload, text=_text(results, figures))
+    if transfer is not None:
+        payload["registration"] = {"source": args.registration} | transfer.to_json()
+    text = "\n".join([_text(results, figures), *registration_lines(transfer, args.registration)])
+    return CommandOutput(payload=payload, text=text)
 
 
 def _run_geometry(args: argparse.Namespace) -> CommandOutput:
     from bayescal.critique.figures import GEOMETRY_FIGURES, write_geometry_figures
     from bayescal.critique.geometry import GeometryCritique
-    from bayescal.geometry.arcs import read_arc_points
 
-    guard_outputs({"the --geometry points": args.geometry}, folders={"--figures": (args.figures, GEOMETRY_FIGURES)})
-    results = GeometryCritique().run(read_arc_points(args.geometry))
+    guard_outputs({"the --geometry points": args.geometry, "the --registration file": args.registration},
+                  folders={"--figures": (args.figures, GEOMETRY_FIGURES)})
+    points, transfer = read_arcs_in_paper_frame(args, args.geometry)
+    results = GeometryCritique().run(points)
     payload = results.to_json() | {"seed": args.seed}
-    text = _geometry_text(results)
+    if transfer is not None:
+        payload["registration"] = {"source": args.registration} | transfer.to_json()
+    text = "\n".join([_geometry_text(results), *registration_lines(transfer, args.registration)])
     if args.figures is not None:
         written = write_folder("--figures", args.figures, lambda folder: write_geometry_figures(results, folder))
         payload["figures"] = [str(path) for path in written]

@@ -8,6 +8,7 @@ from pathlib import Path
 from bayescal.units import MM
 
 from ._command import CommandOutput, add_common_options, check_output, whole_number, write_atomically
+from ._registered import add_registration_option, read_arcs_in_paper_frame, registration_lines
 
 # Table II's parameters, set beside ours in the text output.
 _PAPER_ROWS = ("L", "a_x", "a_y")
@@ -46,19 +47,22 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--tune", type=whole_number(1), default=200, help="discarded steps per chain (default 200)")
     parser.add_argument("--draws", type=whole_number(1), default=1000, help="kept draws per chain (default 1000)")
+    add_registration_option(parser, "the points (with z_mm)")
     add_common_options(parser)
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> CommandOutput:
     """Fit the geometry and return the JSON payload and a readable table."""
-    from bayescal.geometry.arcs import read_arc_points
+    import numpy as np
+
     from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler
     from bayescal.reference import REFERENCE_FILE, read_paper_reference
     from bayescal.sampling import summary as posterior
 
-    check_output("--posterior", args.posterior, {"the points file": args.points, "the --reference file": args.reference})
-    points = read_arc_points(args.points)
+    check_output("--posterior", args.posterior, {"the points file": args.points, "the --reference file": args.reference,
+                                                  "the --registration file": args.registration})
+    points, transfer = read_arcs_in_paper_frame(args, args.points)
     reference_path = Path(args.reference) if args.reference else REFERENCE_FILE
     reference = None
     if args.reference or reference_path.is_file():
@@ -87,6 +91,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
         "posterior_file": args.posterior,
         "seed": args.seed,
     }
+    if transfer is not None:
+        payload["registration"] = {"source": args.registration} | transfer.to_json()
     if reference is not None:
         payload["paper"] = {
             name: {
@@ -99,7 +105,9 @@ def run(args: argparse.Namespace) -> CommandOutput:
             for name in _PAPER_ROWS
             if name in reference.index
         }
-    return CommandOutput(payload, _text(args, summary, closed_table, result, reference))
+    lever = float(np.hypot(summary.loc["a_x", "mean"], summary.loc["a_y", "mean"]))
+    text = "\n".join([_text(args, summary, closed_table, result, reference), *registration_lines(transfer, args.registration, lever)])
+    return CommandOutput(payload, text)
 
 
 def _text(args, summary, closed_table, result, reference) -> str:

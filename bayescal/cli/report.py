@@ -9,6 +9,7 @@ from pathlib import Path
 from bayescal.output import guard_outputs, write_folder
 
 from ._command import CommandOutput, add_common_options
+from ._registered import read_campaign_in_base
 
 __all__ = ["add_parser", "run", "MAX_CHI2_PER_DOF"]
 
@@ -20,6 +21,7 @@ campaign and 3588 beside a campaign of the same plan on a robot twice as complia
 _SCHEMAS = {
     "--plan": ({"criterion": (float, int, type(None)), "parameters": dict, "configurations": int}, "verdict", "bayescal plan --json"),
     "--critique": ({"verdict": str, "causes": list, "evidence": dict, "gain": dict}, "parameters", "bayescal critique --json"),
+    "--registration": ({"axes": dict, "frames": dict}, "parameters", "bayescal axes -o"),
 }
 """Per JSON option: the keys it must have with their types, a key only the other kind has, and the command that writes it."""
 
@@ -50,6 +52,11 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--critique", metavar="CRITIQUE.json", help="JSON printed by `bayescal critique --json`")
     parser.add_argument("--study", metavar="STUDY.csv", help="a q2-angle study table (CSV)")
     parser.add_argument("--compensation", metavar="COMPENSATED.csv", help="a compensated program from `bayescal compensate -o`")
+    parser.add_argument(
+        "--registration",
+        metavar="REG.json",
+        help="registration from `bayescal axes -o`: shown on the page, and the --campaign is read in the tracker frame and moved into its base frame",
+    )
     parser.add_argument("-o", "--output", required=True, metavar="FOLDER", help="report folder, created when missing (its parent must exist)")
     add_common_options(parser)
     parser.set_defaults(run=run)
@@ -67,14 +74,16 @@ def run(args: argparse.Namespace) -> CommandOutput:
         "the --critique file": args.critique,
         "the --study file": args.study,
         "the --compensation file": args.compensation,
+        "the --registration file": args.registration,
     }
     if not any(value for key, value in inputs.items() if key not in ("the campaign", "the config")):
-        raise InputError("nothing to report: give --geometry, --calibration, --plan, --critique, --study or --compensation", source="bayescal report")
+        raise InputError("nothing to report: give --geometry, --calibration, --plan, --critique, --study, --compensation or "
+                         "--registration", source="bayescal report")
     if args.calibration and not (args.campaign and args.config):
         raise InputError("--calibration needs the --campaign and the --config it was computed from", source="--calibration")
     for option, path in (("--geometry", args.geometry), ("--calibration", args.calibration), ("--campaign", args.campaign),
                          ("--config", args.config), ("--plan", args.plan), ("--critique", args.critique), ("--study", args.study),
-                         ("--compensation", args.compensation)):
+                         ("--compensation", args.compensation), ("--registration", args.registration)):
         if path and not Path(path).is_file():
             raise InputError(f"{path}: {'is a folder' if Path(path).is_dir() else 'file not found'}", source=option)
     from bayescal.reports.review import HTML_FILE, render_review
@@ -114,14 +123,20 @@ def _read_inputs(args: argparse.Namespace):
         review.geometry = _load_tree(args.geometry, "--geometry", load, needs=("L", "a_x", "a_y"), foreign="k2_q2")
         # The check calibrate applies: units, finite draws and, with a cell, nearness to its compensator.
         geometry = posterior_geometry(args.geometry, None if cell is None else cell.compensator)
+    if args.registration:
+        from bayescal.registration import read_frame
+
+        sources["registration"] = args.registration
+        review.registration = _read_json(args.registration, "--registration")
+        for name in review.registration["frames"]:
+            read_frame(args.registration, name)
     if args.calibration:
-        from bayescal.cell.campaign import read_campaign
         from bayescal.inference.elastostatic import restore_results
         from bayescal.inference.testpose import predict_cell_test_pose
         from bayescal.studies.residuals import residual_table
 
         sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
-        campaign = read_campaign(args.campaign, cell=cell)
+        campaign, cell, _ = read_campaign_in_base(args, args.campaign, cell)
         tree = _load_tree(args.calibration, "--calibration", load, needs=("k2_q2", "sigma"), foreign="R")
         _check_joint_count(tree, cell, args.calibration)
         results = restore_results(cell, campaign, tree, geometry)
@@ -181,9 +196,9 @@ def _read_json(path: str, option: str) -> dict:
         raise InputError(f"not valid JSON ({exc.msg} at character {exc.colno})", source=path, line=exc.lineno) from None
     except UnicodeDecodeError:
         raise InputError("not a UTF-8 text file", source=path) from None
-    if not isinstance(data, dict):
-        raise InputError(f"expected a JSON object (the output of {option[2:]} --json), got a {type(data).__name__}", source=path)
     required, foreign, writer = _SCHEMAS[option]
+    if not isinstance(data, dict):
+        raise InputError(f"expected a JSON object (the output of {writer}), got a {type(data).__name__}", source=path)
     if foreign in data:
         raise InputError(f"the JSON has the key '{foreign}' of another command's output; {option} expects the output of {writer}", source=path)
     for key, kind in required.items():

@@ -11,13 +11,21 @@ from bayescal.errors import InputError
 from bayescal.tables import read_table
 from bayescal.units import DEG, MM
 
-__all__ = ["Sweeps", "read_sweeps", "MAX_JOINTS", "MIN_ANGLES"]
+__all__ = ["Sweeps", "read_sweeps", "MAX_JOINTS", "MIN_ANGLES", "MIN_SPREAD", "MAX_RADIUS"]
 
 MAX_JOINTS = 12
 """Most joint-angle columns ``q1_deg … q12_deg`` a sweep file may hold."""
 
 MIN_ANGLES = 3
 """Fewest distinct angles per reflector and joint that fix a circle with known angles."""
+
+MIN_SPREAD = 10 * MM
+"""Smallest extent (m, bounding-box diagonal) of a sweep file's readings: reflectors on a robot's tool swept
+through a few degrees of two joints cover hundreds of mm; the same readings written in metres cover less than 10 mm."""
+
+MAX_RADIUS = 10.0
+"""Largest radius (m) of a reflector's circle about a joint axis: more than three times the reach of the
+largest industrial arms (a KR 1000 titan: 3.2 m); a sweep with its angles written in rad reads as 57 times its radius."""
 
 _STILL = 1e-6 * DEG
 """Largest change (rad) of a joint that is taken as not moving: below any controller's resolution."""
@@ -105,6 +113,11 @@ def read_sweeps(path: str | PathLike[str]) -> Sweeps:
         )
     sweeps = Sweeps(joint - 1, frame[present].to_numpy() * DEG, frame["marker"].to_numpy(dtype=str),
                     frame[["x_mm", "y_mm", "z_mm"]].to_numpy() * MM, lines, source)
+    spread = float(np.linalg.norm(np.ptp(sweeps.xyz, axis=0)))
+    if spread < MIN_SPREAD:
+        raise InputError(f"all readings lie within {spread / MM:.3g} mm of each other, less than any swept tool "
+                         f"({MIN_SPREAD / MM:g} mm): are x_mm, y_mm, z_mm in metres instead of mm?", source=source, line=int(lines[0]),
+                         column="x_mm")
     for j in sweeps.swept_joints:
         _check_sweep(sweeps.of(j), j)
     return sweeps
@@ -131,3 +144,25 @@ def _check_sweep(sweep: Sweeps, j: int) -> None:
                 f"expected at least {MIN_ANGLES} to fix its circle",
                 source=sweep.source, line=int(sweep.line[np.flatnonzero(rows)[0]]), column=f"q{j + 1}_deg",
             )
+        _check_radius(sweep, j, np.flatnonzero(rows), name)
+
+
+def _check_radius(sweep: Sweeps, j: int, rows: np.ndarray, name: str) -> None:
+    """Reject a reflector that moves too far for how little its joint turns: angles written in rad.
+
+    A point on a circle of radius r moves by a chord of at most r·Δq when the joint turns by Δq,
+    so chord / Δq is a lower bound of the radius.
+    """
+    q, xyz = sweep.q[rows, j], sweep.xyz[rows]
+    a, b = np.triu_indices(rows.size, k=1)
+    turn = np.abs(q[a] - q[b])
+    usable = turn > _STILL
+    if not usable.any():
+        return
+    radius = np.linalg.norm(xyz[a] - xyz[b], axis=1)[usable] / turn[usable]
+    if radius.max() > MAX_RADIUS:
+        raise InputError(
+            f"reflector '{name}' moves as if on a circle of radius {radius.max():.3g} m or more about joint {j + 1}, "
+            f"beyond any robot's reach ({MAX_RADIUS:g} m): is q{j + 1}_deg in deg, not rad?",
+            source=sweep.source, line=int(sweep.line[rows[b[usable][int(np.argmax(radius))]]]), column=f"q{j + 1}_deg",
+        )

@@ -72,6 +72,8 @@ class ReviewInputs:
         A q2-angle study table.
     compensation : pandas.DataFrame or None
         A compensated program (:func:`~bayescal.reports.compensation.read_compensated`).
+    registration : dict or None
+        The registration file written by ``bayescal axes -o``.
     seed : int
         Seed of the choice of draws shown in the pair plots.
     """
@@ -87,6 +89,7 @@ class ReviewInputs:
     critique: dict | None = None
     study: pd.DataFrame | None = None
     compensation: pd.DataFrame | None = None
+    registration: dict | None = None
     seed: int = 0
 
 
@@ -113,6 +116,8 @@ def render_review(inputs: ReviewInputs) -> dict[str, bytes]:
         compensation_section(page, inputs.compensation, inputs.sources.get("compensated program", ""))
     if inputs.geometry is not None:
         _geometry_section(page, inputs.geometry, inputs.seed)
+    if inputs.registration is not None:
+        _registration_section(page, inputs.registration, inputs.sources.get("registration", ""))
     if inputs.results is not None:
         _compensator_section(page, inputs.results, inputs.cell)
         _data_section(page, inputs.results, inputs.campaign, inputs.cell)
@@ -530,4 +535,64 @@ def _critique_section(page: Page, critique: Mapping, source: str) -> None:
     rest = {key: value for key, value in critique.items() if key not in ("verdict", "causes", "evidence")}
     if rest:
         generic(page, rest)
+    page.close()
+
+
+def _registration_section(page: Page, registration: Mapping, source: str) -> None:
+    """The tracker's registration as ``bayescal axes -o`` wrote it: axes, frames with their sd, arc residuals."""
+    from scipy.spatial.transform import Rotation
+
+    page.heading("registration", "Tracker registration")
+    page.paragraph(
+        f"{'From ' + source + ': t' if source else 'T'}he joint axes fitted from sweeps in the tracker frame, and the robot's "
+        "frames built from axes 1 and 2 (p_tracker = R p + t); a campaign or arcs given with this registration were "
+        "moved into these frames, the rotation's uncertainty added to each reading (docs/registration.md)."
+    )
+    axes = {}
+    for joint, axis in registration.get("axes", {}).items():
+        if isinstance(axis, Mapping):
+            axes[str(joint)] = {
+                **{f"a{c}": v for c, v in zip("xyz", axis.get("direction", []))},
+                "direction sd (mrad)": axis.get("direction_sd_mrad"),
+                **{f"{c} (mm)": v for c, v in zip("xyz", axis.get("point_mm", []))},
+                "point sd (mm)": axis.get("point_sd_mm"),
+                "arc rms (mm)": axis.get("rms_mm"),
+                "χ²/dof": axis["chi2"] / axis["dof"] if finite_number(axis.get("chi2")) and axis.get("dof") else None,
+            }
+    if axes:
+        frame = pd.DataFrame.from_dict(axes, orient="index")
+        frame.index.name = "joint"
+        page.table("axes", frame, caption="Joint axes in the tracker frame: unit direction and the point nearest the tracker's origin")
+    frames = {}
+    for name, entry in registration.get("frames", {}).items():
+        if isinstance(entry, Mapping):
+            rotation = np.asarray(entry.get("rotation", np.eye(3)), dtype=float)
+            frames[str(name)] = {
+                **{f"rotation vector {c} (deg)": v for c, v in zip("xyz", np.degrees(Rotation.from_matrix(rotation).as_rotvec()))},
+                **{f"rotation sd {c} (mrad)": v for c, v in zip("xyz", entry.get("rotation_sd_mrad", []))},
+                **{f"t{c} (mm)": v for c, v in zip("xyz", entry.get("translation_mm", []))},
+                **{f"t{c} sd (mm)": v for c, v in zip("xyz", entry.get("translation_sd_mm", []))},
+            }
+            if entry.get("from_nominal"):
+                page.paragraph(f"{name} frame: {entry['from_nominal']}.")
+    if frames:
+        frame = pd.DataFrame.from_dict(frames, orient="index")
+        frame.index.name = "frame"
+        page.table("frames", frame, caption="The robot's frames in the tracker frame: R as a rotation vector, t, and their sd")
+    rows = [{"joint": joint, **reflector} for joint, axis in registration.get("axes", {}).items() if isinstance(axis, Mapping)
+            for reflector in axis.get("reflectors", []) if isinstance(reflector, Mapping)]
+    if rows:
+        frame = pd.DataFrame(rows)
+        frame.index = pd.Index([f"{row['joint']} {row.get('marker', '')}" for row in rows], name="joint, reflector")
+        page.table("reflectors", frame.drop(columns=["joint"]),
+                   caption="Arc residuals per reflector (z_rms: rms standardised residual, about 1 when the tracker model holds)")
+    critique = registration.get("critique")
+    if isinstance(critique, Mapping):
+        page.paragraph(f"Sweep critique (held out one angle at a time): {critique.get('verdict', '–')}", css="verdict")
+        evidence = {f"{joint} {name}": row for joint, entry in critique.get("joints", {}).items() if isinstance(entry, Mapping)
+                    for name, row in entry.get("evidence", {}).items() if isinstance(row, Mapping)}
+        if evidence:
+            frame = pd.DataFrame.from_dict(evidence, orient="index")
+            frame.index.name = "joint, candidate"
+            page.table("sweep_critique", frame, caption="Held-out gain (ΔELPD, nats) of each candidate over the circle model")
     page.close()

@@ -61,3 +61,69 @@ def test_mislabelled_reflector_is_exit_status_2(main, sweeps, tmp_path, capsys):
     table.to_csv(path, index=False)
     assert main(["axes", str(path), "--config", str(DATA / "kr270.toml")]) == 2
     assert "does not share the axis of joint 2" in capsys.readouterr().err
+
+
+def _refused(main, path, capsys) -> str:
+    """Run ``axes`` on ``path``; the error line, after checking exit status 2, one line and the file untouched."""
+    before = path.read_bytes()
+    assert main(["axes", str(path), "--config", str(DATA / "kr270.toml")]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and "Traceback" not in error
+    assert path.read_bytes() == before
+    return error
+
+
+def test_fewer_than_three_angles_is_exit_status_2(main, sweeps, tmp_path, capsys):
+    _, table = sweeps
+    angles = sorted(table.loc[table.joint == 1, "q1_deg"].unique())
+    path = tmp_path / "two_angles.csv"
+    table[(table.joint != 1) | table.q1_deg.isin(angles[:2])].to_csv(path, index=False)
+    error = _refused(main, path, capsys)
+    assert "2 angle(s) of joint 1" in error and "q1_deg" in error and str(path) in error
+
+
+@pytest.mark.parametrize(
+    ("edit", "expected"),
+    [
+        (lambda t: t.drop(columns="z_mm"), "z_mm"),
+        (lambda t: t.drop(columns="marker"), "marker"),
+        (lambda t: t.assign(x_mm=t.x_mm.where(t.index != 5, np.nan)), "x_mm"),
+        (lambda t: t.iloc[:0], "no data"),
+        (lambda t: t.assign(x_mm=t.x_mm / 1000, y_mm=t.y_mm / 1000, z_mm=t.z_mm / 1000), "metres"),
+        (lambda t: t.assign(q1_deg=np.radians(t.q1_deg), q2_deg=np.radians(t.q2_deg)), "rad"),
+        (lambda t: t.assign(joint=t.joint.where(t.index != 3, 9)), "joint"),
+    ],
+    ids=["missing z", "missing marker", "NaN", "empty", "metres", "radians", "joint out of range"],
+)
+def test_bad_sweep_files_are_one_line_and_exit_status_2(main, sweeps, tmp_path, capsys, edit, expected):
+    _, table = sweeps
+    path = tmp_path / "bad.csv"
+    edit(table.copy()).to_csv(path, index=False)
+    assert expected in _refused(main, path, capsys)
+
+
+def test_empty_file_is_exit_status_2(main, tmp_path, capsys):
+    path = tmp_path / "empty.csv"
+    path.write_text("")
+    _refused(main, path, capsys)
+
+
+def test_registration_that_is_not_one_is_exit_status_2(main, sweeps, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(cli, "COMMANDS", ("calibrate",))
+    path = tmp_path / "not_a_registration.json"
+    path.write_text('{"verdict": "adequate"}')
+    assert cli.main(["calibrate", str(DATA / "table3_plan.csv"), "--config", str(DATA / "kr270.toml"),
+                     "--registration", str(path)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert "bayescal axes -o" in error and len(error.splitlines()) == 1
+
+
+def test_critique_flag_adds_the_sweep_critique_to_the_registration(main, sweeps, tmp_path, capsys):
+    path, _ = sweeps
+    out = tmp_path / "registration.json"
+    assert main(["axes", str(path), "--config", str(DATA / "kr270.toml"), "--critique", "--json", "-o", str(out)]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    assert json.loads(out.read_text()) == payload
+    critique = payload["critique"]
+    assert critique["verdict"] in ("adequate", "misfit") and set(critique["joints"]) == {"1", "2"}
+    assert set(critique["joints"]["2"]["evidence"]) == {"angle_scale", "transmission", "wobble", "tracker_range"}
