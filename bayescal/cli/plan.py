@@ -10,7 +10,7 @@ from ._command import CommandOutput, add_common_options, options_for, whole_numb
 
 __all__ = ["add_parser", "run"]
 
-FLAGS = {"angles": "--angles", "repeats": "--repeats", "model": "--model", "criterion": "--criterion", "mass_range": "--mass-kg"}
+FLAGS = {"angles": "--angles", "repeats": "--repeats", "model": "--model", "criterion": "--criterion", "mass_range": "--mass-kg", "between": "--between"}
 """The library's argument names and this command's options."""
 
 
@@ -31,10 +31,13 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--repeats", type=whole_number(1), default=3, help="measurements of each configuration (default 3)")
     parser.add_argument(
         "--criterion",
-        choices=("test-pose", "compensator", "d-optimal"),
+        choices=("test-pose", "compensator", "d-optimal", "discriminate"),
         default="test-pose",
-        help="what to optimise: the rms error at the test pose (eqs 38-40), the ±3σ of K_c and s0, or log det of the information",
+        help="what to optimise: the rms error at the test pose (eqs 38-40), the ±3σ of K_c and s0, log det of the information, "
+        "or (discriminate) the separation of the two --between candidates the --campaign cannot tell apart",
     )
+    parser.add_argument("--between", metavar="A,B", help="with --criterion discriminate: the two candidates of the critique to separate")
+    parser.add_argument("--campaign", metavar="CAMPAIGN.csv", help="with --criterion discriminate: the campaign on which they tie (sizes each)")
     parser.add_argument(
         "--model",
         choices=("linear", "exact"),
@@ -53,7 +56,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.cell.config import load_cell
     from bayescal.errors import InputError
 
-    inputs = {"the config": args.config, "the --evaluate plan": args.evaluate}
+    inputs = {"the config": args.config, "the --evaluate plan": args.evaluate, "the --campaign": args.campaign}
     if args.evaluate is None and args.output is None:
         raise InputError("expected -o PLAN.csv (the plan to write) or --evaluate PLAN.csv", source="--output")
     guard_outputs(inputs, {"--output": None if args.evaluate is not None else args.output})
@@ -61,6 +64,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
     guard_outputs(inputs | {"the robot URDF": cell.robot.source}, {"--output": None if args.evaluate is not None else args.output})
     _check_masses(args.mass_kg, cell)
     with options_for(FLAGS):
+        if args.criterion == "discriminate" or args.between is not None or args.campaign is not None:
+            return _discriminate(args, cell)
         payload, table = _design_or_evaluate(args, cell)
     criterion = payload["criterion"]
     lines = [
@@ -102,6 +107,37 @@ def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFr
         payload = design.to_json() | {"output": str(args.output)}
         table = design.summary()
     return payload, table
+
+
+def _discriminate(args: argparse.Namespace, cell) -> CommandOutput:
+    """Design the plan that separates the --between candidates on the --campaign, write it, and say by how much."""
+    from bayescal.cell.campaign import read_campaign
+    from bayescal.design.constraints import load_design_space
+    from bayescal.design.discriminate import STARTS, DiscriminatingDesigner
+    from bayescal.errors import InputError
+
+    if args.criterion != "discriminate" or args.between is None or args.campaign is None:
+        raise InputError("--between A,B and --campaign CAMPAIGN.csv go together with --criterion discriminate", source="--criterion")
+    if args.evaluate is not None:
+        raise InputError("--evaluate scores a plan for the test pose; it does not take --criterion discriminate", source="--evaluate")
+    between = tuple(name.strip() for name in args.between.split(","))
+    campaign = read_campaign(args.campaign, cell=cell)
+    space = load_design_space(cell, mass_range=None if args.mass_kg is None else tuple(args.mass_kg))
+    starts = STARTS if args.starts is None else args.starts
+    design = DiscriminatingDesigner(cell, between, campaign, space, repeats=args.repeats).optimise(args.angles, args.per_angle, args.seed, starts=starts)
+    comments = (_command(args, starts) + f" --between {args.between} --campaign {args.campaign}",)
+    write_atomically("--output", args.output, lambda path: design.save(path, comments=comments))
+    payload = design.to_json() | {"output": str(args.output)}
+    a, b = design.planned.between
+    planned, tied = design.planned.nats, design.campaign.nats
+    lines = [
+        f"wrote {args.output}: {len(design.plan)} configurations at q2 = {', '.join(f'{v:g}' for v in payload['q2_deg'])} deg, "
+        f"loads {min(payload['load_kg']):g}-{max(payload['load_kg']):g} kg",
+        f"expected log-likelihood ratio of the true model over the other (nats; {args.campaign} in brackets): "
+        f"{planned[0]:.1f} ({tied[0]:.1f}) if {a} is true, {planned[1]:.1f} ({tied[1]:.1f}) if {b} is",
+        design.summary().to_string(float_format=lambda v: f"{v:.4g}"),
+    ]
+    return CommandOutput(payload=payload, text="\n".join(lines))
 
 
 def _command(args: argparse.Namespace, starts: int) -> str:

@@ -298,20 +298,33 @@ def campaign_rows(cell: Cell, campaign: Campaign) -> Rows:
     )
 
 
-def pose_rows(cell: Cell, q, wrench, point) -> Rows:
-    """One row for a tool ``point`` (flange frame, m) at the pose ``q`` (rad) under ``wrench``: for predictions."""
-    q = np.asarray(q, dtype=float).reshape(1, -1)
-    point = np.asarray(point, dtype=float).reshape(1, 3)
-    position = cell.robot.point_position(q[0], point)
+def pose_rows(cell: Cell, q, wrench, point, config=None) -> Rows:
+    """Rows for tool points at poses under wrenches, without measurements: for predictions and plans.
+
+    Parameters
+    ----------
+    q
+        (nq,) or (N, nq) joint angles, rad.
+    wrench
+        (6,) or (N, 6) load at the flange origin, base axes, N and N·m.
+    point
+        (3,) or (N, 3) the point on the tool, flange frame, m.
+    config
+        (N,) configuration labels (default: all 0).
+    """
+    q = np.asarray(q, dtype=float).reshape(-1, cell.robot.nq)
+    n = len(q)
+    point = np.broadcast_to(np.asarray(point, dtype=float).reshape(-1, 3), (n, 3)).copy()
+    position = np.array([cell.robot.point_position(qi, p.reshape(1, 3)).reshape(3) for qi, p in zip(q, point)])
     return _build(
         cell,
         q,
-        np.asarray(wrench, dtype=float).reshape(1, 6),
+        np.broadcast_to(np.asarray(wrench, dtype=float).reshape(-1, 6), (n, 6)).copy(),
         point,
         position,
-        np.zeros((1, 3)),
-        np.zeros(1, dtype=int),
-        np.ones(1, dtype=int),
-        np.array(["test"]),
-        np.ones(1),
+        np.zeros((n, 3)),
+        np.zeros(n, dtype=int) if config is None else np.asarray(config, dtype=int),
+        np.ones(n, dtype=int),
+        np.full(n, "test"),
+        np.ones(n),
     )

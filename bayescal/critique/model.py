@@ -166,6 +166,23 @@ class Critique:
             tied_with={cause: others for cause, others in tied.items() if others},
         )
 
+    def discriminate(self, campaign: Campaign, a: str, b: str) -> Comparison:
+        """Held-out comparison of the classical model plus ``b`` against it plus ``a`` on ``campaign``.
+
+        The question a plan of :mod:`bayescal.design.discriminate` was measured to
+        answer: ``delta_elpd > DETECTION_Z · se`` says ``b`` predicts the campaign's
+        held-out configurations better than ``a``, a negative one the reverse.
+        """
+        check_candidates((a, b), CATALOGUE)
+        rows = campaign_rows(self.cell, campaign)
+        y = rows.y.reshape(-1)
+        scale, group, config = np.repeat(rows.noise, 3), np.tile(np.arange(3), len(rows)), np.repeat(rows.config, 3)
+        folds = [
+            cross_validate(y, _Model((CATALOGUE[name],)).design(rows, self.cell), scale, group, config, robust=CATALOGUE[name].robust)
+            for name in (a, b)
+        ]
+        return compare(*folds)
+
     def _nonlinearity(self, campaign: Campaign) -> np.ndarray | float:
         """The exact model's nonlinearity (m per equation), which calibrate removes before judging the fit; 0 where it cannot.
 

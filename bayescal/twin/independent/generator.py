@@ -184,8 +184,13 @@ class IndependentGenerator:
             markers=markers,
         )
 
-    def simulate(self, plan: Plan, repeats: int = 3, effect: str | None = None, magnitude: float = 1.0) -> tuple[Campaign, Truth]:
+    def simulate(
+        self, plan: Plan, repeats: int = 3, effect: str | None = None, magnitude: float = 1.0, *, world: World | None = None
+    ) -> tuple[Campaign, Truth]:
         """A campaign of ``plan`` with ``repeats`` unloaded/loaded readings per configuration.
+
+        ``world``: a world from :meth:`world` to measure again (one truth on several plans);
+        by default one is drawn with ``effect`` planted at ``magnitude``.
 
         Returns
         -------
@@ -202,7 +207,7 @@ class IndependentGenerator:
         """
         if repeats < 1:
             raise InputError(f"repeats must be at least 1, got {repeats}", column="repeats")
-        world = self.world(effect, magnitude)
+        world = self.world(effect, magnitude) if world is None else world
         true_states, times, keys, wrenches = self._true_positions(world, plan, repeats)
         readings, jumped = self._read(world, true_states.reshape(-1, 3), times.reshape(-1))
         readings = readings.reshape(true_states.shape)

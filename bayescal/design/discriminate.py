@@ -1,0 +1,370 @@
+"""Plans that tell two candidate models apart: the experiment that resolves a tie of the critique.
+
+When the critique finds two extensions of the classical model (say ``backlash``
+and ``nonlinear_stiffness``) that explain a campaign equally well, the campaign
+cannot tell them apart (``tied_with``).  A plan that can is one on which the two
+models, each sized as the tied campaign says, predict the most different
+deflections, measured in the tracker's noise.
+
+The criterion.  Both candidates are linear in their parameters
+(:mod:`bayescal.critique.extensions`): a marker's deflection is
+``X0 β0 + XA βA`` under A and ``X0 β0 + XB βB`` under B, ``X0`` the classical
+model.  If A is true, the best fit of B to noise-free data of a plan leaves the
+weighted residual sum of squares
+
+    λ_A = min_γ ‖XA βA − [X0 XB] γ‖²_W = βAᵀ (M_AA − M_AR M_RR⁺ M_RA) βA,
+
+``M = Σ r Zᵀ W Z`` the information of the joint design ``Z = [X0 XA XB]``
+summed over the plan's configurations (``r`` repeats, ``W = 1/(2σ²)``, two
+tracker readings per deflection), ``R`` the columns of ``[X0 XB]``.  With
+Gaussian noise, ``λ_A / 2`` nats is the expected log-likelihood ratio of A over
+B on the plan's data when A is true (the Kullback-Leibler divergence of their
+predictive distributions at known coefficients), the quantity a held-out ΔELPD
+estimates less the cost of the fitted parameters.  The plan maximises the
+smaller of ``λ_A / 2`` and ``λ_B / 2``: whichever of the two is true, the plan
+should show it.  ``βA`` and ``βB`` are each model's fit to the tied campaign.
+
+The search is Fedorov's exchange over a candidate set, as
+:class:`~bayescal.design.optimise.PlanDesigner`'s, with one difference: each
+candidate configuration comes at several masses across the design's range, and
+a plan may load one configuration at two masses, since a lost motion is an
+offset in the load and a torque-dependent compliance a curvature in it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from os import PathLike
+
+import numpy as np
+import pandas as pd
+
+from bayescal.cell.campaign import Campaign
+from bayescal.cell.config import Cell
+from bayescal.cell.plan import Plan, write_plan
+from bayescal.critique.compare import fit, independent_columns
+from bayescal.critique.covariates import Rows, campaign_rows, pose_rows
+from bayescal.critique.extensions import CATALOGUE, base_columns
+from bayescal.design.constraints import DesignSpace, load_design_space
+from bayescal.design.optimise import PlanDesigner
+from bayescal.errors import InputError
+from bayescal.units import DEG
+
+__all__ = ["DISCRIMINATE", "MASS_LEVELS", "Discrimination", "DiscriminatingDesign", "DiscriminatingDesigner", "separation"]
+
+DISCRIMINATE = "discriminate"
+"""The criterion's name on the command line."""
+
+MASS_LEVELS = 4
+"""Masses each candidate configuration is offered at, evenly over the design's range: two tell an
+offset from a slope, a third and fourth a slope from a curvature."""
+
+CANDIDATES_PER_ANGLE = 8
+"""Candidate configurations per q2 angle of the grid (about 460 on the KR-270, each at :data:`MASS_LEVELS` masses)."""
+
+STARTS = 4
+MAX_PASSES = 10
+"""Random starts and exchange passes at most; on the KR-270 a start settles in 2 to 4 passes."""
+
+_RIDGE = 1e-9
+"""Ridge on the rival model's unit-diagonal information: a direction whose eigenvalue is below it (k1
+under hanging loads, a lost motion no load of the plan reverses) is not fitted."""
+
+
+def _columns(rows: Rows, cell: Cell, name: str) -> np.ndarray:
+    return CATALOGUE[name].columns(rows, cell).reshape(3 * len(rows), -1)
+
+
+@dataclass(frozen=True)
+class Discrimination:
+    """How well a plan separates two candidates.
+
+    Attributes
+    ----------
+    between : tuple of str
+        The candidates A and B.
+    nats : tuple of float
+        ``λ_A / 2`` and ``λ_B / 2``: the expected log-likelihood ratio of the true
+        model over its rival on the plan's data, when A, respectively B, is true.
+    """
+
+    between: tuple[str, str]
+    nats: tuple[float, float]
+
+    @property
+    def worst(self) -> float:
+        """The smaller of the two, nats: what the plan guarantees whichever is true."""
+        return float(min(self.nats))
+
+    def to_json(self) -> dict:
+        a, b = self.between
+        return {f"if_{a}_true_nats": round(self.nats[0], 3), f"if_{b}_true_nats": round(self.nats[1], 3), "worst_nats": round(self.worst, 3)}
+
+
+def separation(information: np.ndarray, blocks: tuple[slice, slice, slice], beta_a: np.ndarray, beta_b: np.ndarray) -> np.ndarray:
+    """(..., 2) ``λ_A / 2`` and ``λ_B / 2`` (nats) of plans with joint information ``information`` (..., p, p).
+
+    ``blocks`` are the columns of the classical model, of A and of B in the joint design.
+    """
+    information = np.asarray(information)
+    base, a, b = (np.arange(p)[s] for s, p in zip(blocks, [information.shape[-1]] * 3))
+    out = []
+    for own, rival, beta in ((a, b, beta_a), (b, a, beta_b)):
+        keep = np.concatenate([base, rival])
+        m_oo = information[..., own[:, None], own[None, :]]
+        m_ro = information[..., keep[:, None], own[None, :]]
+        m_rr = information[..., keep[:, None], keep[None, :]]
+        # unit diagonal and a ridge far below any direction a plan resolves: no fit along unexcited ones
+        size = np.sqrt(np.einsum("...ii->...i", m_rr))
+        size = np.where(size > 0, size, 1.0)
+        normal = m_rr / (size[..., :, None] * size[..., None, :]) + _RIDGE * np.eye(keep.size)
+        projected = np.linalg.solve(normal, m_ro / size[..., :, None])
+        schur = m_oo - np.swapaxes(m_ro / size[..., :, None], -1, -2) @ projected
+        out.append(0.5 * np.einsum("i,...ij,j->...", beta, schur, beta))
+    return np.maximum(np.stack(out, axis=-1), 0.0)
+
+
+@dataclass(frozen=True)
+class DiscriminatingDesign:
+    """A plan designed to separate two candidates, and how well it and the tied campaign do.
+
+    Attributes
+    ----------
+    plan : Plan
+        ``angles × per_angle`` configurations grouped by q2, each with its own mass.
+    planned, campaign : Discrimination
+        The plan's separation and that of the tied campaign's own configurations, at the same repeats.
+    magnitudes : dict
+        Each candidate's coefficients fitted to the tied campaign (SI, in the catalogue's columns).
+    repeats : int
+    starts : list of float
+        The worst-case separation (nats) reached from each random start.
+    seed : int or None
+    """
+
+    plan: Plan
+    planned: Discrimination
+    campaign: Discrimination
+    magnitudes: dict
+    repeats: int
+    starts: list
+    seed: int | None = None
+
+    def summary(self) -> pd.DataFrame:
+        """One row per configuration: joint angles (deg) and load (kg)."""
+        table = pd.DataFrame(self.plan.q / DEG, columns=[f"q{j + 1}_deg" for j in range(self.plan.q.shape[1])])
+        table["load_kg"] = self.plan.load_kg
+        return table
+
+    def diagnostics(self) -> dict:
+        return {"starts_worst_nats": [round(v, 3) for v in self.starts]}
+
+    def to_json(self) -> dict:
+        a, b = self.planned.between
+        return {
+            "optimised_for": DISCRIMINATE,
+            "between": [a, b],
+            "planned": self.planned.to_json(),
+            "tied_campaign": self.campaign.to_json(),
+            "meaning": "expected log-likelihood ratio (nats) of the true model over the other on the plan's data, "
+            "each model sized by its fit to the tied campaign; a held-out ΔELPD estimates it",
+            "configurations": len(self.plan),
+            "repeats": self.repeats,
+            "q2_deg": sorted({round(float(v), 3) for v in self.plan.q[:, 1] / DEG}),
+            "load_kg": [round(float(m), 1) for m in self.plan.load_kg],
+            "seed": self.seed,
+        } | self.diagnostics()
+
+    def save(self, path: str | PathLike[str], *, comments: tuple[str, ...] = ()) -> None:
+        a, b = self.planned.between
+        note = f"plan to tell {a} from {b}: {self.planned.worst:.1f} nats expected at worst, the tied campaign {self.campaign.worst:.1f}"
+        write_plan(self.plan, path, comments=(note,) + tuple(comments))
+
+
+class DiscriminatingDesigner:
+    """Design the plan that best separates two candidates of the critique's catalogue on a tied campaign.
+
+    Parameters
+    ----------
+    cell
+        The cell.
+    between
+        The two candidates, names of :data:`~bayescal.critique.extensions.CATALOGUE` with columns.
+    campaign
+        The campaign on which they tie: each is sized by its fit to it.
+    space
+        The design space (joint limits, masses, tracker visibility); default the cell's.
+    repeats
+        Measurements of each configuration.
+    """
+
+    def __init__(self, cell: Cell, between: tuple[str, str], campaign: Campaign, space: DesignSpace | None = None, *, repeats: int = 3) -> None:
+        if len(between) != 2 or between[0] == between[1]:
+            raise InputError(f"expected two different candidates, got {','.join(between)}", source="between")
+        physical = [name for name, e in CATALOGUE.items() if e.physical and not e.robust]
+        for name in between:
+            if name not in physical:
+                raise InputError(f"unknown candidate '{name}'; expected two of {', '.join(physical)}", source="between")
+        self.cell, self.between, self.repeats = cell, tuple(between), repeats
+        self.space = load_design_space(cell) if space is None else space
+        self.campaign = campaign
+
+    def _design(self, rows: Rows) -> tuple[np.ndarray, tuple[slice, slice, slice]]:
+        blocks = [base_columns(rows, self.cell).reshape(3 * len(rows), -1)] + [_columns(rows, self.cell, n) for n in self.between]
+        edges = np.cumsum([0] + [b.shape[1] for b in blocks])
+        return np.hstack(blocks), tuple(slice(edges[i], edges[i + 1]) for i in range(3))
+
+    def _information(self, rows: Rows, Z: np.ndarray, per: np.ndarray, repeats: int) -> np.ndarray:
+        """(K, p, p) the information of each of the K groups of rows labelled ``per`` (0..K-1), each read ``repeats`` times."""
+        sigma2 = 2.0 * np.repeat(self.cell.tracker.sigma(rows.position), 3) ** 2
+        weighted = Z / sigma2[:, None]
+        label = np.repeat(per, 3)
+        return np.array([repeats * Z[label == k].T @ weighted[label == k] for k in range(per.max() + 1)])
+
+    def optimise(
+        self,
+        angles: int = 5,
+        per_angle: int = 3,
+        rng: np.random.Generator | int | None = None,
+        *,
+        starts: int = STARTS,
+        candidates_per_angle: int = CANDIDATES_PER_ANGLE,
+    ) -> DiscriminatingDesign:
+        """The plan of ``angles × per_angle`` configurations that best separates the two candidates.
+
+        ``starts`` random starts of the exchange, ``candidates_per_angle`` candidate
+        configurations at each q2 of the grid; the same seed gives the same plan.
+        """
+        seed = rng if isinstance(rng, int) else None
+        rng = np.random.default_rng(rng)
+        designer = PlanDesigner(self.cell, self.space, repeats=self.repeats, model="linear")
+        if angles < 1 or per_angle < 1 or angles > designer.max_angles():
+            raise InputError(f"expected 1 to {designer.max_angles()} angles and at least 1 configuration per angle, got {angles} and {per_angle}", source="angles")
+        grid, configurations, index, _, _ = designer.candidates(rng, per_angle=candidates_per_angle)
+        masses = np.linspace(*self.space.mass_range, MASS_LEVELS)
+        markers = np.array(list(self.cell.markers.values()))
+        # candidate c at mass level l is option c·L + l; one row per marker
+        option = np.repeat(np.arange(len(configurations) * MASS_LEVELS), len(markers))
+        q = configurations[option // len(markers) // MASS_LEVELS]
+        wrench = np.array([self.cell.load_wrench(qi, masses[o % MASS_LEVELS]) for qi, o in zip(q, option)])
+        pool = pose_rows(self.cell, q, wrench, np.tile(markers, (len(configurations) * MASS_LEVELS, 1)), config=option)
+        measured = campaign_rows(self.cell, self.campaign)
+        # one design for the campaign and the pool, so that columns scaled by their rows (backlash) scale alike
+        Z, blocks = self._design(measured.extend(pool))
+        n = 3 * len(measured)
+        beta = self._magnitudes(measured, Z[:n], blocks)
+        _, labels = np.unique(measured.config, return_inverse=True)
+        # the campaign's rows are its readings, every repeat already one of them
+        tied = self._information(measured, Z[:n], labels, 1).sum(axis=0)
+        information = self._information(pool, Z[n:], option, self.repeats)
+        group = np.repeat(index, MASS_LEVELS)
+        search = _Exchange(information, group, grid, self.space.min_separation, blocks, beta, rng)
+        best, reached = None, []
+        for _ in range(starts):
+            chosen, score = search.run(angles, per_angle)
+            reached.append(score)
+            if best is None or score > best[1]:
+                best = (chosen, score)
+        order = np.array(sorted(best[0], key=lambda o: (grid[group[o]], o)))
+        plan = Plan(
+            q=configurations[order // MASS_LEVELS], load_kg=masses[order % MASS_LEVELS], lines=np.zeros(len(order), dtype=int), source="optimised"
+        )
+        between = self.between
+        return DiscriminatingDesign(
+            plan=plan,
+            planned=Discrimination(between, tuple(float(v) for v in separation(information[order].sum(axis=0), blocks, *beta))),
+            campaign=Discrimination(between, tuple(float(v) for v in separation(tied, blocks, *beta))),
+            magnitudes={name: b.tolist() for name, b in zip(between, beta)},
+            repeats=self.repeats,
+            starts=reached,
+            seed=seed,
+        )
+
+    def _magnitudes(self, rows: Rows, Z: np.ndarray, blocks) -> tuple[np.ndarray, np.ndarray]:
+        """Each candidate's coefficients fitted, on top of the classical model, to the tied campaign (0 for columns it cannot fit)."""
+        y = rows.y.reshape(-1)
+        scale, group = np.repeat(rows.noise, 3), np.tile(np.arange(3), len(rows))
+        out = []
+        for own in blocks[1:]:
+            columns = np.concatenate([np.arange(Z.shape[1])[blocks[0]], np.arange(Z.shape[1])[own]])
+            kept = columns[independent_columns(Z[:, columns])]
+            fitted = fit(y, Z[:, kept], scale, group)
+            beta = np.zeros(Z.shape[1])
+            beta[kept] = fitted.beta
+            out.append(beta[own])
+        return out[0], out[1]
+
+
+@dataclass
+class _Exchange:
+    """Fedorov's exchange on the worst-case separation, configurations grouped by their q2 grid angle."""
+
+    information: np.ndarray
+    group: np.ndarray
+    grid: np.ndarray
+    separation_rad: float
+    blocks: tuple
+    beta: tuple
+    rng: np.random.Generator
+
+    def score(self, information: np.ndarray) -> np.ndarray:
+        return separation(information, self.blocks, *self.beta).min(axis=-1)
+
+    def _separated(self, angles: list[int]) -> bool:
+        values = np.sort(self.grid[angles])
+        return len(values) < 2 or bool(np.min(np.diff(values)) >= self.separation_rad - 1e-12)
+
+    def run(self, angles: int, per_angle: int) -> tuple[list[int], float]:
+        usable = [g for g in range(len(self.grid)) if np.count_nonzero(self.group == g) >= per_angle]
+        if len(usable) < angles:
+            raise InputError(f"only {len(usable)} q2 angles have {per_angle} feasible configurations, {angles} requested", source="angles")
+        for _ in range(1000):
+            chosen_angles = list(self.rng.choice(usable, size=angles, replace=False))
+            if self._separated(chosen_angles):
+                break
+        else:
+            raise InputError(f"no {angles} q2 angles {math.degrees(self.separation_rad):.0f} deg apart have feasible configurations", source="angles")
+        groups = [[int(o) for o in self.rng.choice(np.flatnonzero(self.group == g), size=per_angle, replace=False)] for g in chosen_angles]
+        current = float(self.score(self._total(groups)))
+        for _ in range(MAX_PASSES):
+            improved = False
+            for g, members in enumerate(groups):
+                for slot in range(per_angle):
+                    pool = np.setdiff1d(np.flatnonzero(self.group == chosen_angles[g]), members)
+                    rest = self._total(groups) - self.information[members[slot]]
+                    scores = self.score(rest + self.information[pool])
+                    if pool.size and scores.max() > current * (1 + 1e-9):
+                        members[slot], current, improved = int(pool[np.argmax(scores)]), float(scores.max()), True
+                moved = self._move(groups, chosen_angles, g, current)
+                if moved is not None:
+                    chosen_angles[g], groups[g], current, improved = moved[0], moved[1], moved[2], True
+            if not improved:
+                break
+        return [o for members in groups for o in members], current
+
+    def _total(self, groups: list[list[int]]) -> np.ndarray:
+        return sum(self.information[o] for members in groups for o in members)
+
+    def _move(self, groups, chosen_angles, g, current):
+        """The best other q2 angle for group ``g``, filled greedily, when it beats ``current``."""
+        rest = self._total(groups[:g] + groups[g + 1 :])
+        others = chosen_angles[:g] + chosen_angles[g + 1 :]
+        best = None
+        for angle in np.unique(self.group):
+            if angle == chosen_angles[g] or not self._separated(others + [int(angle)]):
+                continue
+            pool = np.flatnonzero(self.group == angle)
+            if pool.size < len(groups[g]):
+                continue
+            members, partial = [], rest.copy()
+            for _ in range(len(groups[g])):
+                free = np.setdiff1d(pool, members)
+                choice = int(free[np.argmax(self.score(partial + self.information[free]))])
+                members.append(choice)
+                partial = partial + self.information[choice]
+            score = float(self.score(partial))
+            if score > current * (1 + 1e-9) and (best is None or score > best[2]):
+                best = (int(angle), members, score)
+        return best

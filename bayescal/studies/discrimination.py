@@ -1,0 +1,180 @@
+"""Whether the plan designed to resolve a tie does: lost motion against torque-dependent compliance.
+
+:func:`tie_resolution` simulates, for each seed, a campaign of one planted effect
+with loads of nearly one magnitude (where lost motion and a torque-dependent
+compliance explain the deflections about equally), designs the plan that
+separates ``backlash`` and ``nonlinear_stiffness`` on it
+(:class:`~bayescal.design.discriminate.DiscriminatingDesigner`, never told what
+was planted), simulates the same truth on that plan, and compares the two
+candidates there on held-out configurations
+(:meth:`~bayescal.critique.Critique.discriminate`).  The campaigns come from the
+digital twin (``twin``) or from the independent generator (``independent``,
+:mod:`bayescal.twin.independent`: its own equilibrium, truth drawn unlike the
+cell, lost motion with memory, a two-slope joint spring), whose effects were
+written apart from the catalogue.
+"""
+
+from __future__ import annotations
+
+import threading
+import warnings
+from collections.abc import Sequence
+from concurrent.futures import Executor, ProcessPoolExecutor
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["TieCase", "TIE_CASES", "tie_resolution", "BETWEEN"]
+
+BETWEEN = ("backlash", "nonlinear_stiffness")
+"""The two candidates a campaign of nearly one load magnitude cannot tell apart."""
+
+
+@dataclass(frozen=True)
+class TieCase:
+    """A planted effect, its generator and the candidate that is right.
+
+    Attributes
+    ----------
+    generator : str
+        ``"twin"`` (Table III) or ``"independent"`` (its random plans of 6 q2 angles × 5 configurations, 200-300 kg).
+    effect : str
+        The generator's effect name.
+    magnitude : float
+        In the effect's unit (twin) or as a multiple of its default (independent).
+    right : str
+        The candidate of :data:`BETWEEN` that is the planted effect's family.
+    """
+
+    generator: str
+    effect: str
+    magnitude: float
+    right: str
+
+
+TIE_CASES = {
+    "twin lost motion": TieCase("twin", "backlash", 0.002, "backlash"),
+    "twin torque-dependent": TieCase("twin", "nonlinear_stiffness", 0.15, "nonlinear_stiffness"),
+    "independent lost motion": TieCase("independent", "gear_play", 1.0, "backlash"),
+    "independent torque-dependent": TieCase("independent", "knee_joints", 0.2, "nonlinear_stiffness"),
+}
+"""The cases measured: each effect at a size where, on its campaign, the two candidates are
+within a few standard errors of each other (an eighth of the twin's default lost motion; half
+its default stiffening; the independent generator's default play; two fifths of its default knee)."""
+
+
+@lru_cache(maxsize=4)
+def _setup(config: str, plan: str, thread: int):
+    """The cell and Table III's plan, one copy per thread (a robot's Pinocchio workspace is not shared)."""
+    from bayescal.cell.config import load_cell
+    from bayescal.cell.plan import read_plan
+
+    cell = load_cell(config)
+    return cell, read_plan(plan, cell.robot)
+
+
+def _campaigns(case: TieCase, cell, table3, seed: np.random.SeedSequence):
+    """``simulate(plan, rng_child)``: campaigns of one truth on any plan, and the tied campaign's plan."""
+    from bayescal.twin.effects import parse_effect
+    from bayescal.twin.independent import IndependentGenerator, random_plan
+    from bayescal.twin.simulator import DigitalTwin
+
+    plan_seed, truth_seed, noise_seed = (int(s.generate_state(1)[0]) for s in seed.spawn(3))
+    if case.generator == "twin":
+        twin = DigitalTwin(cell, [parse_effect(f"{case.effect}={case.magnitude!r}")])
+        return (lambda plan, k: twin.simulate(plan, 3, np.random.default_rng([noise_seed, k]))), table3
+
+    world = IndependentGenerator(cell, np.random.default_rng(truth_seed)).world(case.effect, case.magnitude)
+
+    def simulate(plan, k):
+        generator = IndependentGenerator(cell, np.random.default_rng([noise_seed, k]))
+        return generator.simulate(plan, 3, case.effect, case.magnitude, world=world)[0]
+
+    return simulate, random_plan(cell, np.random.default_rng(plan_seed))
+
+
+def _one(task: tuple) -> dict:
+    """One seed: the tied campaign, the designed plan, and the comparison on the plan's campaign."""
+    from bayescal.critique import Critique
+    from bayescal.critique.model import DETECTION_Z
+    from bayescal.design.constraints import load_design_space
+    from bayescal.design.discriminate import DiscriminatingDesigner
+
+    config, table3, case, mass_range, seed, candidates_per_angle = task
+    cell, plan = _setup(config, table3, threading.get_ident())
+    simulate, tied_plan = _campaigns(case, cell, plan, seed)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        tied = simulate(tied_plan, 0)
+        wrong = BETWEEN[1] if case.right == BETWEEN[0] else BETWEEN[0]
+        before = Critique(cell).discriminate(tied, wrong, case.right)
+        space = load_design_space(cell, mass_range=mass_range)
+        design = DiscriminatingDesigner(cell, BETWEEN, tied, space).optimise(
+            5, 3, np.random.default_rng(seed.spawn(1)[0]), starts=1, candidates_per_angle=candidates_per_angle
+        )
+        after = Critique(cell).discriminate(simulate(design.plan, 1), wrong, case.right)
+    return {
+        "tied_delta_elpd": before.delta_elpd,
+        "tied_se": before.se,
+        "tied": abs(before.delta_elpd) <= DETECTION_Z * before.se,
+        "planned_worst_nats": design.planned.worst,
+        "delta_elpd": after.delta_elpd,
+        "se": after.se,
+        "separated": after.delta_elpd > DETECTION_Z * after.se,
+    }
+
+
+def tie_resolution(
+    config: str,
+    table3: str,
+    cases: Sequence[str] = tuple(TIE_CASES),
+    *,
+    n_seeds: int = 20,
+    seed: int = 0,
+    mass_range: tuple[float, float] = (50.0, 280.0),
+    candidates_per_angle: int = 4,
+    executor: Executor | None = None,
+) -> pd.DataFrame:
+    """Per case and seed: the tie on the campaign, and the right candidate's lead on the discriminating plan's campaign.
+
+    Parameters
+    ----------
+    config, table3
+        The cell TOML and Table III's plan CSV (the twin's tied campaigns).
+    cases
+        Names of :data:`TIE_CASES`.
+    n_seeds
+        Seeds per case.
+    seed
+        Root of the :class:`numpy.random.SeedSequence` of every campaign and plan.
+    mass_range
+        The masses (kg) the discriminating plan may hang.
+    candidates_per_angle
+        Candidate configurations per q2 angle of the plan's search.
+    executor
+        Runs the seeds; default a :class:`concurrent.futures.ProcessPoolExecutor`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case and seed: ``case, seed, tied_delta_elpd, tied_se, tied, planned_worst_nats,
+        delta_elpd, se, separated`` (ΔELPD of the right candidate over the wrong one, nats;
+        ``separated`` when it exceeds 2 SE).
+    """
+    roots = np.random.SeedSequence(seed).spawn(len(cases))
+    tasks = [
+        (str(config), str(table3), TIE_CASES[name], tuple(mass_range), s, candidates_per_angle)
+        for name, root in zip(cases, roots)
+        for s in root.spawn(n_seeds)
+    ]
+    own = executor is None
+    executor = executor or ProcessPoolExecutor()
+    try:
+        results = list(executor.map(_one, tasks))
+    finally:
+        if own:
+            executor.shutdown()
+    labels = [(name, k) for name in cases for k in range(n_seeds)]
+    return pd.DataFrame.from_records([{"case": name, "seed": k} | record for (name, k), record in zip(labels, results)])
