@@ -66,6 +66,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
     if args.geometry and not Path(args.geometry).is_file():
         what = "is a folder" if Path(args.geometry).is_dir() else "file not found"
         raise InputError(f"{what}; expected the NetCDF file `bayescal geometry --posterior` writes", source=args.geometry)
+    if args.geometry and cell.compensator is None:
+        raise InputError("--geometry: the config has no [compensator], so there is no compensator geometry to propagate", source=args.config)
     geometry = posterior_geometry(args.geometry, cell.compensator) if args.geometry else None
     campaign, cell, transfer = read_campaign_in_base(args, args.campaign, cell)
     model = ElastostaticModel.from_cell(
@@ -91,7 +93,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         "parameters": results.parameters(),
         "weakly_determined": results.weakly_determined(),
         "k2_per_angle": {f"{angle:.3f} deg": entry for angle, entry in _k2_by_angle(results).items()},
-        "diagnostics": results.diagnostics() | {"seed": args.seed, "geometry": results.geometry.source},
+        "diagnostics": results.diagnostics() | {"seed": args.seed, "geometry": model.geometry_source},
         "identifiability": results.identifiability.to_json(),
         "test_pose": test_pose.to_json(),
     }
@@ -106,8 +108,9 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
 
 def _k2_by_angle(results) -> dict[float, dict]:
-    """The equivalent joint-2 compliance at each campaign angle, keyed by q2 (deg): its posterior or why it has none."""
-    from bayescal.inference.identifiability import label_angle
+    """The compensated joint's equivalent compliance at each campaign angle, keyed by its angle (deg): its posterior
+    or why it has none; empty without a compensator."""
+    from bayescal.inference.parameters import COMPLIANCE_UNIT, label_angle
 
     summary = results.summary()
     reasons = results.identifiability.not_identifiable
@@ -119,7 +122,7 @@ def _k2_by_angle(results) -> dict[float, dict]:
         if name in reasons or name not in summary.index:
             out[angle] = {"identifiable": False, "reason": reasons[name]}
         else:
-            out[angle] = {field: float(summary.loc[name, field]) for field in ("mean", "sd", "lo3", "hi3")} | {"unit": "urad/(N m)"}
+            out[angle] = {field: float(summary.loc[name, field]) for field in ("mean", "sd", "lo3", "hi3")} | {"unit": COMPLIANCE_UNIT}
     return out
 
 
@@ -183,7 +186,7 @@ def _text(results, test_pose, args, reference_file) -> str:
         if weak:
             listed = ", ".join(weak)
             lines.append(f"  The posterior of {listed} is kept in the DataTree and in the JSON's weakly_determined block.")
-    j = results.joint + 1
+    j = -1 if results.joint is None else results.joint + 1
     per_angle = [
         f"  q{j} = {angle:>8.2f} deg  {with_uncertainty(entry['mean'], entry['hi3'] - entry['mean'], 'urad/(N m)')}"
         for angle, entry in _k2_by_angle(results).items()

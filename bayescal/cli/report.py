@@ -137,7 +137,11 @@ def _read_inputs(args: argparse.Namespace):
 
         sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
         campaign, cell, _ = read_campaign_in_base(args, args.campaign, cell)
-        tree = _load_tree(args.calibration, "--calibration", load, needs=("k2_q2", "sigma"), foreign="R")
+        from bayescal.inference.parameters import ParameterRegistry
+
+        # A robot without a compensator has no per-angle compliances; the geometry's own 'R' tells the other kind apart.
+        per_angle = ParameterRegistry.of_cell(cell).per_angle_variable if cell is not None else None
+        tree = _load_tree(args.calibration, "--calibration", load, needs=(*([per_angle] if per_angle else []), "sigma"), foreign="R")
         _check_joint_count(tree, cell, args.calibration)
         results = restore_results(cell, campaign, tree, geometry)
         _check_fit(results, args)

@@ -167,8 +167,9 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
         posterior = tree["posterior"]
     except (OSError, KeyError, ValueError) as exc:
         raise InputError(f"cannot read a posterior DataTree ({type(exc).__name__})", source=source) from None
-    if "k2_q2" not in posterior or "sigma" not in posterior:
-        raise InputError("not an elastostatic posterior (no 'k2_q2' or 'sigma'): expected `bayescal calibrate --posterior`", source=source)
+    # A robot without a compensator has no per-angle compliances: any joint compliance tells the kind.
+    if "sigma" not in posterior or not any(name[:1] == "k" and name[1:].isdigit() for name in posterior.data_vars):
+        raise InputError("not an elastostatic posterior (no joint compliance k<j> or no 'sigma'): expected `bayescal calibrate --posterior`", source=source)
     n = cell.robot.nq
     _check_robot(tree.attrs, posterior, cell, source)
 

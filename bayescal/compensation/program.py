@@ -20,7 +20,7 @@ from bayescal.cell.campaign import MAX_LOAD_ARM, WRENCH_COLUMNS
 from bayescal.cell.config import Cell
 from bayescal.errors import InputError
 from bayescal.tables import read_table
-from bayescal.units import DEG, MM
+from bayescal.units import MM
 
 __all__ = ["Program", "read_program", "WRENCH_COLUMNS", "TCP_COLUMNS"]
 
@@ -76,13 +76,14 @@ def read_program(path: str | PathLike[str], cell: Cell) -> Program:
         beyond what the robot can carry (naming the line and the column).
     """
     n = cell.robot.nq
-    joints = [f"q{j + 1}_deg" for j in range(n)]
+    # A prismatic joint (a linear track) is programmed in mm, a revolute one in deg.
+    joints = list(cell.robot.position_columns)
     columns = dict.fromkeys([*joints, *WRENCH_COLUMNS], "number")
-    units = {name: "deg" for name in joints} | {name: name.rsplit("_", 1)[1] for name in WRENCH_COLUMNS}
+    units = dict(zip(joints, cell.robot.position_units)) | {name: name.rsplit("_", 1)[1] for name in WRENCH_COLUMNS}
     frame = read_table(path, columns, optional=dict.fromkeys(TCP_COLUMNS, "number"), units=units | dict.fromkeys(TCP_COLUMNS, "mm"))
     source = frame.attrs["source"]
     full = _all_columns(source, frame.index)
-    q = frame[joints].to_numpy(dtype=float) * DEG
+    q = frame[joints].to_numpy(dtype=float) * cell.robot.position_scale
     for row, line in zip(q, frame.index):
         cell.robot.check_limits(row, source=source, line=int(line))
     wrench = frame[list(WRENCH_COLUMNS)].to_numpy(dtype=float)

@@ -11,7 +11,7 @@ import pandas as pd
 
 from bayescal.compensation.program import Program
 from bayescal.robot.kinematics import Robot
-from bayescal.units import DEG, MM
+from bayescal.units import MM
 
 __all__ = ["CompensationResults", "FLAG_OK"]
 
@@ -73,9 +73,11 @@ class CompensationResults:
         if self.failed[p]:
             return "no static equilibrium under this wrench"
         reasons = []
-        for j, (value, low, high) in enumerate(zip(self.commands[p], self.robot.lower, self.robot.upper)):
+        robot = self.robot
+        for j, (value, low, high) in enumerate(zip(self.commands[p], robot.lower, robot.upper)):
             if not low <= value <= high:
-                reasons.append(f"q{j + 1}_cmd {value / DEG:.3f} deg outside the limits {low / DEG:.1f} to {high / DEG:.1f} deg")
+                scale, unit = robot.position_scale[j], robot.position_units[j]
+                reasons.append(f"q{j + 1}_cmd {value / scale:.3f} {unit} outside the limits {low / scale:.1f} to {high / scale:.1f} {unit}")
         bound = self.errors["q9973"][p]
         if self.tolerance is not None and bound > self.tolerance:
             share = self.unidentified_share[p]
@@ -88,10 +90,11 @@ class CompensationResults:
         return "; ".join(reasons) or FLAG_OK
 
     def table(self) -> pd.DataFrame:
-        """The compensated program: the input's columns, ``q<j>_cmd_deg``, ``deflection_mm``, the error columns, ``flag``."""
+        """The compensated program: the input's columns, ``q<j>_cmd_deg`` (``q<j>_cmd_mm`` for a prismatic joint),
+        ``deflection_mm``, the error columns, ``flag``."""
         out = self.program.table.copy()
-        for j in range(self.commands.shape[1]):
-            out[f"q{j + 1}_cmd_deg"] = self.commands[:, j] / DEG
+        for j, unit in enumerate(self.robot.position_units):
+            out[f"q{j + 1}_cmd_{unit}"] = self.commands[:, j] / self.robot.position_scale[j]
         out["deflection_mm"] = self.deflection / MM
         out["error_rms_mm"] = self.errors["rms"] / MM
         out["error_q95_mm"] = self.errors["q95"] / MM
@@ -127,13 +130,16 @@ class CompensationResults:
         }
 
     def diagnostics(self) -> dict:
-        """How large the corrections are (deg), draws used, and poses without a static equilibrium."""
+        """How large the corrections are (deg; mm for a prismatic joint), draws used, and poses without a static equilibrium."""
         ok = ~self.failed
         programmed = self.program.q[ok]
-        correction = np.abs(self.commands[ok] - programmed) / DEG if ok.any() else np.empty((0, programmed.shape[1]))
+        scale = self.robot.position_scale
+        correction = np.abs(self.commands[ok] - programmed) / scale if ok.any() else np.empty((0, programmed.shape[1]))
+        largest = correction.max(axis=0, initial=0.0)
         return {
             "draws": self.n_draws,
-            "largest_joint_correction_deg": {f"q{j + 1}": float(c) for j, c in enumerate(correction.max(axis=0, initial=0.0))},
+            "largest_joint_correction_deg": {f"q{j + 1}": float(c) for j, c in enumerate(largest) if not self.robot.prismatic[j]},
+            "largest_joint_correction_mm": {f"q{j + 1}": float(c) for j, c in enumerate(largest) if self.robot.prismatic[j]},
             "equilibrium_failures": int(self.failed.sum()),
         }
 

@@ -43,10 +43,10 @@ import pandas as pd
 from dataclasses import replace
 
 from bayescal.cell.config import Cell
-from bayescal.reference import read_paper_reference
+from bayescal.inference.parameters import ParameterRegistry
 from bayescal.robot.stiffness import ElasticArm, compliance_design
 from bayescal.twin.simulator import DigitalTwin
-from bayescal.units import MM, N_PER_MM, URAD_PER_NM
+from bayescal.units import MM
 
 __all__ = [
     "CRITERIA",
@@ -80,9 +80,8 @@ in double precision: below it the plan cannot separate the parameters (e.g. K_c 
 
 
 def parameter_names(cell: Cell) -> list[str]:
-    """``k1..k<n>`` and, with a compensator, ``K_c`` and ``s0``."""
-    names = [f"k{j}" for j in range(1, cell.robot.nq + 1)]
-    return names + (["K_c", "s0"] if cell.compensator is not None else [])
+    """``k1..k<n>`` and, with a compensator, ``K_c`` and ``s0``: the cell's :class:`~bayescal.inference.parameters.ParameterRegistry`."""
+    return ParameterRegistry.of_cell(cell).names
 
 
 def nominal_parameters(cell: Cell) -> np.ndarray:
@@ -276,9 +275,9 @@ class PlanPrediction:
         plan cannot predict it.
     log_det : float
         log det of the excited block of the information matrix (relative parameters); -inf when singular.
-    published_width_pct : dict of str to float or None
-        ±3σ widths (% of the value) of the cell's published results (its ``reference_csv``,
-        Table IV for the KR-270); ``None`` when the cell names none.
+    registry : ParameterRegistry
+        The cell's parameters: units at the edges, SI factors, and its published results (its
+        ``reference_csv``, Table IV for the KR-270) where it names them.
     """
 
     names: list[str]
@@ -287,7 +286,7 @@ class PlanPrediction:
     covariance: np.ndarray
     rho0: float
     log_det: float
-    published_width_pct: dict[str, float] | None = None
+    registry: ParameterRegistry
 
     @property
     def relative_sd(self) -> np.ndarray:
@@ -301,12 +300,13 @@ class PlanPrediction:
         ``table_iv_pct`` (the cell's published widths, Klimchik et al.'s Table IV for the
         KR-270; only when the cell names them) and ``unit``.
         """
-        factors = np.array([_unit(name)[0] for name in self.names])
+        parameters = [self.registry[name] for name in self.names]
+        factors = np.array([1.0 / p.si_factor for p in parameters])
         sd = self.relative_sd * np.abs(self.nominal)
         columns = {"value": self.nominal * factors, "sd": sd * factors, "width_3sd_pct": 300.0 * self.relative_sd}
-        if self.published_width_pct is not None:
-            columns["table_iv_pct"] = [self.published_width_pct.get(name, math.nan) for name in self.names]
-        columns["unit"] = [_unit(name)[1] for name in self.names]
+        if self.registry.published is not None:
+            columns["table_iv_pct"] = [100.0 * p.published[1] / p.published[0] if p.published else math.nan for p in parameters]
+        columns["unit"] = [p.unit for p in parameters]
         return pd.DataFrame(columns, index=pd.Index(self.names, name="parameter"))
 
     def to_json(self) -> dict:
@@ -365,7 +365,7 @@ def predict(cell: Cell, information: np.ndarray, *, test_design: np.ndarray | No
         covariance=covariance,
         rho0=rho0,
         log_det=log_det,
-        published_width_pct=_published_widths(cell),
+        registry=ParameterRegistry.of_cell(cell),
     )
 
 
@@ -428,24 +428,6 @@ def criterion_values(cell: Cell, information: np.ndarray, criterion: str, *, tes
     G0 = (test_pose_design(cell) if test_design is None else test_design)[:, excited]
     squared = np.einsum("ij,njk,ik->n", G0, inverse, G0)
     return np.where(usable, np.sqrt(np.maximum(squared, 0.0)), np.inf)
-
-
-def _unit(name: str) -> tuple[float, str]:
-    """Factor from SI to the paper's unit, and the unit's name."""
-    if name == "K_c":
-        return 1.0 / N_PER_MM, "N/mm"
-    if name == "s0":
-        return 1.0 / MM, "mm"
-    return 1.0 / URAD_PER_NM, "urad/(N m)"
-
-
-def _published_widths(cell: Cell) -> dict[str, float] | None:
-    """±3σ widths (% of the value) of the cell's published elastostatic results (Table IV's rows), or None."""
-    if cell.reference is None:
-        return None
-    rows = read_paper_reference(cell.reference)
-    rows = rows[rows["table"] == "IV"]
-    return {str(name): 100.0 * float(row["ci3"]) / float(row["value"]) for name, row in rows.iterrows()}
 
 
 def _finite(value: float) -> float | None:

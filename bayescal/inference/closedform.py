@@ -55,9 +55,12 @@ class ClosedForm:
 def closed_form(
     equations: DeflectionEquations,
     identifiability: Identifiability,
-    geometry: np.ndarray,
+    geometry: np.ndarray | None,
 ) -> ClosedForm:
-    """Eq 33 on the identifiable per-angle columns, then eq 34 for the compensator (unweighted, as the paper)."""
+    """Eq 33 on the identifiable per-angle columns, then eq 34 for the compensator (unweighted, as the paper).
+
+    ``geometry`` ``[L, a_x, a_y, phi]`` (m, rad) of the compensator; None without one.
+    """
     X = equations.per_angle_design()[:, identifiability.identifiable]
     k, *_ = np.linalg.lstsq(X, equations.y, rcond=None)
     residual = equations.y - X @ k

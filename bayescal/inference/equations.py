@@ -19,6 +19,7 @@ from bayescal.cell.campaign import Campaign
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
+from bayescal.inference.parameters import ParameterRegistry
 from bayescal.robot.kinematics import Robot
 from bayescal.robot.stiffness import compliance_design
 from bayescal.units import DEG, MM
@@ -78,9 +79,9 @@ class DeflectionEquations:
         ``(n, nq)``: column j is the deflection per unit compliance of joint j
         (m per rad/(N·m)).
     angle
-        ``(n,)`` index into ``q2`` of each equation's joint-2 angle.
+        ``(n,)`` index into ``q2`` of each equation's compensated-joint angle (zeros without a compensator).
     q2
-        The distinct joint-2 angles (rad), shape ``(m,)``.
+        The distinct angles (rad) of the compensated joint, shape ``(m,)``; ``(0,)`` without a compensator.
     group
         ``(n,)`` noise group of each equation (index into ``group_names``).
     group_names
@@ -91,7 +92,8 @@ class DeflectionEquations:
         multiplies it.  None: all equal.
     joint
         Index (0-based) of the joint whose compliance is taken per angle (the cell's
-        compensated joint); ``angle`` and ``q2`` are that joint's.
+        compensated joint); ``angle`` and ``q2`` are that joint's.  None: the robot has no
+        compensator and every joint has one constant compliance.
     prismatic
         Which joints are prismatic (their compliances in m/N); empty: all revolute.
     """
@@ -103,14 +105,15 @@ class DeflectionEquations:
     group: np.ndarray
     group_names: tuple[str, ...]
     scale: np.ndarray | None = None
-    joint: int = DEFAULT_COMPENSATED_JOINT
+    joint: int | None = DEFAULT_COMPENSATED_JOINT
     prismatic: tuple[bool, ...] = ()
 
     def __post_init__(self) -> None:
         n = self.y.shape[0]
         if self.design.ndim != 2 or self.design.shape[0] != n or self.angle.shape != (n,) or self.group.shape != (n,):
             raise ValueError("y, design, angle and group must describe the same equations")
-        if self.angle.max(initial=0) >= self.q2.size or self.group.max(initial=0) >= len(self.group_names):
+        angles = self.q2.size if self.joint is not None else 1
+        if self.angle.max(initial=0) >= angles or self.group.max(initial=0) >= len(self.group_names):
             raise ValueError("angle or group index out of range")
 
     def whitened(self) -> DeflectionEquations:
@@ -118,6 +121,11 @@ class DeflectionEquations:
         if self.scale is None:
             return self
         return replace(self, y=self.y / self.scale, design=self.design / self.scale[:, None], scale=None)
+
+    @property
+    def registry(self) -> ParameterRegistry:
+        """The parameters these equations identify: names, edge units and SI factors."""
+        return ParameterRegistry(self.n_joints, self.prismatic, self.joint)
 
     @property
     def n_joints(self) -> int:
@@ -130,7 +138,7 @@ class DeflectionEquations:
         return int(self.y.shape[0])
 
     def per_angle_columns(self) -> list[tuple[int, int | None]]:
-        """``(joint, angle)`` of each per-angle column: joint 2 once per angle, the others once."""
+        """``(joint, angle)`` of each per-angle column: the compensated joint once per angle, the others once."""
         columns: list[tuple[int, int | None]] = []
         for joint in range(self.n_joints):
             if joint == self.joint:
@@ -140,7 +148,8 @@ class DeflectionEquations:
         return columns
 
     def per_angle_design(self) -> np.ndarray:
-        """The design of eq 30 with one joint-2 column per distinct q2 angle, ``(n, nq - 1 + m)``."""
+        """The design of eq 30 with one compensated-joint column per distinct angle, ``(n, nq - 1 + m)``
+        (``(n, nq)`` without a compensator)."""
         columns = []
         for joint, angle in self.per_angle_columns():
             column = self.design[:, joint].copy()
@@ -157,7 +166,7 @@ def deflection_equations(
     *,
     noise: str = "axis",
     tracker: TrackerNoise | None = None,
-    joint: int = DEFAULT_COMPENSATED_JOINT,
+    joint: int | None = DEFAULT_COMPENSATED_JOINT,
 ) -> tuple[DeflectionEquations, np.ndarray, np.ndarray]:
     """The scalar equations of eq 30 for a campaign, with the loads' joint torques.
 
@@ -174,7 +183,8 @@ def deflection_equations(
         error at the unloaded and loaded positions, ``sqrt(s(p0)^2 + s(p1)^2)``
         (scaled to mean 1; the unknown level per group multiplies it).
     joint
-        Index (0-based) of the joint whose compliance is taken per angle: the cell's compensated joint.
+        Index (0-based) of the joint whose compliance is taken per angle: the cell's compensated joint;
+        None without a compensator (every compliance constant).
 
     Returns
     -------
@@ -194,7 +204,10 @@ def deflection_equations(
         points[i] = workspace.point_in_flange(campaign.q[i], campaign.p0[i])
         design[i] = compliance_design(workspace, campaign.q[i], points[i], campaign.wrench[i])
         torque[i] = workspace.flange_jacobian(campaign.q[i]).T @ campaign.wrench[i]
-    values, angle = group_angles(campaign.q[:, joint])
+    if joint is None:
+        values, angle = np.empty(0), np.zeros(n, dtype=int)
+    else:
+        values, angle = group_angles(campaign.q[:, joint])
     if noise == "axis":
         group, names = np.tile(np.arange(3), n), ("x", "y", "z")
     elif noise == "marker":

@@ -84,7 +84,7 @@ def linearisation_offset(
     equations: DeflectionEquations,
     compliances: np.ndarray,
     k2: np.ndarray,
-    compensator: Compensator,
+    compensator: Compensator | None,
     load_point: np.ndarray | None,
 ) -> np.ndarray:
     """Exact minus linear prediction (m) of every equation of ``campaign``.
@@ -94,11 +94,13 @@ def linearisation_offset(
     robot, campaign, equations
         The robot, the campaign and its equations.
     compliances
-        ``(nq,)`` joint compliances (rad/(N·m)); joint 2's entry is not used.
+        ``(nq,)`` joint compliances (rad/(N·m)); the compensated joint's entry is not used.
     k2
-        ``(m,)`` equivalent joint-2 compliance at each of the equations' q2 angles.
+        ``(m,)`` equivalent compliance of the compensated joint at each of the equations' angles
+        (``(0,)`` without a compensator).
     compensator
-        The compensator whose static torque sets the unloaded and loaded equilibria.
+        The compensator whose static torque sets the unloaded and loaded equilibria; None when the
+        robot has none (``equations.joint`` None).
     load_point
         Flange-frame point where the load's force acts when the campaign gives
         none (its ``load_point`` columns take precedence); None: flange origin, dead load.
@@ -109,7 +111,8 @@ def linearisation_offset(
         rows = np.flatnonzero(campaign.config == config)
         q = campaign.q[rows[0]]
         k = np.array(compliances, dtype=float)
-        k[equations.joint] = compensator.own_compliance(q[equations.joint], k2[row_angle[rows[0]]])
+        if equations.joint is not None:
+            k[equations.joint] = compensator.own_compliance(q[equations.joint], k2[row_angle[rows[0]]])
         exact[rows] = exact_deflections(
             robot,
             q,
@@ -121,5 +124,6 @@ def linearisation_offset(
             compensated_joint=equations.joint,
         )
     per_row = np.repeat(np.asarray(compliances, dtype=float)[None, :], equations.n, axis=0)
-    per_row[:, equations.joint] = k2[equations.angle]
+    if equations.joint is not None:
+        per_row[:, equations.joint] = k2[equations.angle]
     return exact.reshape(-1) - np.einsum("ij,ij->i", equations.design, per_row)

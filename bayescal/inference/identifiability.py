@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from bayescal.inference.parameters import angle_label, label_angle
 
 __all__ = [
     "Identifiability",
@@ -66,6 +67,7 @@ PRACTICAL_RULE = (
     "on the positive half-line, a ±3σ interval that includes 0; s0 whenever K_c is not identifiable (eq 34)"
 )
 """The practical-identifiability rule in one line (the CLI's ``identifiability.rule``)."""
+_SPRING_CLAUSE = "; s0 whenever K_c is not identifiable (eq 34)"
 
 
 @dataclass(frozen=True)
@@ -88,7 +90,7 @@ class Identifiability:
         Reason, in words, for each parameter (per-angle names and ``k2``, ``K_c``,
         ``s0``) that the design cannot identify.
     compensator : bool
-        Whether the design can identify ``K_theta2^0``, ``K_c`` and ``s0``.
+        Whether the design can identify ``K_theta2^0``, ``K_c`` and ``s0``; False without a compensator.
     practical : dict
         Reason for each parameter that the design could identify but the
         posterior does not determine (:func:`practical_reasons`); empty before sampling.
@@ -121,23 +123,14 @@ class Identifiability:
             "condition_number": self.condition_number,
             "not_identifiable": self.not_identifiable,
             "structural": sorted(self.reasons),
-            "rule": PRACTICAL_RULE,
+            # Without a compensator there is no spring to speak of.
+            "rule": PRACTICAL_RULE if self.compensated else PRACTICAL_RULE.removesuffix(_SPRING_CLAUSE),
         }
 
-
-_ANGLE_PREFIX, _ANGLE_SUFFIX = "k2_q2[", "]"
-
-
-def angle_label(q2: float) -> str:
-    """Name of the joint-2 compliance at ``q2`` (rad), as in the posterior summary: ``k2_q2[-25.240]`` (deg)."""
-    return f"{_ANGLE_PREFIX}{math.degrees(q2):.3f}{_ANGLE_SUFFIX}"
-
-
-def label_angle(name: str) -> float | None:
-    """The q2 (deg) of a per-angle name made by :func:`angle_label`; ``None`` for any other parameter name."""
-    if not (name.startswith(_ANGLE_PREFIX) and name.endswith(_ANGLE_SUFFIX)):
-        return None
-    return float(name[len(_ANGLE_PREFIX) : -len(_ANGLE_SUFFIX)])
+    @property
+    def compensated(self) -> bool:
+        """Whether the model has a compensated joint (per-angle columns), identifiable or not."""
+        return any(label_angle(name) is not None for name in self.names)
 
 
 def analyse(
@@ -166,7 +159,7 @@ def analyse(
     prismatic
         Which joints are prismatic; empty: all revolute.
     """
-    names = [angle_label(q2[a]) if a is not None else f"k{j + 1}" for j, a in columns]
+    names = [angle_label(q2[a], j) if a is not None else f"k{j + 1}" for j, a in columns]
     norms = np.linalg.norm(design, axis=0)
     linear = np.zeros(torque.shape[1], dtype=bool)
     linear[: len(prismatic)] = np.asarray(prismatic, dtype=bool)
@@ -203,17 +196,19 @@ def analyse(
     condition = float(singular.max() / singular.min()) if singular.size else math.inf
     vif = dict(zip([names[i] for i in kept], np.diag(np.linalg.inv(scaled.T @ scaled)))) if kept.size else {}
 
-    # Only the compensated joint's compliance has one column per angle.
+    # Only the compensated joint's compliance has one column per angle; without a compensator no column has
+    # one, and nothing is said about K_c and s0.
+    per_angle_joint = next((j for j, angle in columns if angle is not None), None)
     joint2_angles = sorted({columns[i][1] for i in kept if columns[i][1] is not None})
     compensator = len(joint2_angles) >= _MIN_ANGLES
-    if not compensator:
+    if not compensator and per_angle_joint is not None:
         listed = ", ".join(f"{math.degrees(q2[a]):.2f}" for a in joint2_angles) or "none"
+        j = per_angle_joint + 1
         why = (
-            f"the campaign has {len(joint2_angles)} q2 angle(s) with an identifiable joint-2 compliance "
-            f"({listed} deg); K_theta2^0, K_c and s0*K_c of eq 34 need at least {_MIN_ANGLES}"
+            f"the campaign has {len(joint2_angles)} q{j} angle(s) with an identifiable joint-{j} compliance "
+            f"({listed} deg); K_theta{j}^0, K_c and s0*K_c of eq 34 need at least {_MIN_ANGLES}"
         )
-        per_angle_joint = next((j for j, angle in columns if angle is not None), None)
-        for name in ([f"k{per_angle_joint + 1}"] if per_angle_joint is not None else []) + ["K_c", "s0"]:
+        for name in (f"k{per_angle_joint + 1}", "K_c", "s0"):
             reasons[name] = why
     return Identifiability(
         names=names,
@@ -229,7 +224,7 @@ def analyse(
 def _unloaded_reason(joint: int, angle: int | None, q2, torque, torque_angle, largest: float, prismatic: bool = False) -> str:
     rows = torque[:, joint] if angle is None else torque[torque_angle == angle, joint]
     biggest = float(np.abs(rows).max(initial=0.0))
-    where = "" if angle is None else f" at q2 = {math.degrees(q2[angle]):.2f} deg"
+    where = "" if angle is None else f" at q{joint + 1} = {math.degrees(q2[angle]):.2f} deg"
     # A slide's force (N) is set against the largest force or torque over a 1 m arm (N·m / m) on any joint.
     if prismatic and biggest <= _NO_TORQUE * max(largest, float(np.abs(torque).max(initial=0.0))):
         return (

@@ -14,6 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from bayescal.errors import InputError
+from bayescal.inference.parameters import is_per_angle_variable
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.units import DEG, MM
 
@@ -98,10 +99,11 @@ def posterior_geometry(path, expected: CompensatorGeometry | None = None) -> Geo
         posterior = tree["posterior"]
     except (OSError, KeyError, ValueError) as exc:
         raise InputError(f"cannot read a geometry posterior ({type(exc).__name__})", source=str(path)) from None
-    if "k2_q2" in posterior:
+    per_angle = [str(name) for name in posterior.data_vars if is_per_angle_variable(str(name))]
+    if per_angle:
         tree.close()
         raise InputError(
-            "this is an elastostatic posterior (it has 'k2_q2'); expected the geometry posterior `bayescal geometry --posterior` writes",
+            f"this is an elastostatic posterior (it has '{per_angle[0]}'); expected the geometry posterior `bayescal geometry --posterior` writes",
             source=str(path),
         )
     columns = []

@@ -10,7 +10,8 @@ import pandas as pd
 
 from bayescal.inference.closedform import ClosedForm
 from bayescal.inference.equations import ANGLE_DECIMALS, DeflectionEquations
-from bayescal.inference.identifiability import Identifiability, angle_label
+from bayescal.inference.identifiability import Identifiability
+from bayescal.inference.parameters import COMPLIANCE_UNIT, ParameterRegistry, is_per_angle_variable
 from bayescal.inference.lack_of_fit import LackOfFit
 from bayescal.inference.priors import GeometryPrior
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
@@ -19,20 +20,7 @@ from bayescal.sampling.gibbs import ConditionallyLinear
 from bayescal.sampling.summary import diagnostics
 from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
 
-__all__ = ["ElastostaticResults", "ElastostaticDraws", "parameter_units", "COMPLIANCE_UNIT", "PRISMATIC_COMPLIANCE_UNIT"]
-
-COMPLIANCE_UNIT = "urad/(N m)"
-PRISMATIC_COMPLIANCE_UNIT = "um/N"
-"""A prismatic joint's compliance at the edges (μm/N: the same factor 1e-6 from SI as μrad/(N·m))."""
-"""Unit of the joint compliances at the edges."""
-
-
-def parameter_units(n_joints: int, prismatic: tuple[bool, ...] = ()) -> dict[str, str]:
-    """The reported parameters and their units: ``k1``..``k<n>`` (``k2`` is ``1/K_theta2^0``, joint 2
-    without its compensator), ``K_c`` and ``s0``."""
-    linear = set(np.flatnonzero(prismatic).tolist()) if len(prismatic) else set()
-    units = {f"k{j + 1}": PRISMATIC_COMPLIANCE_UNIT if j in linear else COMPLIANCE_UNIT for j in range(n_joints)}
-    return units | {"K_c": "N/mm", "s0": "mm"}
+__all__ = ["ElastostaticResults", "ElastostaticDraws"]
 
 
 @dataclass(frozen=True)
@@ -103,18 +91,24 @@ class ElastostaticDraws:
         Raises
         ------
         ValueError
-            When the tree's ``k2_q2`` angles or noise groups are not those of ``equations``
-            (the posterior was computed from another campaign or noise model).
+            When the tree's per-angle angles (``k2_q2`` on ``q2_deg`` for the KR-270) or noise groups are not
+            those of ``equations`` (the posterior was computed from another campaign, noise model or cell).
         """
         posterior = tree["posterior"]
+        registry = equations.registry
+        variable, dimension = registry.per_angle_variable, registry.angle_dimension
 
         def values(name: str) -> np.ndarray:
             return np.asarray(posterior[name].values, dtype=float)
 
-        if "k2_q2" not in posterior or "sigma" not in posterior:
-            raise ValueError("the posterior has no 'k2_q2' or 'sigma' variable: it is not an elastostatic posterior")
+        if "sigma" not in posterior or not any(name in posterior for name in registry.names):
+            raise ValueError("the posterior has no joint compliance or no 'sigma' variable: it is not an elastostatic posterior")
+        if variable is not None and variable not in posterior:
+            raise ValueError(f"it lacks the per-angle compliances '{variable}' of the cell's compensated joint")
+        if variable is None and any(is_per_angle_variable(str(name)) for name in posterior.data_vars):
+            raise ValueError("it has per-angle compliances, and the cell has no compensator")
         angles = [f"{v:.3f}" for v in equations.q2 / DEG]
-        saved = [str(v) for v in posterior["q2_deg"].values]
+        saved = [str(v) for v in posterior[dimension].values] if variable is not None else []
         if not set(saved) <= set(angles):
             raise ValueError(f"its q2 angles ({', '.join(saved)} deg) are not the campaign's ({', '.join(angles)} deg)")
         groups = tuple(str(v) for v in posterior["noise_group"].values)
@@ -122,12 +116,13 @@ class ElastostaticDraws:
             raise ValueError(f"its noise groups ({', '.join(groups)}) are not the campaign's ({', '.join(equations.group_names)})")
         chains_draws = values("sigma").shape[:2]
         k2 = np.full((*chains_draws, equations.q2.size), np.nan)
-        k2[..., [angles.index(a) for a in saved]] = values("k2_q2") * URAD_PER_NM
-        names = [f"k{j + 1}" for j in range(equations.n_joints)]
-        compliances = {name: values(name) * URAD_PER_NM for name in names if name in posterior}
+        if saved:
+            k2[..., [angles.index(a) for a in saved]] = values(variable) * URAD_PER_NM
+        joints = [p for p in registry.parameters if p.name.startswith("k")]
+        compliances = {p.name: p.to_si(values(p.name)) for p in joints if p.name in posterior}
         spring = None
         if "K_c" in posterior:
-            spring = np.stack([1.0 / compliances[f"k{equations.joint + 1}"], values("K_c") * N_PER_MM, values("s0") * MM], axis=-1)
+            spring = np.stack([1.0 / compliances[f"k{equations.joint + 1}"], registry["K_c"].to_si(values("K_c")), registry["s0"].to_si(values("s0"))], axis=-1)
         geometry = None
         if "L" in posterior:
             geometry = np.stack([values(name) * factor for name, factor in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG))], axis=-1)
@@ -135,21 +130,28 @@ class ElastostaticDraws:
         return cls(compliances=compliances, spring=spring, k2=k2, sigma=values("sigma") * MM, geometry=geometry, gravity=gravity)
 
     def tree(self, equations: DeflectionEquations):
-        """The draws as a posterior DataTree in edge units (:func:`parameter_units`), ``k2_q2`` with its q2 in degrees."""
+        """The draws as a posterior DataTree in the registry's edge units (:class:`~bayescal.inference.parameters.ParameterRegistry`),
+        the per-angle compliances (``k2_q2`` for the KR-270) on the compensated joint's angle in degrees."""
         from bayescal.sampling.summary import posterior_tree
 
-        values: dict[str, np.ndarray] = {name: value / URAD_PER_NM for name, value in sorted(self.compliances.items())}
-        units = {name: parameter_units(equations.n_joints, equations.prismatic)[name] for name in values}
+        registry = equations.registry
+        values: dict[str, np.ndarray] = {name: registry[name].to_edge(value) for name, value in sorted(self.compliances.items())}
+        units = {name: registry[name].unit for name in values}
+        dims: dict[str, list[str]] = {"sigma": ["noise_group"]}
+        coords: dict[str, list[str]] = {"noise_group": list(equations.group_names)}
         if self.spring is not None:
-            values["K_c"] = self.spring[..., 1] / N_PER_MM
-            values["s0"] = self.spring[..., 2] / MM
-            units |= {"K_c": "N/mm", "s0": "mm"}
-        keep = ~np.all(np.isnan(self.k2), axis=(0, 1))
-        values["k2_q2"] = self.k2[..., keep] / URAD_PER_NM
+            for i, name in ((1, "K_c"), (2, "s0")):
+                values[name] = registry[name].to_edge(self.spring[..., i])
+                units[name] = registry[name].unit
+        variable = registry.per_angle_variable
+        if variable is not None:
+            keep = ~np.all(np.isnan(self.k2), axis=(0, 1))
+            values[variable] = self.k2[..., keep] / URAD_PER_NM
+            units[variable] = COMPLIANCE_UNIT
+            dims[variable] = [registry.angle_dimension]
+            coords[registry.angle_dimension] = [f"{v:.3f}" for v in equations.q2[keep] / DEG]
         values["sigma"] = self.sigma / MM
-        units |= {"k2_q2": "urad/(N m)", "sigma": "mm"}
-        dims = {"k2_q2": ["q2_deg"], "sigma": ["noise_group"]}
-        coords = {"q2_deg": [f"{v:.3f}" for v in equations.q2[keep] / DEG], "noise_group": list(equations.group_names)}
+        units["sigma"] = "mm"
         if self.gravity is not None:
             values["gravity_scale"] = self.gravity
             units["gravity_scale"] = "1"
@@ -167,8 +169,8 @@ class ElastostaticResults:
     Attributes
     ----------
     tree : xarray.DataTree
-        The posterior (edge units, see :func:`parameter_units`; ``k2_q2`` the
-        equivalent joint-2 compliance at each campaign angle, ``sigma`` the noise
+        The posterior (edge units, see :attr:`registry`; ``k2_q2`` (``k<j>_q<j>``) the
+        equivalent compliance of the compensated joint at each campaign angle, ``sigma`` the noise
         per group in mm, and the geometry when it was sampled).
     identifiability : Identifiability
         Structural reasons, and the practical ones found after sampling.
@@ -197,8 +199,8 @@ class ElastostaticResults:
         :meth:`summary`, once computed.
     lack_of_fit : LackOfFit | None
         The lack-of-fit test against the repeats' pure error (None without repeats).
-    joint : int
-        Index (0-based) of the compensated joint, whose compliance is per angle.
+    joint : int or None
+        Index (0-based) of the compensated joint, whose compliance is per angle; None without a compensator.
     prismatic : tuple of bool
         Which joints are prismatic (compliance in μm/N at the edges); empty: all revolute.
     """
@@ -219,15 +221,20 @@ class ElastostaticResults:
     residuals: np.ndarray = field(default_factory=lambda: np.empty((0, 3)), repr=False)
     linear_closed_form: ClosedForm | None = None
     summary_table: pd.DataFrame | None = field(default=None, repr=False)
-    joint: int = DEFAULT_COMPENSATED_JOINT
+    joint: int | None = DEFAULT_COMPENSATED_JOINT
     prismatic: tuple[bool, ...] = ()
     sampler_name: str = "gibbs"
     lack_of_fit: LackOfFit | None = None
 
     @property
+    def registry(self) -> ParameterRegistry:
+        """The identified parameters of this robot: names, units, SI factors (no published values: the cell has them)."""
+        return ParameterRegistry(self.closed_form.compliances.size, self.prismatic, self.joint)
+
+    @property
     def parameter_units(self) -> dict[str, str]:
-        """The reported parameters and their units (:func:`parameter_units` for this robot's joints)."""
-        return parameter_units(self.closed_form.compliances.size, self.prismatic)
+        """The reported parameters and their units at the edges (:attr:`registry`)."""
+        return self.registry.units
 
     def save(self, path) -> None:
         """Write the posterior DataTree to NetCDF at ``path``."""
@@ -329,7 +336,7 @@ class ElastostaticResults:
         exact, linear = self.closed_form, self.linear_closed_form
         pairs: dict[str, tuple[float, float, float]] = {}
         for index, (joint, angle) in enumerate(exact.columns):
-            name = f"k{joint + 1}" if angle is None else angle_label(self.q2[angle])
+            name = f"k{joint + 1}" if angle is None else self.registry.angle_label(self.q2[angle])
             ratio = math.sqrt(linear.cov[index, index] / exact.cov[index, index])
             pairs[name] = (exact.per_angle[index] / URAD_PER_NM, linear.per_angle[index] / URAD_PER_NM, ratio)
         if exact.spring is not None and linear.spring is not None:
@@ -352,8 +359,8 @@ class ElastostaticResults:
     def compliance_draws(self, q2: float, fill: np.ndarray | None = None) -> np.ndarray | None:
         """``(S, nq)`` posterior draws of the compliances (rad/(N·m)) acting at joint angle ``q2``.
 
-        Joint 2's entry is its equivalent compliance at ``q2`` (with the
-        compensator).  A joint the campaign cannot identify takes its value from
+        The compensated joint's entry is its equivalent compliance at ``q2`` (its angle, with
+        the compensator); without a compensator ``q2`` is not used.  A joint the campaign cannot identify takes its value from
         ``fill`` (no uncertainty), or makes the result ``None`` without it;
         ``None`` too when the compensator is not identified and ``q2`` is not a
         campaign angle.
@@ -363,6 +370,9 @@ class ElastostaticResults:
         missing = [j for j in range(n_joints) if j != self.joint and f"k{j + 1}" not in d.compliances]
         if missing and fill is None:
             return None
+        if self.joint is None:
+            columns = [np.full(d.sigma[..., 0].size, fill[j]) if j in missing else d.compliances[f"k{j + 1}"].reshape(-1) for j in range(n_joints)]
+            return np.column_stack(columns)
         if d.spring is not None:
             k2 = self.equivalent_compliance(np.array([q2]))[:, 0]
         else:

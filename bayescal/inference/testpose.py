@@ -137,21 +137,24 @@ def predict_test_pose(
         ``(3,)`` true deflection (simulations): the error is then measured from it.
     """
     q0 = np.asarray(q0, dtype=float)
-    draws = results.compliance_draws(float(q0[results.joint]), fill=nominal_compliances)
+    # Without a compensator no joint's compliance depends on its angle.
+    angle = math.nan if results.joint is None else float(q0[results.joint])
+    draws = results.compliance_draws(angle, fill=nominal_compliances)
     if draws is None:
         return TestPosePrediction(
             deflection=np.empty((0, 3)),
             reference=np.full(3, math.nan),
             rho0=math.nan,
             available=False,
-            reason=_unavailable(results, float(q0[results.joint]), nominal_compliances is None),
+            reason=_unavailable(results, angle, nominal_compliances is None),
         )
     A0 = designs(robot, q0[np.newaxis], np.reshape(point, (1, 3)), np.reshape(wrench0, (1, 6)))[0]
     deflection = deflection_draws(A0[np.newaxis], draws)[0].T
     mean_k = draws.mean(axis=0)
-    if results.model == "exact" and nominal_compensator is not None:
+    if results.model == "exact" and (nominal_compensator is not None or results.joint is None):
         own = mean_k.copy()
-        own[results.joint] = 1.0 / (1.0 / mean_k[results.joint] - nominal_compensator.stiffness(float(q0[results.joint])))
+        if results.joint is not None:
+            own[results.joint] = 1.0 / (1.0 / mean_k[results.joint] - nominal_compensator.stiffness(angle))
         exact = exact_deflections(
             robot,
             q0,

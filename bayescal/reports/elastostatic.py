@@ -26,7 +26,8 @@ from bayescal.output import guard_outputs, write_folder
 from bayescal.cell.plan import read_plan
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.results import ElastostaticResults
-from bayescal.inference.identifiability import grouped, label_angle
+from bayescal.inference.identifiability import grouped
+from bayescal.inference.parameters import ParameterRegistry, label_angle
 from bayescal.inference.testpose import predict_cell_test_pose
 from bayescal.reference import beside_published, width_3sd_pct
 from bayescal.studies.elastostatic_coverage import Truth, fit_against_truth
@@ -45,11 +46,9 @@ from bayescal.studies.sensitivity import assumption_sensitivity
 from bayescal.studies.testpose import true_test_deflection
 from bayescal.tables import markdown_table
 from bayescal.twin.simulator import DigitalTwin
-from bayescal.units import MM, N_PER_MM, UM, URAD_PER_NM
+from bayescal.units import MM, N_PER_MM, UM
 
 __all__ = ["build_report", "main"]
-
-NAMES = ["k1", "k2", "k3", "k4", "k5", "k6", "K_c", "s0"]
 
 REPEATS = 3
 """Repeats of the plan in the report's campaign, the paper's."""
@@ -71,10 +70,10 @@ SECOND_ORDER_DROP = 1.0 / REDUCED**2
 
 
 def _truth(cell: Cell) -> dict[str, float]:
-    values = {f"k{j + 1}": cell.compliances[j] / URAD_PER_NM for j in range(cell.robot.nq)}
-    values["K_c"] = cell.compensator.K_c / N_PER_MM
-    values["s0"] = cell.compensator.s0 / MM
-    return values
+    """The twin's values of the registry's parameters, in their edge units."""
+    registry = ParameterRegistry.of_cell(cell)
+    si = [*cell.compliances, cell.compensator.K_c, cell.compensator.s0]
+    return {p.name: p.to_edge(value) for p, value in zip(registry.parameters, si)}
 
 
 def _signed(value: float) -> str:
@@ -104,6 +103,7 @@ def build_report(
     plan = read_plan(plan_path, cell.robot)
     campaign = DigitalTwin(cell).simulate(plan, REPEATS, np.random.default_rng(seed))
     truth = _truth(cell)
+    names = ParameterRegistry.of_cell(cell).names
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         model = ElastostaticModel.from_cell(cell)
@@ -118,12 +118,12 @@ def build_report(
     practical = results.identifiability.practical
 
     estimates = pd.DataFrame(
-        {name: (parameters[name].get("mean", np.nan), parameters[name].get("sd", np.nan)) for name in NAMES}, index=["mean", "sd"]
+        {name: (parameters[name].get("mean", np.nan), parameters[name].get("sd", np.nan)) for name in names}, index=["mean", "sd"]
     ).T
     paper = beside_published(estimates, "IV")
     comparison = results.linear_vs_exact()
-    comparison = comparison.loc[[n for n in comparison.index if n in NAMES or label_angle(n) is not None], ["shift_in_sd", "sd_ratio"]]
-    sampled = [name for name in NAMES if name in summary.index]
+    comparison = comparison.loc[[n for n in comparison.index if n in names or label_angle(n) is not None], ["shift_in_sd", "sd_ratio"]]
+    sampled = [name for name in names if name in summary.index]
     posterior = summary.loc[sampled, ["mean", "sd"]]
     truth_shift = {name: (truth[name] - posterior.loc[name, "mean"]) / posterior.loc[name, "sd"] for name in sampled}
     sensitivity = assumption_sensitivity(model, campaign, posterior)
@@ -137,7 +137,7 @@ def build_report(
     dl = linear.diagnostics()
     masses = plan.masses(cell.load_mass)
     noise = np.concatenate([cell.tracker.sigma(campaign.p0), cell.tracker.sigma(campaign.p1)]) / UM
-    reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in NAMES}
+    reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in names}
     paper_count = f"the paper's count of {PAPER_EQUATIONS}" if results.n_equations == PAPER_EQUATIONS else f"against the paper's {PAPER_EQUATIONS}"
 
     lines = [

@@ -25,6 +25,7 @@ import pandas as pd
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.inference.equations import deflection_noise
+from bayescal.inference.parameters import label_angle
 from bayescal.inference.results import ElastostaticResults
 from bayescal.inference.testpose import TestPosePrediction
 from bayescal.reference import published, read_paper_reference
@@ -296,12 +297,12 @@ def _parameter_section(page: Page, results: ElastostaticResults, facts: _Facts, 
         caption=(
             "k1..k6 in μrad/(N·m) (k2 without the compensator), K_c in N/mm, s0 in mm; "
             if table_iv is not None
-            else f"k1..k{results.closed_form.compliances.size} in the unit of their row (k{results.joint + 1} without the compensator), "
-            "K_c in N/mm, s0 in mm; "
+            else f"k1..k{results.closed_form.compliances.size} in the unit of their row"
+            + ("; " if results.joint is None else f" (k{results.joint + 1} without the compensator), K_c in N/mm, s0 in mm; ")
         )
         + "not identifiable parameters have no estimate (see the next section)",
     )
-    per_angle = summary.loc[[name for name in summary.index if name.startswith("k2_q2[")]]
+    per_angle = summary.loc[[name for name in summary.index if label_angle(name) is not None]]
     if not per_angle.empty:
         frame = pd.DataFrame(
             {
@@ -309,9 +310,11 @@ def _parameter_section(page: Page, results: ElastostaticResults, facts: _Facts, 
                 "±3σ": 3 * per_angle["sd"].to_numpy(),
                 "±3σ [% of mean]": 300 * (per_angle["sd"] / per_angle["mean"].abs()).to_numpy(),
             },
-            index=pd.Index([f"{float(name[6:-1]):g}" for name in per_angle.index], name="q2 [deg]"),
+            index=pd.Index([f"{label_angle(name):g}" for name in per_angle.index], name=f"q{results.joint + 1} [deg]"),
         )
-        page.table("k2_per_angle", frame, caption="Equivalent joint-2 compliance (with the compensator) at each campaign angle, μrad/(N·m)")
+        page.table(
+            "k2_per_angle", frame, caption=f"Equivalent joint-{results.joint + 1} compliance (with the compensator) at each campaign angle, μrad/(N·m)"
+        )
     page.close()
 
 
@@ -319,10 +322,11 @@ def _identifiability_section(page: Page, results: ElastostaticResults, facts: _F
     page.heading("identifiability", "What the data cannot identify, and why")
     ident = results.identifiability
     page.paragraph(
-        f"Design of eq 30 with one joint-2 column per q2 angle: rank {ident.rank} of {ident.identifiable.size} columns, "
+        ("Design of eq 30 with one column per joint" if results.joint is None else f"Design of eq 30 with one joint-{results.joint + 1} column per q{results.joint + 1} angle")
+        + f": rank {ident.rank} of {ident.identifiable.size} columns, "
         f"condition number {ident.condition_number:.3g} (unit columns)."
     )
-    reasons = {name: reason for name, reason in ident.not_identifiable.items() if not name.startswith("k2_q2[")}
+    reasons = {name: reason for name, reason in ident.not_identifiable.items() if label_angle(name) is None}
     page.record("rank", ident.rank)
     page.record("condition_number", ident.condition_number)
     if reasons:
@@ -387,7 +391,9 @@ def _pairs_section(page: Page, results: ElastostaticResults, seed: int, table_iv
         plot_pairs(draws, reference=reference, reference_label="Table IV", seed=seed),
         "Pairs of K_c, s0, k2 (joint 2 without compensator) and k3, with their correlation ρ; dashed: Table IV."
         if compared
-        else "Pairs of K_c, s0, k2 and k3 (the compensated joint's without its compensator), with their correlation ρ.",
+        else f"Pairs of {', '.join(names)}"
+        + ("" if results.joint is None else f" (k{results.joint + 1} without its compensator)")
+        + ", with their correlation ρ.",
     )
     page.close()
 
@@ -414,6 +420,8 @@ def _residual_section(page: Page, results: ElastostaticResults, table: pd.DataFr
 
 
 def _compensator_section(page: Page, results: ElastostaticResults, cell: Cell) -> None:
+    if cell.compensator is None:
+        return
     page.heading("compensator", "The compensator: η(q2) and joint 2's compliance")
     tree = results.tree["posterior"]
     mean = results.geometry.mean

@@ -22,6 +22,22 @@ explicitly.  In the robot's joint space the compensator acts on joint 2 with
 the generalized force ``-M_c(q2)``: it opposes gravity, which pulls the arm
 toward increasing q2.  Its stiffness contribution ``dM_c/dq2 = K_c a L eta``
 adds to the joint's own stiffness (eq 8).
+
+The spring of eqs 4-9 is the one kind of compensator; it sits on any joint
+(``[compensator] joint`` of the cell) or on none.  Klimchik et al. note that
+the approach "can be evidently applied to other compensator types" (a gas or
+hydraulic balancer).  Another kind is one class beside :class:`Compensator`
+with its two laws in SI, both vectorised over the joint angle:
+``torque(q)``, the generalized force ``M_c(q)`` it takes off the joint
+(N·m), and ``stiffness(q) = dM_c/dq``, what it adds to the joint's stiffness
+(N·m/rad), with ``equivalent_compliance`` and ``own_compliance`` following
+from it as here.  The static equilibria of :mod:`bayescal.robot.stiffness`
+(hence the twin, the exact model, the test pose and ``bayescal compensate``)
+ask only these.  The identification then takes the compensated joint's
+compliance per angle (eq 33) for any kind; separating the kind's own
+parameters from that joint's stiffness, as eq 34 does for ``K_c`` and ``s0``,
+needs the kind's regressor in place of :func:`stiffness_regressor` in
+:mod:`bayescal.inference.likelihood` and :mod:`bayescal.inference.closedform`.
 """
 
 from __future__ import annotations

@@ -25,10 +25,10 @@ from bayescal.cell.plan import Plan
 from bayescal.design.loads import draw_loads
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.exact import scale_masses
+from bayescal.inference.parameters import ParameterRegistry
 from bayescal.sampling.protocol import Sampler
 from bayescal.studies.parallel import seeded_map
 from bayescal.twin.simulator import DigitalTwin
-from bayescal.units import MM, N_PER_MM, URAD_PER_NM
 
 __all__ = ["Truth", "TruthSpread", "elastostatic_coverage", "fit_against_truth", "random_plan"]
 
@@ -132,21 +132,20 @@ def elastostatic_coverage(
 
 def _one_campaign(index: int, rng: np.random.Generator, *, cell, sampler, spread, size, noise_um) -> list[dict]:
     factor = lambda width, n=None: rng.uniform(1.0 - width, 1.0 + width, n)  # noqa: E731
-    truth = Truth(
-        compliances=cell.compliances * factor(spread.compliances, cell.robot.nq),
-        spring=(cell.compensator.K_c * factor(spread.K_c), cell.compensator.s0 * factor(spread.s0)),
-        masses=factor(spread.masses),
-    )
+    compliances = cell.compliances * factor(spread.compliances, cell.robot.nq)
+    # A robot without a compensator has no spring to draw.
+    spring = None if cell.compensator is None else (cell.compensator.K_c * factor(spread.K_c), cell.compensator.s0 * factor(spread.s0))
+    truth = Truth(compliances=compliances, spring=spring, masses=factor(spread.masses))
     return [{"campaign": index} | row for row in fit_against_truth(cell, truth, rng, sampler=sampler, size=size, noise_um=noise_um)]
 
 
 @dataclasses.dataclass(frozen=True)
 class Truth:
     """What the twin simulates where the cell only guesses: joint compliances (rad/(N·m)), the spring
-    ``(K_c (N/m), s0 (m))`` and a factor on every link's mass."""
+    ``(K_c (N/m), s0 (m))`` (None without a compensator) and a factor on every link's mass."""
 
     compliances: np.ndarray
-    spring: tuple[float, float]
+    spring: tuple[float, float] | None
     masses: float = 1.0
 
 
@@ -192,7 +191,7 @@ def fit_against_truth(
         cell,
         robot=scale_masses(cell.robot, truth.masses),
         compliances=truth.compliances,
-        compensator=cell.compensator.geometry.with_spring(*truth.spring),
+        compensator=None if truth.spring is None else cell.compensator.geometry.with_spring(*truth.spring),
         tracker=tracker,
     )
     plan = random_plan(cell, *size[:2], rng)
@@ -207,8 +206,11 @@ def fit_against_truth(
     r_hat = results.diagnostics()["r_hat_max"]
     # hanging masses never turn A1 (k1 stays the config's); loads in any direction do
     first = 0 if not cell.loading.hanging_only else 1
-    values = {f"k{j + 1}": truth.compliances[j] / URAD_PER_NM for j in range(first, cell.robot.nq)}
-    values |= {"K_c": truth.spring[0] / N_PER_MM, "s0": truth.spring[1] / MM, "gravity_scale": truth.masses}
+    registry = ParameterRegistry.of_cell(cell)
+    values = {f"k{j + 1}": registry[f"k{j + 1}"].to_edge(truth.compliances[j]) for j in range(first, cell.robot.nq)}
+    if truth.spring is not None:
+        values |= {"K_c": registry["K_c"].to_edge(truth.spring[0]), "s0": registry["s0"].to_edge(truth.spring[1])}
+    values["gravity_scale"] = truth.masses
     out = []
     for name, value in values.items():
         if name not in summary.index:

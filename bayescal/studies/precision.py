@@ -23,13 +23,13 @@ import pandas as pd
 from bayescal.design.criteria import compliance_chain, nominal_parameters, parameter_names
 from bayescal.cell.config import Cell
 from bayescal.cell.plan import Plan
-from bayescal.inference.identifiability import label_angle
-from bayescal.reference import published_width_pct, width_3sd_pct
+from bayescal.inference.parameters import ParameterRegistry, label_angle
+from bayescal.reference import width_3sd_pct
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.robot.stiffness import compliance_design
 from bayescal.twin.effects import Effect
 from bayescal.twin.simulator import DigitalTwin
-from bayescal.units import DEG, MM, N_PER_MM, UM, URAD_PER_NM
+from bayescal.units import DEG, UM, URAD_PER_NM
 
 if TYPE_CHECKING:
     from bayescal.inference.results import ElastostaticResults
@@ -97,16 +97,16 @@ def design_precision(cell: Cell, plan: Plan, repeats: int = 3) -> pd.DataFrame:
     covariance = np.linalg.inv((weighted * scale).T @ (weighted * scale)) * np.outer(scale, scale)
     sd = np.full(len(names), np.nan)
     sd[usable] = np.sqrt(np.diag(covariance))
-    unit_scale = {name: 1.0 / URAD_PER_NM for name in names if name.startswith("k")} | {"K_c": 1.0 / N_PER_MM, "s0": 1.0 / MM}
-    units = {name: "urad/(N m)" for name in names if name.startswith("k")} | {"K_c": "N/mm", "s0": "mm"}
-    factors = np.array([unit_scale[name] for name in names])
+    parameters = [ParameterRegistry.of_cell(cell)[name] for name in names]
+    factors = np.array([1.0 / p.si_factor for p in parameters])
     return pd.DataFrame(
         {
             "value": truth * factors,
             "sd": sd * factors,
             "width_3sd_pct": width_3sd_pct(truth, sd),
-            "table_iv_pct": [published_width_pct("IV", name) for name in names],
-            "unit": [units[name] for name in names],
+            # The cell's published widths (Table IV for the KR-270); NaN for a cell that names none.
+            "table_iv_pct": [100.0 * p.published[1] / p.published[0] if p.published else np.nan for p in parameters],
+            "unit": [p.unit for p in parameters],
         },
         index=pd.Index(names, name="parameter"),
     )
@@ -235,14 +235,15 @@ def compensator_precision(results: ElastostaticResults, cell: Cell) -> Compensat
         "K_c": width_3sd_pct(Kc, np.sqrt(cov_w[1, 1])),
         "s0": width_3sd_pct(s0, np.sqrt(gradient_s0 @ cov_w @ gradient_s0)),
     }
-    table_iv = {name: published_width_pct("IV", name) for name in width}
+    registry = ParameterRegistry.of_cell(cell)
+    table_iv = {name: 100.0 * registry[name].published[1] / registry[name].published[0] if registry[name].published else np.nan for name in width}
     per_angle = pd.DataFrame(
         {
             "compliance_urad_per_Nm": k2 / URAD_PER_NM,
             "width_3sd_pct": width_3sd_pct(k2, np.sqrt(np.diag(cov_k))),
             "compensator_share_pct": 100.0 * np.abs(compensator.stiffness(results.q2[angles])) * cell.compliances[cell.compensated_joint],
         },
-        index=pd.Index([label_angle(joint2[a]) for a in angles], name="q2_deg"),
+        index=pd.Index([label_angle(joint2[a]) for a in angles], name=registry.angle_dimension),
     )
     spring = pd.DataFrame(
         {

@@ -18,7 +18,7 @@ import pandas as pd
 from bayescal.cell.campaign import Campaign
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.exact import scale_masses
-from bayescal.units import MM, N_PER_MM, URAD_PER_NM
+from bayescal.inference.parameters import ParameterRegistry
 
 __all__ = ["ASSUMPTION_FACTORS", "assumption_sensitivity"]
 
@@ -29,9 +29,10 @@ ASSUMPTION_FACTORS = (0.8, 1.2)
 def _closed_form(model: ElastostaticModel, campaign: Campaign) -> dict[str, float]:
     """The closed-form estimates in the paper's units (μrad/(N·m), N/mm, mm)."""
     estimate, _ = model.estimate(campaign)
-    values = {f"k{j + 1}": estimate.compliances[j] / URAD_PER_NM for j in range(len(estimate.compliances))}
+    registry = ParameterRegistry(len(estimate.compliances), compensated_joint=model.compensated_joint)
+    values = {f"k{j + 1}": registry[f"k{j + 1}"].to_edge(estimate.compliances[j]) for j in range(len(estimate.compliances))}
     if estimate.spring is not None:
-        values |= {"K_c": estimate.spring[1] / N_PER_MM, "s0": estimate.spring[2] / MM}
+        values |= {"K_c": registry["K_c"].to_edge(estimate.spring[1]), "s0": registry["s0"].to_edge(estimate.spring[2])}
     return values
 
 

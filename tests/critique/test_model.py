@@ -138,14 +138,14 @@ def _robot_campaign(data_dir, name, seed):
     return cell, DigitalTwin(truth).simulate(random_plan(cell, 5, 4, rng), 2, rng)
 
 
-@pytest.mark.parametrize("name", ["arm7", "arm6_j3", "track_arm6"])
+@pytest.mark.parametrize("name", ["arm7", "arm6", "arm6_j3", "track_arm6"])
 def test_a_test_robot_without_an_effect_is_adequate(data_dir, name):
     cell, campaign = _robot_campaign(data_dir, name, 0)
     assert Critique(cell).run(campaign).verdict == "adequate"
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["arm7", "arm6_j3", "track_arm6"])
+@pytest.mark.parametrize("name", ["arm7", "arm6", "arm6_j3", "track_arm6"])
 def test_a_test_robot_without_an_effect_is_adequate_in_at_least_95_percent_of_40_seeds(data_dir, name):
     verdicts = [Critique(cell).run(campaign).verdict for cell, campaign in (_robot_campaign(data_dir, name, seed) for seed in range(40))]
     assert verdicts.count("adequate") >= 38
