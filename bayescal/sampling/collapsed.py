@@ -12,10 +12,9 @@ leaves a density of the few coordinates ``x = [z, log sigma]`` alone::
 
 whose cost does not depend on the number of equations (the per-group sums are
 precomputed).  :class:`CollapsedSampler` draws ``x`` by independence
-Metropolis-Hastings: a Student-t proposal at the mode with its Laplace
-covariance, refitted to the pooled draws of short pilot runs, every proposal
-of every chain drawn and its density evaluated in one batch before the chains
-run; then ``k`` given each kept ``x`` from its Gaussian conditional, for all
+Metropolis-Hastings: a mixture of Student-t proposals fitted to a short pilot
+run and refined by importance weights, every proposal of every chain drawn
+and its density evaluated in one batch before the chains run; then ``k`` given each kept ``x`` from its Gaussian conditional, for all
 draws at once.  Python-level work is a loop of vectorised accept decisions
 over the steps, so the cost per draw is a few microseconds.
 
@@ -31,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bayescal.sampling.gibbs import ConditionallyLinear, GibbsSampler, _positive_gaussian
-from bayescal.sampling.independence import _run_chains, laplace
+from bayescal.sampling.independence import _run_chains
 
 __all__ = ["CollapsedSampler", "MarginalDensity"]
 
@@ -42,10 +41,6 @@ EFFECTIVE_PER_PARAMETER = 4.0
 """Effective weighted points per coordinate that each fitted mixture component needs."""
 UNDERSAMPLED_WIDEN = 2.0
 """Widening of a proposal whose weighted points were too few to refit it: the posterior reaches past it."""
-INITIAL_WIDEN = 3.0
-"""Scale of the first proposal over the Laplace sd: the mode's curvature understates a spring the data barely
-determine (on Table III, s0's posterior sd is three times its Laplace sd), and importance weights from a too
-narrow proposal leave almost no effective points."""
 MIN_COMPONENT_MASS = 1e-3
 """Weight below which a mixture component is taken as empty and keeps its previous shape."""
 
@@ -211,9 +206,9 @@ class CollapsedSampler:
     Honours the sampler protocol: ``sample(target, start, scale, rng)``; the
     target must be a :class:`~bayescal.sampling.gibbs.ConditionallyLinear` model.
 
-    The proposal starts as a Student t at the mode with its Laplace covariance
-    and is adapted by population Monte Carlo: each round draws ``n_adapt``
-    points from it, weighs them by posterior over proposal density and fits a
+    The proposal starts as a mixture of ``components[0]`` t's fitted to the pooled
+    draws of a short pilot and is adapted by population Monte Carlo: each further
+    round draws ``n_adapt`` points from it, weighs them by posterior over proposal density and fits a
     mixture of ``components[i]`` Gaussians to the weighted points by EM, whose
     covariances, widened, become the scales of the next mixture of t's.  A
     mixture follows a posterior that is skewed or bounded (a spring that the
@@ -280,8 +275,7 @@ class CollapsedSampler:
         start
             A parameter vector near the posterior mode (e.g. the closed-form estimate).
         scale
-            Typical posterior sd of each parameter; the entries of ``z`` and ``log sigma``
-            set the steps of the search for the mode.
+            Typical posterior sd of each parameter, for the pilot's search for the mode.
         rng
             Source of all randomness.
         """
@@ -291,12 +285,12 @@ class CollapsedSampler:
         density = MarginalDensity(target)
         start = np.asarray(start, dtype=float)
         scale = np.broadcast_to(np.asarray(scale, dtype=float), start.shape)
-        x0, unit = start[p:], np.where(scale[p:] > 0, scale[p:], 1.0)
-        if not np.isfinite(density(x0)):
+        if not np.isfinite(density(start[p:])):
             raise ValueError("the posterior is not finite at the start: start the chains inside the support")
         pilot = GibbsSampler(n_chains=self.pilot_chains, n_tune=self.pilot_sweeps, n_draws=self.pilot_sweeps).sample(target, start, scale, rng)
         pooled = pilot[:, :, p:].reshape(-1, start.size - p)
-        proposal = _Mixture.single(pooled.mean(axis=0), np.linalg.cholesky(np.cov(pooled, rowvar=False)), self.dof)
+        # The pilot's draws weigh alike; the single t they start from is the fallback should EM fail on them.
+        proposal = _Mixture.single(pooled.mean(axis=0), self.widen * np.linalg.cholesky(np.cov(pooled, rowvar=False)), self.dof)
         proposal = proposal.refit(pooled, np.zeros(pooled.shape[0]), self.components[0], self.widen)
         for components in self.components[1:]:
             points = proposal.draw(self.n_adapt, rng)
@@ -307,14 +301,6 @@ class CollapsedSampler:
         index = _run_chains(log_weight, np.log(rng.uniform(size=(self.n_chains, steps))))
         x = np.take_along_axis(points.reshape(self.n_chains, steps, -1), index[..., None], axis=1)[:, self.n_tune :]
         return np.concatenate([self._linear(density, x, rng), x], axis=2)
-
-    def _laplace(self, density: MarginalDensity, x0: np.ndarray, unit: np.ndarray) -> _Mixture:
-        """A t at the mode with its Laplace covariance; ``unit`` around the start where that fails (a support edge)."""
-        try:
-            center, covariance = laplace(density, x0, unit)
-            return _Mixture.single(center, INITIAL_WIDEN * np.linalg.cholesky(covariance), self.dof)
-        except (ValueError, np.linalg.LinAlgError):
-            return _Mixture.single(x0, INITIAL_WIDEN * np.diag(unit), self.dof)
 
     @staticmethod
     def _linear(density: MarginalDensity, x: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -22,3 +22,25 @@ def test_each_item_gets_its_own_stream_in_order():
     assert len(set(draws)) == 3
     first_two = seeded_map(noisy_sum, [0, 0], 1, executor=ThreadPoolExecutor(), scale=1.0)
     assert first_two == draws[:2]
+
+
+def test_a_study_on_a_dask_cluster_gives_the_process_pools_table(data_dir):
+    """A plan study run on a local dask.distributed cluster (worker processes) equals the process pool's, seed for seed."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    import pytest
+
+    distributed = pytest.importorskip("distributed")
+    from bayescal.cell.config import load_cell
+    from bayescal.cell.plan import read_plan
+    from bayescal.studies.plans import simulate_plan
+
+    cell = load_cell(data_dir / "kr270.toml")
+    plan = read_plan(data_dir / "table3_plan.csv", cell.robot)
+    with ProcessPoolExecutor(max_workers=2) as pool:
+        pooled = simulate_plan(cell, plan, campaigns=4, seed=3, executor=pool)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as client:
+            clustered = simulate_plan(cell, plan, campaigns=4, seed=3, executor=client.get_executor())
+    np.testing.assert_array_equal(clustered["errors"], pooled["errors"])
+    np.testing.assert_array_equal(clustered["parameter_errors"], pooled["parameter_errors"])
