@@ -31,10 +31,11 @@ def read_campaign_in_base(args: argparse.Namespace, path: str, cell):
     Campaign, Cell, CampaignTransfer or None
     """
     from bayescal.cell.campaign import read_campaign
-    from bayescal.registration.transfer import read_registered_campaign
 
     if not args.registration:
         return read_campaign(path, cell=cell), cell, None
+    from bayescal.registration.transfer import read_registered_campaign
+
     transfer, moved = read_registered_campaign(path, cell, args.registration)
     return transfer.campaign, moved, transfer
 
@@ -47,10 +48,12 @@ def read_arcs_in_paper_frame(args: argparse.Namespace, path: str):
     MarkerPoints, ArcTransfer or None
     """
     from bayescal.geometry.arcs import read_arc_points
-    from bayescal.registration.transfer import read_registered_arcs
 
     if not args.registration:
         return read_arc_points(path), None
+    # Only now: the registration brings Pinocchio and SciPy, which the geometry command otherwise never loads.
+    from bayescal.registration.transfer import read_registered_arcs
+
     transfer = read_registered_arcs(path, args.registration)
     return transfer.points, transfer
 

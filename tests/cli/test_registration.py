@@ -62,10 +62,19 @@ def _identified(payload) -> dict[str, dict]:
     return {name: entry for name, entry in payload["parameters"].items() if "mean" in entry}
 
 
+def _calibrate_registered(files, run) -> dict:
+    """Calibrate the tracker-frame campaign with its registration, once per module (the posterior kept for the report)."""
+    posterior = files / "calibration.nc"
+    if not posterior.exists():
+        status, out, _ = run("calibrate", files / "tracker.csv", "--config", CONFIG, "--registration", files / "reg.json",
+                             "--posterior", posterior, *QUICK)
+        assert status == 0
+        (files / "calibration.json").write_text(out)
+    return json.loads((files / "calibration.json").read_text())
+
+
 def test_calibrate_in_the_tracker_frame_matches_the_base_frame(files, run):
-    status, out, _ = run("calibrate", files / "tracker.csv", "--config", CONFIG, "--registration", files / "reg.json", *QUICK)
-    assert status == 0
-    registered = json.loads(out)
+    registered = _calibrate_registered(files, run)
     status, out, _ = run("calibrate", files / "base.csv", "--config", CONFIG, *QUICK)
     base = _identified(json.loads(out))
     assert registered["registration"]["frame"] == "base"
@@ -116,3 +125,16 @@ def test_review_refuses_another_commands_json_as_registration(files, run, tmp_pa
     wrong.write_text('{"verdict": "adequate", "causes": [], "evidence": {}, "gain": {}}')
     status, _, error = run("report", "--registration", wrong, "-o", tmp_path / "report")
     assert status == 2 and "bayescal axes -o" in error and not (tmp_path / "report").exists()
+
+
+def test_review_of_a_registered_calibration(files, run, tmp_path):
+    _calibrate_registered(files, run)
+    status, _, error = run("report", "--calibration", files / "calibration.nc", "--campaign", files / "tracker.csv",
+                           "--config", CONFIG, "--registration", files / "reg.json", "-o", tmp_path / "report")
+    assert status == 0, error
+    numbers = json.loads((tmp_path / "report" / "numbers.json").read_text())
+    assert "registration" in numbers and "parameters" in numbers
+    # Without the registration the same calibration does not fit the tracker-frame campaign, and the report says so.
+    status, _, error = run("report", "--calibration", files / "calibration.nc", "--campaign", files / "tracker.csv",
+                           "--config", CONFIG, "-o", tmp_path / "other")
+    assert status == 2 and len(error.splitlines()) == 1

@@ -16,16 +16,16 @@ from bayescal.studies.sweep_critique import FOUND_AS, HOME_DEG, _as_sweeps, fals
 from bayescal.twin.independent.sweeps import SweepEffect, independent_sweeps
 from bayescal.twin.sweeps import random_placement
 
-DETECTION_MAGNITUDE = {"gear_ratio": 3.0, "transmission": 3.0, "wobble": 3.0, "range_offset": 30.0}
+DETECTION_MAGNITUDE = {"gear_ratio": 1.0, "transmission": 3.0, "wobble": 3.0, "range_offset": 300.0}
 """Multiples of each effect's default size at which it is stated to be found (docs/registration.md)."""
 
 
-def _critique(cell, effect, magnitude, seed):
-    """The critique of joint 2's sweep alone (the fast tests' time), from the independent generator."""
+def _critique(cell, effect, magnitude, seed, joint=1):
+    """The critique of one joint's sweep alone (0-based ``joint``; the fast tests' time), from the independent generator."""
     rng = np.random.default_rng(seed)
     placement = random_placement(rng)
     planted = SweepEffect.draw(effect, magnitude, rng) if effect else None
-    table = independent_sweeps(cell, placement, rng, home_deg=HOME_DEG, effect=planted, joints=(1,))
+    table = independent_sweeps(cell, placement, rng, home_deg=HOME_DEG, effect=planted, joints=(joint,))
     return critique_sweeps(_as_sweeps(table), replace(cell.tracker, position=np.zeros(3)))
 
 
@@ -36,9 +36,9 @@ def test_clean_independent_sweeps_are_adequate(cell):
     assert "not_a_candidate" in result.to_json()
 
 
-@pytest.mark.parametrize("effect", ["gear_ratio", "wobble"])
-def test_a_planted_effect_is_named_first_with_its_gain(cell, effect):
-    result = _critique(cell, effect, 2 * DETECTION_MAGNITUDE[effect], seed=4)
+@pytest.mark.parametrize(("effect", "joint"), [("gear_ratio", 1), ("transmission", 1), ("wobble", 0)])
+def test_a_planted_effect_is_named_first_with_its_gain(cell, effect, joint):
+    result = _critique(cell, effect, 2 * DETECTION_MAGNITUDE[effect], seed=4, joint=joint)
     assert result.verdict == "misfit"
     first = {c.causes[0] for c in result.joints.values() if c.causes}
     assert FOUND_AS[effect] in first
@@ -48,7 +48,7 @@ def test_a_planted_effect_is_named_first_with_its_gain(cell, effect):
 
 @pytest.mark.slow
 def test_no_false_alarm_in_95_percent_of_clean_independent_sweeps(cell):
-    table = sweep_critique_study(cell, 100, generator="independent", seed=7)
+    table = sweep_critique_study(cell, 100, generator="independent")
     assert false_alarms(table) <= 0.05
 
 
