@@ -148,11 +148,16 @@ def _backlash(rows: Rows, cell: Cell) -> np.ndarray:
     light tool unloaded keeps the side the last load took it to, and only a load
     that pushes it the other way shows the lost motion.  Where a joint's torque
     always leaves the band the two forms are one column, and the fit keeps one.
+    A pose to predict (a test pose, a plan's candidate) is taken as a repeat: with
+    memory, a joint whose unloaded torque stays within the band does not move.
     """
     width = BACKLASH_PRELOAD * np.abs(rows.load_torque).max(axis=0)
     width = np.where(width > 0, width, 1.0)
     change = np.tanh((rows.static_torque + rows.load_torque) / width) - np.tanh(rows.static_torque / width)
-    remembered = np.where((rows.marker == PREDICTED_MARKER)[:, np.newaxis], change, _remembered_change(rows, width))
+    # A pose to predict has no order of measurement: with memory it is taken as a repeat, whose joints
+    # move only where the unloaded torque leaves the band, and a plan does not count on the others.
+    steady = np.where(np.abs(rows.static_torque) > width, change, 0.0)
+    remembered = np.where((rows.marker == PREDICTED_MARKER)[:, np.newaxis], steady, _remembered_change(rows, width))
     return np.concatenate([rows.point_jacobian * change[:, np.newaxis, :], rows.point_jacobian * remembered[:, np.newaxis, :]], axis=2)
 
 
