@@ -123,7 +123,7 @@ def _side_by_side(findings: DetectionFindings) -> list[str]:
         f"campaign k of each case is seeded {INDEPENDENT_FIRST_SEED} + k; {findings.seconds.get('independent', 0.0):.0f} s. "
         "\"right\": the planted family named first, or in a tie with the first, or `unexplained` for an effect outside the "
         "catalogue, or `adequate` without an effect; \"wrong alone\": a wrong first cause tied with nothing; \"lack of fit\": "
-        f"the repeats' F test rejecting the final model at {LACK_OF_FIT_SIZE_LEVEL:g} (its size on the `none` row). The issue asks "
+        f"the repeats' F test rejecting the calibration's model at {LACK_OF_FIT_SIZE_LEVEL:g} (its size on the `none` row, its power on the others). The issue asks "
         "for misfit ≥ 95 %, right ≥ 90 %, wrong alone ≤ 5 % and, without an effect, adequate ≥ 95 %.",
         "",
         "| family | twin: named first at its default | twin: misfit | independent effect | campaigns | misfit | right | wrong alone | lack of fit |",

@@ -18,7 +18,8 @@ def _findings(**changes):
         {"effect": ["none", "none", "gear_play", "gear_play"], "magnitude": [0.0, 0.0, 1.0, 1.0], "seed": [9000, 9001, 9000, 9001],
          "expected": ["adequate", "adequate", "backlash", "backlash"], "verdict": ["adequate", "misfit", "misfit", "misfit"],
          "causes": ["", "unexplained", "backlash", "outliers"], "tied_with": ["", "", "", ""], "right": [True, False, True, False],
-         "wrong_single": [False, True, False, True], "lof_p": [0.5, 0.001, 0.2, 0.01]}
+         "wrong_single": [False, True, False, True], "lof_p": [0.5, 0.001, 0.2, 0.01],
+         "classical_lof_p": [0.5, 0.001, 0.01, 0.01]}
     )
     values = dict(config="data/kr270.toml", plan="data/table3_plan.csv", twin=twin, other_plans={}, independent=independent,
                   seconds={"twin": 1.0, "independent": 2.0}, settings={"n_seeds": 1, "n_null": 1, "n_independent": 2, "repeats": 3, "seed": 0})
@@ -31,7 +32,7 @@ def test_the_report_renders_power_thresholds_false_alarms_and_both_generators_si
     assert "- `backlash`: 0.015 deg (the twin's default: 0.015)" in text
     assert "False alarms: 0 % of 1 campaigns without any effect were called a misfit." in text
     assert "| none | — | 0 % | `none` | 2 | 50 % | 50 % | 50 % | 50 % |" in text
-    assert "| backlash | 100 % | 100 % | `gear_play` | 2 | 100 % | 50 % | 50 % | 50 % |" in text
+    assert "| backlash | 100 % | 100 % | `gear_play` | 2 | 100 % | 50 % | 50 % | 100 % |" in text
 
 
 def test_a_plan_for_an_unknown_effect_is_refused(capsys):
