@@ -22,7 +22,7 @@ from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.robot.stiffness import ElasticArm, EquilibriumError
 
-__all__ = ["Rows", "campaign_rows", "pose_rows", "measured_pose", "predicted_pose", "wrench_at_pose", "COVARIATES"]
+__all__ = ["Rows", "PREDICTED_MARKER", "campaign_rows", "pose_rows", "measured_pose", "predicted_pose", "wrench_at_pose", "COVARIATES"]
 
 POSE_MIN_MARKERS = 3
 """Markers needed to fix the tool's pose (position and orientation)."""
@@ -41,6 +41,9 @@ over the markers' spacing (3 mm over 115 mm: 26 mrad)."""
 POSE_MAX_SAG = 0.15
 """Largest sag (rad, about 9 deg) accepted between commanded and measured pose; beyond it the
 markers are not where the cell file puts them and the commanded pose is used."""
+
+PREDICTED_MARKER = "test"
+"""The marker name of rows built for a prediction (:func:`pose_rows`): poses not measured in sequence."""
 
 COVARIATES = {
     "q2": "the joint-2 angle",
@@ -325,6 +328,6 @@ def pose_rows(cell: Cell, q, wrench, point, config=None) -> Rows:
         np.zeros((n, 3)),
         np.zeros(n, dtype=int) if config is None else np.asarray(config, dtype=int),
         np.ones(n, dtype=int),
-        np.full(n, "test"),
+        np.full(n, PREDICTED_MARKER),
         np.ones(n),
     )

@@ -21,7 +21,9 @@ parameters where the physics allows:
 ``backlash``
     Each joint's link moves by a lost motion ``δ_j`` toward the sign of the torque
     it carries: the deflection gains ``δ_j (sign τ_loaded - sign τ_unloaded)``, the
-    sign smoothed over :data:`BACKLASH_PRELOAD` of the joint's largest load torque.
+    sign smoothed over :data:`BACKLASH_PRELOAD` of the joint's largest load torque;
+    and the same with memory (a joint whose torque stays within that band keeps the
+    side the previous state left it at, in the order of measurement).
 ``nonlinear_stiffness``
     Each joint's deflection law gains a term in ``τ|τ|`` (a spring that stiffens
     or softens with torque), the torque being the weight's and the load's.
@@ -42,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bayescal.cell.config import Cell
-from bayescal.critique.covariates import COVARIATES, Rows
+from bayescal.critique.covariates import COVARIATES, PREDICTED_MARKER, Rows
 
 __all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "OUTLIER_DOF"]
 
@@ -137,10 +139,46 @@ def _tool_compliance(rows: Rows, cell: Cell) -> np.ndarray:
 
 
 def _backlash(rows: Rows, cell: Cell) -> np.ndarray:
+    """Lost motion per joint in its two first-order forms: without and with memory (2·nq columns).
+
+    Without memory the joint sits at the side its torque pushes it to in every
+    state.  With memory (gears held in their play by friction) a joint whose
+    torque stays within the band does not move: it keeps the side the previous
+    state left it at, in the order of measurement, so that a wrist carrying a
+    light tool unloaded keeps the side the last load took it to, and only a load
+    that pushes it the other way shows the lost motion.  Where a joint's torque
+    always leaves the band the two forms are one column, and the fit keeps one.
+    A pose to predict (a test pose, a plan's candidate) is taken as a repeat: with
+    memory, a joint whose unloaded torque stays within the band does not move.
+    """
     width = BACKLASH_PRELOAD * np.abs(rows.load_torque).max(axis=0)
     width = np.where(width > 0, width, 1.0)
     change = np.tanh((rows.static_torque + rows.load_torque) / width) - np.tanh(rows.static_torque / width)
-    return rows.point_jacobian * change[:, np.newaxis, :]
+    # A pose to predict has no order of measurement: with memory it is taken as a repeat, whose joints
+    # move only where the unloaded torque leaves the band, and a plan does not count on the others.
+    steady = np.where(np.abs(rows.static_torque) > width, change, 0.0)
+    remembered = np.where((rows.marker == PREDICTED_MARKER)[:, np.newaxis], steady, _remembered_change(rows, width))
+    return np.concatenate([rows.point_jacobian * change[:, np.newaxis, :], rows.point_jacobian * remembered[:, np.newaxis, :]], axis=2)
+
+
+def _remembered_change(rows: Rows, width: np.ndarray) -> np.ndarray:
+    """(N, nq) change of each joint's side (-1 to 1) from the unloaded to the loaded reading, with memory.
+
+    A joint's side follows its torque beyond ``width`` (smoothed as the memoryless
+    form) and otherwise stays where the previous state left it; the states run
+    unloaded, loaded, for each repeat of each configuration in the order of
+    measurement.  The first state's side is taken from its torque alone.
+    """
+    order = rows.order
+    first = np.unique(order, return_index=True)[1]
+    side = np.tanh(rows.static_torque[first[0]] / width)
+    loaded_side, unloaded_side = np.empty((first.size, width.size)), np.empty((first.size, width.size))
+    for k, i in enumerate(first):
+        for state, torque in ((unloaded_side, rows.static_torque[i]), (loaded_side, rows.static_torque[i] + rows.load_torque[i])):
+            push = np.tanh(torque / width)
+            side = np.where(np.abs(torque) > width, push, side)
+            state[k] = side
+    return (loaded_side - unloaded_side)[np.searchsorted(np.unique(order), order)]
 
 
 def _nonlinear_stiffness(rows: Rows, cell: Cell) -> np.ndarray:

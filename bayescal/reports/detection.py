@@ -1,31 +1,40 @@
 """The critique's detection power: how strong each catalogue effect must be to be named, and the false-alarm rate.
 
-Run ``python -m bayescal.reports.detection --config data/kr270.toml --plan
-data/table3_plan.csv -o reports/detection.md`` to regenerate
-``reports/detection.md``; every number in it is computed in that run by
-:func:`~bayescal.studies.detection.detection_power` (and, with ``--geometry
-POINTS.csv``, :func:`~bayescal.studies.geometry_critique.geometry_detection`).
-``--plan-for EFFECT=PLAN.csv`` studies an effect on another plan (one that can
-resolve it) as well.
+:func:`render_report` renders the findings of
+:func:`~bayescal.studies.detection.detection_findings` (the twin's detection
+power, the independent generator's campaigns side by side with it, and with
+``--geometry POINTS.csv`` the geometry critique's); it computes nothing.
+``python -m bayescal.reports.detection --config data/kr270.toml --plan
+data/table3_plan.csv -o reports/detection.md`` runs the studies and writes the
+report (``make reports``); ``--plan-for EFFECT=PLAN.csv`` studies an effect on
+another plan (one that can resolve it) as well.
 """
 
 from __future__ import annotations
 
 import argparse
-import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from bayescal.studies.detection import detection_power, markdown_table, power_threshold
-from bayescal.twin.effects import EFFECTS
-from bayescal.units import DEG
 from bayescal.output import guard_outputs, write_atomically
+from bayescal.studies.detection import (
+    INDEPENDENT_FIRST_SEED,
+    LACK_OF_FIT_SIZE_LEVEL,
+    DetectionFindings,
+    detection_findings,
+    independent_rates,
+    markdown_table,
+    power_threshold,
+)
+from bayescal.twin.effects import EFFECTS as TWIN_EFFECTS
+from bayescal.twin.independent import EFFECTS as INDEPENDENT_EFFECT_NAMES
+from bayescal.units import DEG
 
-__all__ = ["MAGNITUDES", "render_report", "main"]
+__all__ = ["MAGNITUDES", "GEOMETRY_MAGNITUDES", "render_report", "main"]
 
 MAGNITUDES: dict[str, tuple[float, ...]] = {
     "compensator": (5.0, 10.0, 20.0, 30.0, 50.0),
@@ -49,24 +58,17 @@ GEOMETRY_MAGNITUDES: dict[str, tuple[float, ...]] = {
 ``lever_bending`` is outside its catalogue."""
 
 
-def _geometry_section(points_path: str, executor, n_seeds: int, n_null: int, seed: int) -> list[str]:
-    from bayescal.geometry.arcs import CompensatorGeometryModel, MarkerLayout, read_arc_points
-    from bayescal.studies.geometry_critique import geometry_detection
-
-    points = read_arc_points(points_path)
-    layout = MarkerLayout.from_fit(CompensatorGeometryModel().fit(points), points)
-    angles = np.unique(points.q2)
-    began = time.perf_counter()
-    table = geometry_detection(layout, angles, GEOMETRY_MAGNITUDES, n_seeds=n_seeds, n_null=n_null, seed=seed, executor=executor)
-    seconds = time.perf_counter() - began
+def _geometry_section(findings: DetectionFindings) -> list[str]:
+    table, points = findings.geometry, findings.geometry_points
     header = "| effect | magnitude | unit | campaigns | first cause | named | misfit | unexplained |"
     lines = [
-        f"## The geometry critique on `{Path(points_path).name}`'s angles",
+        f"## The geometry critique on `{Path(points).name}`'s angles",
         "",
-        f"`bayescal critique --geometry` on marker points simulated with the layout fitted to `{points_path}` at its "
-        f"{angles.size} angles with Table I's noise, each effect planted in its own physical terms "
-        f"(`bayescal.studies.geometry_critique`); {n_seeds} campaigns per effect and magnitude, {n_null} without an "
-        f"effect; {seconds:.0f} s. `lever_bending` is outside the catalogue: it should come out `unexplained`.",
+        f"`bayescal critique --geometry` on marker points simulated with the layout fitted to `{points}` at its "
+        f"{findings.geometry_angles} angles with Table I's noise, each effect planted in its own physical terms "
+        f"(`bayescal.studies.geometry_critique`); {findings.settings['n_seeds']} campaigns per effect and magnitude, "
+        f"{findings.settings['n_null']} without an effect; {findings.seconds['geometry']:.0f} s. `lever_bending` is outside "
+        "the catalogue: it should come out `unexplained`.",
         "",
         header,
         "|---|---|---|---|---|---|---|---|",
@@ -95,8 +97,8 @@ def _section(title: str, plan: str, table: pd.DataFrame, seconds: float, n_seeds
         "",
     ]
     for name, magnitude in thresholds.items():
-        default = EFFECTS[name].default
-        found = "not reached at any magnitude tried" if magnitude is None else f"{magnitude:g} {EFFECTS[name].unit}"
+        default = TWIN_EFFECTS[name].default
+        found = "not reached at any magnitude tried" if magnitude is None else f"{magnitude:g} {TWIN_EFFECTS[name].unit}"
         lines.append(f"- `{name}`: {found} (the twin's default: {default:g})")
     null = table[table["effect"] == "none"]
     if len(null):
@@ -108,22 +110,42 @@ def _section(title: str, plan: str, table: pd.DataFrame, seconds: float, n_seeds
     return lines + [""]
 
 
-def render_report(
-    config: str,
-    plan: str,
-    *,
-    magnitudes: Mapping[str, Sequence[float]] = MAGNITUDES,
-    other_plans: Mapping[str, str] | None = None,
-    geometry_points: str | None = None,
-    n_seeds: int = 20,
-    n_null: int = 40,
-    repeats: int = 3,
-    seed: int = 0,
-    workers: int | None = None,
-) -> str:
-    """The Markdown report: one table on ``plan`` for every effect, one per effect of ``other_plans`` on its own plan,
-    and, with ``geometry_points`` (a Table-I-style CSV), one of the geometry critique at those points' angles."""
-    other_plans = dict(other_plans or {})
+def _side_by_side(findings: DetectionFindings) -> list[str]:
+    """Power and false alarms of each cause family on the twin (its default magnitude) and on the independent generator."""
+    twin = findings.twin
+    rates = independent_rates(findings.independent)
+    lines = [
+        "## Side by side: the twin and the independent generator",
+        "",
+        "The critique's rules and thresholds were set on the twin; the independent generator "
+        "(`bayescal.twin.independent`, `docs/independent.md`) writes its effects apart from the catalogue, draws its truths "
+        "unlike the cell file and measures random plans of 6 q2 angles × 5 configurations × 3 repeats, 200-300 kg; "
+        f"campaign k of each case is seeded {INDEPENDENT_FIRST_SEED} + k; {findings.seconds.get('independent', 0.0):.0f} s. "
+        "\"right\": the planted family named first, or in a tie with the first, or `unexplained` for an effect outside the "
+        "catalogue, or `adequate` without an effect; \"wrong alone\": a wrong first cause tied with nothing; \"lack of fit\": "
+        f"the repeats' F test rejecting the calibration's model at {LACK_OF_FIT_SIZE_LEVEL:g} (its size on the `none` row, its power on the others). The issue asks "
+        "for misfit ≥ 95 %, right ≥ 90 %, wrong alone ≤ 5 % and, without an effect, adequate ≥ 95 %.",
+        "",
+        "| family | twin: named first at its default | twin: misfit | independent effect | campaigns | misfit | right | wrong alone | lack of fit |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for row in rates.itertuples():
+        family = "none" if row.effect == "none" else INDEPENDENT_EFFECT_NAMES[row.effect].cause or "unexplained"
+        at_default = twin[twin["effect"] == family]
+        if family in TWIN_EFFECTS:
+            at_default = at_default[np.isclose(at_default["magnitude"], TWIN_EFFECTS[family].default)]
+        first = f"{100 * at_default['found_first'].iloc[0]:.0f} %" if len(at_default) and family != "none" else "—"
+        misfit = f"{100 * at_default['misfit'].iloc[0]:.0f} %" if len(at_default) else "—"
+        lines.append(
+            f"| {family} | {first} | {misfit} | `{row.effect}` | {row.n} | {100 * row.misfit:.0f} % | {100 * row.right:.0f} % "
+            f"| {100 * row.wrong_single:.0f} % | {100 * row.lack_of_fit:.0f} % |"
+        )
+    return lines + [""]
+
+
+def render_report(findings: DetectionFindings) -> str:
+    """The Markdown report of ``findings`` (:func:`~bayescal.studies.detection.detection_findings`): rendering only."""
+    settings = findings.settings
     lines = [
         "# Detection power of the critique",
         "",
@@ -131,21 +153,15 @@ def render_report(
         "is run on each, never told what was planted (`bayescal.studies.detection`). \"first cause\": the planted effect "
         "named first; \"named\": named at any step; \"misfit\": any cause named. The row `none` has no effect: its "
         "\"misfit\" column is the false-alarm rate. Generated by `python -m bayescal.reports.detection` "
-        f"with `--config {config}`, root seed {seed}.",
+        f"with `--config {findings.config}`, root seed {settings['seed']}.",
         "",
     ]
-    with ProcessPoolExecutor(workers) as executor:
-        began = time.perf_counter()
-        table = detection_power(config, plan, magnitudes, n_seeds=n_seeds, n_null=n_null, repeats=repeats, seed=seed, executor=executor)
-        lines += _section(f"All effects on `{Path(plan).name}`", plan, table, time.perf_counter() - began, n_seeds, repeats)
-        for name, path in other_plans.items():
-            began = time.perf_counter()
-            table = detection_power(
-                config, path, {name: magnitudes[name]}, n_seeds=n_seeds, n_null=n_null, repeats=repeats, seed=seed, executor=executor
-            )
-            lines += _section(f"`{name}` on `{Path(path).name}`", path, table, time.perf_counter() - began, n_seeds, repeats)
-        if geometry_points is not None:
-            lines += _geometry_section(geometry_points, executor, n_seeds, n_null, seed)
+    lines += _side_by_side(findings)
+    lines += _section(f"All effects on `{Path(findings.plan).name}`", findings.plan, findings.twin, findings.seconds["twin"], settings["n_seeds"], settings["repeats"])
+    for name, (path, table) in findings.other_plans.items():
+        lines += _section(f"`{name}` on `{Path(path).name}`", path, table, findings.seconds[name], settings["n_seeds"], settings["repeats"])
+    if findings.geometry is not None:
+        lines += _geometry_section(findings)
     return "\n".join(lines)
 
 
@@ -166,20 +182,26 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("-o", "--output", required=True)
     parser.add_argument("--seeds", type=int, default=20, help="campaigns per effect and magnitude")
     parser.add_argument("--null", type=int, default=40, help="campaigns without an effect")
+    parser.add_argument("--independent", type=int, default=40, help="campaigns of the independent generator per effect and without one")
     parser.add_argument("--workers", type=int, default=None)
     args = parser.parse_args(argv)
     inputs = {"the config": args.config, "the plan": args.plan, "the --geometry points": args.geometry}
     inputs |= {f"the {effect} plan": path for effect, path in args.plan_for}
     guard_outputs(inputs, {"--output": args.output})
-    text = render_report(
-        args.config,
-        args.plan,
-        other_plans=dict(args.plan_for),
-        geometry_points=args.geometry,
-        n_seeds=args.seeds,
-        n_null=args.null,
-        workers=args.workers,
-    )
+    with ProcessPoolExecutor(args.workers) as executor:
+        findings = detection_findings(
+            args.config,
+            args.plan,
+            MAGNITUDES,
+            other_plans=dict(args.plan_for),
+            geometry_points=args.geometry,
+            geometry_magnitudes=GEOMETRY_MAGNITUDES,
+            n_seeds=args.seeds,
+            n_null=args.null,
+            n_independent=args.independent,
+            executor=executor,
+        )
+    text = render_report(findings)
     write_atomically("--output", args.output, lambda path: path.write_text(text, encoding="utf-8"))
 
 

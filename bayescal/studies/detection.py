@@ -1,5 +1,7 @@
 """How strong an effect must be for the critique to name it: detection power against magnitude, and false alarms.
 
+On the digital twin and on the independent generator.
+
 :func:`detection_power` plants each effect of the digital twin at several
 magnitudes in campaigns of a plan, runs :class:`~bayescal.critique.Critique`
 on each (never told which effect was planted), and tabulates how often the
@@ -8,19 +10,57 @@ false-alarm rate.  The campaigns of one seed index share their random numbers
 across magnitudes, and every campaign's seed is spawned from one
 :class:`numpy.random.SeedSequence`, so the table does not depend on the
 number of workers.
+
+:func:`independent_detection` runs the same critique on campaigns of the
+independent generator (:mod:`bayescal.twin.independent`: its own equilibrium,
+truths drawn unlike the cell, effects in forms of its own), whose rules were
+never set on it; :func:`independent_rates` sums them up against the issue's
+thresholds, with the lack-of-fit test's size and power.  :func:`detection_findings`
+gathers everything ``reports/detection.md`` renders.
 """
 
 from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping, Sequence
-from concurrent.futures import Executor
+from concurrent.futures import Executor, ProcessPoolExecutor
+from dataclasses import dataclass, field
 from os import PathLike
 
 import numpy as np
 import pandas as pd
 
-__all__ = ["detection_power", "power_threshold", "markdown_table"]
+__all__ = [
+    "detection_power",
+    "power_threshold",
+    "markdown_table",
+    "INDEPENDENT_EFFECTS",
+    "INDEPENDENT_FIRST_SEED",
+    "independent_detection",
+    "independent_rates",
+    "DetectionFindings",
+    "detection_findings",
+]
+
+INDEPENDENT_EFFECTS: dict[str, float] = {
+    "link_beams": 1.0,
+    "tool_mount": 1.0,
+    "gear_play": 1.0,
+    "knee_joints": 1.0,
+    "los_jumps": 1.0,
+    "thermal_drift": 1.0,
+    "random_field": 1.0,
+}
+"""The independent generator's effects measured, at their default magnitudes, where their lack of fit is
+significant (docs/critique.md).  Left out: ``stiff_spring`` (3.8 μm at its default), ``load_rehang``
+(11 μm) and ``tracker_scale`` (no deflection campaign can see a scale error)."""
+
+INDEPENDENT_FIRST_SEED = 9000
+"""Seed of the first campaign of each case: campaign ``k`` is seeded ``INDEPENDENT_FIRST_SEED + k``
+(a plan of :func:`~bayescal.twin.independent.random_plan`, then the generator, from one generator)."""
+
+LACK_OF_FIT_SIZE_LEVEL = 0.05
+"""Level at which the lack-of-fit test's size and power are counted."""
 
 
 def _one(effects: tuple[str, ...], rng: np.random.Generator, cell, plan, repeats: int) -> list[str]:
@@ -125,3 +165,193 @@ def markdown_table(table: pd.DataFrame) -> str:
             f"| {100 * row.found:.0f} % | {100 * row.misfit:.0f} % |"
         )
     return "\n".join(lines)
+
+
+def _independent_one(case: tuple, rng: np.random.Generator, cell) -> dict:
+    """The critique of one campaign of the independent generator (a task of :func:`~bayescal.studies.parallel.seeded_map`)."""
+    from bayescal.critique import Critique
+    from bayescal.twin.independent import IndependentGenerator, random_plan
+
+    effect, magnitude, seed = case
+    campaign, truth = IndependentGenerator(cell, rng).simulate(random_plan(cell, rng), 3, effect, magnitude)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        result = Critique(cell).run(campaign)
+        # the calibration model's own lack of fit, before any extension: the test's size and power
+        classical = Critique(cell, catalogue=(), probes=()).run(campaign).lack_of_fit
+    causes = list(result.causes)
+    first = causes[0] if causes else None
+    expected = truth.expected
+    tie = result.tied_with.get(first, []) if first else []
+    if expected == "adequate":
+        right = not causes
+    elif expected == "unexplained":
+        right = "unexplained" in causes
+    else:
+        right = first == expected or expected in tie
+    lof = result.lack_of_fit
+    return {
+        "effect": effect or "none",
+        "magnitude": magnitude,
+        "seed": seed,
+        "expected": expected,
+        "verdict": result.verdict,
+        "causes": ",".join(causes),
+        "tied_with": ";".join(f"{k}:{'+'.join(v)}" for k, v in result.tied_with.items()),
+        "right": right,
+        "wrong_single": bool(causes) and not right and not tie,
+        "lof_p": np.nan if lof is None else float(lof.p_value),
+        "classical_lof_p": np.nan if classical is None else float(classical.p_value),
+    }
+
+
+def independent_detection(
+    config: str | PathLike[str],
+    effects: Mapping[str, float] = INDEPENDENT_EFFECTS,
+    *,
+    n_seeds: int = 40,
+    n_null: int = 40,
+    first_seed: int = INDEPENDENT_FIRST_SEED,
+    executor: Executor | None = None,
+) -> pd.DataFrame:
+    """The critique's verdict on campaigns of the independent generator, one row per campaign.
+
+    Parameters
+    ----------
+    config
+        The cell TOML around which the generator draws its truths.
+    effects
+        Effect name to its magnitude (a multiple of the effect's default).
+    n_seeds, n_null
+        Campaigns per effect, and without any effect.
+    first_seed
+        Campaign ``k`` of every case is seeded ``first_seed + k``.
+    executor
+        Runs the campaigns; default a :class:`concurrent.futures.ProcessPoolExecutor`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``effect, magnitude, seed, expected, verdict, causes, tied_with, right, wrong_single, lof_p``:
+        ``right`` when the first cause is the planted family or ties with it, when an effect
+        outside the catalogue is called ``unexplained``, or when a campaign without an effect is
+        adequate; ``wrong_single`` a misfit whose first cause is wrong and tied with nothing;
+        ``lof_p`` the lack-of-fit test's p-value against the repeats for the final model,
+        ``classical_lof_p`` for the calibration's model alone (no extension).
+    """
+    from bayescal.cell.config import load_cell
+    from bayescal.studies.parallel import seeded_map
+
+    cases = [(None, 0.0, n_null)] + [(name, float(magnitude), n_seeds) for name, magnitude in effects.items()]
+    tasks = [(name, magnitude, first_seed + k) for name, magnitude, n in cases for k in range(n)]
+    # campaign k of every case draws from the generator seeded first_seed + k, whatever the executor
+    streams = [np.random.SeedSequence(seed) for _, _, seed in tasks]
+    return pd.DataFrame.from_records(seeded_map(_independent_one, tasks, streams, executor=executor, cell=load_cell(config)))
+
+
+def independent_rates(table: pd.DataFrame) -> pd.DataFrame:
+    """Per effect (``none`` first): campaigns, and the fractions misfit, right, wrong single cause, and the calibration
+    model's lack of fit at :data:`LACK_OF_FIT_SIZE_LEVEL` (its size on ``none``, its power on the effects)."""
+    rows = []
+    for effect, group in table.groupby("effect", sort=False):
+        rows.append(
+            {
+                "effect": effect,
+                "expected": group["expected"].iloc[0],
+                "n": len(group),
+                "misfit": float(np.mean(group["verdict"] == "misfit")),
+                "right": float(np.mean(group["right"])),
+                "wrong_single": float(np.mean(group["wrong_single"])),
+                "lack_of_fit": float(np.mean(group["classical_lof_p"] < LACK_OF_FIT_SIZE_LEVEL)),
+            }
+        )
+    return pd.DataFrame.from_records(rows)
+
+
+@dataclass(frozen=True)
+class DetectionFindings:
+    """Everything ``reports/detection.md`` says, computed once.
+
+    Attributes
+    ----------
+    config, plan : str
+        The cell and the twin's plan.
+    twin : pandas.DataFrame
+        :func:`detection_power` on ``plan``.
+    other_plans : dict
+        Effect name to ``(plan path, its detection_power table)``.
+    independent : pandas.DataFrame
+        :func:`independent_detection`'s campaigns.
+    geometry : pandas.DataFrame or None
+        The geometry critique's detection table, with ``geometry_points`` and ``geometry_angles``.
+    seconds : dict
+        Wall time of each part.
+    settings : dict
+        Seeds, campaign counts and repeats.
+    """
+
+    config: str
+    plan: str
+    twin: pd.DataFrame
+    other_plans: dict
+    independent: pd.DataFrame
+    geometry: pd.DataFrame | None = None
+    geometry_points: str | None = None
+    geometry_angles: int = 0
+    seconds: dict = field(default_factory=dict)
+    settings: dict = field(default_factory=dict)
+
+
+def detection_findings(
+    config: str,
+    plan: str,
+    magnitudes: Mapping[str, Sequence[float]],
+    *,
+    other_plans: Mapping[str, str] | None = None,
+    geometry_points: str | None = None,
+    geometry_magnitudes: Mapping[str, Sequence[float]] | None = None,
+    independent_effects: Mapping[str, float] = INDEPENDENT_EFFECTS,
+    n_seeds: int = 20,
+    n_null: int = 40,
+    n_independent: int = 40,
+    repeats: int = 3,
+    seed: int = 0,
+    executor: Executor | None = None,
+) -> DetectionFindings:
+    """Run every study of ``reports/detection.md`` (twin, other plans, geometry, independent generator)."""
+    import time
+
+    own = executor is None
+    executor = executor or ProcessPoolExecutor()
+    seconds: dict[str, float] = {}
+    try:
+        began = time.perf_counter()
+        twin = detection_power(config, plan, magnitudes, n_seeds=n_seeds, n_null=n_null, repeats=repeats, seed=seed, executor=executor)
+        seconds["twin"] = time.perf_counter() - began
+        others = {}
+        for name, path in (other_plans or {}).items():
+            began = time.perf_counter()
+            others[name] = (
+                path,
+                detection_power(config, path, {name: magnitudes[name]}, n_seeds=n_seeds, n_null=n_null, repeats=repeats, seed=seed, executor=executor),
+            )
+            seconds[name] = time.perf_counter() - began
+        geometry, angles = None, 0
+        if geometry_points is not None:
+            from bayescal.geometry.arcs import CompensatorGeometryModel, MarkerLayout, read_arc_points
+            from bayescal.studies.geometry_critique import geometry_detection
+
+            began = time.perf_counter()
+            points = read_arc_points(geometry_points)
+            layout = MarkerLayout.from_fit(CompensatorGeometryModel().fit(points), points)
+            angles = np.unique(points.q2)
+            geometry = geometry_detection(layout, angles, geometry_magnitudes or {}, n_seeds=n_seeds, n_null=n_null, seed=seed, executor=executor)
+            seconds["geometry"], angles = time.perf_counter() - began, angles.size
+        began = time.perf_counter()
+        independent = independent_detection(config, independent_effects, n_seeds=n_independent, n_null=n_independent, executor=executor)
+        seconds["independent"] = time.perf_counter() - began
+    finally:
+        if own:
+            executor.shutdown()
+    settings = {"n_seeds": n_seeds, "n_null": n_null, "n_independent": n_independent, "repeats": repeats, "seed": seed}
+    return DetectionFindings(str(config), str(plan), twin, others, independent, geometry, geometry_points, angles, seconds, settings)

@@ -104,3 +104,25 @@ def test_an_any_direction_cell_gets_force_columns_and_evaluates_them(main, tmp_p
     err = capsys.readouterr().err.strip()
     assert "not straight down" in err or "applies none" in err
     assert "\n" not in err
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (["--criterion", "discriminate", "--between", "backlash,gremlins", "--campaign", PLAN], "--between: unknown candidate 'gremlins'"),
+        (["--criterion", "discriminate", "--between", "backlash,backlash", "--campaign", PLAN], "--between: expected two different candidates"),
+        (["--criterion", "discriminate", "--between", "backlash,nonlinear_stiffness"], "go together with --criterion discriminate"),
+        (["--between", "backlash,nonlinear_stiffness", "--campaign", PLAN], "go together with --criterion discriminate"),
+    ],
+)
+def test_a_discriminating_request_without_its_pair_or_campaign_exits_2_with_one_line(main, tmp_path, capsys, options, message, twin_campaign):
+    if "--campaign" in options:
+        from bayescal.cell.campaign import write_campaign
+
+        campaign = tmp_path / "tie.csv"
+        write_campaign(twin_campaign(("backlash=0.002",), seed=0), campaign)
+        options = [str(campaign) if value == PLAN else value for value in options]
+    assert main(["plan", "--config", CONFIG, "-o", str(tmp_path / "plan.csv")] + options) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "\n" not in err and err.startswith("bayescal plan: error:")
+    assert not (tmp_path / "plan.csv").exists()

@@ -1,19 +1,38 @@
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 from bayescal.reports.detection import main, render_report
+from bayescal.studies.detection import DetectionFindings
 
 DATA = Path(__file__).resolve().parents[2] / "data"
 
 
-def test_the_report_tabulates_power_thresholds_and_false_alarms():
-    text = render_report(
-        str(DATA / "kr270.toml"), str(DATA / "table3_plan.csv"), magnitudes={"backlash": [0.015]}, n_seeds=1, n_null=1, workers=1
+def _findings(**changes):
+    twin = pd.DataFrame(
+        {"effect": ["none", "backlash"], "magnitude": [0.0, 0.015], "unit": ["", "deg"], "n": [1, 1],
+         "found_first": [0.0, 1.0], "found": [0.0, 1.0], "misfit": [0.0, 1.0]}
     )
+    independent = pd.DataFrame(
+        {"effect": ["none", "none", "gear_play", "gear_play"], "magnitude": [0.0, 0.0, 1.0, 1.0], "seed": [9000, 9001, 9000, 9001],
+         "expected": ["adequate", "adequate", "backlash", "backlash"], "verdict": ["adequate", "misfit", "misfit", "misfit"],
+         "causes": ["", "unexplained", "backlash", "outliers"], "tied_with": ["", "", "", ""], "right": [True, False, True, False],
+         "wrong_single": [False, True, False, True], "lof_p": [0.5, 0.001, 0.2, 0.01],
+         "classical_lof_p": [0.5, 0.001, 0.01, 0.01]}
+    )
+    values = dict(config="data/kr270.toml", plan="data/table3_plan.csv", twin=twin, other_plans={}, independent=independent,
+                  seconds={"twin": 1.0, "independent": 2.0}, settings={"n_seeds": 1, "n_null": 1, "n_independent": 2, "repeats": 3, "seed": 0})
+    return DetectionFindings(**(values | changes))
+
+
+def test_the_report_renders_power_thresholds_false_alarms_and_both_generators_side_by_side():
+    text = render_report(_findings())
     assert "| backlash | 0.015 | deg | 1 | 100 % | 100 % | 100 % |" in text
     assert "- `backlash`: 0.015 deg (the twin's default: 0.015)" in text
     assert "False alarms: 0 % of 1 campaigns without any effect were called a misfit." in text
+    assert "| none | — | 0 % | `none` | 2 | 50 % | 50 % | 50 % | 50 % |" in text
+    assert "| backlash | 100 % | 100 % | `gear_play` | 2 | 100 % | 50 % | 50 % | 100 % |" in text
 
 
 def test_a_plan_for_an_unknown_effect_is_refused(capsys):
@@ -23,11 +42,13 @@ def test_a_plan_for_an_unknown_effect_is_refused(capsys):
     assert "expected EFFECT=PLAN.csv" in capsys.readouterr().err
 
 
-def test_the_geometry_section_studies_the_geometry_critique_at_the_points_angles(monkeypatch):
-    import bayescal.reports.detection as report
-
-    monkeypatch.setattr(report, "GEOMETRY_MAGNITUDES", {"joint_scale": (0.004,)})
-    lines = report._geometry_section(str(DATA / "table1_geometry.csv"), None, n_seeds=1, n_null=1, seed=0)
-    text = "\n".join(lines)
+def test_the_geometry_section_renders_the_geometry_critique_at_the_points_angles():
+    table = pd.DataFrame(
+        {"effect": ["none", "joint_scale"], "magnitude": [0.0, 0.004], "unit": ["", ""], "campaigns": [1, 1],
+         "first_cause": [0.0, 1.0], "named": [0.0, 1.0], "misfit": [0.0, 1.0], "unexplained": [0.0, 0.0]}
+    )
+    findings = _findings(geometry=table, geometry_points=str(DATA / "table1_geometry.csv"), geometry_angles=6,
+                         seconds={"twin": 1.0, "independent": 2.0, "geometry": 3.0})
+    text = render_report(findings)
     assert "at its 6 angles" in text
     assert "| none | 0 |  | 1 |" in text and "| joint_scale | 0.004 |  | 1 | 100 % |" in text

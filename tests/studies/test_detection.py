@@ -4,7 +4,14 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from bayescal.studies.detection import detection_power, markdown_table, power_threshold
+from bayescal.studies.detection import (
+    INDEPENDENT_EFFECTS,
+    detection_power,
+    independent_detection,
+    independent_rates,
+    markdown_table,
+    power_threshold,
+)
 
 DATA = Path(__file__).resolve().parents[2] / "data"
 
@@ -31,3 +38,27 @@ def test_planted_effects_are_found_first_at_their_tested_magnitudes():
     # outliers at 1 % of the readings sit at the edge of detection (90 % in docs/critique.md)
     assert found.pop("outliers") >= 0.8
     assert all(fraction >= 0.9 for fraction in found.values()), found
+
+
+def test_the_independent_generator_campaign_without_effect_is_adequate_and_a_beam_is_named():
+    # a fast look at two campaigns (seed 9000); the rates are the slow tests' below
+    with ThreadPoolExecutor(1) as executor:
+        table = independent_detection(DATA / "kr270.toml", {"link_beams": 1.0}, n_seeds=1, n_null=1, executor=executor)
+    assert table["effect"].tolist() == ["none", "link_beams"]
+    assert table["right"].all(), table.to_string()
+    rates = independent_rates(table)
+    assert rates["right"].tolist() == [1.0, 1.0] and rates["wrong_single"].tolist() == [0.0, 0.0]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("effect", ["none", *INDEPENDENT_EFFECTS])
+def test_on_40_campaigns_of_the_independent_generator_the_issue_thresholds_hold(effect):
+    # misfit >= 95 %, right >= 90 %, a wrong single cause <= 5 %; without an effect adequate >= 95 % and the
+    # lack-of-fit test's size at 5 % within binomial error of 5 % (at most 4 of 40: 5 % + 2 sd)
+    effects = {} if effect == "none" else {effect: INDEPENDENT_EFFECTS[effect]}
+    table = independent_detection(DATA / "kr270.toml", effects, n_seeds=40, n_null=40 if effect == "none" else 0)
+    rates = independent_rates(table).set_index("effect").loc[effect]
+    if effect == "none":
+        assert rates["right"] >= 0.95 and rates["lack_of_fit"] <= 0.1, table.to_string()
+    else:
+        assert rates["misfit"] >= 0.95 and rates["right"] >= 0.9 and rates["wrong_single"] <= 0.05, table.to_string()

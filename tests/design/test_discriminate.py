@@ -1,0 +1,46 @@
+"""Tests of bayescal/design/discriminate.py: plans that separate two candidates of the critique."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bayescal.design.constraints import load_design_space
+from bayescal.design.discriminate import DiscriminatingDesigner, separation
+from bayescal.design.optimise import PlanDesigner
+from bayescal.errors import InputError
+
+
+def test_separation_is_zero_for_a_rival_that_spans_the_candidate_and_half_the_residual_norm_otherwise():
+    rng = np.random.default_rng(0)
+    base, a = rng.normal(size=(40, 2)), rng.normal(size=(40, 1))
+    b_same = np.column_stack([a[:, 0] * 2.0 + base[:, 0]])
+    Z = np.hstack([base, a, b_same])
+    blocks = (slice(0, 2), slice(2, 3), slice(3, 4))
+    nats = separation(Z.T @ Z, blocks, np.array([1.5]), np.array([0.5]))
+    assert nats == pytest.approx([0.0, 0.0], abs=1e-6)
+    b_other = rng.normal(size=(40, 1))
+    Z = np.hstack([base, a, b_other])
+    nats = separation(Z.T @ Z, blocks, np.array([1.5]), np.array([0.5]))
+    rival = np.hstack([base, b_other])
+    residual = 1.5 * a[:, 0] - rival @ np.linalg.lstsq(rival, 1.5 * a[:, 0], rcond=None)[0]
+    assert nats[0] == pytest.approx(0.5 * residual @ residual, rel=1e-6)
+
+
+def test_the_plan_separates_a_tied_pair_far_better_than_the_tied_campaign(cell, twin_campaign):
+    # an eighth of the twin's default lost motion on Table III, where nonlinear stiffness explains it about as well
+    tied = twin_campaign(("backlash=0.002",), seed=0)
+    space = load_design_space(cell, mass_range=(50.0, 280.0))
+    design = DiscriminatingDesigner(cell, ("backlash", "nonlinear_stiffness"), tied, space).optimise(5, 3, 0, starts=1, candidates_per_angle=2)
+    assert len(design.plan) == 15 and len(np.unique(np.round(design.plan.q[:, 1], 6))) == 5
+    assert design.planned.worst > 3 * design.campaign.worst, design.to_json()
+    assert np.all((design.plan.load_kg >= 50.0) & (design.plan.load_kg <= 280.0))
+    assert PlanDesigner(cell, space, model="linear").violations(design.plan) == []
+    payload = design.to_json()
+    assert payload["between"] == ["backlash", "nonlinear_stiffness"] and payload["planned"]["worst_nats"] == pytest.approx(design.planned.worst, abs=1e-3)
+
+
+@pytest.mark.parametrize("between", [("backlash", "backlash"), ("backlash", "outliers"), ("backlash",)])
+def test_a_pair_that_is_not_two_different_physical_candidates_is_an_input_error(cell, twin_campaign, between):
+    with pytest.raises(InputError):
+        DiscriminatingDesigner(cell, between, twin_campaign((), seed=0))
