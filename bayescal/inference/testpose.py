@@ -24,6 +24,7 @@ import numpy as np
 from bayescal.cell.config import Cell
 from bayescal.robot.compensator import Compensator
 from bayescal.inference.exact import exact_deflections
+from bayescal.inference.parameters import COMPLIANCE_UNIT
 from bayescal.inference.results import ElastostaticResults
 from bayescal.robot.kinematics import Robot
 from bayescal.compensation.spread import deflection_draws, designs, error_quantiles
@@ -49,7 +50,9 @@ class TestPosePrediction:
         Why not, when not available.
     assumed : dict
         Compliances the campaign does not identify, held at their nominal value
-        (rad/(N·m)); their uncertainty is not in the prediction.
+        (rad/(N·m), m/N for a prismatic joint); their uncertainty is not in the prediction.
+    units : dict
+        The edge unit of each of ``assumed`` (the parameter registry's).
     """
 
     __test__ = False  # not a pytest test class despite its name
@@ -60,6 +63,7 @@ class TestPosePrediction:
     available: bool = True
     reason: str = ""
     assumed: dict = field(default_factory=dict)
+    units: dict = field(default_factory=dict)
 
     @property
     def errors(self) -> np.ndarray:
@@ -71,7 +75,11 @@ class TestPosePrediction:
         if not self.available:
             return {"available": False, "reason": self.reason}
         assumed = {
-            name: {"value": value / URAD_PER_NM, "unit": "urad/(N m)", "note": "not identifiable from the campaign: held at the config's value"}
+            name: {
+                "value": value / URAD_PER_NM,
+                "unit": self.units.get(name, COMPLIANCE_UNIT),
+                "note": "not identifiable from the campaign: held at the config's value",
+            }
             for name, value in self.assumed.items()
         }
         mean = self.deflection.mean(axis=0)
@@ -174,7 +182,8 @@ def predict_test_pose(
         for j in range(draws.shape[1])
         if j != results.joint and f"k{j + 1}" not in results.draws.compliances
     }
-    return TestPosePrediction(deflection=deflection, reference=reference, rho0=rho0, assumed=assumed)
+    units = {name: results.registry[name].unit for name in assumed}
+    return TestPosePrediction(deflection=deflection, reference=reference, rho0=rho0, assumed=assumed, units=units)
 
 
 def predict_cell_test_pose(results: ElastostaticResults, cell: Cell, *, truth: np.ndarray | None = None) -> TestPosePrediction:
@@ -204,7 +213,8 @@ def _unavailable(results: ElastostaticResults, q2: float, no_fill: bool) -> str:
     if missing and no_fill:
         names = ", ".join(missing)
         return f"{names} not identified by the campaign ({reasons.get(missing[0], 'not sampled')}) and no nominal value given"
+    j = results.joint + 1
     return (
-        f"joint 2's compliance at the test pose's q2 = {math.degrees(q2):.2f} deg needs the compensator model, "
+        f"joint {j}'s compliance at the test pose's q{j} = {math.degrees(q2):.2f} deg needs the compensator model, "
         f"and K_c is not identifiable: {reasons.get('K_c', 'not sampled')}"
     )

@@ -30,7 +30,7 @@ from bayescal.sampling.protocol import Sampler
 from bayescal.studies.parallel import seeded_map
 from bayescal.twin.simulator import DigitalTwin
 
-__all__ = ["Truth", "TruthSpread", "elastostatic_coverage", "fit_against_truth", "random_plan"]
+__all__ = ["Truth", "TruthSpread", "elastostatic_coverage", "fit_against_truth", "independent_coverage", "random_plan"]
 
 LIMIT_MARGIN = 0.1
 """Fraction of each joint's range kept clear of its limits when drawing configurations."""
@@ -227,4 +227,52 @@ def fit_against_truth(
                 "r_hat": r_hat,
             }
         )
+    return out
+
+
+def independent_coverage(
+    cell: Cell,
+    campaigns: int,
+    seed: int,
+    *,
+    angles: int = 6,
+    per_angle: int = 5,
+    repeats: int = 3,
+    executor: Executor | None = None,
+) -> pd.DataFrame:
+    """Truth against posterior for campaigns of :mod:`bayescal.twin.independent`, written apart from the model.
+
+    Each campaign draws its truth (compliances, spring, link masses), its tool and its
+    anisotropic tracker noise from the independent generator, on its own random plan of
+    masses over the cell's ``[design] mass_kg`` range (its calibration mass when it gives
+    none), and is identified with the model of the unchanged cell.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per campaign and joint compliance the fit reports identifiable: ``campaign``,
+        ``parameter``, ``truth``, ``mean``, ``sd`` (edge units) and ``z`` = (truth - mean) / sd.
+    """
+    rows = seeded_map(_independent_campaign, range(campaigns), seed, executor=executor, cell=cell, size=(angles, per_angle, repeats))
+    return pd.DataFrame([row for campaign in rows for row in campaign])
+
+
+def _independent_campaign(index: int, rng: np.random.Generator, *, cell: Cell, size: tuple[int, int, int]) -> list[dict]:
+    from bayescal.twin.independent.generator import IndependentGenerator
+    from bayescal.twin.independent.plans import random_plan as independent_plan
+
+    cell = dataclasses.replace(cell, robot=cell.robot.copy())
+    masses = cell.design.mass_range or (cell.load_mass, cell.load_mass)
+    plan = independent_plan(cell, rng, angles=size[0], per_angle=size[1], mass_kg=masses)
+    campaign, truth = IndependentGenerator(cell, rng).simulate(plan, size[2])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        results = ElastostaticModel.from_cell(cell).fit(campaign, rng)
+    summary, reasons, registry = results.summary(), results.identifiability.not_identifiable, ParameterRegistry.of_cell(cell)
+    out = []
+    for j, value in enumerate(truth.world.compliances):
+        name = f"k{j + 1}"
+        if name in summary.index and name not in reasons:
+            true, mean, sd = registry[name].to_edge(value), summary.loc[name, "mean"], summary.loc[name, "sd"]
+            out.append({"campaign": index, "parameter": name, "truth": true, "mean": mean, "sd": sd, "z": (true - mean) / sd})
     return out

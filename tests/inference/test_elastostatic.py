@@ -366,3 +366,51 @@ def test_default_calibration_converges_on_misspecified_campaigns(cell, twin_camp
         results, _ = _fit_recording(ElastostaticModel.from_cell(cell, extensions=EXTENSIONS), campaign, seed)
         report = results.diagnostics()
         assert converged(report), (seed, report)
+
+
+def _robot_fit(data_dir, name, seed=3):
+    """A cell of data/robots/, a random campaign of it on the twin and its fit."""
+    from bayescal.cell.config import load_cell
+    from bayescal.studies.elastostatic_coverage import random_plan
+
+    robot_cell = load_cell(data_dir / "robots" / f"{name}.toml")
+    rng = np.random.default_rng(seed)
+    robot_campaign = DigitalTwin(robot_cell).simulate(random_plan(robot_cell, 4, 3, rng), 2, rng)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return robot_cell, robot_campaign, ElastostaticModel.from_cell(robot_cell, **SMALL).fit(robot_campaign, 1)
+
+
+def test_a_robot_without_a_compensator_has_one_constant_compliance_per_joint(data_dir, tmp_path):
+    from bayescal.inference.elastostatic import restore_results
+    from bayescal.sampling.summary import load
+
+    robot_cell, robot_campaign, fitted = _robot_fit(data_dir, "arm6")
+    summary = fitted.summary()
+    assert [name for name in summary.index if name.startswith("k")] == ["k2", "k3", "k4", "k5", "k6"]
+    assert set(fitted.parameters()) == {f"k{j}" for j in range(1, 7)}
+    assert fitted.identifiability.names == [f"k{j}" for j in range(1, 7)] and not fitted.identifiability.compensated
+    assert not any(name in fitted.identifiability.not_identifiable for name in ("K_c", "s0"))
+    assert "K_c" not in fitted.identifiability.to_json()["rule"]
+    for j in range(1, 6):
+        row = summary.loc[f"k{j + 1}"]
+        assert row["lo3"] <= robot_cell.compliances[j] / URAD_PER_NM <= row["hi3"], (j, row)
+    with pytest.raises(ValueError, match="compensator"):
+        fitted.equivalent_compliance(np.radians([0.0]))
+    # The saved posterior restores to the same summary, and a compensated cell refuses it.
+    fitted.save(tmp_path / "arm6.nc")
+    restored = restore_results(robot_cell, robot_campaign, load(tmp_path / "arm6.nc"))
+    np.testing.assert_allclose(restored.summary()["mean"], summary["mean"])
+    from bayescal.cell.config import load_cell
+
+    with pytest.raises(InputError, match="compensat"):
+        restore_results(load_cell(data_dir / "robots" / "arm6_j3.toml"), robot_campaign, load(tmp_path / "arm6.nc"))
+
+
+def test_a_compensator_on_joint_3_labels_its_per_angle_compliances_by_joint_3(data_dir):
+    _, robot_campaign, fitted = _robot_fit(data_dir, "arm6_j3")
+    per_angle = [name for name in fitted.summary().index if "_q" in name]
+    assert per_angle and all(re.fullmatch(r"k3_q3\[-?\d+\.\d{3}\]", name) for name in per_angle)
+    assert "k3_q3" in fitted.tree["posterior"] and "q3_deg" in fitted.tree["posterior"].coords
+    angles = sorted(np.unique(np.round(np.degrees(robot_campaign.q[:, 2]), 3)))
+    assert sorted(float(name[6:-1]) for name in per_angle) == pytest.approx(angles, abs=1e-3)

@@ -133,3 +133,24 @@ def test_intervals_of_the_test_robots_cover_at_nominal_rates_on_50_campaigns(dat
     rates = hits(group).mean(axis=0)
     tolerance = 4 * np.sqrt(NOMINAL * (1 - NOMINAL) / len(group)) + 1.0 / len(group)
     assert np.all(np.abs(rates - NOMINAL) <= tolerance), (rates, NOMINAL, tolerance)
+
+
+def test_a_robot_without_a_compensator_is_not_grossly_miscalibrated_on_the_independent_generator(data_dir):
+    from bayescal.studies.elastostatic_coverage import independent_coverage
+
+    table = independent_coverage(_robot_cell(data_dir, "arm6"), 3, 43, angles=4, per_angle=3, repeats=2, executor=ThreadPoolExecutor(2))
+    assert set(table["parameter"]) >= {"k2", "k3", "k5"}
+    counted = hits(table)
+    low, high = stats.binom.ppf(0.0005, len(table), NOMINAL), stats.binom.ppf(0.9995, len(table), NOMINAL)
+    assert np.all((low <= counted.sum(axis=0)) & (counted.sum(axis=0) <= high)), (counted.sum(axis=0), low, high)
+
+
+@pytest.mark.slow
+def test_a_robot_without_a_compensator_covers_at_nominal_rates_on_the_independent_generator(data_dir):
+    # Truths, tool and anisotropic tracker noise of bayescal.twin.independent, written apart from the model.
+    from bayescal.studies.elastostatic_coverage import independent_coverage
+
+    table = independent_coverage(_robot_cell(data_dir, "arm6"), 50, 32)
+    rates = hits(table).mean(axis=0)
+    tolerance = 4 * np.sqrt(NOMINAL * (1 - NOMINAL) / len(table)) + 1.0 / len(table)
+    assert np.all(np.abs(rates - NOMINAL) <= tolerance), (rates, NOMINAL, tolerance)
