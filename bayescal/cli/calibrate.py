@@ -190,6 +190,7 @@ def _text(results, test_pose, args, reference_file) -> str:
 
 def _closing_lines(results, test_pose, reasons) -> list[str]:
     """Diagnostics, the test pose (errors in μm, deflections in mm) and what to do next."""
+    from bayescal.inference.equations import HANGING_ONLY_REASON
     from bayescal.reports.next_steps import calibration_next_steps
     from bayescal.reports.numbers import deflection_mm, error_um
     from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, converged
@@ -222,5 +223,6 @@ def _closing_lines(results, test_pose, reasons) -> list[str]:
             )
     else:
         lines.append(f"test pose: not predicted: {block['reason']}")
-    advice = calibration_next_steps(d, sorted(reasons), q9973, converged(d))
+    limited = [name for name, reason in reasons.items() if reason.endswith(HANGING_ONLY_REASON)]
+    advice = calibration_next_steps(d, sorted(reasons), q9973, converged(d), limited)
     return lines + ["", *textwrap.wrap(advice, width=100)]
