@@ -1,38 +1,93 @@
-"""The numbers the README quotes from `make demo` are the numbers `make demo` prints."""
+"""The numbers the README quotes from `make demo` are the numbers `make demo` prints, and every option is documented."""
 
+import argparse
+import contextlib
+import io
 import json
 import re
 from pathlib import Path
 
-from bayescal.cli import main
+import pytest
+
+from bayescal.cli import build_parser, main
+from bayescal.reports.numbers import with_uncertainty
 
 ROOT = Path(__file__).resolve().parents[1]
+README = (ROOT / "README.md").read_text(encoding="utf-8")
 
 
-def _run(capsys, argv):
-    assert main(argv) == 0
-    return capsys.readouterr().out
-
-
-def test_the_demos_error_left_at_the_test_pose_is_the_one_the_readme_quotes(capsys, tmp_path):
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    quoted = re.search(r"test pose after compensation is ([\d.]+) μm rms \(99\.73 % of draws below ([\d.]+) μm\)", readme)
-    assert quoted, "the README no longer quotes the demo's error left at the test pose"
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    """The JSON of the first three steps of `make demo`, with its options and seeds, and calibrate's text."""
+    folder = tmp_path_factory.mktemp("demo")
     data = ROOT / "data"
-    geometry, campaign = tmp_path / "geometry.nc", tmp_path / "campaign.csv"
-    # the first three steps of `make demo`, with its options and seeds
-    _run(capsys, ["geometry", str(data / "table1_geometry.csv"), "--posterior", str(geometry)])
-    _run(capsys, ["simulate", "--plan", str(data / "table3_plan.csv"), "--config", str(data / "kr270.toml"),
-                  "--repeats", "3", "--seed", "1", "-o", str(campaign)])
-    out = _run(capsys, ["calibrate", str(campaign), "--config", str(data / "kr270.toml"), "--geometry", str(geometry), "--json"])
-    error = json.loads(out)["test_pose"]["residual_error_mm"]
+    geometry, campaign = folder / "geometry.nc", folder / "campaign.csv"
+    outputs = {}
+
+    def run(name, argv):
+        # capsys is function-scoped: a module's fixture reads the command's output itself
+        buffer, errors = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(buffer), contextlib.redirect_stderr(errors):
+            assert main(argv) == 0, errors.getvalue()
+        outputs[name] = buffer.getvalue()
+
+    run("geometry", ["geometry", str(data / "table1_geometry.csv"), "--posterior", str(geometry), "--json"])
+    run("simulate", ["simulate", "--plan", str(data / "table3_plan.csv"), "--config", str(data / "kr270.toml"),
+                     "--repeats", "3", "--seed", "1", "-o", str(campaign)])
+    argv = ["calibrate", str(campaign), "--config", str(data / "kr270.toml"), "--geometry", str(geometry)]
+    run("calibrate", argv + ["--json"])
+    run("calibrate_text", argv)
+    return {name: (json.loads(text) if name in ("geometry", "calibrate") else text) for name, text in outputs.items()}
+
+
+def test_the_demos_error_left_at_the_test_pose_is_the_one_the_readme_quotes(demo):
+    quoted = re.search(r"test pose after compensation is ([\d.]+) μm rms \(99\.73 % of draws below ([\d.]+) μm\)", README)
+    assert quoted, "the README no longer quotes the demo's error left at the test pose"
+    error = demo["calibrate"]["test_pose"]["residual_error_mm"]
     assert f"{error['rms'] * 1000:.1f}" == quoted.group(1)
     assert f"{error['q99.73'] * 1000:.1f}" == quoted.group(2)
+    # and the calibrate text prints the same, in μm
+    assert f"rms {quoted.group(1)} μm" in demo["calibrate_text"] and f"99.73% {quoted.group(2)} μm" in demo["calibrate_text"]
+
+
+def test_the_geometry_the_readme_quotes_is_the_demos(demo):
+    parameters = demo["geometry"]["parameters"]
+    for name in ("L", "a_x", "a_y"):
+        shown = with_uncertainty(parameters[name]["mean"], parameters[name]["sd"], "mm")
+        assert f"{name} = {shown}" in README, f"the README does not quote {name} = {shown}"
+    assert f"{parameters['a_y']['mean'] - 120.30:.2f}".replace("-", "−") + " mm" in README
+    assert f"R-hat ≤ {demo['geometry']['diagnostics']['r_hat_max']:.3f} with the default seed" in README
+
+
+def test_the_elastostatic_widths_and_diagnostics_the_readme_quotes_are_the_demos(demo):
+    parameters = demo["calibrate"]["parameters"]
+    widths = [300 * parameters[k]["sd"] / parameters[k]["mean"] for k in ("k2", "k3", "k4", "k5")]
+    assert f"k2..k5 come\nout with ±3σ widths of {min(widths):.1f}–{max(widths):.1f} %" in README
+    assert f"k6 {300 * parameters['k6']['sd'] / parameters['k6']['mean']:.1f} %" in README
+    change = re.search(r"by ([\d.]+–[\d.]+ %) across the campaign", parameters["K_c"]["reason"]).group(1)
+    assert f"only {change}" in README
+    diagnostics = demo["calibrate"]["diagnostics"]
+    speed = re.search(r"\| `bayescal calibrate` on Table III.*\| R-hat ≤ ([\d.]+), ESS ≥ ([\d,]+) \|", README)
+    assert speed.group(1) == f"{diagnostics['r_hat_max']:.3f}"
+    assert speed.group(2) == f"{diagnostics['ess_bulk_min']:,.0f}"
+
+
+def test_every_option_of_every_command_is_documented():
+    documented = README + "".join(path.read_text(encoding="utf-8") for path in sorted((ROOT / "docs").glob("*.md")))
+    missing = []
+    for action in build_parser()._actions:
+        if not isinstance(action, argparse._SubParsersAction):
+            continue
+        for command, parser in action.choices.items():
+            for option in parser._actions:
+                names = [name for name in option.option_strings if name not in ("-h", "--help")]
+                if names and not any(re.search(rf"{re.escape(name)}\b", documented) for name in names):
+                    missing.append(f"{command} {names[-1]}")
+    assert not missing, f"options in no document: {', '.join(missing)}"
 
 
 def test_the_python_example_runs_and_writes_only_into_its_own_folder(tmp_path, monkeypatch):
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    code = re.search(r"```python\n(.*?)```", readme, re.S).group(1)
+    code = re.search(r"```python\n(.*?)```", README, re.S).group(1)
     assert 'out = Path("example")' in code
     # run from a folder holding only the data, so that anything written elsewhere would show
     (tmp_path / "data").symlink_to(ROOT / "data")

@@ -201,9 +201,10 @@ def _text(results, test_pose, args, reference_file) -> str:
 
 def _closing_lines(results, test_pose, reasons) -> list[str]:
     """Diagnostics, the test pose (errors in μm, deflections in mm) and what to do next."""
+    from bayescal.inference.equations import HANGING_ONLY_REASON
     from bayescal.reports.next_steps import calibration_next_steps
     from bayescal.reports.numbers import deflection_mm, error_um
-    from bayescal.sampling.summary import converged
+    from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, converged
 
     d = results.diagnostics()
     lines = [
@@ -212,6 +213,8 @@ def _closing_lines(results, test_pose, reasons) -> list[str]:
         f"residual rms {error_um(d['residual_rms_mm'])}" + (f", χ²/dof {d['chi2_per_dof']:.2f}" if d["chi2_per_dof"] is not None else ""),
         f"identifiability: rank {results.identifiability.rank} of {len(results.identifiability.names)}, "
         f"condition number {results.identifiability.condition_number:.3g} (unit columns)",
+        f"(wanted: R-hat ≤ {R_HAT_LIMIT}, both ESS ≥ {ESS_LIMIT}; χ²/dof near 1: residuals as large as the tracker's noise; "
+        "rank below the columns: some compliances not identifiable; docs/glossary.md)",
     ]
     block = test_pose.to_json()
     q9973 = None
@@ -231,5 +234,6 @@ def _closing_lines(results, test_pose, reasons) -> list[str]:
             )
     else:
         lines.append(f"test pose: not predicted: {block['reason']}")
-    advice = calibration_next_steps(d, sorted(reasons), q9973, converged(d))
+    limited = [name for name, reason in reasons.items() if reason.endswith(HANGING_ONLY_REASON)]
+    advice = calibration_next_steps(d, sorted(reasons), q9973, converged(d), limited)
     return lines + ["", *textwrap.wrap(advice, width=100)]

@@ -107,6 +107,7 @@ def _outcome_lines(results, held_out: str, baseline: str) -> list[str]:
     lines += ["", f"{'candidate':<{width}}{'step':>5}{'ΔELPD':>10}{'SE':>8}  named"]
     for name, entry in evidence.items():
         lines.append(f"{name:<{width}}{entry['step']:>5}{entry['delta_elpd']:>10.1f}{entry['se']:>8.1f}  {'yes' if entry['named'] else ''}")
+    lines.append(f"(ΔELPD: held-out log predictive density gained over {baseline}, in nats; SE: its standard error; docs/glossary.md)")
     if results.unexplained_covariate is not None:
         c = results.probes[results.unexplained_covariate]
         lines.append(
@@ -147,10 +148,10 @@ def _text(results, figures: list[str]) -> str:
     lines += [
         "",
         f"held-out gain: ΔELPD {results.gain.delta_elpd:.1f} ± {results.gain.se:.1f} nats; residual rms "
-        f"{before['residual_rms_mm'] * 1000:.1f} -> {after['residual_rms_mm'] * 1000:.1f} um; position error rms "
-        f"{before['position_error_rms_mm'] * 1000:.1f} -> {after['position_error_rms_mm'] * 1000:.1f} um",
+        f"{before['residual_rms_mm'] * 1000:.1f} -> {after['residual_rms_mm'] * 1000:.1f} μm; position error rms "
+        f"{before['position_error_rms_mm'] * 1000:.1f} -> {after['position_error_rms_mm'] * 1000:.1f} μm",
         f"test pose: the classical model's prediction differs from the extended one's by "
-        f"{results.test_pose['classical_error_mm'] * 1000:.1f} um",
+        f"{results.test_pose['classical_error_mm'] * 1000:.1f} μm",
         f"rule: a cause is named when ΔELPD > {results.rule['z']:g} SE and > {results.rule['floor_nats']:g} nats, "
         f"or > {results.rule['decisive_nats']:g} nats",
     ]

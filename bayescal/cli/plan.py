@@ -10,6 +10,9 @@ from ._command import CommandOutput, add_common_options, options_for, whole_numb
 
 __all__ = ["add_parser", "run"]
 
+SECONDS = {"exact": 100, "linear": 25}
+"""Wall time of a default design (5 × 3 configurations, 3 starts) on one idle core of this project's machine, s: said
+before a design starts, since the command prints nothing else until it ends when stderr is not a terminal."""
 FLAGS = {"angles": "--angles", "repeats": "--repeats", "model": "--model", "criterion": "--criterion", "mass_range": "--mass-kg", "between": "--between"}
 """The library's argument names and this command's options."""
 
@@ -42,7 +45,8 @@ def add_parser(subparsers) -> None:
         "--model",
         choices=("linear", "exact"),
         default="exact",
-        help="model the search scores plans with: exact (default, the identification's, about 100 s) or linear (eq 31, about 25 s)",
+        help=f"model the search scores plans with: exact (default, the identification's, about {SECONDS['exact']} s) "
+        f"or linear (eq 31, about {SECONDS['linear']} s)",
     )
     parser.add_argument("--mass-kg", type=float, nargs=2, metavar=("LOW", "HIGH"), help="range of the hanging load (default: the cell's [design] mass_kg)")
     parser.add_argument("--starts", type=whole_number(1), default=None, help="random starts of the exchange algorithm (default 3)")
@@ -67,17 +71,48 @@ def run(args: argparse.Namespace) -> CommandOutput:
         if args.criterion == "discriminate" or args.between is not None or args.campaign is not None:
             return _discriminate(args, cell)
         payload, table = _design_or_evaluate(args, cell)
+    lines = _text(payload, table, cell)
+    return CommandOutput(payload=payload, text="\n".join(lines))
+
+
+def _text(payload: dict, table, cell) -> list[str]:
+    """The plan in words: angles to 0.1 deg, ρ0 in μm, each width rounded as ``bayescal calibrate`` rounds."""
+    import math
+    import textwrap
+
+    from bayescal.reports.numbers import rounded_pair
+
     criterion = payload["criterion"]
-    lines = [
-        f"predicted rms error at the test pose after compensation: {'not predictable' if criterion is None else f'{criterion:.5f} mm'}",
-        table.to_string(float_format=lambda v: f"{v:.4g}"),
-    ]
-    for violation in payload.get("violations", []):
-        lines.append(f"configuration {violation['config']}: {violation['reason']}")
+    lines = []
     if "output" in payload:
         loads = f", forces of {payload['force_max_N']:.0f} N in directions of the design" if "force_max_N" in payload else ""
-        lines.insert(0, f"wrote {payload['output']}: {payload['configurations']} configurations at q2 = {', '.join(f'{v:g}' for v in payload['q2_deg'])} deg{loads}")
-    return CommandOutput(payload=payload, text="\n".join(lines))
+        angles = ", ".join(f"{v:.1f}" for v in payload["q2_deg"])
+        lines.append(f"wrote {payload['output']}: {payload['configurations']} configurations at q2 = {angles} deg{loads}")
+    lines.append(
+        "predicted rms error left at the test pose after compensation (ρ0, eq 38): "
+        + ("not predictable" if criterion is None else f"{criterion * 1000:.2f} μm")
+    )
+    published = "table_iv_pct" in table
+    lines += ["", f"{'parameter':<10}{'unit':<12}{'value':>8}{'±3σ':>13}{'width':>9}" + (f"{'Table IV':>10}" if published else "")]
+    for name, row in table.iterrows():
+        _, half = rounded_pair(row["value"], 3 * row["sd"])
+        width = f"{row['width_3sd_pct']:>8.1f}%" if math.isfinite(row["width_3sd_pct"]) else f"{'':>9}"
+        paper = (f"{row['table_iv_pct']:>9.1f}%" if math.isfinite(row["table_iv_pct"]) else f"{'–':>10}") if published else ""
+        shown = half if half != "–" else "not excited"
+        lines.append(f"{name:<10}{row['unit']:<12}{row['value']:>8g}{shown:>13}{width}{paper}")
+    lines.append("±3σ: the predicted 3 sd after measuring the plan, rounded to two digits; width: 3 sd / value" + (
+        " (Table IV: Klimchik et al.)" if published else ""))
+    unbounded = [name for name, row in table.iterrows() if row["value"] - 3 * row["sd"] < 0]
+    if unbounded:
+        lines.append(f"{', '.join(unbounded)}: the predicted interval reaches below 0, which they cannot; this plan does not bound them.")
+    for violation in payload.get("violations", []):
+        lines.append(f"configuration {violation['config']}: {violation['reason']}")
+    if cell.loading.hanging_only:
+        # Said here once, where the plan is made: the later commands record it in k1's reason without a warning.
+        note = ("This cell hangs masses only ([load] directions = \"down\"): no plan of it turns the vertical A1, so k1 keeps "
+                "the cell's value; a cell that pushes or pulls sideways (directions = \"any\", docs/design.md) identifies it.")
+        lines += ["", *textwrap.wrap(note, width=100)]
+    return lines
 
 
 def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFrame]:
@@ -100,7 +135,18 @@ def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFr
         }
         table = prediction.summary()
     else:
+        import sys
+
         starts = STARTS if args.starts is None else args.starts
+        designer.check_request(args.angles, args.per_angle, args.criterion)
+        # The search's cost grows with the configurations and the starts; scaled from the default design's time.
+        seconds = SECONDS[args.model] * (args.angles * args.per_angle / 15) * (starts / STARTS)
+        print(
+            f"bayescal plan: designing {args.angles} × {args.per_angle} configurations with the {args.model} model, "
+            f"about {max(seconds, 5):.0f} s" + ("" if args.model == "linear" else f" (--model linear: about {max(seconds / 4, 5):.0f} s)"),
+            file=sys.stderr,
+            flush=True,
+        )
         design = designer.optimise(args.angles, args.per_angle, args.criterion, rng=args.seed, starts=starts, progress=True)
         comments = (_command(args, starts),)
         write_atomically("--output", args.output, lambda path: design.save(path, comments=comments))

@@ -239,6 +239,10 @@ class PlanDesigner:
         low, high = self.q2_range
         return int(math.floor((high - low) / self.space.min_separation + 1e-9)) + 1
 
+    def check_request(self, angles: int, per_angle: int, criterion: str) -> None:
+        """Raise the :class:`InputError` :meth:`optimise` would for a request no plan can meet, before any work."""
+        self._check_request(angles, per_angle, criterion)
+
     def _check_request(self, angles: int, per_angle: int, criterion: str, *, scored: bool = True) -> None:
         if criterion not in CRITERIA:
             raise InputError(f"unknown criterion '{criterion}'; expected one of {', '.join(CRITERIA)}", source="criterion")

@@ -36,10 +36,10 @@ class Progress:
 
 
 def best_text(score: float, criterion: str) -> str:
-    """The note on the best plan so far, in the criterion's own terms and unit (``score`` as
+    """The note on the best plan so far, ending with the criterion's unit (``score`` as
     :func:`bayescal.design.criteria.criterion_value` gives it)."""
     if criterion == "test-pose":
-        return f"best: {score * 1e6:.2f} um rms left at the test pose"
+        return f"best: ρ0 = {score * 1e6:.2f} μm"
     if criterion == "compensator":
         return f"best: K_c and s0 to {100 * math.sqrt(max(score, 0.0)):.0f} % (1 sd, combined)"
-    return f"best: -log det {score:.4g}"
+    return f"best: -log det of the information = {score:.1f}"

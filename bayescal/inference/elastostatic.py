@@ -282,7 +282,9 @@ class ElastostaticModel:
             ident = check_regression(ident, equations.per_angle_columns(), equations.q2, self._geometry_mean)
         _check_determined(campaign, equations, ident)
         if announce:
-            for names, reason in grouped({k: v for k, v in ident.reasons.items() if label_angle(k) is None}):
+            # A limit of the cell, not of the campaign: recorded in k1's reason, said once by `bayescal plan`.
+            cell_limit = {k for k, v in ident.reasons.items() if v.endswith(HANGING_ONLY_REASON)}
+            for names, reason in grouped({k: v for k, v in ident.reasons.items() if label_angle(k) is None and k not in cell_limit}):
                 warnings.warn(f"{_listed(names)} not identifiable: {reason}", NotIdentifiableWarning, stacklevel=3)
             if ident.ill_conditioned:
                 warnings.warn(

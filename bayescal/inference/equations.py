@@ -271,8 +271,7 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray, *, hang
     """Reject deflections or marker positions no robot could produce; warn when all loads are parallel.
 
     ``hanging_only``: the cell's end-effector can only hang masses, so vertical loads are all it
-    can apply and the warning is left to the report that k1 is not identifiable
-    (:data:`HANGING_ONLY_REASON`), which says it once.
+    can apply: k1's reason records it (:data:`HANGING_ONLY_REASON`) and ``bayescal plan`` says it once.
 
     Raises
     ------
@@ -314,11 +313,12 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray, *, hang
 
 
 HANGING_ONLY_REASON = (
-    'the cell\'s end-effector hangs masses only ([load] directions = "down"), and a vertical load never turns the '
-    "vertical A1; Klimchik et al. advise varying the load direction, which needs an end-effector that pushes or pulls "
-    'sideways (directions = "any", docs/design.md)'
+    'this cell\'s end-effector hangs masses only ([load] directions = "down"), and a vertical load never turns the '
+    "vertical A1, so no campaign of this cell identifies k1 and it keeps the cell's value; a cell that pushes or pulls "
+    'sideways (directions = "any", docs/design.md) identifies it'
 )
-"""Added to k1's not-identifiable reason on a cell that can only hang masses, in place of the parallel-loads warning."""
+"""Added to k1's not-identifiable reason on a cell that can only hang masses, in place of the parallel-loads warning.
+Worded for a plan the tool itself designs: ``bayescal plan`` says it once, and a fit records it without warning."""
 
 
 def check_load_point(robot: Robot, campaign: Campaign, load_point: np.ndarray | None) -> None:

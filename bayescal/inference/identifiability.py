@@ -278,7 +278,9 @@ def practical_reasons(
             continue
         row = summary.loc[name]
         mean, sd, unit = float(row["mean"]), float(row["sd"]), str(row["unit"])
-        interval = f"[{row['lo3']:.4g}, {row['hi3']:.4g}] {unit}".rstrip()
+        # Rounded as every shown interval is: to the decimal of the second significant digit of its 3 sd.
+        places = max(0, 1 - math.floor(math.log10(3.0 * sd))) if sd > 0 and math.isfinite(sd) else 0
+        interval = f"[{row['lo3']:.{places}f}, {row['hi3']:.{places}f}] {unit}".rstrip()
         if prior is None:
             if 3.0 * sd < abs(mean):
                 continue

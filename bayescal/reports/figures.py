@@ -59,8 +59,8 @@ def plot_rank(draws: Mapping[str, ArrayLike], *, columns: int = 3) -> Figure:
     for ax in axes[len(names) :]:
         ax.set_visible(False)
     if names:
-        # Above the panels, where it hides no histogram.
-        figure.legend(*axes[0].get_legend_handles_labels(), loc="outside upper center", ncols=values.shape[0], fontsize=8)
+        # Above the panels, where it hides no histogram; 16 chains in one row overflow a 3-panel figure, so at most 8 per row.
+        figure.legend(*axes[0].get_legend_handles_labels(), loc="outside upper center", ncols=min(values.shape[0], 8), fontsize=8)
     return figure
 
 

@@ -13,7 +13,9 @@ from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL
 __all__ = ["calibration_next_steps", "critique_next_steps"]
 
 
-def calibration_next_steps(diagnostics: dict, not_identifiable: list[str], error_q9973_mm: float | None, converged: bool) -> str:
+def calibration_next_steps(
+    diagnostics: dict, not_identifiable: list[str], error_q9973_mm: float | None, converged: bool, cell_limited: list[str] = ()
+) -> str:
     """One or two sentences on what to do with a calibration.
 
     Parameters
@@ -26,6 +28,9 @@ def calibration_next_steps(diagnostics: dict, not_identifiable: list[str], error
         99.73 % quantile of the test pose's error left after compensation (mm), None when not predicted.
     converged : bool
         Whether R-hat and both ESS meet the sampler's thresholds.
+    cell_limited : list of str
+        Those of ``not_identifiable`` that no campaign of this cell can identify (k1 on a cell that
+        hangs masses only): re-measuring would not help, so the advice says so rather than send to a plan.
     """
     if not converged:
         return "Next: run again with more --draws (or another --seed); until R-hat and the bulk and tail ESS meet their limits, do not use these numbers."
@@ -38,11 +43,16 @@ def calibration_next_steps(diagnostics: dict, not_identifiable: list[str], error
             "and do not compensate with this result until the cause is found."
         )
     steps = []
-    if not_identifiable:
+    limited = [name for name in not_identifiable if name in cell_limited]
+    others = [name for name in not_identifiable if name not in cell_limited]
+    if others:
         steps.append(
-            f"{', '.join(not_identifiable)} cannot be told from this campaign: to measure them, add the loads or angles "
-            "`bayescal plan` proposes and re-measure; meanwhile they keep the config's values."
+            f"{', '.join(others)} cannot be told from this campaign and keep the config's values; `bayescal plan` "
+            "(its predicted ±3σ) says whether a plan of this cell would measure them, and which to re-measure."
         )
+    if limited:
+        steps.append(f"{', '.join(limited)} keep{'s' if len(limited) == 1 else ''} the config's value: no campaign of this cell can identify "
+                     f"{'it' if len(limited) == 1 else 'them'} (see the reason above).")
     if error_q9973_mm is not None:
         steps.append(
             f"The result is usable for compensation (`bayescal compensate`) if an error of {error_q9973_mm * 1000:.0f} μm "

@@ -5,16 +5,20 @@ uncertainty (the sd, or the ±3σ half-width when that is what the row shows), s
 ``1.23456 ± 0.04321`` reads ``1.235 ± 0.043``. Lengths are shown in μm when they
 are errors left after compensation (tens of μm) and in mm when they are
 deflections (tenths of a mm); parameters keep the paper's units. These
-functions build text only: JSON fields stay numeric.
+functions build text only: JSON fields stay numeric.  :func:`table_texts`
+applies the same rule to the columns of a table.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping
+
+import pandas as pd
 
 from bayescal.units import MM, UM
 
-__all__ = ["decimals_for", "rounded_pair", "with_uncertainty", "error_um", "deflection_mm"]
+__all__ = ["decimals_for", "rounded_pair", "with_uncertainty", "error_um", "deflection_mm", "table_texts", "fixed"]
 
 SIGNIFICANT = 2
 """Significant digits kept of an uncertainty."""
@@ -79,6 +83,48 @@ def deflection_mm(value_mm: float, uncertainty_mm: float | None = None) -> str:
     if uncertainty_mm is None:
         return f"{value_mm:.3f} mm"
     return with_uncertainty(value_mm, uncertainty_mm, "mm")
+
+
+def fixed(decimals: int) -> Callable[[float], str]:
+    """A formatter to a fixed number of decimals ("–" when missing), for values without an uncertainty of their own."""
+    # + 0.0 turns a rounded -0.0 into 0.0: "-0.0" reads as a sign the value does not have.
+    return lambda value: f"{round(value, decimals) + 0.0:.{decimals}f}" if _number(value) and math.isfinite(value) else "–"
+
+
+def table_texts(
+    frame: pd.DataFrame, rounded_to: Mapping[str, str], formats: Mapping[str, Callable[[float], str]] | None = None
+) -> pd.DataFrame:
+    """The texts a table shows: each value rounded to the uncertainty of its row.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The numbers, in the units of their columns.
+    rounded_to : mapping
+        Column → the column of the same row holding its uncertainty (an sd or a ±3σ
+        half-width, in the same unit); an uncertainty column maps to itself and keeps
+        :data:`SIGNIFICANT` digits.
+    formats : mapping, optional
+        Column → a formatter for columns without an uncertainty (:func:`fixed`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Same index and columns; the named columns as text, the others unchanged.
+    """
+    texts = frame.astype(object).copy()
+    for column, uncertainty in rounded_to.items():
+        texts[column] = [
+            rounded_pair(float(value), float(spread))[1 if column == uncertainty else 0] if _number(value) else value
+            for value, spread in zip(frame[column], frame[uncertainty])
+        ]
+    for column, formatter in (formats or {}).items():
+        texts[column] = [formatter(value) if _number(value) else value for value in frame[column]]
+    return texts
+
+
+def _number(value) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
 
 
 def _rounded(value: float, significant: int) -> float:

@@ -15,7 +15,6 @@ generic one.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -24,19 +23,20 @@ import pandas as pd
 
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
-from bayescal.inference.equations import deflection_noise
 from bayescal.inference.parameters import label_angle
 from bayescal.inference.results import ElastostaticResults
 from bayescal.inference.testpose import TestPosePrediction
 from bayescal.reference import published, read_paper_reference
 from bayescal.reports.compensation import compensation_section
-from bayescal.reports.page import HTML_FILE, JSON_FILE, MARKDOWN_FILE, Page, finite_number, format_value, generic
-from bayescal.reports.figures import plot_error_distribution, plot_evidence, plot_pairs, plot_rank, plot_residuals
+from bayescal.reports.numbers import fixed, table_texts
+from bayescal.reports.page import HTML_FILE, JSON_FILE, MARKDOWN_FILE, Page
+from bayescal.reports.review_data import data_section, residual_section
+from bayescal.reports.review_files import critique_section, plan_section, registration_section
+from bayescal.reports.figures import plot_error_distribution, plot_pairs, plot_rank
 from bayescal.reports.plots import plot_eta_curves, plot_joint2_compliance
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, diagnostics, summarize
 from bayescal.studies.precision import equivalent_compliance_band
-from bayescal.studies.residuals import COVARIATES
 from bayescal.units import DEG, MM, UM, URAD_PER_NM
 
 __all__ = ["ReviewInputs", "render_review", "HTML_FILE", "MARKDOWN_FILE", "JSON_FILE"]
@@ -118,21 +118,22 @@ def render_review(inputs: ReviewInputs) -> dict[str, bytes]:
     if inputs.geometry is not None:
         _geometry_section(page, inputs.geometry, inputs.seed)
     if inputs.registration is not None:
-        _registration_section(page, inputs.registration, inputs.sources.get("registration", ""))
+        registration_section(page, inputs.registration, inputs.sources.get("registration", ""))
     if inputs.results is not None:
         _compensator_section(page, inputs.results, inputs.cell)
-        _data_section(page, inputs.results, inputs.campaign, inputs.cell)
+        data_section(page, inputs.results, inputs.campaign, inputs.cell)
         if inputs.residuals is not None:
-            _residual_section(page, inputs.results, inputs.residuals, inputs.campaign, inputs.cell)
+            residual_section(page, inputs.results, inputs.residuals, inputs.campaign, inputs.cell)
     if inputs.critique is not None:
-        _critique_section(page, inputs.critique, inputs.sources.get("critique", ""))
+        critique_section(page, inputs.critique, inputs.sources.get("critique", ""))
     _convergence_section(page, inputs, facts)
     if inputs.results is not None:
         _pairs_section(page, inputs.results, inputs.seed, _published_iv(inputs.cell))
     if inputs.plan is not None:
-        _plan_section(page, inputs.plan, inputs.sources.get("plan", ""))
+        plan_section(page, inputs.plan, inputs.sources.get("plan", ""))
     if inputs.study is not None:
         _study_section(page, inputs.study, inputs.sources.get("q2-angle study", ""))
+    page.glossary()
     return page.files()
 
 
@@ -151,6 +152,11 @@ class _Facts:
 
 def _unit(unit: str) -> str:
     return DISPLAY_UNITS.get(unit, unit)
+
+
+def _as_published(value: float) -> str:
+    """A published value with the digits its table gives (stored as read), none added."""
+    return f"{value:g}" if math.isfinite(value) else "–"
 
 
 # ---------------------------------------------------------------------------- sections
@@ -189,43 +195,6 @@ def _overview(page: Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
     page.close()
 
 
-def _range(values: np.ndarray) -> tuple[float, float]:
-    return float(np.min(values)), float(np.max(values))
-
-
-def _data_section(page: Page, results: ElastostaticResults, campaign: Campaign, cell: Cell) -> None:
-    page.heading("data", "The data")
-    counts = {
-        "rows": len(campaign),
-        "configurations": int(np.unique(campaign.config).size),
-        "repeats per configuration": int(np.unique(campaign.repeat).size),
-        "markers": int(np.unique(campaign.marker).size),
-        "scalar equations": results.n_equations,
-        "distinct q2 angles": int(results.q2.size),
-    }
-    page.table("counts", pd.DataFrame({"value": list(counts.values())}, index=pd.Index(list(counts), name="campaign")))
-    noise = deflection_noise(cell.tracker, campaign) / UM
-    ranges = {f"q{j + 1} [deg]": _range(campaign.q[:, j] / DEG) for j in range(campaign.q.shape[1])}
-    ranges["load force |f| [N]"] = _range(np.linalg.norm(campaign.wrench[:, :3], axis=1))
-    ranges["load moment |m| [N·m]"] = _range(np.linalg.norm(campaign.wrench[:, 3:], axis=1))
-    ranges["marker deflection [mm]"] = _range(np.linalg.norm(campaign.displacement, axis=1) / MM)
-    ranges["tracker noise sd per deflection coordinate [μm]"] = _range(noise)
-    frame = pd.DataFrame(ranges, index=["min", "max"]).T
-    frame.index.name = "quantity"
-    page.table("ranges", frame)
-    tracker = cell.tracker
-    page.record("tracker", {"factor": tracker.factor, "U0_um": tracker.U0 / UM, "U1_um_per_m": tracker.U1 / UM, "position_mm": tracker.position / MM})
-    page.paragraph(
-        f"Tracker model of the cell: sd = {tracker.factor:g} × ({tracker.U0 / UM:g} μm + {tracker.U1 / UM:g} μm/m × distance) "
-        f"per coordinate, tracker at ({', '.join(f'{v / MM:.0f}' for v in tracker.position)}) mm; a deflection is the "
-        "difference of two readings. Noise per group that the data show (posterior mean):"
-    )
-    sigma = summarize(results.tree, ["sigma"])
-    frame = pd.DataFrame({"sd [μm]": sigma["mean"].to_numpy() * MM / UM}, index=pd.Index([n[6:-1] for n in sigma.index], name="noise group"))
-    page.table("noise_by_group", frame)
-    page.close()
-
-
 def _geometry_section(page: Page, tree, seed: int) -> None:
     page.heading("geometry", "Compensator geometry beside Table II")
     observed = tree["observed_data"] if "observed_data" in tree.children else None
@@ -254,7 +223,16 @@ def _geometry_section(page: Page, tree, seed: int) -> None:
         },
         index=pd.Index(names, name="parameter"),
     )
-    page.table("parameters", frame, caption="Posterior mean and ±3σ half-width beside Klimchik et al., Table II")
+    page.table(
+        "parameters",
+        frame,
+        shown=table_texts(
+            frame,
+            {"mean": "±3σ", "±3σ": "±3σ"},
+            {"Table II": _as_published, "Table II ±3σ": _as_published, "difference in posterior sd": fixed(1), "R-hat": fixed(3), "bulk ESS": fixed(0)},
+        ),
+        caption="Posterior mean and ±3σ half-width beside Klimchik et al., Table II; each mean rounded to two digits of its ±3σ",
+    )
     draws = {f"{name} [{summary.loc[name, 'unit']}]": np.asarray(tree["posterior"][name].values).ravel() for name in names}
     reference = {f"{n} [{summary.loc[n, 'unit']}]": table_ii[n][0] for n in names if n in table_ii}
     page.record("correlation", pd.DataFrame(draws).corr().to_dict())
@@ -294,13 +272,19 @@ def _parameter_section(page: Page, results: ElastostaticResults, facts: _Facts, 
     page.table(
         "parameters",
         frame,
+        shown=table_texts(
+            frame,
+            {"mean": "±3σ", "±3σ": "±3σ"},
+            {"±3σ [% of mean]": fixed(1), "R-hat": fixed(3)}
+            | ({"Table IV": _as_published, "Table IV ±3σ": _as_published, "Table IV ±3σ [%]": fixed(1)} if table_iv is not None else {}),
+        ),
         caption=(
             "k1..k6 in μrad/(N·m) (k2 without the compensator), K_c in N/mm, s0 in mm; "
             if table_iv is not None
             else f"k1..k{results.closed_form.compliances.size} in the unit of their row"
             + ("; " if results.joint is None else f" (k{results.joint + 1} without the compensator), K_c in N/mm, s0 in mm; ")
         )
-        + "not identifiable parameters have no estimate (see the next section)",
+        + "each mean rounded to two digits of its ±3σ; not identifiable parameters have no estimate (see the next section)",
     )
     per_angle = summary.loc[[name for name in summary.index if label_angle(name) is not None]]
     if not per_angle.empty:
@@ -310,10 +294,13 @@ def _parameter_section(page: Page, results: ElastostaticResults, facts: _Facts, 
                 "±3σ": 3 * per_angle["sd"].to_numpy(),
                 "±3σ [% of mean]": 300 * (per_angle["sd"] / per_angle["mean"].abs()).to_numpy(),
             },
-            index=pd.Index([f"{label_angle(name):g}" for name in per_angle.index], name=f"q{results.joint + 1} [deg]"),
+            index=pd.Index([f"{label_angle(name):.1f}" for name in per_angle.index], name=f"q{results.joint + 1} [deg]"),
         )
         page.table(
-            "k2_per_angle", frame, caption=f"Equivalent joint-{results.joint + 1} compliance (with the compensator) at each campaign angle, μrad/(N·m)"
+            "k2_per_angle",
+            frame,
+            shown=table_texts(frame, {"mean": "±3σ", "±3σ": "±3σ"}, {"±3σ [% of mean]": fixed(1)}),
+            caption=f"Equivalent joint-{results.joint + 1} compliance (with the compensator) at each campaign angle, μrad/(N·m)",
         )
     page.close()
 
@@ -322,9 +309,11 @@ def _identifiability_section(page: Page, results: ElastostaticResults, facts: _F
     page.heading("identifiability", "What the data cannot identify, and why")
     ident = results.identifiability
     page.paragraph(
-        ("Design of eq 30 with one column per joint" if results.joint is None else f"Design of eq 30 with one joint-{results.joint + 1} column per q{results.joint + 1} angle")
-        + f": rank {ident.rank} of {ident.identifiable.size} columns, "
-        f"condition number {ident.condition_number:.3g} (unit columns)."
+        "The campaign's design (eq 30, one column per joint compliance"
+        + ("" if results.joint is None else f", joint {results.joint + 1} one per q{results.joint + 1} angle")
+        + f") has rank {ident.rank} of {ident.identifiable.size}: it measures {ident.rank} independent combinations of the "
+        f"{ident.identifiable.size} compliances. Its condition number, {ident.condition_number:.3g} with each column scaled to unit "
+        "length, says how nearly the columns repeat each other (above 10⁴: ill-conditioned)."
     )
     reasons = {name: reason for name, reason in ident.not_identifiable.items() if label_angle(name) is None}
     page.record("rank", ident.rank)
@@ -336,12 +325,30 @@ def _identifiability_section(page: Page, results: ElastostaticResults, facts: _F
         page.table("not_identifiable", frame)
         weak = [name for name in ident.practical if name in facts.summary.index]
         if weak:
-            frame = facts.summary.loc[weak, ["mean", "lo3", "hi3", "unit"]].assign(unit=lambda f: f["unit"].map(_unit))
-            frame.index.name = "parameter"
-            page.table("weakly_determined", frame, caption="Their posterior, kept for inspection only: it mostly reflects the prior")
+            _weak_table(page, facts.summary.loc[weak])
     else:
         page.paragraph("Every parameter of the model is identified by this campaign.")
     page.close()
+
+
+def _weak_table(page: Page, summary: pd.DataFrame) -> None:
+    """The posterior of the weakly determined parameters, a lower end below 0 cut at 0 with the reason."""
+    frame = pd.DataFrame(
+        {"mean": summary["mean"], "±3σ": 3 * summary["sd"], "lower end": summary["lo3"], "upper end": summary["hi3"]},
+        index=pd.Index(summary.index, name="parameter"),
+    )
+    shown = table_texts(frame, {"mean": "±3σ", "±3σ": "±3σ", "lower end": "±3σ", "upper end": "±3σ"})
+    below = frame["lower end"] < 0
+    # A spring stiffness, a free length or a compliance below 0 is no physical value: shown as 0, with the reason.
+    shown.loc[below, "lower end"] = "0 (cut: cannot be negative)"
+    frame["unit"] = shown["unit"] = [_unit(u) for u in summary["unit"]]
+    page.table(
+        "weakly_determined",
+        frame,
+        shown=shown,
+        caption="Their posterior, kept for inspection only: it mostly reflects the prior"
+        + ("; a ±3σ interval reaching below 0 is cut at 0, since these quantities cannot be negative" if below.any() else ""),
+    )
 
 
 def _convergence_section(page: Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
@@ -360,7 +367,14 @@ def _convergence_section(page: Page, inputs: ReviewInputs, facts: _Facts | None)
         rows[name]["sampler"] = str(tree.attrs.get("sampler", "not recorded"))
     frame = pd.DataFrame.from_dict(rows, orient="index")
     frame.index.name = "posterior"
-    page.table("worst", frame, caption=f"Worst case over all variables; thresholds R-hat ≤ {R_HAT_LIMIT}, bulk and tail ESS ≥ {ESS_LIMIT}")
+    frame = frame.rename(columns={"r_hat_max": "R-hat (largest)", "ess_bulk_min": "bulk ESS (smallest)", "ess_tail_min": "tail ESS (smallest)",
+                                  "n_chains": "chains", "n_draws": "draws per chain"})
+    page.table(
+        "worst",
+        frame,
+        shown=table_texts(frame, {}, {"R-hat (largest)": fixed(3), "bulk ESS (smallest)": fixed(0), "tail ESS (smallest)": fixed(0)}),
+        caption=f"Worst case over all variables; thresholds R-hat ≤ {R_HAT_LIMIT}, bulk and tail ESS ≥ {ESS_LIMIT}",
+    )
     if inputs.results is not None:
         tree = inputs.results.tree["posterior"]
         units = inputs.results.parameter_units
@@ -395,27 +409,6 @@ def _pairs_section(page: Page, results: ElastostaticResults, seed: int, table_iv
         + ("" if results.joint is None else f" (k{results.joint + 1} without its compensator)")
         + ", with their correlation ρ.",
     )
-    page.close()
-
-
-def _residual_section(page: Page, results: ElastostaticResults, table: pd.DataFrame, campaign: Campaign, cell: Cell) -> None:
-    page.heading("residuals", "Residuals")
-    page.paragraph(
-        f"Residuals of the closed-form fit (eqs 33-34{', after the exact model’s correction' if results.model == 'exact' else ''}): "
-        f"rms {results.residual_rms / UM:.1f} μm per coordinate, "
-        + (f"χ²/dof {results.chi2_per_dof:.3f} against the tracker model." if results.chi2_per_dof is not None else "no tracker model.")
-    )
-    page.record("residual_rms_um", results.residual_rms / UM)
-    page.record("chi2_per_dof", results.chi2_per_dof)
-    noise = deflection_noise(cell.tracker, campaign) / UM
-    page.figure(
-        "residuals",
-        plot_residuals(table, COVARIATES, noise_um=noise),
-        "Residual of each deflection coordinate against the covariates; grey: ±3σ of the tracker model for that row.",
-    )
-    worst = table.nlargest(5, "normalised")[["config", "repeat", "marker", "q2_deg", "residual_um", "normalised"]]
-    worst.index = pd.Index([f"line {int(campaign.lines[i])}" if campaign.lines[i] else str(i) for i in worst.index], name="row")
-    page.table("largest", worst, caption="The five rows with the largest residual in units of the tracker noise")
     page.close()
 
 
@@ -471,11 +464,13 @@ def _test_pose_section(page: Page, prediction: TestPosePrediction, cell: Cell | 
     numbers = prediction.to_json()
     frame = pd.DataFrame.from_dict(numbers["deflection_mm"], orient="index")
     frame.loc["|δ|"] = numbers["deflection_norm_mm"]
-    frame.index.name = "deflection [mm]"
-    page.table("deflection_mm", frame)
-    error = pd.DataFrame({"value [mm]": numbers["residual_error_mm"]})
-    error.index.name = "error left"
-    page.table("residual_error_mm", error)
+    frame = pd.DataFrame({"mean [mm]": frame["mean"], "±3σ [mm]": 3 * frame["sd"]}, index=pd.Index(frame.index, name="deflection"))
+    page.table("deflection_mm", frame, shown=table_texts(frame, {"mean [mm]": "±3σ [mm]", "±3σ [mm]": "±3σ [mm]"}))
+    words = {"rms": "rms over the draws", "q95": "95 % of draws below", "q99.73": "99.73 % of draws below",
+             "rho0_from_covariance": "ρ0 from the covariance (eq 38)"}
+    error = pd.DataFrame({"value [μm]": {key: value * MM / UM for key, value in numbers["residual_error_mm"].items()}})
+    error.index.name = "error left after compensation"
+    page.table("residual_error_um", error, shown=table_texts(error, {}, {"value [μm]": fixed(1)}), row_words=lambda key: words.get(key, key))
     if numbers["assumed"]:
         page.items([f"{name} held at the cell's {value['value']:.4g} {_unit(value['unit'])}: {value['note']}" for name, value in numbers["assumed"].items()])
         page.record("assumed", numbers["assumed"])
@@ -491,17 +486,6 @@ def _test_pose_section(page: Page, prediction: TestPosePrediction, cell: Cell | 
     page.close()
 
 
-def _plan_section(page: Page, plan: Mapping, source: str) -> None:
-    page.heading("plan", "Experiment plan")
-    if source:
-        page.paragraph(f"From {source}.")
-    criteria = {key: value for key, value in plan.items() if key.startswith("criterion") and not isinstance(value, Mapping | list)}
-    if criteria:
-        page.paragraph("Design criterion: " + ", ".join(f"{key} = {format_value(value)}" for key, value in criteria.items()), css="verdict")
-    generic(page, plan)
-    page.close()
-
-
 def _study_section(page: Page, study: pd.DataFrame, source: str) -> None:
     page.heading("study", "q2-angle study")
     if source:
@@ -509,98 +493,4 @@ def _study_section(page: Page, study: pd.DataFrame, source: str) -> None:
     frame = study.copy()
     frame.index = pd.Index([str(i) for i in frame.index], name=frame.index.name or "row")
     page.table("table", frame)
-    page.close()
-
-
-def _critique_section(page: Page, critique: Mapping, source: str) -> None:
-    page.heading("critique", "Critique of the model")
-    if source:
-        page.paragraph(f"From {source}.")
-    if "verdict" in critique:
-        page.paragraph(f"Verdict: {critique['verdict']}", css="verdict")
-        page.record("verdict", critique["verdict"])
-    causes = critique.get("causes")
-    if isinstance(causes, list) and causes and not all(isinstance(item, Mapping) for item in causes):
-        page.paragraph("Likely causes:")
-        page.items([format_value(cause) for cause in causes])
-        page.record("causes", causes)
-    elif causes is not None:
-        generic(page, {"causes": causes})
-    evidence = critique.get("evidence")
-    if isinstance(evidence, Mapping) and evidence and all(isinstance(v, Mapping) for v in evidence.values()):
-        frame = pd.DataFrame.from_dict(dict(evidence), orient="index")
-        frame.index.name = "candidate"
-        page.table("evidence", frame, caption="Evidence per candidate effect")
-        usable = [name for name, row in evidence.items() if finite_number(row.get("delta_elpd")) and finite_number(row.get("se"))]
-        if usable:
-            page.figure(
-                "critique_evidence",
-                plot_evidence(usable, [evidence[n]["delta_elpd"] for n in usable], [evidence[n]["se"] for n in usable]),
-                "Δelpd of each candidate effect over the calibrated model, ±2 standard errors.",
-            )
-    elif evidence is not None:
-        generic(page, {"evidence": evidence})
-    rest = {key: value for key, value in critique.items() if key not in ("verdict", "causes", "evidence")}
-    if rest:
-        generic(page, rest)
-    page.close()
-
-
-def _registration_section(page: Page, registration: Mapping, source: str) -> None:
-    """The tracker's registration as ``bayescal axes -o`` wrote it: axes, frames with their sd, arc residuals."""
-    from scipy.spatial.transform import Rotation
-
-    page.heading("registration", "Tracker registration")
-    page.paragraph(
-        f"{'From ' + source + ': t' if source else 'T'}he joint axes fitted from sweeps in the tracker frame, and the robot's "
-        "frames built from axes 1 and 2 (p_tracker = R p + t); a campaign or arcs given with this registration were "
-        "moved into these frames, the rotation's uncertainty added to each reading (docs/registration.md)."
-    )
-    axes = {}
-    for joint, axis in registration.get("axes", {}).items():
-        if isinstance(axis, Mapping):
-            axes[str(joint)] = {
-                **{f"a{c}": v for c, v in zip("xyz", axis.get("direction", []))},
-                "direction sd (mrad)": axis.get("direction_sd_mrad"),
-                **{f"{c} (mm)": v for c, v in zip("xyz", axis.get("point_mm", []))},
-                "point sd (mm)": axis.get("point_sd_mm"),
-                "arc rms (mm)": axis.get("rms_mm"),
-                "χ²/dof": axis["chi2"] / axis["dof"] if finite_number(axis.get("chi2")) and axis.get("dof") else None,
-            }
-    if axes:
-        frame = pd.DataFrame.from_dict(axes, orient="index")
-        frame.index.name = "joint"
-        page.table("axes", frame, caption="Joint axes in the tracker frame: unit direction and the point nearest the tracker's origin")
-    frames = {}
-    for name, entry in registration.get("frames", {}).items():
-        if isinstance(entry, Mapping):
-            rotation = np.asarray(entry.get("rotation", np.eye(3)), dtype=float)
-            frames[str(name)] = {
-                **{f"rotation vector {c} (deg)": v for c, v in zip("xyz", np.degrees(Rotation.from_matrix(rotation).as_rotvec()))},
-                **{f"rotation sd {c} (mrad)": v for c, v in zip("xyz", entry.get("rotation_sd_mrad", []))},
-                **{f"t{c} (mm)": v for c, v in zip("xyz", entry.get("translation_mm", []))},
-                **{f"t{c} sd (mm)": v for c, v in zip("xyz", entry.get("translation_sd_mm", []))},
-            }
-            if entry.get("from_nominal"):
-                page.paragraph(f"{name} frame: {entry['from_nominal']}.")
-    if frames:
-        frame = pd.DataFrame.from_dict(frames, orient="index")
-        frame.index.name = "frame"
-        page.table("frames", frame, caption="The robot's frames in the tracker frame: R as a rotation vector, t, and their sd")
-    rows = [{"joint": joint, **reflector} for joint, axis in registration.get("axes", {}).items() if isinstance(axis, Mapping)
-            for reflector in axis.get("reflectors", []) if isinstance(reflector, Mapping)]
-    if rows:
-        frame = pd.DataFrame(rows)
-        frame.index = pd.Index([f"{row['joint']} {row.get('marker', '')}" for row in rows], name="joint, reflector")
-        page.table("reflectors", frame.drop(columns=["joint"]),
-                   caption="Arc residuals per reflector (z_rms: rms standardised residual, about 1 when the tracker model holds)")
-    critique = registration.get("critique")
-    if isinstance(critique, Mapping):
-        page.paragraph(f"Sweep critique (held out one angle at a time): {critique.get('verdict', '–')}", css="verdict")
-        evidence = {f"{joint} {name}": row for joint, entry in critique.get("joints", {}).items() if isinstance(entry, Mapping)
-                    for name, row in entry.get("evidence", {}).items() if isinstance(row, Mapping)}
-        if evidence:
-            frame = pd.DataFrame.from_dict(evidence, orient="index")
-            frame.index.name = "joint, candidate"
-            page.table("sweep_critique", frame, caption="Held-out gain (ΔELPD, nats) of each candidate over the circle model")
     page.close()

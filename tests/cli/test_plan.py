@@ -33,7 +33,12 @@ def test_evaluates_table_iii(main, capsys):
     assert payload["linear_model"]["criterion"] > 0 and payload["configurations"] == 15
     assert all(set(v) == {"config", "reason"} for v in payload["violations"])
     assert main(["plan", "--config", CONFIG, "--evaluate", PLAN]) == 0
-    assert "predicted rms error at the test pose" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    # ρ0 in μm; widths rounded to two digits of their 3 sd; the cell's hanging-only limit said once
+    assert f"(ρ0, eq 38): {payload['criterion'] * 1000:.2f} μm" in out
+    k4 = payload["parameters"]["k4"]
+    assert f"{k4['width_3sd']:.2g}" in out.split("\nk4 ")[1].splitlines()[0]
+    assert out.count("hangs masses only") == 1
 
 
 @pytest.mark.parametrize(

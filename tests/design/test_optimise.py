@@ -89,7 +89,7 @@ def test_a_tracker_that_sees_no_marker_is_refused(cell):
 def test_the_progress_note_names_its_unit_and_the_bar_stays_off_a_log(capsys):
     from bayescal.design.progress import Progress, best_text
 
-    assert best_text(1.591e-06, "test-pose") == "best: 1.59 um rms left at the test pose"
+    assert best_text(1.591e-06, "test-pose") == "best: ρ0 = 1.59 μm"  # ends with the criterion's unit
     assert "%" in best_text(0.25, "compensator")
     bar = Progress(3, "plan", True)  # stderr is captured here, not a terminal
     bar.step("x")

@@ -156,15 +156,15 @@ def test_parallel_loads_are_warned(cell, campaign):
         ElastostaticModel.from_cell(cell, model="linear", sampler=GibbsSampler(n_chains=2, n_tune=20, n_draws=20), hanging_only=False).fit(campaign)
 
 
-def test_a_cell_that_only_hangs_masses_says_it_once(cell, campaign):
+def test_a_cell_that_only_hangs_masses_records_k1s_reason_without_a_warning(cell, campaign):
     import warnings
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         results = ElastostaticModel.from_cell(cell, model="linear", sampler=GibbsSampler(n_chains=2, n_tune=20, n_draws=20)).fit(campaign)
     messages = [str(w.message) for w in caught]
-    assert not any("all loads are parallel" in m for m in messages)
-    assert sum("hangs masses only" in m for m in messages) == 1
+    # a limit of the cell, which `bayescal plan` states: recorded in k1's reason, never warned at a fit
+    assert not any("all loads are parallel" in m or "hangs masses only" in m or m.startswith("k1 ") for m in messages)
     assert "hangs masses only" in results.identifiability.not_identifiable["k1"]
 
 

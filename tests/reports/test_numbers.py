@@ -37,3 +37,19 @@ def test_table_columns_get_the_same_rounding():
     assert rounded_pair(0.40643, 0.0874) == ("0.406", "0.087")
     assert rounded_pair(math.nan, 0.1) == ("–", "–")
     assert rounded_pair(2.0, math.inf) == ("2", "–")
+
+
+def test_a_table_is_rounded_row_by_row_to_its_uncertainty():
+    import pandas as pd
+
+    from bayescal.reports.numbers import fixed, table_texts
+
+    frame = pd.DataFrame(
+        {"mean": [0.30041, 3.0577, float("nan")], "±3σ": [0.002455, 0.0804, float("nan")], "pct": [0.8175, 2.63, float("nan")]},
+        index=["k2", "k4", "k1"],
+    )
+    texts = table_texts(frame, {"mean": "±3σ", "±3σ": "±3σ"}, {"pct": fixed(1)})
+    assert texts.loc["k2"].tolist() == ["0.3004", "0.0025", "0.8"]
+    assert texts.loc["k4"].tolist() == ["3.058", "0.080", "2.6"]
+    assert texts.loc["k1"].tolist() == ["–", "–", "–"]
+    assert fixed(1)(-0.04) == "0.0"  # no sign the value does not have

@@ -1,5 +1,6 @@
 import json
 import math
+import re
 
 import numpy as np
 import pandas as pd
@@ -36,3 +37,25 @@ def test_generic_lays_out_unknown_json_as_tables_and_lists():
     assert numbers["values"] == {"criterion": 1.5}
     assert numbers["rows"] == {"0": {"q2_deg": -10.0}, "1": {"q2_deg": -20.0}}
     assert numbers["notes"] == ["a", "b"]
+
+
+def test_terms_get_a_hover_title_once_per_element_and_the_page_ends_with_those_it_used():
+    from bayescal.reports.terms import TERMS
+
+    page = Page("T")
+    page.heading("fit", "Fit")
+    page.paragraph("R-hat 1.004 and R-hat again; χ²/dof 0.97; condition numbers are not a term")
+    page.glossary()
+    document = page.files()[HTML_FILE].decode()
+    assert document.count("<abbr title=") == 2  # R-hat once, χ²/dof once
+    assert '<abbr title="' + TERMS["R-hat"] in document
+    assert "<dt>R-hat</dt>" in document and "<dt>χ²/dof</dt>" in document and "<dt>ΔELPD</dt>" not in document
+    assert "**R-hat**" in page.files()[MARKDOWN_FILE].decode()
+
+
+def test_generic_shows_keys_in_words_and_keeps_them_in_the_json():
+    page = Page("T")
+    page.heading("critique", "C")
+    generic(page, {"evidence": {"tilt": {"delta_elpd": 13.7, "se": 3.0}}})
+    assert "<th>ΔELPD [nats]</th>" in re.sub(r"<abbr[^>]*>|</abbr>", "", page.files()[HTML_FILE].decode())
+    assert json.loads(page.files()[JSON_FILE])["critique"]["evidence"] == {"tilt": {"delta_elpd": 13.7, "se": 3.0}}

@@ -3,18 +3,23 @@
 import html
 import json
 import os
+import re
 import shutil
 import subprocess
 import warnings
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 from bayescal.cell.campaign import read_campaign
 from bayescal.cli import main
 from bayescal.inference.elastostatic import restore_results
 from bayescal.inference.priors import posterior_geometry
-from bayescal.reports.review import HTML_FILE, JSON_FILE, MARKDOWN_FILE, ReviewInputs, render_review
+from bayescal.reports.numbers import rounded_pair
+from bayescal.reports.page import Page
+from bayescal.reports.review import HTML_FILE, JSON_FILE, MARKDOWN_FILE, ReviewInputs, _weak_table, render_review
+from bayescal.reports.terms import TERMS
 from bayescal.sampling.summary import load
 
 FIXTURES = Path(__file__).resolve().parent / "data"
@@ -114,18 +119,57 @@ def test_optional_files_are_rendered_known_keys_and_unknown_ones(report):
     assert numbers["critique"]["evidence"]["nonlinear_stiffness"]["delta_elpd"] == 6.5
     assert numbers["critique"]["gain.rho0_mm.values"] == {"before": 0.041, "after": 0.039}
     assert numbers["critique"]["gain.values"] == {"held_out_rows": 45}
-    assert numbers["plan"]["values"]["criterion"] == 0.00697
+    assert numbers["plan"]["criterion"] == 0.00697
     assert numbers["plan"]["parameters"]["k2"]["width_3sd_pct"] == 1.04
-    assert numbers["plan"]["parameters"]["k1"]["sd"] is None
-    assert numbers["plan"]["linear_model.parameters"]["k2"]["sd"] == 0.00159
+    assert numbers["plan"]["parameters"]["k1"]["width_3sd"] is None
     assert numbers["plan"]["violations"]["0"]["reason"] == "the hanging load would touch the floor"
     assert numbers["study"]["table"]["2"]["angles"] == 4
     assert numbers["study"]["table"]["2"]["K_c_width_3sd_pct"] == pytest.approx(298.3866237879191)
     assert numbers["study"]["table"]["0"]["k1_width_3sd_pct"] is None  # an empty cell: not excited
     page = (report / HTML_FILE).read_text()
     assert "hand-written fixture" in page and "critique_evidence.png" in page
-    assert "Design criterion: criterion = 0.00697, criterion_unit = mm rms at the test pose after compensation" in page
-    assert "linear_model: parameters" in page
+    # the criterion in μm, in words; the JSON's keys in words on the page
+    text = _text(page)
+    assert "predicted ρ0 = 6.97 μm rms" in text and "the linear model of eq 31 predicts 6.42 μm rms" in text
+    assert "ΔELPD [nats]" in text and "delta_elpd" not in page and "rho0_mm" not in page
+
+
+def _text(page: str) -> str:
+    """The page's words as a reader sees them: tags dropped, entities read."""
+    return html.unescape(re.sub(r"<[^>]+>", "", page))
+
+
+def test_tables_are_rounded_to_their_uncertainty_and_every_term_has_its_words(report):
+    numbers = json.loads((report / JSON_FILE).read_text())
+    page = (report / HTML_FILE).read_text()
+    text = _text(page)
+    for name, row in numbers["parameters"]["parameters"].items():
+        if row["mean"] is not None:
+            mean, half = rounded_pair(row["mean"], row["±3σ"])
+            assert f"<td>{name}</td><td class=num>{mean}</td><td class=num>{half}</td>" in re.sub(r"<abbr[^>]*>|</abbr>", "", page)
+    error = numbers["test_pose"]["residual_error_um"]
+    assert f"{error['q99.73']['value [μm]']:.1f}" in text and "rho0_from_covariance" not in page
+    # every glossary term the page shows has a hover title and a line in the closing glossary
+    used = [term for term in TERMS if term in text.rsplit("Words used on this page", 1)[0]]
+    assert {"R-hat", "bulk ESS", "tail ESS", "χ²/dof", "rank", "condition number", "ΔELPD", "nats", "SE", "ρ0"} <= set(used)
+    for term in used:
+        assert f'<abbr title="{html.escape(TERMS[term], quote=True)}">{html.escape(term)}</abbr>' in page
+        assert f"<dt>{html.escape(term)}</dt>" in page
+    assert "glossary" not in numbers  # words, no numbers
+
+
+def test_an_interval_below_zero_is_cut_at_zero_with_the_reason():
+    summary = pd.DataFrame(
+        {"mean": [116.0, 3.0], "sd": [102.0, 0.01], "lo3": [-190.0, 2.97], "hi3": [422.0, 3.03], "unit": ["N/mm", "mm"]},
+        index=["K_c", "s0"],
+    )
+    page = Page("T")
+    page.heading("identifiability", "I")
+    _weak_table(page, summary)
+    files = page.files()
+    html_text = files[HTML_FILE].decode()
+    assert "0 (cut: cannot be negative)" in html_text and "-190" not in html_text
+    assert json.loads(files[JSON_FILE])["identifiability"]["weakly_determined"]["K_c"]["lower end"] == -190.0
 
 
 def test_sections_appear_only_for_what_was_given(short_calibration):

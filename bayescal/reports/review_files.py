@@ -1,0 +1,290 @@
+"""The review's sections for the JSON files it is given as they are: a plan, a critique and a registration.
+
+``bayescal plan --json`` and ``bayescal critique --json`` print findings; these
+sections put their known keys in words and tables rounded to their uncertainty
+(the criterion in μm, the ±3σ widths to two digits, ΔELPD and SE to 0.1 nat),
+and show any other key in a generic table under its name in words, so that a
+file from a newer version still renders.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+import pandas as pd
+
+from bayescal.reports.figures import plot_evidence
+from bayescal.reports.numbers import fixed, table_texts
+from bayescal.reports.page import Page, finite_number, generic
+from bayescal.reports.terms import label
+
+__all__ = ["plan_section", "critique_section", "registration_section"]
+
+PLAN_SHOWN = ("criterion", "criterion_unit", "parameters", "optimised_for", "search_model", "model", "configurations", "repeats",
+              "q2_deg", "load_kg", "linear_model")
+"""Keys of the plan's JSON the plan section shows in words; any other is shown as it comes."""
+CRITIQUE_SHOWN = ("verdict", "causes", "evidence", "gain", "covariates", "lack_of_fit", "rule", "n_configurations",
+                  "n_equations", "tied_with", "seed", "campaign")
+"""Keys of the critique's JSON the critique section shows in words."""
+
+
+def plan_section(page: Page, plan: Mapping, source: str) -> None:
+    """The plan ``bayescal plan --json`` printed: what it was designed for, its angles, the predicted widths."""
+    page.heading("plan", "Experiment plan")
+    if source:
+        page.paragraph(f"From {source}.")
+    criterion, unit = plan.get("criterion"), str(plan.get("criterion_unit", ""))
+    page.record("criterion", criterion)
+    page.record("criterion_unit", unit)
+    if finite_number(criterion):
+        linear = plan.get("linear_model", {}).get("criterion") if isinstance(plan.get("linear_model"), Mapping) else None
+        designed = (
+            f"Designed for the {plan['optimised_for']} criterion"
+            + (f" (searched with the {plan['search_model']} model)" if "search_model" in plan else "")
+            if "optimised_for" in plan
+            else "Scored"
+        )
+        page.paragraph(
+            f"{designed}: predicted ρ0 = {_criterion_text(criterion, unit)} (the exact model linearised)"
+            + (f"; the linear model of eq 31 predicts {_criterion_text(linear, unit)}" if finite_number(linear) else "")
+            + ".",
+            css="verdict",
+        )
+    angles = plan.get("q2_deg")
+    if isinstance(angles, list) and angles:
+        loads = plan.get("load_kg")
+        page.paragraph(
+            f"{plan.get('configurations', '?')} configurations, each measured {plan.get('repeats', '?')} times, at q2 = "
+            + ", ".join(f"{v:.1f}" for v in angles)
+            + " deg"
+            + (f"; hanging loads of {', '.join(f'{v:g}' for v in loads)} kg" if isinstance(loads, list) and loads else "")
+            + "."
+        )
+    parameters = plan.get("parameters")
+    if isinstance(parameters, Mapping) and parameters:
+        _plan_widths(page, parameters)
+    starts = plan.get("starts")
+    if isinstance(starts, list) and starts and "candidates" in plan and plan.get("optimised_for") == "test-pose":
+        # The starts hold the optimised criterion in SI: ρ0 in m for the test-pose criterion.
+        reached = ", ".join(_criterion_text(v * 1e3, "mm rms") if finite_number(v) else "–" for v in starts)
+        page.paragraph(f"Search: {plan['candidates']} candidate configurations; the {len(starts)} random starts reached {reached}.")
+    # For the test-pose criterion the optimised value is ρ0 itself, in m: shown above in μm.
+    shown = PLAN_SHOWN + (("starts", "candidates", "criterion_value") if plan.get("optimised_for") == "test-pose" else ())
+    rest = {key: value for key, value in plan.items() if key not in shown}
+    if rest:
+        generic(page, rest)
+    page.close()
+
+
+def _criterion_text(value: float, unit: str) -> str:
+    """A criterion value in its unit; an rms error in mm is shown in μm (to 0.01 μm: a plan's predictions differ by tenths)."""
+    if unit.startswith("mm rms"):
+        return f"{value * 1000:.2f} μm rms"
+    return f"{value:.4g} {unit}".strip()
+
+
+def _plan_widths(page: Page, parameters: Mapping) -> None:
+    columns = ("value", "width_3sd", "width_3sd_pct", "excited", "unit")
+    frame = pd.DataFrame.from_dict(
+        {name: {key: entry.get(key) for key in columns} for name, entry in parameters.items() if isinstance(entry, Mapping)}, orient="index"
+    ).astype({"value": float, "width_3sd": float, "width_3sd_pct": float})
+    frame["unit"] = frame["unit"].fillna("").str.replace("urad/(N m)", "μrad/(N·m)", regex=False)
+    frame.index.name = "parameter"
+    # A stiffness, a free length or a compliance cannot be negative: an interval that would reach below 0 is flagged.
+    below = frame["value"] - frame["width_3sd"] < 0
+    frame["lower_end"] = ["cut at 0: cannot be negative; the plan does not bound it from below" if b else "" for b in below]
+    page.table(
+        "parameters",
+        frame,
+        shown=table_texts(frame, {"width_3sd": "width_3sd"}, {"width_3sd_pct": fixed(1)}),
+        caption="Predicted ±3σ of each parameter after measuring this plan, about the cell's nominal value",
+        words=lambda key: {"width_3sd": "predicted ±3σ", "lower_end": "lower end"}.get(key, label(key)),
+    )
+
+
+def critique_section(page: Page, critique: Mapping, source: str) -> None:
+    """The critique ``bayescal critique --json`` printed: verdict, next step, evidence, lack of fit, gain."""
+    page.heading("critique", "Critique of the model")
+    if source:
+        page.paragraph(f"From {source}.")
+    causes = critique.get("causes")
+    named = [str(c) for c in causes] if isinstance(causes, list) and all(isinstance(c, str) for c in causes) else None
+    if "verdict" in critique:
+        verdict = str(critique["verdict"])
+        page.paragraph(
+            f"Verdict: {verdict}" + (f": causes in order of gain: {', '.join(named)}" if named else "")
+            + (" (no extension predicts held-out configurations clearly better than the calibrated model)" if verdict == "adequate" else ""),
+            css="verdict",
+        )
+        page.record("verdict", verdict)
+    if named is not None:
+        page.record("causes", named)
+    elif causes is not None:
+        generic(page, {"causes": causes})
+    advice = _next_step(critique, named)
+    if advice:
+        page.paragraph(advice)
+    _evidence(page, critique.get("evidence"))
+    _lack_of_fit(page, critique.get("lack_of_fit"))
+    _gain(page, critique.get("gain"))
+    covariates = critique.get("covariates")
+    if isinstance(covariates, Mapping) and covariates and all(isinstance(v, Mapping) for v in covariates.values()):
+        frame = _elpd_frame(covariates, ("meaning",))
+        frame.index.name = "covariate"
+        _elpd_table(page, "covariates", frame, "Held-out gain of a smooth term in each covariate: what an effect outside the catalogue would follow")
+    rule = critique.get("rule")
+    if isinstance(rule, Mapping) and {"delta_elpd_over_se", "floor_nats"} <= set(rule):
+        page.paragraph(
+            f"Rule: a cause is named when ΔELPD > {rule['delta_elpd_over_se']:g} SE and > {rule['floor_nats']:g} nats"
+            + (f", or > {rule['decisive_nats']:g} nats" if "decisive_nats" in rule else "") + "."
+        )
+    rest = {key: value for key, value in critique.items() if key not in CRITIQUE_SHOWN}
+    if rest:
+        generic(page, rest)
+    page.close()
+
+
+def _next_step(critique: Mapping, named: list[str] | None) -> str:
+    """The critique's next step, from the findings in its file (the same sentence ``bayescal critique`` prints)."""
+    from bayescal.reports.next_steps import critique_next_steps
+
+    gain = critique.get("gain")
+    test_pose = gain.get("test_pose") if isinstance(gain, Mapping) else None
+    error = test_pose.get("classical_error_mm") if isinstance(test_pose, Mapping) else None
+    lack = critique.get("lack_of_fit")
+    if named is None or not finite_number(error):
+        return ""
+    misfit = isinstance(lack, Mapping) and finite_number(lack.get("p_value")) and lack["p_value"] < lack.get("level", 0.01)
+    return critique_next_steps(named, bool(misfit), float(error))
+
+
+def _elpd_frame(rows: Mapping, extra: tuple[str, ...]) -> pd.DataFrame:
+    """ΔELPD, SE and ``extra`` of each row of the critique's JSON, under its keys (the page shows them in words)."""
+    frame = pd.DataFrame.from_dict(
+        {name: {key: row.get(key, math.nan) for key in ("delta_elpd", "se")} | {key: row.get(key) for key in extra} for name, row in rows.items()},
+        orient="index",
+    )
+    return frame.astype({"delta_elpd": float, "se": float})
+
+
+def _elpd_table(page: Page, key: str, frame: pd.DataFrame, caption: str) -> None:
+    page.table(key, frame, shown=table_texts(frame, {}, {"delta_elpd": fixed(1), "se": fixed(1)}), caption=caption, words=label)
+
+
+def _evidence(page: Page, evidence) -> None:
+    if not (isinstance(evidence, Mapping) and evidence and all(isinstance(v, Mapping) for v in evidence.values())):
+        if evidence is not None:
+            generic(page, {"evidence": evidence})
+        return
+    frame = _elpd_frame(evidence, ("step", "named"))
+    frame.index.name = "candidate"
+    held_out = {row.get("n_configs") for row in evidence.values()} - {None}
+    _elpd_table(
+        page,
+        "evidence",
+        frame,
+        "Held-out gain of each candidate effect over the calibrated model"
+        + (f" ({held_out.pop()} configurations held out one at a time)" if len(held_out) == 1 else ""),
+    )
+    usable = [name for name, row in evidence.items() if finite_number(row.get("delta_elpd")) and finite_number(row.get("se"))]
+    if usable:
+        page.figure(
+            "critique_evidence",
+            plot_evidence(usable, [evidence[n]["delta_elpd"] for n in usable], [evidence[n]["se"] for n in usable]),
+            "ΔELPD of each candidate effect over the calibrated model, ±2 SE.",
+        )
+
+
+def _lack_of_fit(page: Page, lack) -> None:
+    if not isinstance(lack, Mapping):
+        return
+    page.record("lack_of_fit", lack)
+    if not all(finite_number(lack.get(key)) for key in ("factor", "statistic", "p_value")):
+        return
+    level = lack.get("level", 0.01)
+    dof = lack.get("dof", ["?", "?"])
+    page.paragraph(
+        f"Lack of fit against the repeats: the configuration means scatter {lack['factor']:.2f} times as much about the "
+        f"model as the repeats allow (F = {lack['statistic']:.2f} on {dof[0]} and {dof[1]} degrees of freedom, "
+        f"p = {lack['p_value']:.2g}); " + ("the model misses an effect." if lack["p_value"] < level else f"consistent with the repeats (p ≥ {level:g}).")
+    )
+
+
+def _gain(page: Page, gain) -> None:
+    if not isinstance(gain, Mapping):
+        return
+    page.record("gain", gain)
+    before, after = gain.get("before"), gain.get("after")
+    if not (finite_number(gain.get("delta_elpd")) and isinstance(before, Mapping) and isinstance(after, Mapping)):
+        generic(page, {"gain": gain})
+        return
+    words = [f"Held-out gain of the final model over the classical one: ΔELPD {gain['delta_elpd']:.1f} ± {gain.get('se', math.nan):.1f} nats"]
+    for key, what in (("residual_rms_mm", "residual rms"), ("position_error_rms_mm", "position error rms")):
+        if finite_number(before.get(key)) and finite_number(after.get(key)):
+            words.append(f"{what} {before[key] * 1000:.1f} → {after[key] * 1000:.1f} μm")
+    test_pose = gain.get("test_pose")
+    if isinstance(test_pose, Mapping) and finite_number(test_pose.get("classical_error_mm")):
+        words.append(f"at the test pose the classical prediction lies {test_pose['classical_error_mm'] * 1000:.1f} μm from the extended one's")
+    page.paragraph("; ".join(words) + ".")
+
+
+def registration_section(page: Page, registration: Mapping, source: str) -> None:
+    """The tracker's registration as ``bayescal axes -o`` wrote it: axes, frames with their sd, arc residuals."""
+    from scipy.spatial.transform import Rotation
+
+    page.heading("registration", "Tracker registration")
+    page.paragraph(
+        f"{'From ' + source + ': t' if source else 'T'}he joint axes fitted from sweeps in the tracker frame, and the robot's "
+        "frames built from axes 1 and 2 (p_tracker = R p + t); a campaign or arcs given with this registration were "
+        "moved into these frames, the rotation's uncertainty added to each reading (docs/registration.md)."
+    )
+    axes = {}
+    for joint, axis in registration.get("axes", {}).items():
+        if isinstance(axis, Mapping):
+            axes[str(joint)] = {
+                **{f"a{c}": v for c, v in zip("xyz", axis.get("direction", []))},
+                "direction sd (mrad)": axis.get("direction_sd_mrad"),
+                **{f"{c} (mm)": v for c, v in zip("xyz", axis.get("point_mm", []))},
+                "point sd (mm)": axis.get("point_sd_mm"),
+                "arc rms (mm)": axis.get("rms_mm"),
+                "χ²/dof": axis["chi2"] / axis["dof"] if finite_number(axis.get("chi2")) and axis.get("dof") else None,
+            }
+    if axes:
+        frame = pd.DataFrame.from_dict(axes, orient="index")
+        frame.index.name = "joint"
+        page.table("axes", frame, caption="Joint axes in the tracker frame: unit direction and the point nearest the tracker's origin")
+    frames = {}
+    for name, entry in registration.get("frames", {}).items():
+        if isinstance(entry, Mapping):
+            rotation = np.asarray(entry.get("rotation", np.eye(3)), dtype=float)
+            frames[str(name)] = {
+                **{f"rotation vector {c} (deg)": v for c, v in zip("xyz", np.degrees(Rotation.from_matrix(rotation).as_rotvec()))},
+                **{f"rotation sd {c} (mrad)": v for c, v in zip("xyz", entry.get("rotation_sd_mrad", []))},
+                **{f"t{c} (mm)": v for c, v in zip("xyz", entry.get("translation_mm", []))},
+                **{f"t{c} sd (mm)": v for c, v in zip("xyz", entry.get("translation_sd_mm", []))},
+            }
+            if entry.get("from_nominal"):
+                page.paragraph(f"{name} frame: {entry['from_nominal']}.")
+    if frames:
+        frame = pd.DataFrame.from_dict(frames, orient="index")
+        frame.index.name = "frame"
+        page.table("frames", frame, caption="The robot's frames in the tracker frame: R as a rotation vector, t, and their sd")
+    rows = [{"joint": joint, **reflector} for joint, axis in registration.get("axes", {}).items() if isinstance(axis, Mapping)
+            for reflector in axis.get("reflectors", []) if isinstance(reflector, Mapping)]
+    if rows:
+        frame = pd.DataFrame(rows)
+        frame.index = pd.Index([f"{row['joint']} {row.get('marker', '')}" for row in rows], name="joint, reflector")
+        page.table("reflectors", frame.drop(columns=["joint"]),
+                   caption="Arc residuals per reflector (z_rms: rms standardised residual, about 1 when the tracker model holds)")
+    critique = registration.get("critique")
+    if isinstance(critique, Mapping):
+        page.paragraph(f"Sweep critique (held out one angle at a time): {critique.get('verdict', '–')}", css="verdict")
+        evidence = {f"{joint} {name}": row for joint, entry in critique.get("joints", {}).items() if isinstance(entry, Mapping)
+                    for name, row in entry.get("evidence", {}).items() if isinstance(row, Mapping)}
+        if evidence:
+            frame = pd.DataFrame.from_dict(evidence, orient="index")
+            frame.index.name = "joint, candidate"
+            page.table("sweep_critique", frame, caption="Held-out gain (ΔELPD, nats) of each candidate over the circle model")
+    page.close()
