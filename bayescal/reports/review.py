@@ -196,7 +196,7 @@ def _data_section(page: Page, results: ElastostaticResults, campaign: Campaign, 
         "repeats per configuration": int(np.unique(campaign.repeat).size),
         "markers": int(np.unique(campaign.marker).size),
         "scalar equations": results.n_equations,
-        "distinct q2 angles": int(results.q2.size),
+        "distinct q2 angles": int(results.compensated_angles.size),
     }
     page.table("counts", pd.DataFrame({"value": list(counts.values())}, index=pd.Index(list(counts), name="campaign")))
     noise = deflection_noise(cell.tracker, campaign) / UM
@@ -439,7 +439,7 @@ def _compensator_section(page: Page, results: ElastostaticResults, cell: Cell) -
         closed = results.closed_form
         page.figure(
             "joint2_compliance",
-            plot_joint2_compliance(band, results.q2, closed.k2, closed.k2_sd, own=own),
+            plot_joint2_compliance(band, results.compensated_angles, closed.k2, closed.k2_sd, own=own),
             "Joint 2's equivalent compliance against q2 with its 99.73 % posterior band (the paper's Fig. 7), "
             "and without the compensator (dashed).",
         )
