@@ -72,8 +72,8 @@ def closed_form(
     sigma = np.sqrt(ssr / np.maximum(counts * dof / equations.n, 1.0))
     columns = [c for c, keep in zip(equations.per_angle_columns(), identifiability.identifiable) if keep]
     compliances = np.full(equations.n_joints, np.nan)
-    k2 = np.full(equations.q2.size, np.nan)
-    k2_sd = np.full(equations.q2.size, np.nan)
+    k2 = np.full(equations.compensated_angles.size, np.nan)
+    k2_sd = np.full(equations.compensated_angles.size, np.nan)
     for index, (value, (joint, angle)) in enumerate(zip(k, columns)):
         if angle is None:
             compliances[joint] = value
@@ -83,7 +83,7 @@ def closed_form(
     spring = None
     if identifiability.compensator:
         known = np.isfinite(k2) & (k2 > 0)
-        C = CompensatorGeometry(*geometry).regressor(equations.q2[known])
+        C = CompensatorGeometry(*geometry).regressor(equations.compensated_angles[known])
         w = np.linalg.lstsq(C, 1.0 / k2[known], rcond=None)[0]
         spring = np.array([w[0], w[1], w[2] / w[1] if w[1] != 0 else np.nan])
         compliances[equations.joint] = 1.0 / w[0]

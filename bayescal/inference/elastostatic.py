@@ -271,7 +271,7 @@ class ElastostaticModel:
         ident = analyse(
             equations.whitened().per_angle_design(),
             equations.per_angle_columns(),
-            equations.q2,
+            equations.compensated_angles,
             torque[configs],
             equations.angle[3 * configs],
             equations.prismatic,
@@ -279,7 +279,7 @@ class ElastostaticModel:
         if self.hanging_only and "k1" in ident.reasons:
             ident.reasons["k1"] += f"; {HANGING_ONLY_REASON}"
         if ident.compensator:
-            ident = check_regression(ident, equations.per_angle_columns(), equations.q2, self._geometry_mean)
+            ident = check_regression(ident, equations.per_angle_columns(), equations.compensated_angles, self._geometry_mean)
         _check_determined(campaign, equations, ident)
         if announce:
             # A limit of the cell, not of the campaign: recorded in k1's reason, said once by `bayescal plan`.
@@ -381,7 +381,7 @@ class ElastostaticModel:
             raise InputError(f"the posterior is not one of this campaign and model: {exc}", source=campaign.source) from None
         ident = prepared.identifiability
         saved = set(np.flatnonzero(~np.all(np.isnan(draws.k2), axis=(0, 1))).tolist())
-        expected = set(range(prepared.equations.q2.size)) if draws.spring is not None else {
+        expected = set(range(prepared.equations.compensated_angles.size)) if draws.spring is not None else {
             angle for (_, angle), keep in zip(prepared.equations.per_angle_columns(), ident.identifiable) if angle is not None and keep
         }
         if saved != expected:
@@ -429,7 +429,7 @@ class ElastostaticModel:
             identifiability=replace(ident, practical=practical),
             closed_form=cf,
             model=self.model,
-            q2=equations.q2,
+            compensated_angles=equations.compensated_angles,
             joint=equations.joint,
             prismatic=equations.prismatic,
             draws=draws,
@@ -491,14 +491,14 @@ class ElastostaticModel:
         """How much the compensator changes the joint-2 stiffness, against how finely the per-angle compliances are known."""
         Kc, s0 = self.nominal_spring
         compensator = CompensatorGeometry(*self.geometry.mean).with_spring(Kc, s0)
-        share = 100.0 * np.abs(compensator.stiffness(equations.q2)) * k2
+        share = 100.0 * np.abs(compensator.stiffness(equations.compensated_angles)) * k2
         columns = [c for c, keep in zip(equations.per_angle_columns(), ident.identifiable) if keep]
         sd = np.sqrt(np.diag(cf.cov))
         resolution = [300.0 * sd[i] / cf.per_angle[i] for i, (joint, _) in enumerate(columns) if joint == equations.joint]
         j = equations.joint + 1
         return (
             f"the compensator changes the joint-{j} stiffness by {share.min():.2f}–{share.max():.2f} % across the "
-            f"campaign's {equations.q2.size} q{j} angles (at the config's K_c = {Kc / N_PER_MM:.4g} N/mm, "
+            f"campaign's {equations.compensated_angles.size} q{j} angles (at the config's K_c = {Kc / N_PER_MM:.4g} N/mm, "
             f"s0 = {s0 / MM:.4g} mm), while the per-angle joint-{j} compliances are resolved to "
             f"±{np.median(resolution):.2f} % (3σ, median over the angles)"
         )
@@ -518,7 +518,7 @@ class ElastostaticModel:
         if equations.joint is None:
             return linearisation_offset(robot or self.robot, campaign, equations, compliances, cf.k2, None, self.load_point)
         compensator = CompensatorGeometry(*self.geometry.mean).with_spring(*(spring or self.nominal_spring))
-        nominal_k2 = compensator.equivalent_compliance(equations.q2, self.nominal_compliances[equations.joint])
+        nominal_k2 = compensator.equivalent_compliance(equations.compensated_angles, self.nominal_compliances[equations.joint])
         k2 = np.where(np.isfinite(cf.k2) & (cf.k2 > 0), cf.k2, nominal_k2)
         return linearisation_offset(robot or self.robot, campaign, equations, compliances, k2, compensator, self.load_point)
 
@@ -599,7 +599,7 @@ class ElastostaticModel:
             if not np.isfinite(posterior(start)):
                 # Eq 34 can return a negative K_c or s0 when the data determine the spring
                 # loosely; the chains then start from the nominal spring instead.
-                spring = self._nominal_start(cf, equations.q2)
+                spring = self._nominal_start(cf, equations.compensated_angles)
                 start = start_at(spring)
             if not np.isfinite(posterior(start)):
                 raise InputError(

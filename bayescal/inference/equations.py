@@ -79,9 +79,10 @@ class DeflectionEquations:
         ``(n, nq)``: column j is the deflection per unit compliance of joint j
         (m per rad/(N·m)).
     angle
-        ``(n,)`` index into ``q2`` of each equation's compensated-joint angle (zeros without a compensator).
-    q2
-        The distinct angles (rad) of the compensated joint, shape ``(m,)``; ``(0,)`` without a compensator.
+        ``(n,)`` index into ``compensated_angles`` of each equation's compensated-joint angle (zeros without a compensator).
+    compensated_angles
+        The distinct angles (rad) of the compensated joint (``q2`` on the KR-270), shape ``(m,)``; ``(0,)``
+        without a compensator.
     group
         ``(n,)`` noise group of each equation (index into ``group_names``).
     group_names
@@ -92,7 +93,7 @@ class DeflectionEquations:
         multiplies it.  None: all equal.
     joint
         Index (0-based) of the joint whose compliance is taken per angle (the cell's
-        compensated joint); ``angle`` and ``q2`` are that joint's.  None: the robot has no
+        compensated joint); ``angle`` and ``compensated_angles`` are that joint's.  None: the robot has no
         compensator and every joint has one constant compliance.
     prismatic
         Which joints are prismatic (their compliances in m/N); empty: all revolute.
@@ -101,7 +102,7 @@ class DeflectionEquations:
     y: np.ndarray
     design: np.ndarray
     angle: np.ndarray
-    q2: np.ndarray
+    compensated_angles: np.ndarray
     group: np.ndarray
     group_names: tuple[str, ...]
     scale: np.ndarray | None = None
@@ -112,7 +113,7 @@ class DeflectionEquations:
         n = self.y.shape[0]
         if self.design.ndim != 2 or self.design.shape[0] != n or self.angle.shape != (n,) or self.group.shape != (n,):
             raise ValueError("y, design, angle and group must describe the same equations")
-        angles = self.q2.size if self.joint is not None else 1
+        angles = self.compensated_angles.size if self.joint is not None else 1
         if self.angle.max(initial=0) >= angles or self.group.max(initial=0) >= len(self.group_names):
             raise ValueError("angle or group index out of range")
 
@@ -142,7 +143,7 @@ class DeflectionEquations:
         columns: list[tuple[int, int | None]] = []
         for joint in range(self.n_joints):
             if joint == self.joint:
-                columns.extend((joint, a) for a in range(self.q2.size))
+                columns.extend((joint, a) for a in range(self.compensated_angles.size))
             else:
                 columns.append((joint, None))
         return columns
@@ -219,7 +220,7 @@ def deflection_equations(
         y=campaign.displacement.reshape(-1),
         design=design.reshape(-1, robot.nq),
         angle=np.repeat(angle, 3),
-        q2=values,
+        compensated_angles=values,
         group=group,
         group_names=names,
         scale=None if tracker is None else np.repeat(_relative_noise(tracker, campaign), 3),

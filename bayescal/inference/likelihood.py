@@ -211,9 +211,9 @@ def compensated_posterior(
         b=equations.design[:, equations.joint],
         level=equations.angle,
         block=CompensatorBlock(
-            equations.q2,
+            equations.compensated_angles,
             geometry,
-            q_ref=float(np.median(equations.q2)),
+            q_ref=float(np.median(equations.compensated_angles)),
             static=None if static is None else static[0],
             gravity_sd=gravity_sd,
         ),

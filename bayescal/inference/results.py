@@ -76,7 +76,7 @@ class ElastostaticDraws:
         """From draws ``(chain, draw, ndim)`` of :func:`~bayescal.inference.likelihood.per_angle_posterior`."""
         columns = [c for c, keep in zip(equations.per_angle_columns(), free) if keep]
         compliances: dict[str, np.ndarray] = {}
-        k2 = np.full((*raw.shape[:2], equations.q2.size), np.nan)
+        k2 = np.full((*raw.shape[:2], equations.compensated_angles.size), np.nan)
         for i, (joint, angle) in enumerate(columns):
             if angle is None:
                 compliances[f"k{joint + 1}"] = raw[..., i]
@@ -107,7 +107,7 @@ class ElastostaticDraws:
             raise ValueError(f"it lacks the per-angle compliances '{variable}' of the cell's compensated joint")
         if variable is None and any(is_per_angle_variable(str(name)) for name in posterior.data_vars):
             raise ValueError("it has per-angle compliances, and the cell has no compensator")
-        angles = [f"{v:.3f}" for v in equations.q2 / DEG]
+        angles = [f"{v:.3f}" for v in equations.compensated_angles / DEG]
         saved = [str(v) for v in posterior[dimension].values] if variable is not None else []
         if not set(saved) <= set(angles):
             raise ValueError(f"its q2 angles ({', '.join(saved)} deg) are not the campaign's ({', '.join(angles)} deg)")
@@ -115,7 +115,7 @@ class ElastostaticDraws:
         if groups != equations.group_names:
             raise ValueError(f"its noise groups ({', '.join(groups)}) are not the campaign's ({', '.join(equations.group_names)})")
         chains_draws = values("sigma").shape[:2]
-        k2 = np.full((*chains_draws, equations.q2.size), np.nan)
+        k2 = np.full((*chains_draws, equations.compensated_angles.size), np.nan)
         if saved:
             k2[..., [angles.index(a) for a in saved]] = values(variable) * URAD_PER_NM
         joints = [p for p in registry.parameters if p.name.startswith("k")]
@@ -149,7 +149,7 @@ class ElastostaticDraws:
             values[variable] = self.k2[..., keep] / URAD_PER_NM
             units[variable] = COMPLIANCE_UNIT
             dims[variable] = [registry.angle_dimension]
-            coords[registry.angle_dimension] = [f"{v:.3f}" for v in equations.q2[keep] / DEG]
+            coords[registry.angle_dimension] = [f"{v:.3f}" for v in equations.compensated_angles[keep] / DEG]
         values["sigma"] = self.sigma / MM
         units["sigma"] = "mm"
         if self.gravity is not None:
@@ -178,8 +178,8 @@ class ElastostaticResults:
         Estimates of eqs 33-34 (after the exact model's correction when used).
     model : str
         ``"exact"`` or ``"linear"``.
-    q2 : numpy.ndarray
-        The campaign's distinct joint-2 angles (rad).
+    compensated_angles : numpy.ndarray
+        The campaign's distinct angles (rad) of the compensated joint (``q2`` on the KR-270); empty without a compensator.
     n_equations, n_rows : int
         Scalar equations (3 per campaign row) and campaign rows.
     residual_rms : float
@@ -209,7 +209,7 @@ class ElastostaticResults:
     identifiability: Identifiability
     closed_form: ClosedForm
     model: str
-    q2: np.ndarray
+    compensated_angles: np.ndarray
     draws: ElastostaticDraws = field(repr=False)
     geometry: GeometryPrior = field(repr=False)
     n_equations: int = 0
@@ -336,7 +336,7 @@ class ElastostaticResults:
         exact, linear = self.closed_form, self.linear_closed_form
         pairs: dict[str, tuple[float, float, float]] = {}
         for index, (joint, angle) in enumerate(exact.columns):
-            name = f"k{joint + 1}" if angle is None else self.registry.angle_label(self.q2[angle])
+            name = f"k{joint + 1}" if angle is None else self.registry.angle_label(self.compensated_angles[angle])
             ratio = math.sqrt(linear.cov[index, index] / exact.cov[index, index])
             pairs[name] = (exact.per_angle[index] / URAD_PER_NM, linear.per_angle[index] / URAD_PER_NM, ratio)
         if exact.spring is not None and linear.spring is not None:
@@ -376,7 +376,7 @@ class ElastostaticResults:
         if d.spring is not None:
             k2 = self.equivalent_compliance(np.array([q2]))[:, 0]
         else:
-            match = np.flatnonzero(np.abs(self.q2 - q2) < 0.5 * 10.0**-ANGLE_DECIMALS * DEG)
+            match = np.flatnonzero(np.abs(self.compensated_angles - q2) < 0.5 * 10.0**-ANGLE_DECIMALS * DEG)
             if not match.size or np.all(np.isnan(d.k2[..., match[0]])):
                 return None
             k2 = d.k2[..., match[0]].reshape(-1)

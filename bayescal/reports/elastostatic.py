@@ -272,7 +272,7 @@ def _joint2_figure(results: ElastostaticResults, band: pd.DataFrame, path: Path)
     """Draw joint 2's equivalent compliance against q2 with its posterior band; the report's lines for it."""
     closed = results.closed_form
     own = float(np.mean(1.0 / results.draws.spring[..., 0]))
-    figure = plot_joint2_compliance(band, results.q2, closed.k2, closed.k2_sd, own=own)
+    figure = plot_joint2_compliance(band, results.compensated_angles, closed.k2, closed.k2_sd, own=own)
     figure.savefig(path, dpi=110)
     half_width = band["half_width_pct"]
     truth = band["truth_urad_per_Nm"]
@@ -425,7 +425,7 @@ def _compensator_section(
         "## Why Table IV's K_c and s0 intervals are not reproduced" if not reachable else "## Table IV's K_c and s0 intervals",
         "",
         f"K_c is seen only through the compensator's share of the joint-2 stiffness, K_c·a·L·η(q2)/K_θ2^0 (eq 8): "
-        f"{share_lo:.2f}–{share_hi:.2f} % at the campaign's {results.q2.size} q2 angles with the config's spring. The twin's "
+        f"{share_lo:.2f}–{share_hi:.2f} % at the campaign's {results.compensated_angles.size} q2 angles with the config's spring. The twin's "
         "tracker noise was set so that k2..k6 come out with Table IV's widths (`docs/twin.md`); that noise resolves the "
         f"per-angle joint-2 compliances to ±{per_angle:.2f} % (3σ, eq 37, median over the angles), "
         f"{per_angle / share_hi:.0f} times the compensator's largest share. Carried through the regression of eq 34, it "

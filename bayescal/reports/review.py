@@ -437,7 +437,7 @@ def _compensator_section(page: Page, results: ElastostaticResults, cell: Cell) -
         closed = results.closed_form
         page.figure(
             "joint2_compliance",
-            plot_joint2_compliance(band, results.q2, closed.k2, closed.k2_sd, own=own),
+            plot_joint2_compliance(band, results.compensated_angles, closed.k2, closed.k2_sd, own=own),
             "Joint 2's equivalent compliance against q2 with its 99.73 % posterior band (the paper's Fig. 7), "
             "and without the compensator (dashed).",
         )

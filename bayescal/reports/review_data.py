@@ -38,7 +38,7 @@ def data_section(page: Page, results: ElastostaticResults, campaign: Campaign, c
         "repeats per configuration": int(np.unique(campaign.repeat).size),
         "markers": int(np.unique(campaign.marker).size),
         "scalar equations": results.n_equations,
-        "distinct q2 angles": int(results.q2.size),
+        "distinct angles of the compensated joint": int(results.compensated_angles.size),
     }
     page.table("counts", pd.DataFrame({"value": list(counts.values())}, index=pd.Index(list(counts), name="campaign")))
     noise = deflection_noise(cell.tracker, campaign) / UM

@@ -225,7 +225,7 @@ def compensator_precision(results: ElastostaticResults, cell: Cell) -> Compensat
     jacobian = np.diag(-1.0 / k2**2)
     cov_K = jacobian @ cov_k @ jacobian.T
     compensator = cell.compensator
-    C = CompensatorGeometry(*results.geometry.mean).regressor(results.q2[angles])
+    C = CompensatorGeometry(*results.geometry.mean).regressor(results.compensated_angles[angles])
     projection = np.linalg.pinv(C)
     cov_w = projection @ cov_K @ projection.T
     Kc, s0 = compensator.K_c, compensator.s0
@@ -241,7 +241,7 @@ def compensator_precision(results: ElastostaticResults, cell: Cell) -> Compensat
         {
             "compliance_urad_per_Nm": k2 / URAD_PER_NM,
             "width_3sd_pct": width_3sd_pct(k2, np.sqrt(np.diag(cov_k))),
-            "compensator_share_pct": 100.0 * np.abs(compensator.stiffness(results.q2[angles])) * cell.compliances[cell.compensated_joint],
+            "compensator_share_pct": 100.0 * np.abs(compensator.stiffness(results.compensated_angles[angles])) * cell.compliances[cell.compensated_joint],
         },
         index=pd.Index([label_angle(joint2[a]) for a in angles], name=registry.angle_dimension),
     )

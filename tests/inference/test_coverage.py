@@ -39,7 +39,7 @@ def random_problem(rng, n=60, p=4):
     columns = np.zeros((n, 6))
     columns[:, [0, 2, 3, 4][:p]] = design
     equations = DeflectionEquations(
-        y=y, design=columns, angle=np.zeros(n, dtype=int), q2=np.zeros(1), group=group, group_names=("x", "y", "z")
+        y=y, design=columns, angle=np.zeros(n, dtype=int), compensated_angles=np.zeros(1), group=group, group_names=("x", "y", "z")
     )
     free = np.zeros(6, dtype=bool)
     free[[0, 2, 3, 4][:p]] = True

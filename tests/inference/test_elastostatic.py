@@ -206,8 +206,8 @@ def test_equivalent_compliance_curve_covers_the_truth_and_matches_the_per_angle_
     truth = 1.0 / cell.compensator.joint_stiffness(q2, 1.0 / cell.compliances[1])
     low, high = np.quantile(draws, [0.00135, 0.99865], axis=0)
     assert np.all((low < truth) & (truth < high))
-    at_campaign_angle = results.compliance_draws(results.q2[0], fill=cell.compliances)[:, 1]
-    np.testing.assert_allclose(at_campaign_angle, results.equivalent_compliance(results.q2[:1])[:, 0])
+    at_campaign_angle = results.compliance_draws(results.compensated_angles[0], fill=cell.compliances)[:, 1]
+    np.testing.assert_allclose(at_campaign_angle, results.equivalent_compliance(results.compensated_angles[:1])[:, 0])
     closed = results.closed_form
     assert np.all(np.isfinite(closed.k2_sd)) and np.all(closed.k2_sd < 0.01 * closed.k2)
 

@@ -17,7 +17,7 @@ def linear_problem(rng, n=120, groups=1, sigma=0.5):
         y=y,
         design=design,
         angle=np.zeros(n, dtype=int),
-        q2=np.zeros(1),
+        compensated_angles=np.zeros(1),
         group=np.arange(n) % groups,
         group_names=tuple("xyz"[:groups]),
     )
@@ -81,7 +81,7 @@ def compensated_problem(rng, sigma=2e-6):
     design = rng.normal(size=(n, 6)) * np.array([0.0, 1e4, 3e3, 500, 500, 500])
     truth = np.array([0.0, 0.0, 0.406, 3.0, 3.3, 2.37]) * 1e-6
     y = design @ truth + design[:, 1] * k2[angle] + rng.normal(size=n) * sigma
-    equations = DeflectionEquations(y=y, design=design, angle=angle, q2=q2, group=np.arange(n) % 3, group_names=("x", "y", "z"))
+    equations = DeflectionEquations(y=y, design=design, angle=angle, compensated_angles=q2, group=np.arange(n) % 3, group_names=("x", "y", "z"))
     prior = GeometryPrior(mean=geometry, cov=np.zeros((4, 4)))
     posterior = compensated_posterior(equations, (2, 3, 4, 5), prior)
     z = posterior.block.coordinates(np.array([1 / 0.302e-6, 1.44e5, 0.458]))

@@ -81,7 +81,7 @@ def test_compensator_precision_agrees_with_eq_37_and_names_the_gap_to_table_iv(c
     # Table IV's compensator widths are out of this campaign's reach by more than an order of magnitude.
     assert (spring["needed_factor"] > 10).all()
     share = precision.per_angle["compensator_share_pct"]
-    assert list(precision.per_angle.index) == pytest.approx(list(np.degrees(results.q2)))
+    assert list(precision.per_angle.index) == pytest.approx(list(np.degrees(results.compensated_angles)))
     assert 0.03 < share.min() < share.max() < 0.3
     assert precision.needed_per_angle_width_pct < share.max() < precision.per_angle["width_3sd_pct"].median()
 
