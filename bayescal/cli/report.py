@@ -9,6 +9,7 @@ from pathlib import Path
 from bayescal.output import guard_outputs, write_folder
 
 from ._command import CommandOutput, add_common_options
+from .paper_reports import add_options as add_paper_options, run_paper_reports
 
 __all__ = ["add_parser", "run", "MAX_CHI2_PER_DOF"]
 
@@ -50,7 +51,8 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--critique", metavar="CRITIQUE.json", help="JSON printed by `bayescal critique --json`")
     parser.add_argument("--study", metavar="STUDY.csv", help="a q2-angle study table (CSV)")
     parser.add_argument("--compensation", metavar="COMPENSATED.csv", help="a compensated program from `bayescal compensate -o`")
-    parser.add_argument("-o", "--output", required=True, metavar="FOLDER", help="report folder, created when missing (its parent must exist)")
+    parser.add_argument("-o", "--output", metavar="FOLDER", help="report folder, created when missing (its parent must exist)")
+    add_paper_options(parser)
     add_common_options(parser)
     parser.set_defaults(run=run)
 
@@ -58,6 +60,12 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.errors import InputError
 
+    if args.paper_reports:
+        return run_paper_reports(args)
+    if args.only:
+        raise InputError("--only selects among the --paper-reports; give --paper-reports FOLDER", source="--only")
+    if not args.output:
+        raise InputError("expected -o FOLDER, the folder of the review (or --paper-reports FOLDER)", source="-o")
     inputs = {
         "the --geometry posterior": args.geometry,
         "the --calibration posterior": args.calibration,
@@ -116,19 +124,16 @@ def _read_inputs(args: argparse.Namespace):
         geometry = posterior_geometry(args.geometry, None if cell is None else cell.compensator)
     if args.calibration:
         from bayescal.cell.campaign import read_campaign
-        from bayescal.inference.elastostatic import restore_results
-        from bayescal.inference.testpose import predict_cell_test_pose
-        from bayescal.studies.residuals import residual_table
+        from bayescal.studies.review import calibration_findings
 
         sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
         campaign = read_campaign(args.campaign, cell=cell)
         tree = _load_tree(args.calibration, "--calibration", load, needs=("k2_q2", "sigma"), foreign="R")
         _check_joint_count(tree, cell, args.calibration)
-        results = restore_results(cell, campaign, tree, geometry)
-        _check_fit(results, args)
-        review.results, review.campaign, review.cell = results, campaign, cell
-        review.residuals = residual_table(results, campaign, cell)
-        review.test_pose = predict_cell_test_pose(results, cell)
+        calibration = calibration_findings(cell, campaign, tree, geometry)
+        _check_fit(calibration.results, args)
+        review.results, review.campaign, review.cell = calibration.results, campaign, cell
+        review.residuals, review.test_pose = calibration.residuals, calibration.test_pose
     if args.plan:
         sources["plan"] = args.plan
         review.plan = _read_json(args.plan, "--plan")
