@@ -96,7 +96,7 @@ def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFr
         table = prediction.summary()
     else:
         starts = STARTS if args.starts is None else args.starts
-        design = designer.optimise(args.angles, args.per_angle, args.criterion, rng=args.seed, starts=starts, progress=True)
+        design = designer.optimise(args.angles, args.per_angle, args.criterion, rng=args.seed, starts=starts, progress=not args.json)
         comments = (_command(args, starts),)
         write_atomically("--output", args.output, lambda path: design.save(path, comments=comments))
         payload = design.to_json() | {"output": str(args.output)}

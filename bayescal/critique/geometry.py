@@ -108,6 +108,7 @@ from bayescal.critique.compare import Comparison, compare_elpd
 from bayescal.critique.model import DETECTION_FLOOR, DETECTION_Z, UNEXPLAINED, Outcome, check_candidates, strongest
 from bayescal.errors import InputError
 from bayescal.geometry.arcs import LEVER_MARKER, MarkerPoints, concentric_fit, known_angle_fit
+from bayescal.geometry.layout import cylinder_direction, cylinder_points, lever_angle, lever_points
 from bayescal.units import DEG, MM, UM
 
 __all__ = [
@@ -210,16 +211,15 @@ def _predict_many(
         return theta[name][:, np.newaxis] if name in theta else 0.0
 
     p2_x, p2_y = get("p2_x"), get("p2_y")
-    lever_angle = get("phi") + sense * (1.0 + get("joint_scale")) * q2
-    lever_x = p2_x + get("L") * np.cos(lever_angle)
-    lever_y = p2_y + get("L") * np.sin(lever_angle)
+    angle_of_lever = lever_angle(get("phi"), sense, q2, get("joint_scale"))
+    lever_x, lever_y = lever_points(p2_x, p2_y, get("L"), angle_of_lever)
     x = np.zeros_like(lever_x)
     y = np.zeros_like(lever_y)
     is_lever = marker == LEVER_MARKER
     x[:, is_lever], y[:, is_lever] = lever_x[:, is_lever], lever_y[:, is_lever]
     if probe_z is not None:
         radial, tangential = get("probe_lever_radial"), get("probe_lever_tangential")
-        c, s = np.cos(lever_angle), np.sin(lever_angle)
+        c, s = np.cos(angle_of_lever), np.sin(angle_of_lever)
         x[:, is_lever] += (probe_z * (radial * c - tangential * s))[:, is_lever]
         y[:, is_lever] += (probe_z * (radial * s + tangential * c))[:, is_lever]
     if "p0_x" in theta and not np.all(is_lever):
@@ -227,15 +227,14 @@ def _predict_many(
         extension = np.hypot(lever_x - p0_x, lever_y - p0_y) - np.hypot(p2_x - p0_x, p2_y - p0_y)
         pivot_x = p0_x + extension * get("pivot_gx")
         pivot_y = p0_y + extension * get("pivot_gy")
-        direction = np.arctan2(lever_y - pivot_y, lever_x - pivot_x)
+        direction = cylinder_direction(lever_x, lever_y, pivot_x, pivot_y)
         for name in np.unique(marker[~is_lever]):
             rows = marker == name
             radius = get(f"R[{name}]") + get("slip_radius") * extension[:, rows]
-            angle = direction[:, rows] + get(f"delta[{name}]") + get("slip_angle") * extension[:, rows]
-            c, s = np.cos(angle), np.sin(angle)
-            x[:, rows] = pivot_x[:, rows] + radius * c
-            y[:, rows] = pivot_y[:, rows] + radius * s
+            turn = get("slip_angle") * extension[:, rows]
+            x[:, rows], y[:, rows], angle = cylinder_points(pivot_x[:, rows], pivot_y[:, rows], direction[:, rows], radius, get(f"delta[{name}]"), turn)
             if probe_z is not None:
+                c, s = np.cos(angle), np.sin(angle)
                 radial, tangential = get("probe_cylinder_radial"), get("probe_cylinder_tangential")
                 x[:, rows] += probe_z[rows] * (radial * c - tangential * s)
                 y[:, rows] += probe_z[rows] * (radial * s + tangential * c)

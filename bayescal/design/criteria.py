@@ -43,6 +43,7 @@ import pandas as pd
 from dataclasses import replace
 
 from bayescal.cell.config import Cell
+from bayescal.jsonsafe import json_safe
 from bayescal.reference import read_paper_reference
 from bayescal.robot.stiffness import ElasticArm, compliance_design
 from bayescal.twin.simulator import DigitalTwin
@@ -313,16 +314,16 @@ class PlanPrediction:
         """``criterion`` (ρ0 in mm, null when not predictable) and each parameter's ±3σ width."""
         table = self.summary()
         return {
-            "criterion": _finite(self.rho0 / MM),
+            "criterion": json_safe(self.rho0 / MM),
             "criterion_unit": "mm rms at the test pose after compensation",
-            "log_det_information": _finite(self.log_det),
+            "log_det_information": json_safe(self.log_det),
             "parameters": {
                 name: {
                     "value": float(row.value),
                     "unit": row.unit,
-                    "sd": _finite(row.sd),
-                    "width_3sd": _finite(3.0 * row.sd),
-                    "width_3sd_pct": _finite(row.width_3sd_pct),
+                    "sd": json_safe(row.sd),
+                    "width_3sd": json_safe(3.0 * row.sd),
+                    "width_3sd_pct": json_safe(row.width_3sd_pct),
                     "excited": bool(excited),
                 }
                 for (name, row), excited in zip(table.iterrows(), self.excited)
@@ -446,8 +447,3 @@ def _published_widths(cell: Cell) -> dict[str, float] | None:
     rows = read_paper_reference(cell.reference)
     rows = rows[rows["table"] == "IV"]
     return {str(name): 100.0 * float(row["ci3"]) / float(row["value"]) for name, row in rows.iterrows()}
-
-
-def _finite(value: float) -> float | None:
-    """JSON has no NaN or infinity: a value the plan cannot deliver is null."""
-    return float(value) if math.isfinite(value) else None

@@ -29,6 +29,7 @@ import math
 import re
 from collections import Counter
 from dataclasses import dataclass, field
+from functools import cached_property
 from os import PathLike
 
 import numpy as np
@@ -51,6 +52,7 @@ from bayescal.design.criteria import (
 from bayescal.design.loads import free_candidates, load_sizes, loads_json, turned
 from bayescal.design.progress import Progress, best_text
 from bayescal.errors import InputError
+from bayescal.jsonsafe import json_safe
 from bayescal.units import DEG, MM
 
 __all__ = ["PlanDesign", "PlanDesigner"]
@@ -123,6 +125,17 @@ class PlanDesign:
         """Predicted precision per parameter (see :meth:`PlanPrediction.summary`)."""
         return self.prediction.summary()
 
+    def diagnostics(self) -> dict:
+        """How the search went: the criterion reached from each start, the best of them, the candidates' count."""
+        finite = [value for value in self.starts if math.isfinite(value)]
+        return json_safe({
+            "search_model": self.model,
+            "starts": list(self.starts),
+            "best_start": min(finite) if finite else math.nan,
+            "candidates": self.candidates,
+            "seed": self.seed,
+        })
+
     def to_json(self) -> dict:
         """``criterion`` (ρ0, mm), the optimised criterion, the plan's angles and each parameter's ±3σ width."""
         q2 = np.unique(np.round(self.plan.q[:, self.plan_joint] / DEG, 3))
@@ -131,12 +144,12 @@ class PlanDesign:
             "linear_model": self.linear.to_json(),
             "optimised_for": self.criterion,
             "search_model": self.model,
-            "criterion_value": _finite(criterion_value(self.prediction, self.criterion)),
+            "criterion_value": json_safe(criterion_value(self.prediction, self.criterion)),
             "configurations": len(self.plan),
             "repeats": self.repeats,
             "q2_deg": [float(v) for v in q2],
             **loads_json(self.plan),
-            "starts": [_finite(v) for v in self.starts],
+            "starts": [json_safe(v) for v in self.starts],
             "candidates": self.candidates,
             "seed": self.seed,
         }
@@ -176,17 +189,28 @@ class PlanDesigner:
         self.space = load_design_space(cell) if space is None else space
         self.repeats = repeats
         self.model = model
-        self.exact = ExactLinearisation(cell)
-        self._exact_test_design = self.exact.test_design()
         self.feasibility = Feasibility(cell, self.space)
         self.mass = self.space.mass_range[1]
         self.free = not cell.loading.hanging_only
         self.force_size, self.couple_size = load_sizes(cell, self.mass)
         self._down = np.array([0.0, 0.0, -self.force_size, 0.0, 0.0, 0.0])
-        self._test_design = test_pose_design(cell)
         robot = cell.robot
         j2 = cell.plan_joint
         self.q2_range = (float(robot.lower[j2]), float(robot.upper[j2]))
+
+    # The exact model's finite differences take seconds: built on first use, not by the constructor.
+    @cached_property
+    def exact(self) -> ExactLinearisation:
+        """The exact model linearised about the cell's values (central differences)."""
+        return ExactLinearisation(self.cell)
+
+    @cached_property
+    def _exact_test_design(self) -> np.ndarray:
+        return self.exact.test_design()
+
+    @cached_property
+    def _test_design(self) -> np.ndarray:
+        return test_pose_design(self.cell)
 
     # ----------------------------------------------------------------- scoring
 
@@ -501,8 +525,3 @@ class PlanDesigner:
             if score < current:
                 q, loads, parts, current = proposal, turn, trial, score
         return q, loads, current
-
-
-def _finite(value: float) -> float | None:
-    return float(value) if math.isfinite(value) else None
-

@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike
 
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.errors import InputError
+from bayescal.geometry.layout import cylinder_direction, cylinder_points, lever_angle, lever_points
 from bayescal.geometry.plausibility import check_angle_unit
 from bayescal.tables import read_table
 from bayescal.units import DEG, MM
@@ -542,21 +543,20 @@ class MarkerLayout:
         return layout
 
     def _lever_points(self, q2: np.ndarray) -> np.ndarray:
-        angle = self.phi + self.sense * q2
-        return self.p2 + self.L * np.column_stack([np.cos(angle), np.sin(angle)])
+        return np.column_stack(lever_points(self.p2[0], self.p2[1], self.L, lever_angle(self.phi, self.sense, q2)))
 
     def _cylinder_direction(self, q2: np.ndarray) -> np.ndarray:
-        d = self._lever_points(q2) - self.p0
-        return np.arctan2(d[:, 1], d[:, 0])
+        lever = self._lever_points(q2)
+        return cylinder_direction(lever[:, 0], lever[:, 1], self.p0[0], self.p0[1])
 
     def positions(self, q2: ArrayLike) -> dict[str, np.ndarray]:
-        """Exact marker positions at joint angles ``q2`` (rad), by marker, shape ``(n, 2)`` each."""
+        """Exact marker positions at joint angles ``q2`` (rad), by marker, shape ``(n, 2)`` each (:mod:`bayescal.geometry.layout`)."""
         q2 = np.atleast_1d(np.asarray(q2, dtype=float))
         out = {LEVER_MARKER: self._lever_points(q2)}
         direction = self._cylinder_direction(q2)
         for name, (radius, offset) in self.cylinder.items():
-            angle = direction + offset
-            out[name] = self.p0 + radius * np.column_stack([np.cos(angle), np.sin(angle)])
+            x, y, _ = cylinder_points(self.p0[0], self.p0[1], direction, radius, offset)
+            out[name] = np.column_stack([x, y])
         return out
 
     def simulate(self, q2: ArrayLike, sigma: float, rng: np.random.Generator) -> MarkerPoints:

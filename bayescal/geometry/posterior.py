@@ -54,6 +54,8 @@ from bayescal.sampling import summary as posterior
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.errors import InputError
 from bayescal.geometry.arcs import LEVER_MARKER, CompensatorGeometryModel, GeometryFit, MarkerPoints
+from bayescal.jsonsafe import json_safe
+from bayescal.geometry.layout import cylinder_direction, lever_angle, lever_points
 from bayescal.sampling.ensemble import EnsembleSampler
 from bayescal.sampling.independence import IndependenceSampler
 from bayescal.sampling.protocol import Sampler
@@ -107,8 +109,8 @@ class GeometryPosterior:
     residuals_rms
         Root mean square of each marker's residuals (vector lengths or radial
         distances), in m.
-    diagnostics
-        ``r_hat_max, ess_bulk_min, ess_tail_min, n_chains, n_draws``.
+    convergence
+        ``r_hat_max, ess_bulk_min, ess_tail_min, n_chains, n_draws`` (:meth:`diagnostics`).
     cylinder_model
         ``"concentric"`` or ``"rigid"``.
     """
@@ -118,12 +120,32 @@ class GeometryPosterior:
     geometry: CompensatorGeometry
     residuals: dict[str, np.ndarray]
     residuals_rms: dict[str, float]
-    diagnostics: dict[str, float | int]
+    convergence: dict[str, float | int]
     cylinder_model: CylinderModel
 
     def summary(self) -> pd.DataFrame:
         """Mean, sd, ±3σ interval, R-hat and ESS of every posterior variable (mm, deg)."""
         return posterior.summarize(self.tree)
+
+    def diagnostics(self) -> dict[str, float | int]:
+        """Convergence of the sampler: ``r_hat_max, ess_bulk_min, ess_tail_min, n_chains, n_draws``."""
+        return dict(self.convergence)
+
+    def to_json(self) -> dict:
+        """Every result in edge units (mm, deg), as ``bayescal geometry --json`` prints it: ``cylinder_model``,
+        ``parameters``, ``diagnostics``, ``residuals_rms_mm``, ``closed_form``, ``arc_sense`` and ``frame_mirrored``."""
+        closed = self.closed_form.summary()
+        return json_safe({
+            "cylinder_model": self.cylinder_model,
+            "parameters": posterior.parameters_json(self.summary()),
+            "diagnostics": self.diagnostics(),
+            "residuals_rms_mm": {name: value / MM for name, value in self.residuals_rms.items()},
+            "closed_form": {
+                name: {"value": float(row["value"]), "unit": row["unit"]} for name, row in closed.iterrows() if not name.startswith("rms[")
+            },
+            "arc_sense": "clockwise" if self.closed_form.lever.sense < 0 else "counter-clockwise",
+            "frame_mirrored": self.closed_form.mirrored,
+        })
 
     def save(self, path: str | PathLike[str]) -> None:
         """Write the posterior DataTree to a NetCDF file."""
@@ -290,7 +312,7 @@ class GeometryPosteriorModel:
             geometry=geometry,
             residuals=residuals,
             residuals_rms={name: _rms(r) for name, r in residuals.items()},
-            diagnostics=diagnostics,
+            convergence=diagnostics,
             cylinder_model=self.cylinder_model,
         )
 
@@ -366,13 +388,12 @@ class _Density:
 
     def _lever_at(self, p: dict[str, np.ndarray], q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """x and y of P1 at the angles ``q`` (n,), each ``(..., n)``."""
-        lever = p["phi"][..., None] + self.sense * q
-        length = p["L"][..., None]
-        return p["p2"][..., 0:1] + length * np.cos(lever), p["p2"][..., 1:2] + length * np.sin(lever)
+        angle = lever_angle(p["phi"][..., None], self.sense, q)
+        return lever_points(p["p2"][..., 0:1], p["p2"][..., 1:2], p["L"][..., None], angle)
 
     def _cylinder_direction(self, p: dict[str, np.ndarray], q: np.ndarray) -> np.ndarray:
         x, y = self._lever_at(p, q)
-        return np.arctan2(y - p["p0"][..., 1:2], x - p["p0"][..., 0:1])
+        return cylinder_direction(x, y, p["p0"][..., 0:1], p["p0"][..., 1:2])
 
     def _parts(self, p: dict[str, np.ndarray]) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...], np.ndarray | None]:
         """Residual components of P1 ``(dx, dy)`` and of the cylinder points (``(radial,)`` or ``(dx, dy)``),

@@ -72,7 +72,7 @@ def _report_text(f: GeometryFindings) -> str:
     summary = concentric.summary()
     lever = closed.lever
     p0 = closed.p0[:2]
-    d = concentric.diagnostics
+    d = concentric.diagnostics()
     turns = "opposite ways" if lever.sense < 0 else "the same way"
     lines = [
         "# Compensator geometry from the laser-tracker arcs of Table I",

@@ -26,6 +26,7 @@ import pandas as pd
 
 from bayescal.cell.config import Cell, load_cell
 from bayescal.cell.plan import read_plan
+from bayescal.design.criteria import test_deflection
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.identifiability import grouped, label_angle
 from bayescal.inference.results import ElastostaticResults
@@ -36,7 +37,6 @@ from bayescal.studies.elastostatic_coverage import Truth, fit_against_truth
 from bayescal.studies.linearisation import LinearisationFindings, linearisation_findings, linearisation_study, unloaded_sag
 from bayescal.studies.precision import CompensatorPrecision, compensator_precision, equivalent_compliance_band
 from bayescal.studies.sensitivity import assumption_sensitivity
-from bayescal.studies.testpose import true_test_deflection
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import MM, N_PER_MM, UM, URAD_PER_NM
 
@@ -299,7 +299,7 @@ def elastostatic_findings(
     sensitivity = assumption_sensitivity(model, campaign, posterior)
 
     test_pose = predict_cell_test_pose(results, cell)
-    true_deflection = true_test_deflection(cell)
+    true_deflection = test_deflection(cell)
     truth_block = dataclasses.replace(test_pose, reference=true_deflection).to_json().get("residual_error_mm")
 
     masses = plan.masses(cell.load_mass)
