@@ -12,12 +12,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from bayescal.cell.config import load_cell
-from bayescal.cell.plan import read_plan
-from bayescal.studies.elastostatic_findings import ElastostaticFindings, elastostatic_findings
-from bayescal.studies.geometry_findings import GeometryFindings, geometry_findings
-from bayescal.studies.twin_findings import TwinFindings, twin_findings
+if TYPE_CHECKING:
+    from bayescal.studies.elastostatic_findings import ElastostaticFindings
+    from bayescal.studies.geometry_findings import GeometryFindings
+    from bayescal.studies.twin_findings import TwinFindings
 
 __all__ = ["PAPER_REPORTS", "PAPER_SEEDS", "PaperSources", "paper_findings"]
 
@@ -84,12 +84,21 @@ def paper_findings(name: str, sources: PaperSources) -> GeometryFindings | TwinF
     ValueError
         For ``detection`` (computed by its report module) or a name not in :data:`PAPER_REPORTS`.
     """
+    # The studies are imported here: the command line lists the reports' names without loading them.
     seed = PAPER_SEEDS.get(name)
     if name == "geometry":
+        from bayescal.studies.geometry_findings import geometry_findings
+
         return geometry_findings(sources.points, sources.reference, seed)
     if name == "twin":
+        from bayescal.cell.config import load_cell
+        from bayescal.cell.plan import read_plan
+        from bayescal.studies.twin_findings import twin_findings
+
         cell = load_cell(sources.config)
         return twin_findings(cell, read_plan(sources.plan, cell.robot), seed=seed)
     if name == "elastostatic":
+        from bayescal.studies.elastostatic_findings import elastostatic_findings
+
         return elastostatic_findings(sources.config, sources.plan, seed)
     raise ValueError(f"no findings function for the report {name!r}; expected one of geometry, twin, elastostatic")
