@@ -7,17 +7,8 @@ from scipy.special import gammainc, gammaincc, gammaln
 from bayescal.sampling import summary as posterior
 from bayescal.geometry.circle import known_angle_crb
 from bayescal.geometry.arcs import CompensatorGeometryModel, MarkerLayout, MarkerPoints, read_arc_points
-from bayescal.geometry.posterior import (
-    GeometryPosteriorModel,
-    GeometryPriors,
-    _Density,
-    _inner_range,
-    _log_gamma_mass,
-    _regularized_gamma,
-    _truncated_gamma,
-    default_sampler,
-    emcee_sampler,
-)
+from bayescal.geometry.density import _Density, _inner_range, _log_gamma_mass, _regularized_gamma, _truncated_gamma
+from bayescal.geometry.posterior import GeometryPosteriorModel, GeometryPriors, default_sampler, emcee_sampler
 from bayescal.reference import read_paper_reference
 from bayescal.studies.arc_fit import TABLE_I_NOISE
 from bayescal.studies.geometry_coverage import coverage_study
