@@ -397,6 +397,17 @@ class GeometryCritiqueResults(Outcome):
             payload["unexplained_covariate"] = self.unexplained_covariate
         return payload
 
+    def diagnostics(self) -> dict:
+        """What the comparison rests on: held-out angles and points, the candidates not tried, the decision
+        rule, and the held-out residual rms (mm) of the two-step and the final model over all markers."""
+        return {
+            "n_angles": self.n_angles,
+            "n_points": self.n_points,
+            "skipped": list(self.skipped),
+            "rule": dict(self.rule),
+            "held_out_rms_mm": {"two_step": self.before.get("residual_rms_mm"), "final": self.after.get("residual_rms_mm")},
+        }
+
     def save(self, path: str | PathLike[str]) -> None:
         """Write :meth:`to_json` to ``path``."""
         Path(path).write_text(json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n")
