@@ -28,13 +28,9 @@ demo: $(STAMP)
 	$(BIN)/bayescal report --geometry build/geometry_posterior.nc --calibration build/elastostatic_posterior.nc \
 	    --campaign build/campaign.csv --config data/kr270.toml --plan build/plan.json --critique build/critique.json -o build/report
 
-# Regenerate the committed reports from the code and the data.
+# Regenerate the committed reports from the code and the data (bayescal report --help).
 reports: $(STAMP)
-	$(BIN)/python -m bayescal.reports.geometry data/table1_geometry.csv reports
-	$(BIN)/python -m bayescal.reports.twin --config data/kr270.toml --plan data/table3_plan.csv -o reports/twin.md
-	$(BIN)/python -m bayescal.reports.elastostatic
-	$(BIN)/python -m bayescal.reports.detection --config data/kr270.toml --plan data/table3_plan.csv \
-	    --plan-for compensator=data/compensator_plan.csv --geometry data/table1_geometry.csv -o reports/detection.md
+	$(BIN)/bayescal report --paper-reports reports
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

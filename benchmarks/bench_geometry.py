@@ -42,7 +42,7 @@ def measure(name, sampler, points):
         warnings.simplefilter("ignore")
         result = GeometryPosteriorModel(sampler=sampler).fit(points, rng=SEED)
     seconds, cpu = time.perf_counter() - began, time.process_time() - cpu
-    d = result.diagnostics
+    d = result.diagnostics()
     print(
         f"{name:<12} {seconds:7.2f} s wall ({cpu:6.2f} s CPU)  {d['n_chains']} chains x {d['n_draws']} draws  "
         f"R-hat max {d['r_hat_max']:.4f}  min bulk ESS {d['ess_bulk_min']:6.0f}  min ESS/s {d['ess_bulk_min'] / seconds:8.1f}"

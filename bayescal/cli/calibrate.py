@@ -6,6 +6,8 @@ import argparse
 import math
 import textwrap
 
+from bayescal.jsonsafe import json_safe
+
 from ._command import CommandOutput, add_common_options, check_output, whole_number, write_atomically
 from ._registered import add_registration_option, read_campaign_in_base, registration_lines
 
@@ -87,56 +89,12 @@ def run(args: argparse.Namespace) -> CommandOutput:
     if args.posterior:
         write_atomically("--posterior", args.posterior, results.save)
 
-    comparison = results.linear_vs_exact()
-    payload = {
-        "campaign": args.campaign,
-        "parameters": results.parameters(),
-        "weakly_determined": results.weakly_determined(),
-        "k2_per_angle": {f"{angle:.3f} deg": entry for angle, entry in _k2_by_angle(results).items()},
-        "diagnostics": results.diagnostics() | {"seed": args.seed, "geometry": model.geometry_source},
-        "identifiability": results.identifiability.to_json(),
-        "test_pose": test_pose.to_json(),
-    }
+    payload = {"campaign": args.campaign} | results.to_json() | {"test_pose": test_pose.to_json()}
+    payload["diagnostics"]["seed"] = args.seed
     if transfer is not None:
         payload["registration"] = {"source": args.registration} | transfer.to_json()
-    if comparison is not None:
-        payload["linear_vs_exact"] = {
-            str(name): {"shift_in_sd": row["shift_in_sd"], "sd_ratio": row["sd_ratio"]} for name, row in comparison.iterrows()
-        }
     text = "\n".join([_text(results, test_pose, args, cell.reference), *registration_lines(transfer, args.registration)])
-    return CommandOutput(payload=_finite(payload), text=text)
-
-
-def _k2_by_angle(results) -> dict[float, dict]:
-    """The compensated joint's equivalent compliance at each campaign angle, keyed by its angle (deg): its posterior
-    or why it has none; empty without a compensator."""
-    from bayescal.inference.parameters import COMPLIANCE_UNIT, label_angle
-
-    summary = results.summary()
-    reasons = results.identifiability.not_identifiable
-    out = {}
-    for name in results.identifiability.names:
-        angle = label_angle(name)
-        if angle is None:
-            continue
-        if name in reasons or name not in summary.index:
-            out[angle] = {"identifiable": False, "reason": reasons[name]}
-        else:
-            out[angle] = {field: float(summary.loc[name, field]) for field in ("mean", "sd", "lo3", "hi3")} | {"unit": COMPLIANCE_UNIT}
-    return out
-
-
-def _finite(value):
-    """JSON has no NaN or infinity: they become null."""
-    if isinstance(value, dict):
-        return {key: _finite(item) for key, item in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite(item) for item in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if hasattr(value, "item") and not isinstance(value, str):
-        return _finite(value.item())
-    return value
+    return CommandOutput(payload=json_safe(payload), text=text)
 
 
 def _text(results, test_pose, args, reference_file) -> str:
@@ -189,7 +147,7 @@ def _text(results, test_pose, args, reference_file) -> str:
     j = -1 if results.joint is None else results.joint + 1
     per_angle = [
         f"  q{j} = {angle:>8.2f} deg  {with_uncertainty(entry['mean'], entry['hi3'] - entry['mean'], 'urad/(N m)')}"
-        for angle, entry in _k2_by_angle(results).items()
+        for angle, entry in results.per_angle().items()
         if "mean" in entry
     ]
     if per_angle:

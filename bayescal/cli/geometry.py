@@ -57,8 +57,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     import numpy as np
 
     from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler
-    from bayescal.reference import REFERENCE_FILE, read_paper_reference
-    from bayescal.sampling import summary as posterior
+    from bayescal.reference import REFERENCE_FILE, beside_published, read_paper_reference
 
     check_output("--posterior", args.posterior, {"the points file": args.points, "the --reference file": args.reference,
                                                   "the --registration file": args.registration})
@@ -73,44 +72,31 @@ def run(args: argparse.Namespace) -> CommandOutput:
         write_atomically("--posterior", args.posterior, result.save)
 
     summary = result.summary()
-    closed = result.closed_form
-    closed_table = closed.summary()
-    payload = {
-        "source": args.points,
-        "cylinder_model": args.cylinder_model,
-        "parameters": posterior.parameters_json(summary),
-        "diagnostics": result.diagnostics,
-        "residuals_rms_mm": {name: value / MM for name, value in result.residuals_rms.items()},
-        "closed_form": {
-            name: {"value": float(row["value"]), "unit": row["unit"]}
-            for name, row in closed_table.iterrows()
-            if not name.startswith("rms[")
-        },
-        "arc_sense": "clockwise" if closed.lever.sense < 0 else "counter-clockwise",
-        "frame_mirrored": closed.mirrored,
-        "posterior_file": args.posterior,
-        "seed": args.seed,
-    }
+    closed_table = result.closed_form.summary()
+    payload = {"source": args.points} | result.to_json() | {"posterior_file": args.posterior, "seed": args.seed}
     if transfer is not None:
         payload["registration"] = {"source": args.registration} | transfer.to_json()
+    paper = None
     if reference is not None:
+        paper = beside_published(summary.loc[[name for name in _PAPER_ROWS if name in summary.index], ["mean", "sd"]], "II", reference)
+        paper = paper[paper["published"].notna()]
         payload["paper"] = {
             name: {
-                "value": float(reference.loc[name, "value"]),
-                "lo3": float(reference.loc[name, "value"] - reference.loc[name, "ci3"]),
-                "hi3": float(reference.loc[name, "value"] + reference.loc[name, "ci3"]),
-                "unit": reference.loc[name, "unit"],
-                "table": f"Klimchik et al., Table {reference.loc[name, 'table']}",
+                "value": float(row["published"]),
+                "lo3": float(row["published"] - row["published_half_width_3sd"]),
+                "hi3": float(row["published"] + row["published_half_width_3sd"]),
+                "unit": summary.loc[name, "unit"],
+                "table": "Klimchik et al., Table II",
+                "difference_in_sd": float(row["difference_in_sd"]),
             }
-            for name in _PAPER_ROWS
-            if name in reference.index
+            for name, row in paper.iterrows()
         }
     lever = float(np.hypot(summary.loc["a_x", "mean"], summary.loc["a_y", "mean"]))
-    text = "\n".join([_text(args, summary, closed_table, result, reference), *registration_lines(transfer, args.registration, lever)])
+    text = "\n".join([_text(args, summary, closed_table, result, paper), *registration_lines(transfer, args.registration, lever)])
     return CommandOutput(payload, text)
 
 
-def _text(args, summary, closed_table, result, reference) -> str:
+def _text(args, summary, closed_table, result, paper) -> str:
     header = (
         f"{'parameter':<16}{'unit':<5}{'mean':>11}{'sd':>9}{'mean-3sd':>11}{'mean+3sd':>11}{'r_hat':>7}"
         f"{'closed form':>13}{'Table II':>10}{'±3σ':>7}"
@@ -123,14 +109,14 @@ def _text(args, summary, closed_table, result, reference) -> str:
     ]
     for name, row in summary.iterrows():
         closed = f"{closed_table.loc[name, 'value']:13.3f}" if name in closed_table.index else " " * 13
-        paper = ""
-        if reference is not None and name in reference.index and name in _PAPER_ROWS:
-            paper = f"{reference.loc[name, 'value']:10.2f}{reference.loc[name, 'ci3']:7.2f}"
+        published = ""
+        if paper is not None and name in paper.index:
+            published = f"{paper.loc[name, 'published']:10.2f}{paper.loc[name, 'published_half_width_3sd']:7.2f}"
         lines.append(
             f"{name:<16}{row['unit']:<5}{row['mean']:11.3f}{row['sd']:9.3f}{row['lo3']:11.3f}{row['hi3']:11.3f}"
-            f"{row['r_hat']:7.3f}{closed}{paper}"
+            f"{row['r_hat']:7.3f}{closed}{published}"
         )
-    d = result.diagnostics
+    d = result.diagnostics()
     rms = ", ".join(f"{name} {value / MM:.3f}" for name, value in result.residuals_rms.items())
     sense = result.closed_form.lever
     lines += [
@@ -141,7 +127,7 @@ def _text(args, summary, closed_table, result, reference) -> str:
         f"P1 arc: {'clockwise' if sense.sense < 0 else 'counter-clockwise'} in (x, y) as q2 increases "
         f"(the best orthogonal R of eq 19 is a {'reflection' if sense.sense < 0 else 'rotation'})",
     ]
-    if reference is not None:
+    if paper is not None:
         lines.append("Table II: Klimchik et al., published value and ±3σ half-width")
     if args.posterior:
         lines.append(f"posterior saved to {args.posterior}")

@@ -141,13 +141,14 @@ def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFr
         designer.check_request(args.angles, args.per_angle, args.criterion)
         # The search's cost grows with the configurations and the starts; scaled from the default design's time.
         seconds = SECONDS[args.model] * (args.angles * args.per_angle / 15) * (starts / STARTS)
-        print(
-            f"bayescal plan: designing {args.angles} × {args.per_angle} configurations with the {args.model} model, "
-            f"about {max(seconds, 5):.0f} s" + ("" if args.model == "linear" else f" (--model linear: about {max(seconds / 4, 5):.0f} s)"),
-            file=sys.stderr,
-            flush=True,
-        )
-        design = designer.optimise(args.angles, args.per_angle, args.criterion, rng=args.seed, starts=starts, progress=True)
+        if not args.json:
+            print(
+                f"bayescal plan: designing {args.angles} × {args.per_angle} configurations with the {args.model} model, "
+                f"about {max(seconds, 5):.0f} s" + ("" if args.model == "linear" else f" (--model linear: about {max(seconds / 4, 5):.0f} s)"),
+                file=sys.stderr,
+                flush=True,
+            )
+        design = designer.optimise(args.angles, args.per_angle, args.criterion, rng=args.seed, starts=starts, progress=not args.json)
         comments = (_command(args, starts),)
         write_atomically("--output", args.output, lambda path: design.save(path, comments=comments))
         payload = design.to_json() | {"output": str(args.output)}

@@ -10,6 +10,7 @@ from bayescal.output import guard_outputs, write_folder
 
 from ._command import CommandOutput, add_common_options
 from ._registered import read_campaign_in_base
+from .paper_reports import add_options as add_paper_options, run_paper_reports
 
 __all__ = ["add_parser", "run", "MAX_CHI2_PER_DOF"]
 
@@ -57,7 +58,8 @@ def add_parser(subparsers) -> None:
         metavar="REG.json",
         help="registration from `bayescal axes -o`: shown on the page, and the --campaign is read in the tracker frame and moved into its base frame",
     )
-    parser.add_argument("-o", "--output", required=True, metavar="FOLDER", help="report folder, created when missing (its parent must exist)")
+    parser.add_argument("-o", "--output", metavar="FOLDER", help="report folder, created when missing (its parent must exist)")
+    add_paper_options(parser)
     add_common_options(parser)
     parser.set_defaults(run=run)
 
@@ -65,6 +67,12 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.errors import InputError
 
+    if args.paper_reports:
+        return run_paper_reports(args)
+    if args.only:
+        raise InputError("--only selects among the --paper-reports; give --paper-reports FOLDER", source="--only")
+    if not args.output:
+        raise InputError("expected -o FOLDER, the folder of the review (or --paper-reports FOLDER)", source="-o")
     inputs = {
         "the --geometry posterior": args.geometry,
         "the --calibration posterior": args.calibration,
@@ -131,9 +139,7 @@ def _read_inputs(args: argparse.Namespace):
         for name in review.registration["frames"]:
             read_frame(args.registration, name)
     if args.calibration:
-        from bayescal.inference.elastostatic import restore_results
-        from bayescal.inference.testpose import predict_cell_test_pose
-        from bayescal.studies.residuals import residual_table
+        from bayescal.studies.review import calibration_findings
 
         sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
         campaign, cell, _ = read_campaign_in_base(args, args.campaign, cell)
@@ -143,11 +149,10 @@ def _read_inputs(args: argparse.Namespace):
         per_angle = ParameterRegistry.of_cell(cell).per_angle_variable if cell is not None else None
         tree = _load_tree(args.calibration, "--calibration", load, needs=(*([per_angle] if per_angle else []), "sigma"), foreign="R")
         _check_joint_count(tree, cell, args.calibration)
-        results = restore_results(cell, campaign, tree, geometry)
-        _check_fit(results, args)
-        review.results, review.campaign, review.cell = results, campaign, cell
-        review.residuals = residual_table(results, campaign, cell)
-        review.test_pose = predict_cell_test_pose(results, cell)
+        calibration = calibration_findings(cell, campaign, tree, geometry)
+        _check_fit(calibration.results, args)
+        review.results, review.campaign, review.cell = calibration.results, campaign, cell
+        review.residuals, review.test_pose = calibration.residuals, calibration.test_pose
     if args.plan:
         sources["plan"] = args.plan
         review.plan = _read_json(args.plan, "--plan")

@@ -44,6 +44,7 @@ from dataclasses import replace
 
 from bayescal.cell.config import Cell
 from bayescal.inference.parameters import ParameterRegistry
+from bayescal.jsonsafe import json_safe
 from bayescal.robot.stiffness import ElasticArm, compliance_design
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import MM
@@ -313,16 +314,16 @@ class PlanPrediction:
         """``criterion`` (ρ0 in mm, null when not predictable) and each parameter's ±3σ width."""
         table = self.summary()
         return {
-            "criterion": _finite(self.rho0 / MM),
+            "criterion": json_safe(self.rho0 / MM),
             "criterion_unit": "mm rms at the test pose after compensation",
-            "log_det_information": _finite(self.log_det),
+            "log_det_information": json_safe(self.log_det),
             "parameters": {
                 name: {
                     "value": float(row.value),
                     "unit": row.unit,
-                    "sd": _finite(row.sd),
-                    "width_3sd": _finite(3.0 * row.sd),
-                    "width_3sd_pct": _finite(row.width_3sd_pct),
+                    "sd": json_safe(row.sd),
+                    "width_3sd": json_safe(3.0 * row.sd),
+                    "width_3sd_pct": json_safe(row.width_3sd_pct),
                     "excited": bool(excited),
                 }
                 for (name, row), excited in zip(table.iterrows(), self.excited)
@@ -428,8 +429,3 @@ def criterion_values(cell: Cell, information: np.ndarray, criterion: str, *, tes
     G0 = (test_pose_design(cell) if test_design is None else test_design)[:, excited]
     squared = np.einsum("ij,njk,ik->n", G0, inverse, G0)
     return np.where(usable, np.sqrt(np.maximum(squared, 0.0)), np.inf)
-
-
-def _finite(value: float) -> float | None:
-    """JSON has no NaN or infinity: a value the plan cannot deliver is null."""
-    return float(value) if math.isfinite(value) else None

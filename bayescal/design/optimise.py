@@ -28,30 +28,28 @@ from __future__ import annotations
 import math
 import re
 from collections import Counter
-from dataclasses import dataclass, field
-from os import PathLike
+from functools import cached_property
 
 import numpy as np
-import pandas as pd
 
-from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT, Cell
-from bayescal.cell.plan import Plan, write_plan
+from bayescal.cell.config import Cell
+from bayescal.cell.plan import Plan
 from bayescal.design.constraints import DesignSpace, Feasibility, load_design_space
 from bayescal.design.criteria import (
     CRITERIA,
     ExactLinearisation,
     PlanPrediction,
     configuration_information,
-    criterion_value,
     criterion_values,
     predict,
     test_pose_design,
     wrench_information,
 )
-from bayescal.design.loads import free_candidates, load_sizes, loads_json, turned
+from bayescal.design.loads import free_candidates, load_sizes, turned
+from bayescal.design.plan_design import PlanDesign
 from bayescal.design.progress import Progress, best_text
 from bayescal.errors import InputError
-from bayescal.units import DEG, MM
+from bayescal.units import DEG
 
 __all__ = ["PlanDesign", "PlanDesigner"]
 
@@ -76,76 +74,6 @@ REFINE_STEP_DEG = (3.0, 0.1)
 
 MAX_PASSES = 20
 """Exchange passes at most; on the KR-270 a start settles in 3 to 6."""
-
-
-@dataclass(frozen=True)
-class PlanDesign:
-    """An optimised plan and what it is predicted to deliver.
-
-    Attributes
-    ----------
-    plan : Plan
-        ``angles × per_angle`` configurations, grouped by q2, with their loads.
-    criterion : str
-        What was minimised (one of :data:`bayescal.design.criteria.CRITERIA`).
-    prediction : PlanPrediction
-        The plan's predicted precision and test-pose error with the exact model
-        linearised (:class:`~bayescal.design.criteria.ExactLinearisation`), as the
-        identification's default model sees it.
-    linear : PlanPrediction
-        The same with eq 31's design (the paper's eqs 37-39).
-    model : str
-        The model the search used, ``"linear"`` or ``"exact"``.
-    repeats : int
-        Measurements per configuration the prediction assumes.
-    starts : list of float
-        The criterion reached from each random start (after refinement).
-    candidates : int
-        Size of the candidate set.
-    seed : int or None
-        The seed the optimisation ran with, when given as an integer.
-    plan_joint : int
-        Index (0-based) of the joint whose angles group the plan (the cell's).
-    """
-
-    plan: Plan
-    criterion: str
-    prediction: PlanPrediction
-    linear: PlanPrediction
-    model: str
-    repeats: int
-    starts: list[float] = field(default_factory=list)
-    candidates: int = 0
-    seed: int | None = None
-    plan_joint: int = DEFAULT_COMPENSATED_JOINT
-
-    def summary(self) -> pd.DataFrame:
-        """Predicted precision per parameter (see :meth:`PlanPrediction.summary`)."""
-        return self.prediction.summary()
-
-    def to_json(self) -> dict:
-        """``criterion`` (ρ0, mm), the optimised criterion, the plan's angles and each parameter's ±3σ width."""
-        q2 = np.unique(np.round(self.plan.q[:, self.plan_joint] / DEG, 3))
-        return self.prediction.to_json() | {
-            "model": "exact",
-            "linear_model": self.linear.to_json(),
-            "optimised_for": self.criterion,
-            "search_model": self.model,
-            "criterion_value": _finite(criterion_value(self.prediction, self.criterion)),
-            "configurations": len(self.plan),
-            "repeats": self.repeats,
-            "q2_deg": [float(v) for v in q2],
-            **loads_json(self.plan),
-            "starts": [_finite(v) for v in self.starts],
-            "candidates": self.candidates,
-            "seed": self.seed,
-        }
-
-    def save(self, path: str | PathLike[str], *, comments: tuple[str, ...] = ()) -> None:
-        """Write the plan in the format of ``data/table3_plan.csv``."""
-        rho0 = self.prediction.rho0
-        note = f"predicted rms error at the test pose after compensation {rho0 / MM:.5f} mm" if math.isfinite(rho0) else ""
-        write_plan(self.plan, path, comments=(f"plan optimised for the {self.criterion} criterion, {self.repeats} repeats; {note}",) + tuple(comments))
 
 
 class PlanDesigner:
@@ -176,17 +104,28 @@ class PlanDesigner:
         self.space = load_design_space(cell) if space is None else space
         self.repeats = repeats
         self.model = model
-        self.exact = ExactLinearisation(cell)
-        self._exact_test_design = self.exact.test_design()
         self.feasibility = Feasibility(cell, self.space)
         self.mass = self.space.mass_range[1]
         self.free = not cell.loading.hanging_only
         self.force_size, self.couple_size = load_sizes(cell, self.mass)
         self._down = np.array([0.0, 0.0, -self.force_size, 0.0, 0.0, 0.0])
-        self._test_design = test_pose_design(cell)
         robot = cell.robot
         j2 = cell.plan_joint
         self.q2_range = (float(robot.lower[j2]), float(robot.upper[j2]))
+
+    # The exact model's finite differences take seconds: built on first use, not by the constructor.
+    @cached_property
+    def exact(self) -> ExactLinearisation:
+        """The exact model linearised about the cell's values (central differences)."""
+        return ExactLinearisation(self.cell)
+
+    @cached_property
+    def _exact_test_design(self) -> np.ndarray:
+        return self.exact.test_design()
+
+    @cached_property
+    def _test_design(self) -> np.ndarray:
+        return test_pose_design(self.cell)
 
     # ----------------------------------------------------------------- scoring
 
@@ -505,8 +444,3 @@ class PlanDesigner:
             if score < current:
                 q, loads, parts, current = proposal, turn, trial, score
         return q, loads, current
-
-
-def _finite(value: float) -> float | None:
-    return float(value) if math.isfinite(value) else None
-

@@ -1,38 +1,34 @@
-"""A one-line progress bar on stderr for the plan designer's long steps."""
+"""The plan designer's progress on its long steps, through tqdm: on stderr, only when stderr is a terminal."""
 
 from __future__ import annotations
 
 import math
 import sys
 
+from tqdm import tqdm
+
 __all__ = ["Progress", "best_text"]
 
 
 class Progress:
-    """A one-line progress bar on stderr, drawn only when stderr is a terminal.
+    """A one-line progress bar on stderr, drawn only when asked for and stderr is a terminal.
 
     Redrawn with carriage returns, a bar written to a log file or a pipe is a
-    single line of hundreds of overwritten states.
+    single line of hundreds of overwritten states; the command line also turns it
+    off in ``--json`` runs.
     """
 
-    WIDTH = 30
-
     def __init__(self, total: int, label: str, enabled: bool) -> None:
-        self.total, self.label, self.done = max(total, 1), label, 0
-        self.enabled = enabled and sys.stderr.isatty()
+        self._bar = tqdm(total=max(total, 1), desc=label, file=sys.stderr, disable=not (enabled and sys.stderr.isatty()), leave=True)
 
     def step(self, note: str = "") -> None:
-        self.done += 1
-        if self.enabled:
-            filled = int(self.WIDTH * self.done / self.total)
-            bar = "#" * filled + "." * (self.WIDTH - filled)
-            sys.stderr.write(f"\r{self.label} [{bar}] {self.done}/{self.total} {note}".ljust(100))
-            sys.stderr.flush()
+        """One more step done; ``note`` is shown after the count (e.g. the best plan so far)."""
+        if note:
+            self._bar.set_postfix_str(note, refresh=False)
+        self._bar.update(1)
 
     def close(self) -> None:
-        if self.enabled:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
+        self._bar.close()
 
 
 def best_text(score: float, criterion: str) -> str:

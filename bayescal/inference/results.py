@@ -11,9 +11,10 @@ import pandas as pd
 from bayescal.inference.closedform import ClosedForm
 from bayescal.inference.equations import ANGLE_DECIMALS, DeflectionEquations
 from bayescal.inference.identifiability import Identifiability
-from bayescal.inference.parameters import COMPLIANCE_UNIT, ParameterRegistry, is_per_angle_variable
+from bayescal.inference.parameters import COMPLIANCE_UNIT, ParameterRegistry, is_per_angle_variable, label_angle
 from bayescal.inference.lack_of_fit import LackOfFit
 from bayescal.inference.priors import GeometryPrior
+from bayescal.jsonsafe import json_safe
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.robot.compensator import stiffness_regressor
 from bayescal.sampling.gibbs import ConditionallyLinear
@@ -245,10 +246,11 @@ class ElastostaticResults:
     def summary(self) -> pd.DataFrame:
         """Mean, sd, ±3σ and central 99.73 % intervals, R-hat, ESS and unit of every posterior variable."""
         if self.summary_table is None:
-            # R-hat and ESS of every variable take a good part of a second: computed once per results.
+            # A fit and a restore give their summary (R-hat and ESS of every variable take a good
+            # part of a second); results built otherwise compute it on each call.
             from bayescal.sampling.summary import summarize
 
-            self.summary_table = summarize(self.tree)
+            return summarize(self.tree)
         return self.summary_table.copy()
 
     def parameters(self) -> dict[str, dict]:
@@ -303,6 +305,43 @@ class ElastostaticResults:
             "lack_of_fit": None if self.lack_of_fit is None else self.lack_of_fit.to_json(),
         }
         return report
+
+    def per_angle(self) -> dict[float, dict]:
+        """The compensated joint's equivalent compliance at each campaign angle, keyed by its angle (deg): its posterior
+        (``mean``, ``sd``, ``lo3``, ``hi3``, ``unit``) or why it has none (``identifiable``: false, ``reason``);
+        empty without a compensator."""
+        summary = self.summary()
+        reasons = self.identifiability.not_identifiable
+        unit = COMPLIANCE_UNIT
+        out = {}
+        for name in self.identifiability.names:
+            angle = label_angle(name)
+            if angle is None:
+                continue
+            if name in reasons or name not in summary.index:
+                out[angle] = {"identifiable": False, "reason": reasons[name]}
+            else:
+                out[angle] = {key: float(summary.loc[name, key]) for key in ("mean", "sd", "lo3", "hi3")} | {"unit": unit}
+        return out
+
+    def to_json(self) -> dict:
+        """Every result in edge units, as ``bayescal calibrate --json`` prints it (without the test pose):
+        ``parameters``, ``weakly_determined``, ``k2_per_angle``, ``diagnostics`` (with the geometry's
+        source), ``identifiability`` and, for the exact model, ``linear_vs_exact``.  Non-finite
+        numbers are null."""
+        out = {
+            "parameters": self.parameters(),
+            "weakly_determined": self.weakly_determined(),
+            "k2_per_angle": {f"{angle:.3f} deg": entry for angle, entry in self.per_angle().items()},
+            "diagnostics": self.diagnostics() | {"geometry": self.geometry.source},
+            "identifiability": self.identifiability.to_json(),
+        }
+        comparison = self.linear_vs_exact()
+        if comparison is not None:
+            out["linear_vs_exact"] = {
+                str(name): {"shift_in_sd": row["shift_in_sd"], "sd_ratio": row["sd_ratio"]} for name, row in comparison.iterrows()
+            }
+        return json_safe(out)
 
     def equivalent_compliance(self, q2: np.ndarray) -> np.ndarray:
         """``(S, n)`` posterior draws of joint 2's equivalent compliance (rad/(N·m)) at angles ``q2`` (rad).

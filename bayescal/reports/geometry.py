@@ -1,63 +1,47 @@
 """The geometry report: Table I through the closed-form fits and the posterior, beside Table II.
 
-:func:`write_geometry_report` writes ``geometry.md`` and its figures.  It
-renders the fits, the posteriors, their comparison with Table II
-(:func:`bayescal.reference.beside_published`) and two Monte-Carlo studies:
-:func:`~bayescal.studies.arc_fit.arc_fit_study` (known-angle fit against
-standard circle fits and the Cramér-Rao bounds) and
-:func:`~bayescal.studies.geometry_coverage.coverage_study` (frequentist coverage of the
-posterior's mean ± k sd intervals on simulated campaigns), and the model
-criticism of :class:`~bayescal.critique.geometry.GeometryCritique` (which
-extension of the planar model predicts held-out joint angles better).
-
-Run ``python -m bayescal.reports.geometry data/table1_geometry.csv reports`` to
-regenerate the report.
+:func:`render_geometry` words and draws the :class:`~bayescal.studies.geometry_findings.GeometryFindings`
+of :func:`~bayescal.studies.geometry_findings.geometry_findings`: the fits, the posteriors, their
+comparison with Table II, the two Monte-Carlo studies (known-angle fit against standard circle
+fits and the Cramér-Rao bounds; coverage of the posterior's mean ± k sd intervals) and the model
+criticism (which extension of the planar model predicts held-out joint angles better).  It fits,
+samples and decides nothing; ``bayescal report --paper-reports DIR`` writes it.
 """
 
 from __future__ import annotations
 
-import argparse
-from collections.abc import Sequence
-from os import PathLike
-from pathlib import Path
+import io
 
 import numpy as np
 import pandas as pd
+from matplotlib.figure import Figure
 
-from bayescal.critique.geometry import GEOMETRY_CATALOGUE, GeometryCritique, GeometryCritiqueResults
-from bayescal.geometry.arcs import (
-    LEVER_MARKER,
-    CompensatorGeometryModel,
-    MarkerLayout,
-    read_arc_points,
-)
-from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler
-from bayescal.sampling.protocol import Sampler
+from bayescal.critique.geometry import GEOMETRY_CATALOGUE, GeometryCritiqueResults
+from bayescal.geometry.arcs import LEVER_MARKER
 from bayescal.reports.plots import plot_arc_fit, plot_eta_curves
-from bayescal.output import guard_outputs, write_folder
-from bayescal.reference import REFERENCE_FILE, beside_published, read_paper_reference
-from bayescal.studies.arc_fit import TABLE_I_NOISE, arc_fit_study
-from bayescal.studies.geometry_coverage import binomial_se, coverage_study
-from bayescal.studies.cylinder_markers import along_arc_residuals, cylinder_marker_study, implied_cylinder_noise
+from bayescal.studies.arc_fit import TABLE_I_NOISE
+from bayescal.studies.geometry_coverage import binomial_se
+from bayescal.studies.geometry_findings import COVERAGE_SAMPLER, GeometryFindings
 from bayescal.tables import markdown_table
 from bayescal.units import DEG, MM
 
-__all__ = ["write_geometry_report"]
+__all__ = ["REPORT_FILE", "ARCS_FIGURE", "ETA_FIGURE", "render_geometry"]
 
-COVERAGE_SAMPLER = {"n_chains": 2, "n_tune": 400, "n_draws": 400}
-"""Ensembles of the coverage study: short, since the study itself checks what they deliver."""
+REPORT_FILE = "geometry.md"
+"""The report's Markdown file."""
+
+ARCS_FIGURE = "geometry_arcs.png"
+"""The figure of the points, the fitted arcs and the residuals."""
+
+ETA_FIGURE = "geometry_eta.png"
+"""The figure of eta(q2) (the paper's Fig. 3)."""
+
+FIGURE_DPI = 120
+"""Resolution of the figures."""
 
 SE_RATE = 0.99
 """Coverage rate at which the report quotes the binomial standard error: about that of ±3σ."""
 
-SAME_PATTERN = 0.5
-"""Correlation of the cylinder markers' residual sequences above which the report calls their patterns the same."""
-
-MODEL_MISFIT_RATIO = 2.0
-"""Cylinder-marker rms, in multiples of P1's, above which the planar model is said to miss these markers' motion."""
-
-FAR_BEYOND_NOISE = 10.0
-"""Drift along the arc, in multiples of P1's rms residual, called far beyond the noise."""
 
 def _markdown(frame: pd.DataFrame, digits: int = 3) -> str:
     def cell(value) -> str:
@@ -69,88 +53,31 @@ def _markdown(frame: pd.DataFrame, digits: int = 3) -> str:
     return markdown_table([frame.index.name or "", *frame.columns], rows)
 
 
-def write_geometry_report(
-    points_path: str | PathLike[str],
-    out_dir: str | PathLike[str],
-    reference_path: str | PathLike[str] | None = None,
-    seed: int = 1,
-    n_arc_rep: int = 2000,
-    n_coverage_rep: int = 200,
-    sampler: Sampler | None = None,
-) -> Path:
-    """Run the geometry identification on a data file and write ``geometry.md`` with figures.
+def _png(figure: Figure) -> bytes:
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=FIGURE_DPI)
+    return buffer.getvalue()
 
-    Parameters
-    ----------
-    points_path
-        Marker points (``data/table1_geometry.csv``).
-    out_dir
-        Directory of the report; ``geometry.md``, ``geometry_arcs.png`` and
-        ``geometry_eta.png`` are written there.
-    reference_path
-        Published values (``data/paper_reference.csv``); ``None`` omits the comparison.
-    seed
-        Seed of every random number used.
-    n_arc_rep, n_coverage_rep
-        Replications of the two Monte-Carlo studies.
-    sampler
-        Sampler of the two posteriors of the data (default
-        :func:`~bayescal.geometry.posterior.default_sampler`); the coverage
-        study always uses 2 chains of 400 + 400 steps.
 
-    Returns
-    -------
-    pathlib.Path
-        The written Markdown file.
-    """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    rng = np.random.default_rng(seed)
-    points = read_arc_points(points_path)
-    reference = read_paper_reference(reference_path) if reference_path is not None else None
-    closed = CompensatorGeometryModel().fit(points)
-    concentric = GeometryPosteriorModel("concentric", sampler=sampler).fit(points, rng=rng)
-    rigid = GeometryPosteriorModel("rigid", sampler=sampler).fit(points, rng=rng)
+def render_geometry(findings: GeometryFindings) -> dict[str, bytes]:
+    """The report's files: :data:`REPORT_FILE`, :data:`ARCS_FIGURE` and :data:`ETA_FIGURE`."""
+    f = findings
+    arcs = plot_arc_fit(f.points, f.closed, {"rigid, along-arc": f.along})
+    eta = plot_eta_curves(f.concentric.geometry, list(f.s0_values), highlight=f.s0_published)
+    return {REPORT_FILE: _report_text(f).encode("utf-8"), ARCS_FIGURE: _png(arcs), ETA_FIGURE: _png(eta)}
+
+
+def _report_text(f: GeometryFindings) -> str:
+    points, closed, concentric = f.points, f.closed, f.concentric
     summary = concentric.summary()
-    rigid_summary = rigid.summary()
-    p0 = closed.p0[:2]
-
-    q1, _ = points.of(LEVER_MARKER)
-    q2_sorted = np.sort(q1)
-    layout = MarkerLayout.from_fit(closed, points)
-    arc_study = arc_fit_study(layout, q2_sorted, TABLE_I_NOISE, n_arc_rep, rng)
-    light = GeometryPosteriorModel("concentric", sampler=default_sampler(**COVERAGE_SAMPLER))
-    coverage = coverage_study(layout, q2_sorted, TABLE_I_NOISE, n_coverage_rep, light, rng)
-
-    along = {name: along_arc_residuals(points, rigid.closed_form.p0[:2], name, rigid.residuals[name]) for name in points.cylinder_markers}
-    figure = plot_arc_fit(points, closed, {"rigid, along-arc": along})
-    figure.savefig(out / "geometry_arcs.png", dpi=120)
-    g = concentric.geometry
-    s0_values = [0.0, 0.2, 0.4]
-    s0_table = None
-    if reference is not None and "s0" in reference.index:
-        s0_table = float(reference.loc["s0", "value"]) * MM
-        s0_values.append(s0_table)
-    s0_values.append(g.a - g.L)
-    plot_eta_curves(g, s0_values, highlight=s0_table).savefig(out / "geometry_eta.png", dpi=120)
-
-    markers = cylinder_marker_study(points, closed)
-    critique = GeometryCritique().run(points)
-    paper = beside_published(summary.loc[["L", "a_x", "a_y"], ["mean", "sd"]], "II", reference) if reference is not None else None
-    text = _report_text(points, points_path, paper, closed, concentric, rigid, summary, rigid_summary, markers, arc_study, coverage, seed, s0_values, p0, critique)
-    path = out / "geometry.md"
-    path.write_text(text, encoding="utf-8")
-    return path
-
-
-def _report_text(points, points_path, paper, closed, concentric, rigid, summary, rigid_summary, markers, arc_study, coverage, seed, s0_values, p0, critique) -> str:
     lever = closed.lever
-    d = concentric.diagnostics
+    p0 = closed.p0[:2]
+    d = concentric.diagnostics()
     turns = "opposite ways" if lever.sense < 0 else "the same way"
     lines = [
         "# Compensator geometry from the laser-tracker arcs of Table I",
         "",
-        f"Generated by `python -m bayescal.reports.geometry {points_path} <dir>` (seed {seed}); every number below is "
+        f"Generated by `bayescal report --paper-reports` from `{f.points_path}` (seed {f.seed}); every number below is "
         "computed by the code from the data file. Paper values are from Klimchik et al., Table II.",
         "",
         "## Data",
@@ -181,11 +108,11 @@ def _report_text(points, points_path, paper, closed, concentric, rigid, summary,
         _markdown(summary[["mean", "sd", "lo3", "hi3", "r_hat", "ess_bulk", "unit"]], 4),
         "",
     ]
-    if paper is not None:
-        lines += ["### Beside Table II", "", _markdown(_table_ii(paper), 3), ""]
-        lines += _a_y_discussion(points, closed, summary, rigid_summary, paper, markers)
-    lines += _rigid_section(points, closed, concentric, rigid, summary, rigid_summary, markers)
-    lines += _critique_section(critique, points_path)
+    if f.paper is not None:
+        lines += ["### Beside Table II", "", _markdown(_table_ii(f.paper), 3), ""]
+        lines += _a_y_discussion(f)
+    lines += _rigid_section(f)
+    lines += _critique_section(f.critique, f.points_path)
     lines += [
         "## Figures",
         "",
@@ -198,11 +125,11 @@ def _report_text(points, points_path, paper, closed, concentric, rigid, summary,
         "![eta curves](geometry_eta.png)",
         "",
         "The coefficient eta(q2) of eq 9 (the paper's Fig. 3) with the posterior-mean geometry, for "
-        f"s0 = {', '.join(f'{s / MM:.0f}' for s in s0_values)} mm (the thick curve is Table IV's s0; the last "
+        f"s0 = {', '.join(f'{s / MM:.0f}' for s in f.s0_values)} mm (the thick curve is Table IV's s0; the last "
         "value is a - L, the shortest spring length, above which the spring would push).",
         "",
     ]
-    lines += _studies_section(arc_study, coverage)
+    lines += _studies_section(f.arc_study, f.coverage)
     lines += [
         "## Limitations",
         "",
@@ -235,23 +162,24 @@ def _table_ii(paper: pd.DataFrame) -> pd.DataFrame:
     return table
 
 
-def _a_y_discussion(points, closed, summary, rigid_summary, paper, markers) -> list[str]:
-    row = paper.loc["a_y"]
+def _a_y_discussion(f: GeometryFindings) -> list[str]:
+    points, closed, markers = f.points, f.closed, f.markers
+    summary, rigid_summary = f.concentric.summary(), f.rigid.summary()
+    row = f.paper.loc["a_y"]
     ours = summary.loc["a_y"]
     closed_a_y = closed.geometry.a_y / MM
-    sampling = "so the difference is not a sampling effect" if abs(closed_a_y - ours["mean"]) < ours["sd"] else "so part of the difference comes from the sampling"
+    sampling = "so the difference is not a sampling effect" if f.closed_form_within_sd else "so part of the difference comes from the sampling"
     singles = markers["a_y_alone_mm"]
     residuals = {name: closed.cylinder.residuals[name] / MM for name in points.cylinder_markers}
     pattern = "; ".join(
         f"{name}: {', '.join(f'{r:+.2f}' for r in residuals[name][np.argsort(points.of(name)[0])])}" for name in residuals
     )
-    same = "The markers show the same pattern" if (markers["residual_correlation"] > SAME_PATTERN).all() else "The markers' patterns differ"
+    same = "The markers show the same pattern" if f.same_pattern else "The markers' patterns differ"
     sigma_cylinder = summary.loc["sigma[cylinder]", "mean"]
-    implied = implied_cylinder_noise(summary, paper)
+    implied = f.implied_noise
     lever_rms = closed.residuals_rms[LEVER_MARKER] / MM
     cylinder_rms = markers["residual_rms_mm"].max()
-    misfit = cylinder_rms / lever_rms > MODEL_MISFIT_RATIO
-    wider = sigma_cylinder > implied.max()
+    misfit, wider = f.model_misfit, f.wider
     return [
         "### About a_y",
         "",
@@ -284,7 +212,9 @@ def _a_y_discussion(points, closed, summary, rigid_summary, paper, markers) -> l
     ]
 
 
-def _rigid_section(points, closed, concentric, rigid, summary, rigid_summary, markers) -> list[str]:
+def _rigid_section(f: GeometryFindings) -> list[str]:
+    points, concentric, rigid, markers = f.points, f.concentric, f.rigid, f.markers
+    summary, rigid_summary = concentric.summary(), rigid.summary()
     names = ["L", "a_x", "a_y", "phi", "sigma[lever]", "sigma[cylinder]"]
     table = pd.DataFrame(
         {
@@ -304,15 +234,9 @@ def _rigid_section(points, closed, concentric, rigid, summary, rigid_summary, ma
     )
     rms.index.name = "marker"
     drift = [f"{name} {row['drift_deg']:.2f} deg ({row['drift_along_arc_mm']:.2f} mm along its arc)" for name, row in markers.iterrows()]
-    beyond = markers["drift_along_arc_mm"].min() / (closed.residuals_rms[LEVER_MARKER] / MM)
-    if beyond > FAR_BEYOND_NOISE:
-        against_noise = "far beyond P1's noise"
-    elif beyond > 1.0:
-        against_noise = "beyond P1's noise"
-    else:
-        against_noise = "within P1's noise"
-    narrower = rigid_summary.loc["a_x", "sd"] < summary.loc["a_x", "sd"]
-    if beyond > 1.0:
+    against_noise = f"{f.drift_verdict} P1's noise"
+    narrower = f.rigid_narrower
+    if f.drift_verdict != "within":
         verdict = (
             "The markers are therefore not rigid on a cylinder that points exactly at P1 (or the planar model misses part "
             "of the motion), the rigid model's σ absorbs that misfit, and its a_x interval, "
@@ -448,26 +372,3 @@ def _studies_section(arc_study: pd.DataFrame, coverage: pd.DataFrame) -> list[st
         "",
     ]
     return lines
-
-
-def main(argv: Sequence[str] | None = None) -> None:
-    """Command-line entry: ``python -m bayescal.reports.geometry POINTS OUT_DIR [--reference CSV] [--seed N]``."""
-    parser = argparse.ArgumentParser(description="Write the compensator geometry report.")
-    parser.add_argument("points")
-    parser.add_argument("out_dir")
-    parser.add_argument("--reference", default=str(REFERENCE_FILE))
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--coverage-rep", type=int, default=200)
-    args = parser.parse_args(argv)
-    names = ("geometry.md", "geometry_arcs.png", "geometry_eta.png")
-    guard_outputs({"the points": args.points, "the --reference table": args.reference}, folders={"out_dir": (args.out_dir, names)})
-
-    def write(staging: Path) -> None:
-        write_geometry_report(args.points, staging, args.reference, args.seed, n_coverage_rep=args.coverage_rep)
-
-    written = write_folder("out_dir", args.out_dir, write)
-    print(next(path for path in written if path.suffix == ".md"))
-
-
-if __name__ == "__main__":
-    main()

@@ -26,7 +26,7 @@ from bayescal.cell.config import Cell
 from bayescal.inference.parameters import label_angle
 from bayescal.inference.results import ElastostaticResults
 from bayescal.inference.testpose import TestPosePrediction
-from bayescal.reference import published, read_paper_reference
+from bayescal.reference import beside_published, read_paper_reference
 from bayescal.reports.compensation import compensation_section
 from bayescal.reports.numbers import fixed, table_texts
 from bayescal.reports.page import HTML_FILE, JSON_FILE, MARKDOWN_FILE, Page
@@ -207,16 +207,14 @@ def _geometry_section(page: Page, tree, seed: int) -> None:
         )
     names = [name for name in GEOMETRY_NAMES if name in tree["posterior"]]
     summary = summarize(tree, names)
-    table_ii = published("II")
+    paper = beside_published(summary[["mean", "sd"]], "II")
     frame = pd.DataFrame(
         {
             "mean": summary["mean"],
-            "±3σ": 3 * summary["sd"],
-            "Table II": [table_ii[n][0] if n in table_ii else math.nan for n in names],
-            "Table II ±3σ": [table_ii[n][1] if n in table_ii else math.nan for n in names],
-            "difference in posterior sd": [
-                (summary.loc[n, "mean"] - table_ii[n][0]) / summary.loc[n, "sd"] if n in table_ii else math.nan for n in names
-            ],
+            "±3σ": paper["half_width_3sd"],
+            "Table II": paper["published"],
+            "Table II ±3σ": paper["published_half_width_3sd"],
+            "difference in posterior sd": paper["difference_in_sd"],
             "R-hat": summary["r_hat"],
             "bulk ESS": summary["ess_bulk"],
             "unit": [_unit(u) for u in summary["unit"]],
@@ -234,7 +232,7 @@ def _geometry_section(page: Page, tree, seed: int) -> None:
         caption="Posterior mean and ±3σ half-width beside Klimchik et al., Table II; each mean rounded to two digits of its ±3σ",
     )
     draws = {f"{name} [{summary.loc[name, 'unit']}]": np.asarray(tree["posterior"][name].values).ravel() for name in names}
-    reference = {f"{n} [{summary.loc[n, 'unit']}]": table_ii[n][0] for n in names if n in table_ii}
+    reference = {f"{n} [{summary.loc[n, 'unit']}]": paper.loc[n, "published"] for n in names if not math.isnan(paper.loc[n, "published"])}
     page.record("correlation", pd.DataFrame(draws).corr().to_dict())
     page.figure("geometry_pairs", plot_pairs(draws, reference=reference, reference_label="Table II", seed=seed), "Geometry posterior: pairs of L, a_x, a_y, phi; dashed: Table II.")
     page.close()

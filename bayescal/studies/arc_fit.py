@@ -15,12 +15,12 @@ import pandas as pd
 
 from bayescal.geometry.arcs import LEVER_MARKER, MarkerLayout, known_angle_fit
 from bayescal.geometry.circle import geometric_fit, hyper_fit, kasa_fit, known_angle_crb, unknown_angle_crb
+from bayescal.twin.arcs import TABLE_I_NOISE
 from bayescal.units import MM
 
 __all__ = ["TABLE_I_NOISE", "arc_fit_study"]
 
-TABLE_I_NOISE = 0.05 * MM
-"""Tracker noise per coordinate (m) of campaigns simulated like Table I: about the P1 residual scale on Table I."""
+# The noise of campaigns simulated like Table I is the geometry twin's (bayescal.twin.arcs).
 
 
 def arc_fit_study(layout: MarkerLayout, q2: Sequence[float], sigma: float, n_rep: int, rng: np.random.Generator) -> pd.DataFrame:

@@ -12,8 +12,10 @@ runs the four campaigns that separate the two parts.
 from __future__ import annotations
 
 import dataclasses
+import math
 import warnings
 from collections.abc import Iterable
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -31,8 +33,14 @@ from bayescal.units import UM
 __all__ = [
     "LINEARISATION_NOISE",
     "LINEARISATION_SEEDS",
+    "LinearisationFindings",
     "NOISE_QUANTILE",
     "REDUCED",
+    "REPORTED_EQUATIONS",
+    "REPORTED_MISFIT",
+    "REPORTED_REDUCED_MISFIT",
+    "SECOND_ORDER_DROP",
+    "linearisation_findings",
     "linearisation_misfit",
     "linearisation_study",
     "misfit_summary",
@@ -54,6 +62,19 @@ REDUCED = 0.1
 
 NOISE_QUANTILE = 0.999
 """χ²/dof above this quantile of the χ² distribution counts as misfit beyond noise (one campaign in a thousand)."""
+
+
+REPORTED_MISFIT = (1.3, 1.4)
+"""χ²/dof range reported for a linear fit of a nonlinear simulation at 8 μm tracker noise."""
+
+REPORTED_EQUATIONS = 810
+"""Equation count of that reported fit."""
+
+REPORTED_REDUCED_MISFIT = 1.02
+"""χ²/dof reported for the same fit with loads and noise scaled down tenfold."""
+
+SECOND_ORDER_DROP = 1.0 / REDUCED**2
+"""Drop of the excess χ² of a purely second-order misfit when loads and noise shrink by :data:`REDUCED`."""
 
 
 def weightless(cell: Cell) -> Cell:
@@ -197,3 +218,69 @@ def unloaded_sag(cell: Cell, plan: Plan) -> pd.DataFrame:
     frame = pd.DataFrame(sag / _MRAD, columns=[f"sag_j{j + 1}_mrad" for j in range(sag.shape[1])])
     frame.index.name = "configuration"
     return frame
+
+
+@dataclass(frozen=True)
+class LinearisationFindings:
+    """What :func:`linearisation_study` says about the linear model, against the reported misfit.
+
+    Attributes
+    ----------
+    study, sag
+        :func:`linearisation_study` and :func:`unloaded_sag` of the plan.
+    chi2_spread
+        sqrt(2 dof), the χ² spread of noise alone at full loads.
+    real
+        The excess χ² at full loads exceeds that spread and the linear model misfits more on every seed.
+    noise_like
+        The exact model's χ²/dof stays within noise on every seed.
+    ours
+        Our linear χ²/dof at full loads, 1 + excess / dof.
+    against_reported
+        ``"lower"``, ``"within"`` or ``"higher"`` than :data:`REPORTED_MISFIT`.
+    falls
+        With loads and noise reduced, the linear χ²/dof falls to :data:`REPORTED_REDUCED_MISFIT`.
+    weightless_drop
+        Drop of the excess χ² of the weightless twin when loads and noise are reduced.
+    near_second_order
+        That drop lies within a factor 2 of :data:`SECOND_ORDER_DROP`.
+    """
+
+    study: pd.DataFrame
+    sag: pd.DataFrame
+    chi2_spread: float
+    real: bool
+    noise_like: bool
+    ours: float
+    against_reported: str
+    falls: bool
+    weightless_drop: float
+    near_second_order: bool
+
+
+def linearisation_findings(study: pd.DataFrame, sag: pd.DataFrame) -> LinearisationFindings:
+    """The verdicts of a :func:`linearisation_study` at scales 1 and :data:`REDUCED`, with the :func:`unloaded_sag`."""
+    full = study.loc[("cell", 1.0)]
+    reduced = study.loc[("cell", REDUCED)]
+    dof = int(full["dof"])
+    spread = math.sqrt(2 * dof)
+    ours = float(1 + full["excess_chi2"] / dof)
+    if ours < REPORTED_MISFIT[0]:
+        against = "lower"
+    elif ours > REPORTED_MISFIT[1]:
+        against = "higher"
+    else:
+        against = "within"
+    drop = float(study.loc[("weightless", 1.0), "excess_chi2"] / study.loc[("weightless", REDUCED), "excess_chi2"])
+    return LinearisationFindings(
+        study=study,
+        sag=sag,
+        chi2_spread=spread,
+        real=bool(full["gap_min"] > 0 and full["excess_chi2"] > spread),
+        noise_like=bool(full["exact_beyond"] == 0 and full["exact_min"] > full["noise_low"]),
+        ours=ours,
+        against_reported=against,
+        falls=bool(reduced["linear_mean"] <= REPORTED_REDUCED_MISFIT),
+        weightless_drop=drop,
+        near_second_order=bool(SECOND_ORDER_DROP / 2 <= drop <= 2 * SECOND_ORDER_DROP),
+    )

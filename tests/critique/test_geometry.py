@@ -7,7 +7,7 @@ import pytest
 from bayescal.critique.geometry import GEOMETRY_CATALOGUE, GeometryCritique, _fit, _Spec
 from bayescal.errors import InputError
 from bayescal.geometry.arcs import CompensatorGeometryModel, MarkerLayout, read_arc_points
-from bayescal.studies.geometry_critique import simulate_markers
+from bayescal.twin.arcs import simulate_markers
 from bayescal.units import DEG, MM
 
 
@@ -156,3 +156,13 @@ def test_no_effect_is_adequate_in_at_least_95_percent_of_40_seeds(layout, angles
     campaigns = (simulate_markers(layout, angles, np.random.default_rng(1000 + seed)) for seed in range(40))
     verdicts = [GeometryCritique().run(points).verdict for points in campaigns]
     assert verdicts.count("adequate") >= 38
+
+
+def test_the_results_have_the_four_verbs(tmp_path, table_i):
+    results = GeometryCritique().run(table_i)
+    assert len(results.summary()) > 0
+    diagnostics = results.diagnostics()
+    assert diagnostics["n_angles"] == results.n_angles == 6
+    assert diagnostics["held_out_rms_mm"]["final"] <= diagnostics["held_out_rms_mm"]["two_step"]
+    results.save(tmp_path / "critique.json")
+    assert json.loads((tmp_path / "critique.json").read_text())["verdict"] == results.to_json()["verdict"]

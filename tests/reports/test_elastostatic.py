@@ -1,12 +1,12 @@
-"""Tests of bayescal.reports.elastostatic: the prose is worded from the numbers it is given."""
+"""Tests of bayescal.reports.elastostatic: the prose is worded from the findings it is given."""
 
 from __future__ import annotations
 
 import pandas as pd
 import pytest
 
-from bayescal.reports.elastostatic import REDUCED, _estimates_table, _linearisation_section
-from bayescal.reference import beside_published
+from bayescal.reports.elastostatic import _estimates_table, _linearisation_section
+from bayescal.studies.linearisation import REDUCED, linearisation_findings
 
 def summary(linear: float, exact: float, excess: float, gap_min: float, beyond: int) -> pd.Series:
     """A misfit summary over 5 seeds of 405 equations, as studies.linearisation.misfit_summary gives it."""
@@ -42,7 +42,7 @@ def section(full: pd.Series, reduced: pd.Series, bare_reduced: pd.Series) -> str
     study = study.astype(float)
     study.index.names = ["twin", "load_scale"]
     sag = pd.DataFrame({"sag_j1_mrad": [0.0], "sag_j2_mrad": [-0.58], "sag_j3_mrad": [0.33]})
-    return "\n".join(_linearisation_section(study, sag))
+    return "\n".join(_linearisation_section(linearisation_findings(study, sag)))
 
 
 def test_a_misfit_beyond_the_noise_is_called_the_linearisation():
@@ -67,13 +67,29 @@ def test_a_misfit_within_the_noise_is_not_called_real():
     assert "far from the 100-fold" in text
 
 
+def test_the_verdicts_are_the_findings():
+    full = summary(1.25, 0.99, 101.0, 0.21, 3)
+    rows = {("cell", 1.0): full, ("cell", REDUCED): summary(1.04, 0.99, 17.0, 0.01, 0),
+            ("weightless", 1.0): full, ("weightless", REDUCED): summary(0.995, 0.99, 1.3, 0.0, 0)}
+    study = pd.DataFrame.from_dict({key: pd.concat([row, pd.Series({"noise_um": 8 * key[1]}, dtype=object)]) for key, row in rows.items()}, orient="index")
+    study = study.astype(float)
+    study.index.names = ["twin", "load_scale"]
+    findings = linearisation_findings(study, pd.DataFrame({"sag_j2_mrad": [-0.58], "sag_j3_mrad": [0.33]}))
+    assert findings.real and findings.noise_like and not findings.falls
+    assert findings.against_reported == "lower" and findings.near_second_order
+    assert findings.weightless_drop == pytest.approx(101.0 / 1.3)
+
+
 def test_estimates_sit_beside_table_iv_with_the_truth():
-    parameters = {
-        "k1": {"unit": "urad/(N m)"},
-        "k2": {"unit": "urad/(N m)", "mean": 0.3026, "sd": 0.0016, "lo3": 0.2978, "hi3": 0.3074},
-    }
-    paper = beside_published(pd.DataFrame({"mean": [float("nan"), 0.3026], "sd": [float("nan"), 0.0016]}, index=["k1", "k2"]), "IV")
-    table = _estimates_table(paper, parameters, {"k1": 0.3, "k2": 0.302}, {"k1": "urad/(N m)", "k2": "urad/(N m)"})
+    columns = ["unit", "identifiable", "mean", "half_width_3sd", "width_3sd_pct", "truth", "truth_inside",
+               "published", "published_half_width_3sd", "published_width_pct"]
+    nan = float("nan")
+    estimates = pd.DataFrame(
+        [["urad/(N m)", False, nan, nan, nan, 0.3, None, nan, nan, nan],
+         ["urad/(N m)", True, 0.3026, 0.0048, 1.586, 0.302, True, 0.302, 0.0039, 1.3]],
+        index=["k1", "k2"], columns=columns,
+    )
+    table = _estimates_table(estimates)
     assert list(table.loc["k1"]) == ["urad/(N m)", "not identifiable", "", "", 0.3, "", "–", "–", "–"]
     k2 = table.loc["k2"]
     assert k2["width"] == "1.6%" and k2["truth inside"] == "yes"

@@ -1,17 +1,23 @@
-"""Tests of bayescal.reports.twin: the generated report carries the computed numbers."""
+"""Tests of bayescal.reports.twin and its findings: the generated report carries the computed numbers."""
 
 from __future__ import annotations
 
+import os
+import shutil
+
 from bayescal.cell.config import load_cell
 from bayescal.cell.plan import read_plan
+from bayescal.cli import main
+from bayescal.reports.twin import REPORT_FILE, render_twin
 from bayescal.studies.precision import design_precision
-from bayescal.reports.twin import main, render_report
+from bayescal.studies.twin_findings import twin_findings
 
 
-def test_report_tables(tmp_path, data_dir):
+def test_report_tables(data_dir):
     cell = load_cell(data_dir / "kr270.toml")
     plan = read_plan(data_dir / "table3_plan.csv", cell.robot)
-    text = render_report(cell, plan)
+    findings = twin_findings(cell, plan)
+    text = render_twin(findings)[REPORT_FILE].decode("utf-8")
     assert "405 equations" in text
     precision = design_precision(cell, plan)
     assert f"| k2 | 0.302 urad/(N m) | {precision.loc['k2', 'sd']:.3g} | {precision.loc['k2', 'width_3sd_pct']:.2f} | 1.3 |" in text
@@ -21,21 +27,44 @@ def test_report_tables(tmp_path, data_dir):
     gravity = cell.robot.gravity_torque([0.0] * 6)[1]
     spring = -cell.compensator.torque(0.0)
     assert f"| 0 | {gravity:.0f} | {spring:.0f} | {gravity - spring:.0f} |" in text
-    out = tmp_path / "twin.md"
-    main(["--config", str(data_dir / "kr270.toml"), "--plan", str(data_dir / "table3_plan.csv"), "-o", str(out)])
-    assert out.read_text() == text
+    # the verdict of each effect is the findings', not the renderer's
+    for effect in findings.effects:
+        assert effect.detectable == (effect.detectability["noncentrality"] >= findings.chi2_spread)
 
 
-def test_the_report_is_not_written_over_its_plan_even_through_a_link(tmp_path, data_dir):
-    import os
+def _paper_data(tmp_path, data_dir):
+    """A --paper-data folder: copies of the paper's files, the robot models linked."""
+    folder = tmp_path / "data"
+    folder.mkdir()
+    for name in ("table1_geometry.csv", "paper_reference.csv", "kr270.toml", "table3_plan.csv", "compensator_plan.csv"):
+        shutil.copy(data_dir / name, folder / name)
+    os.symlink(data_dir / "robots", folder / "robots")
+    return folder
 
-    import pytest
 
-    from bayescal.errors import InputError
+def test_paper_reports_write_the_twin_report_through_the_command_line(tmp_path, data_dir, capsys):
+    folder = _paper_data(tmp_path, data_dir)
+    out = tmp_path / "reports"
+    assert main(["report", "--paper-reports", str(out), "--paper-data", str(folder), "--only", "twin", "--json"]) == 0
+    cell = load_cell(folder / "kr270.toml")
+    expected = render_twin(twin_findings(cell, read_plan(folder / "table3_plan.csv", cell.robot), seed=1))[REPORT_FILE]
+    assert (out / "twin.md").read_bytes() == expected
+    assert sorted(os.listdir(out)) == ["twin.md"]
 
-    plan = tmp_path / "plan.csv"
-    plan.write_bytes((data_dir / "table3_plan.csv").read_bytes())
-    os.symlink(plan, tmp_path / "twin.md")
-    with pytest.raises(InputError, match="--output: .*twin.md is the plan"):
-        main(["--config", str(data_dir / "kr270.toml"), "--plan", str(plan), "-o", str(tmp_path / "twin.md")])
+
+def test_the_report_is_not_written_over_its_plan_even_through_a_link(tmp_path, data_dir, capsys):
+    folder = _paper_data(tmp_path, data_dir)
+    plan = folder / "table3_plan.csv"
+    out = tmp_path / "reports"
+    out.mkdir()
+    os.symlink(plan, out / "twin.md")
+    assert main(["report", "--paper-reports", str(out), "--paper-data", str(folder), "--only", "twin"]) == 2
+    assert "--paper-reports: " in capsys.readouterr().err
     assert plan.read_bytes() == (data_dir / "table3_plan.csv").read_bytes()
+
+
+def test_paper_reports_take_no_review_input(tmp_path, capsys):
+    assert main(["report", "--paper-reports", str(tmp_path), "--config", "x.toml"]) == 2
+    assert "takes no --config" in capsys.readouterr().err
+    assert main(["report", "--only", "twin", "-o", str(tmp_path / "r")]) == 2
+    assert "--only" in capsys.readouterr().err

@@ -1,4 +1,4 @@
-"""Tests of bayescal.studies.testpose: the twin's true deflection at the test pose."""
+"""Tests of bayescal.design.criteria.test_deflection: a cell's true deflection at its test pose."""
 
 from __future__ import annotations
 
@@ -6,16 +6,16 @@ import dataclasses
 
 import numpy as np
 
-from bayescal.studies.testpose import true_test_deflection
+from bayescal.design.criteria import test_deflection
 from bayescal.units import MM
 
 
 def test_true_deflection_grows_with_the_test_wrench(cell):
-    deflection = true_test_deflection(cell)
+    deflection = test_deflection(cell)
     assert deflection.shape == (3,)
     assert 0.1 * MM < np.linalg.norm(deflection) < 10 * MM
     # no wrench, no deflection: the arm's own sag is in both equilibria
-    assert np.allclose(true_test_deflection(dataclasses.replace(cell, test_wrench=np.zeros(6))), 0.0)
+    assert np.allclose(test_deflection(dataclasses.replace(cell, test_wrench=np.zeros(6))), 0.0)
     # the joints are linear springs, so a small wrench gives a proportionally small deflection
-    tenth = true_test_deflection(dataclasses.replace(cell, test_wrench=0.1 * cell.test_wrench))
+    tenth = test_deflection(dataclasses.replace(cell, test_wrench=0.1 * cell.test_wrench))
     np.testing.assert_allclose(tenth, 0.1 * deflection, rtol=0.02, atol=1e-9)

@@ -1,0 +1,100 @@
+"""A designed calibration plan with what it is predicted to deliver: the result of :class:`~bayescal.design.optimise.PlanDesigner`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from os import PathLike
+
+import numpy as np
+import pandas as pd
+
+from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
+from bayescal.cell.plan import Plan, write_plan
+from bayescal.design.criteria import PlanPrediction, criterion_value
+from bayescal.design.loads import loads_json
+from bayescal.jsonsafe import json_safe
+from bayescal.units import DEG, MM
+
+__all__ = ["PlanDesign"]
+
+
+@dataclass(frozen=True)
+class PlanDesign:
+    """An optimised plan and what it is predicted to deliver.
+
+    Attributes
+    ----------
+    plan : Plan
+        ``angles × per_angle`` configurations, grouped by q2, with their loads.
+    criterion : str
+        What was minimised (one of :data:`bayescal.design.criteria.CRITERIA`).
+    prediction : PlanPrediction
+        The plan's predicted precision and test-pose error with the exact model
+        linearised (:class:`~bayescal.design.criteria.ExactLinearisation`), as the
+        identification's default model sees it.
+    linear : PlanPrediction
+        The same with eq 31's design (the paper's eqs 37-39).
+    model : str
+        The model the search used, ``"linear"`` or ``"exact"``.
+    repeats : int
+        Measurements per configuration the prediction assumes.
+    starts : list of float
+        The criterion reached from each random start (after refinement).
+    candidates : int
+        Size of the candidate set.
+    seed : int or None
+        The seed the optimisation ran with, when given as an integer.
+    plan_joint : int
+        Index (0-based) of the joint whose angles group the plan (the cell's).
+    """
+
+    plan: Plan
+    criterion: str
+    prediction: PlanPrediction
+    linear: PlanPrediction
+    model: str
+    repeats: int
+    starts: list[float] = field(default_factory=list)
+    candidates: int = 0
+    seed: int | None = None
+    plan_joint: int = DEFAULT_COMPENSATED_JOINT
+
+    def summary(self) -> pd.DataFrame:
+        """Predicted precision per parameter (see :meth:`PlanPrediction.summary`)."""
+        return self.prediction.summary()
+
+    def diagnostics(self) -> dict:
+        """How the search went: the criterion reached from each start, the best of them, the candidates' count."""
+        finite = [value for value in self.starts if math.isfinite(value)]
+        return json_safe({
+            "search_model": self.model,
+            "starts": list(self.starts),
+            "best_start": min(finite) if finite else math.nan,
+            "candidates": self.candidates,
+            "seed": self.seed,
+        })
+
+    def to_json(self) -> dict:
+        """``criterion`` (ρ0, mm), the optimised criterion, the plan's angles and each parameter's ±3σ width."""
+        q2 = np.unique(np.round(self.plan.q[:, self.plan_joint] / DEG, 3))
+        return self.prediction.to_json() | {
+            "model": "exact",
+            "linear_model": self.linear.to_json(),
+            "optimised_for": self.criterion,
+            "search_model": self.model,
+            "criterion_value": json_safe(criterion_value(self.prediction, self.criterion)),
+            "configurations": len(self.plan),
+            "repeats": self.repeats,
+            "q2_deg": [float(v) for v in q2],
+            **loads_json(self.plan),
+            "starts": [json_safe(v) for v in self.starts],
+            "candidates": self.candidates,
+            "seed": self.seed,
+        }
+
+    def save(self, path: str | PathLike[str], *, comments: tuple[str, ...] = ()) -> None:
+        """Write the plan in the format of ``data/table3_plan.csv``."""
+        rho0 = self.prediction.rho0
+        note = f"predicted rms error at the test pose after compensation {rho0 / MM:.5f} mm" if math.isfinite(rho0) else ""
+        write_plan(self.plan, path, comments=(f"plan optimised for the {self.criterion} criterion, {self.repeats} repeats; {note}",) + tuple(comments))
