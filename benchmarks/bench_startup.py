@@ -1,8 +1,9 @@
-"""Start-up of the command line: each command's wall time against a bare interpreter's, in one run.
+"""Start-up of the command line: each command's time against a bare interpreter's, in one run.
 
-Every case is a fresh process, run ``REPEATS`` times; the median is reported
-beside its ratio to ``python -c pass`` measured in the same run, since the
-machine is shared and absolute seconds drift with its load.  The heavy
+Every case is a fresh process, run ``REPEATS`` times; the medians of its wall
+time and of its CPU time (user + system) are reported beside their ratios to
+``python -c pass`` measured in the same run, since the machine is shared and
+absolute seconds drift with its load (CPU time drifts least).  The heavy
 libraries (pinocchio, scipy.stats, pandas, xarray, matplotlib, emcee) are
 imported where they are needed, so ``bayescal --help`` imports none of them;
 ``import scipy.stats`` is timed as the cost one eager import would add.
@@ -10,6 +11,7 @@ imported where they are needed, so ``bayescal --help`` imports none of them;
 
 from __future__ import annotations
 
+import resource
 import statistics
 import subprocess
 import sys
@@ -22,15 +24,22 @@ REPEATS = 5
 """Runs per case; the median damps the shared machine's noise."""
 
 
-def _wall(arguments: list[str]) -> float:
-    times = []
+def _cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _times(arguments: list[str]) -> tuple[float, float]:
+    """Median wall and CPU seconds of ``REPEATS`` runs."""
+    walls, cpus = [], []
     for _ in range(REPEATS):
-        began = time.perf_counter()
+        began, cpu = time.perf_counter(), _cpu()
         done = subprocess.run(arguments, capture_output=True, text=True, cwd=ROOT)
-        times.append(time.perf_counter() - began)
+        walls.append(time.perf_counter() - began)
+        cpus.append(_cpu() - cpu)
         if done.returncode != 0:
             raise SystemExit(f"{' '.join(arguments)} failed: {done.stderr.strip().splitlines()[-1]}")
-    return statistics.median(times)
+    return statistics.median(walls), statistics.median(cpus)
 
 
 def main() -> None:
@@ -53,9 +62,9 @@ def main() -> None:
         }
         baseline = None
         for name, arguments in cases.items():
-            wall = _wall(arguments)
-            baseline = baseline or wall
-            print(f"{name:48s} {wall:6.3f} s  {wall / baseline:6.1f}x the bare interpreter")
+            wall, cpu = _times(arguments)
+            baseline = baseline or (wall, cpu)
+            print(f"{name:46s} wall {wall:6.3f} s ({wall / baseline[0]:5.1f}x)  CPU {cpu:6.3f} s ({cpu / baseline[1]:5.1f}x the bare interpreter)")
 
 
 if __name__ == "__main__":

@@ -20,7 +20,7 @@ from statistics import NormalDist
 
 import numpy as np
 
-__all__ = ["rhat", "ess_bulk", "ess_tail"]
+__all__ = ["rhat", "ess_bulk", "ess_tail", "diagnose"]
 
 _BLOM_OFFSET = 3 / 8
 """Fractional offset of the normal scores of ranks, ``(r - 3/8) / (N + 1/4)`` (Blom, 1958)."""
@@ -77,6 +77,27 @@ def ess_tail(draws: np.ndarray) -> float:
     return min(_ess(_split_chains(draws <= low)), _ess(_split_chains(draws <= high)))
 
 
+def diagnose(draws: np.ndarray) -> tuple[float, float, float]:
+    """:func:`rhat`, :func:`ess_bulk` and :func:`ess_tail` of the same draws, the rank normalisation done once.
+
+    Parameters
+    ----------
+    draws
+        Shape ``(chain, draw)``.
+    """
+    draws = np.asarray(draws, dtype=float)
+    if _invalid(draws):
+        return math.nan, math.nan, math.nan
+    split = _split_chains(draws)
+    z = _z_scale(split)
+    bulk = _ess(z)
+    if draws.shape[0] < 2:
+        r_hat = math.nan
+    else:
+        r_hat = max(_basic_rhat(z), _basic_rhat(_z_scale(np.abs(split - np.median(split)))))
+    return r_hat, bulk, ess_tail(draws)
+
+
 def _invalid(draws: np.ndarray) -> bool:
     return draws.ndim != 2 or draws.shape[1] < _MIN_DRAWS or not np.all(np.isfinite(draws))
 
@@ -90,7 +111,8 @@ def _split_chains(draws: np.ndarray) -> np.ndarray:
 def _average_ranks(values: np.ndarray) -> np.ndarray:
     """Ranks 1..N of the flattened values, ties given their average rank."""
     flat = values.ravel()
-    order = np.argsort(flat, kind="stable")
+    # Tied values get their group's average rank whatever their order, so the sort need not be stable.
+    order = np.argsort(flat)
     ordered = flat[order]
     starts = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]])
     ends = np.r_[starts[1:], flat.size]

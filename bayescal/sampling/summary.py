@@ -20,7 +20,7 @@ import pandas as pd
 import xarray as xr
 
 from bayescal import __version__
-from bayescal.sampling.diagnostics import ess_bulk, ess_tail, rhat
+from bayescal.sampling.diagnostics import diagnose
 
 __all__ = ["posterior_tree", "summarize", "diagnostics", "converged", "sample_until_converged", "warn_if_unconverged", "ConvergenceWarning", "parameters_json", "save", "load"]
 
@@ -122,7 +122,7 @@ def summarize(tree: xr.DataTree, var_names: Sequence[str] | None = None) -> pd.D
     posterior = tree["posterior"].to_dataset()
     names = list(var_names) if var_names is not None else list(posterior.data_vars)
     selected = posterior[names]
-    r_hat, bulk, tail = (_per_element(selected, function) for function in (rhat, ess_bulk, ess_tail))
+    r_hat, bulk, tail = _per_element(selected)
     rows = {}
     for name in names:
         values = selected[name]
@@ -272,13 +272,13 @@ def _elements(values: xr.DataArray):
         yield f"{values.name}[{','.join(labels)}]", index
 
 
-def _per_element(dataset: xr.Dataset, function) -> dict[str, np.ndarray]:
-    """``function`` of the ``(chain, draw)`` draws of every element of every variable, by variable."""
-    out = {}
+def _per_element(dataset: xr.Dataset) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """R-hat, bulk ESS and tail ESS of the ``(chain, draw)`` draws of every element of every variable, by variable."""
+    out = ({}, {}, {})
     for name, values in dataset.data_vars.items():
         draws = values.transpose("chain", "draw", ...).values
         flat = draws.reshape(draws.shape[0], draws.shape[1], -1)
-        out[name] = np.array([function(flat[:, :, i]) for i in range(flat.shape[-1])]).reshape(draws.shape[2:])
+        table = np.array([diagnose(flat[:, :, i]) for i in range(flat.shape[-1])]).reshape(-1, 3)
+        for column, target in enumerate(out):
+            target[name] = table[:, column].reshape(draws.shape[2:])
     return out
-
-

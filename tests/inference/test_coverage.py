@@ -6,6 +6,7 @@ in tests/studies/test_coverage.py.
 """
 
 import numpy as np
+import pytest
 from scipy import stats
 
 from bayescal.inference.equations import DeflectionEquations
@@ -58,6 +59,8 @@ def test_gibbs_intervals_cover_at_nominal_rates():
     assert_nominal(np.concatenate(hits))
 
 
+# emcee is not the default sampler: its coverage study runs with `make test-slow`.
+@pytest.mark.slow
 def test_emcee_intervals_cover_at_nominal_rates():
     rng = np.random.default_rng(12)
     sampler = EnsembleSampler(n_chains=1, n_walkers=16, n_tune=300, n_draws=150)

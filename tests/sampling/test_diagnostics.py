@@ -40,3 +40,13 @@ def test_undefined_cases_are_nan_and_constant_chains_count_fully():
     assert math.isnan(ess_bulk(rng.standard_normal((4, 3))))
     assert math.isnan(ess_tail(np.full((2, 10), np.nan)))
     assert ess_bulk(np.ones((2, 50))) == 100
+
+
+def test_diagnose_gives_the_three_diagnostics_at_once():
+    from bayescal.sampling.diagnostics import diagnose
+
+    rng = np.random.default_rng(4)
+    draws = np.cumsum(rng.normal(size=(4, 300)), axis=1) * 0.1 + rng.normal(size=(4, 300))
+    draws[:, ::7] = draws[:, 3:4]  # ties
+    assert diagnose(draws) == (rhat(draws), ess_bulk(draws), ess_tail(draws))
+    assert np.isnan(diagnose(draws[:1])[0]) and diagnose(draws[:1])[1] == ess_bulk(draws[:1])

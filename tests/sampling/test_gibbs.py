@@ -95,6 +95,8 @@ def test_block_coordinates_round_trip_to_the_spring():
     assert spring == pytest.approx([1 / 0.302e-6, 1.44e5, 0.458], rel=1e-12)
 
 
+# Neither is the default sampler (test_collapsed.py compares the default with Gibbs): a `make test-slow` study.
+@pytest.mark.slow
 def test_compensated_gibbs_and_emcee_sample_the_same_posterior():
     rng = np.random.default_rng(2)
     posterior, start = compensated_problem(rng)
