@@ -10,7 +10,6 @@ import pytest
 
 from bayescal.cell.campaign import read_campaign
 from bayescal.inference.elastostatic import ElastostaticModel
-from bayescal.inference.results import parameter_units
 from bayescal.sampling.gibbs import GibbsSampler
 
 
@@ -20,13 +19,6 @@ def results(cell, campaign_csv):
         warnings.simplefilter("ignore")
         model = ElastostaticModel.from_cell(cell, sampler=GibbsSampler(n_chains=2, n_tune=100, n_draws=150))
         return model.fit(read_campaign(campaign_csv, cell=cell), 0)
-
-
-def test_units_name_every_joint_and_the_spring():
-    units = parameter_units(6)
-    assert list(units) == ["k1", "k2", "k3", "k4", "k5", "k6", "K_c", "s0"]
-    assert units["K_c"] == "N/mm" and units["s0"] == "mm"
-    assert parameter_units(2, (True, False))["k1"] != parameter_units(2)["k1"]
 
 
 def test_summary_is_a_copy_and_the_results_do_not_change_when_it_is_edited(results):
