@@ -16,7 +16,7 @@ def _equations(cell, campaign):
     equations, torque, _ = deflection_equations(cell.robot, campaign, tracker=cell.tracker, joint=cell.compensated_joint)
     configs = np.unique(campaign.config, return_index=True)[1]
     ident = analyse(
-        equations.whitened().per_angle_design(), equations.per_angle_columns(), equations.q2, torque[configs], equations.angle[3 * configs]
+        equations.whitened().per_angle_design(), equations.per_angle_columns(), equations.compensated_angles, torque[configs], equations.angle[3 * configs]
     )
     return equations, ident
 
@@ -28,7 +28,7 @@ def test_noiseless_linear_deflections_give_back_the_compliances_and_the_spring(c
     K0, K_c, s0 = 1.0 / cell.compliances[equations.joint], cell.compensator.K_c, cell.compensator.s0
     # the per-angle joint-2 compliances of eq 8 at the campaign's angles, from a spring 20 times the cell's
     w = np.array([K0, 20 * K_c, 20 * K_c * s0])
-    k2 = 1.0 / (geometry.regressor(equations.q2) @ w)
+    k2 = 1.0 / (geometry.regressor(equations.compensated_angles) @ w)
     truth = np.array([k2[angle] if angle is not None else cell.compliances[joint] for joint, angle in equations.per_angle_columns()])
     keep = ident.identifiable
     noiseless = dataclasses.replace(equations, y=equations.per_angle_design()[:, keep] @ truth[keep])

@@ -41,6 +41,6 @@ def test_to_json_is_strict_json_and_carries_every_verb(results):
 
 def test_per_angle_holds_one_entry_per_campaign_angle(results):
     per_angle = results.per_angle()
-    assert sorted(per_angle) == pytest.approx(sorted(np.round(np.degrees(results.q2), 3)))
+    assert sorted(per_angle) == pytest.approx(sorted(np.round(np.degrees(results.compensated_angles), 3)))
     for entry in per_angle.values():
         assert ("mean" in entry and entry["lo3"] < entry["mean"] < entry["hi3"]) or entry["identifiable"] is False
