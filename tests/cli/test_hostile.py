@@ -218,7 +218,7 @@ def test_a_failed_svd_names_the_inputs(files, capsys, monkeypatch):
     def degenerate(*args, **kwargs):
         raise np.linalg.LinAlgError("SVD did not converge")
 
-    monkeypatch.setattr("bayescal.inference.elastostatic.restore_results", degenerate)
+    monkeypatch.setattr("bayescal.studies.review.restore_results", degenerate)
     argv = ["report", "--calibration", str(files / "calibration.nc"), "--campaign", str(files / "campaign.csv"),
             "--config", str(files / "cell.toml"), "-o", str(files / "out")]
     code, lines = _run(capsys, argv)
