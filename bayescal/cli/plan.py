@@ -135,13 +135,15 @@ def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFr
         starts = STARTS if args.starts is None else args.starts
         designer.check_request(args.angles, args.per_angle, args.criterion)
         # The search's cost grows with the configurations and the starts; scaled from the default design's time.
+        # Said to a person at a terminal, as the progress bar is: a log keeps one line per error.
         seconds = SECONDS[args.model] * (args.angles * args.per_angle / 15) * (starts / STARTS)
-        print(
-            f"bayescal plan: designing {args.angles} × {args.per_angle} configurations with the {args.model} model, "
-            f"about {max(seconds, 5):.0f} s" + ("" if args.model == "linear" else f" (--model linear: about {max(seconds / 4, 5):.0f} s)"),
-            file=sys.stderr,
-            flush=True,
-        )
+        if sys.stderr.isatty():
+            print(
+                f"bayescal plan: designing {args.angles} × {args.per_angle} configurations with the {args.model} model, "
+                f"about {max(seconds, 5):.0f} s" + ("" if args.model == "linear" else f" (--model linear: about {max(seconds / 4, 5):.0f} s)"),
+                file=sys.stderr,
+                flush=True,
+            )
         design = designer.optimise(args.angles, args.per_angle, args.criterion, rng=args.seed, starts=starts, progress=True)
         comments = (_command(args, starts),)
         write_atomically("--output", args.output, lambda path: design.save(path, comments=comments))

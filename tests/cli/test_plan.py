@@ -109,3 +109,14 @@ def test_an_any_direction_cell_gets_force_columns_and_evaluates_them(main, tmp_p
     err = capsys.readouterr().err.strip()
     assert "not straight down" in err or "applies none" in err
     assert "\n" not in err
+
+
+def test_on_a_terminal_the_design_says_how_long_it_will_take(main, tmp_path, capsys, monkeypatch):
+    import sys
+
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    options = ["--angles", "3", "--per-angle", "1", "--model", "linear", "--starts", "1"]
+    assert main(["plan", "--config", CONFIG, "-o", str(tmp_path / "plan.csv")] + options) == 0
+    err = capsys.readouterr().err
+    assert "bayescal plan: designing 3 × 1 configurations with the linear model, about 5 s" in err
+    assert "best: ρ0 = " in err and err.rstrip().endswith("μm")  # the progress line ends with the criterion's unit
