@@ -140,8 +140,9 @@ def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFr
         starts = STARTS if args.starts is None else args.starts
         designer.check_request(args.angles, args.per_angle, args.criterion)
         # The search's cost grows with the configurations and the starts; scaled from the default design's time.
+        # Said to a person at a terminal, as the progress bar is: a log keeps one line per error.
         seconds = SECONDS[args.model] * (args.angles * args.per_angle / 15) * (starts / STARTS)
-        if not args.json:
+        if sys.stderr.isatty() and not args.json:
             print(
                 f"bayescal plan: designing {args.angles} × {args.per_angle} configurations with the {args.model} model, "
                 f"about {max(seconds, 5):.0f} s" + ("" if args.model == "linear" else f" (--model linear: about {max(seconds / 4, 5):.0f} s)"),

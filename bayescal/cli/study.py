@@ -58,7 +58,9 @@ def run(args: argparse.Namespace) -> CommandOutput:
         )
     plans = (args.max_angles - 2) * args.max_per_angle
     # The default study (10 × 5 plans) takes about 5 min on 2 cores (this command's description); scaled by its plans.
-    print(f"bayescal study: designing {plans} plans, about {max(1, round(5 * plans / 50))} min on 2 cores", file=sys.stderr, flush=True)
+    # Said to a person at a terminal: a log keeps one line per error.
+    if sys.stderr.isatty():
+        print(f"bayescal study: designing {plans} plans, about {max(1, round(5 * plans / 50))} min on 2 cores", file=sys.stderr, flush=True)
     with options_for({"angles": "--max-angles", "per_angle": "--max-per-angle", "repeats": "--repeats"}):
         table = q2_angle_study(
             cell, angles=range(3, args.max_angles + 1), per_angle=range(1, args.max_per_angle + 1), repeats=args.repeats, seed=args.seed

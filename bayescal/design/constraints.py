@@ -34,6 +34,7 @@ import numpy as np
 from bayescal.cell.config import Cell
 from bayescal.errors import InputError
 from bayescal.design.criteria import solve_equilibrium
+from bayescal.robot.kinematics import Workspace
 from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG
 
@@ -203,10 +204,11 @@ class Feasibility:
         """
         q = np.asarray(q, dtype=float)
         couple = np.zeros(3) if couple is None else np.asarray(couple, dtype=float)
-        robot = self.cell.robot
         reason = self._within_limits(q) or self.cell.loading.force_violation(force) or self.cell.loading.couple_violation(couple)
         if reason is not None:
             return reason
+        # One workspace for the kinematics of this check: creating one costs more than the calls below.
+        robot = self.cell.robot.workspace()
         rotation, _ = robot.flange_pose(q)
         tool = robot.point_position(q, self._tool)
         floor = self.space.floor_z
@@ -214,7 +216,7 @@ class Feasibility:
             return "a tool point is below the floor"
         if robot.point_position(q, self.cell.load_point)[2] < floor + self.space.hanging_clearance:
             return "the hanging load would touch the floor"
-        reason = self._visibility(q, rotation, tool[1:])
+        reason = self._visibility(q, rotation, tool[1:], robot)
         if reason is not None:
             return reason
         try:
@@ -223,7 +225,7 @@ class Feasibility:
             return f"no loaded equilibrium ({exc})"
         return None
 
-    def _visibility(self, q: np.ndarray, rotation: np.ndarray, markers: np.ndarray) -> str | None:
+    def _visibility(self, q: np.ndarray, rotation: np.ndarray, markers: np.ndarray, workspace: Workspace) -> str | None:
         tracker = self.cell.tracker.position
         facing = rotation[:, 0]
         sight = tracker - markers
@@ -233,7 +235,7 @@ class Feasibility:
             name = list(self.cell.markers)[worst]
             angle = math.degrees(math.acos(np.clip(cosine[worst], -1.0, 1.0)))
             return f"marker {name} faces {angle:.0f} deg away from the tracker"
-        joints = self.cell.robot.joint_origins(q)
+        joints = workspace.joint_origins(q)
         start = np.vstack([[joints[0, 0], joints[0, 1], self.space.floor_z], joints[:-2]])
         end = joints[:-1]
         radii = self._radii

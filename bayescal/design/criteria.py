@@ -135,8 +135,9 @@ def configuration_design(cell: Cell, q, wrench) -> tuple[np.ndarray, np.ndarray]
     _, chain = compliance_chain(cell, float(q[cell.plan_joint]))
     chain = chain * nominal_parameters(cell)[np.newaxis, :]
     points = list(cell.markers.values())
-    rows = [compliance_design(cell.robot, q, point, wrench) @ chain for point in points]
-    sigma = math.sqrt(2.0) * cell.tracker.sigma(cell.robot.point_position(q, np.array(points)))
+    workspace = cell.robot.workspace()
+    rows = [compliance_design(workspace, q, point, wrench) @ chain for point in points]
+    sigma = math.sqrt(2.0) * cell.tracker.sigma(workspace.point_position(q, np.array(points)))
     return np.vstack(rows), np.repeat(sigma, 3)
 
 

@@ -33,7 +33,6 @@ offset in the load and a torque-dependent compliance a curvature in it.
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from os import PathLike

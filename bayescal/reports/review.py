@@ -177,7 +177,7 @@ def _overview(page: Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
         lines.append(
             f"Elastostatic posterior: R-hat ≤ {report['r_hat_max']:.3f}, bulk ESS ≥ {report['ess_bulk_min']:.0f}, "
             f"tail ESS ≥ {report['ess_tail_min']:.0f} ({'converged' if converged else f'NOT converged by the thresholds '
-            f'R-hat ≤ {R_HAT_LIMIT}, bulk and tail ESS ≥ {ESS_LIMIT}'}; the words are defined in docs/glossary.md)."
+            f'R-hat ≤ {R_HAT_LIMIT}, bulk and tail ESS ≥ {ESS_LIMIT}'}; the words are explained at the end of the page)."
         )
         if report["chi2_per_dof"] is not None:
             lines.append(f"Fit against the tracker's noise model: χ²/dof = {report['chi2_per_dof']:.3f} (1 when the model describes the data).")
@@ -292,7 +292,7 @@ def _parameter_section(page: Page, results: ElastostaticResults, facts: _Facts, 
                 "±3σ": 3 * per_angle["sd"].to_numpy(),
                 "±3σ [% of mean]": 300 * (per_angle["sd"] / per_angle["mean"].abs()).to_numpy(),
             },
-            index=pd.Index([f"{label_angle(name):.1f}" for name in per_angle.index], name=f"q{results.joint + 1} [deg]"),
+            index=pd.Index([f"{round(label_angle(name), 1) + 0.0:.1f}" for name in per_angle.index], name=f"q{results.joint + 1} [deg]"),
         )
         page.table(
             "k2_per_angle",

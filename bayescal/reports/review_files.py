@@ -69,7 +69,8 @@ def plan_section(page: Page, plan: Mapping, source: str) -> None:
     if isinstance(starts, list) and starts and "candidates" in plan and plan.get("optimised_for") == "test-pose":
         # The starts hold the optimised criterion in SI: ρ0 in m for the test-pose criterion.
         reached = ", ".join(_criterion_text(v * 1e3, "mm rms") if finite_number(v) else "–" for v in starts)
-        page.paragraph(f"Search: {plan['candidates']} candidate configurations; the {len(starts)} random starts reached {reached}.")
+        model = f", by the {plan['search_model']} model's reckoning" if "search_model" in plan else ""
+        page.paragraph(f"Search: {plan['candidates']} candidate configurations; the {len(starts)} random starts reached {reached}{model}.")
     # For the test-pose criterion the optimised value is ρ0 itself, in m: shown above in μm.
     shown = PLAN_SHOWN + (("starts", "candidates", "criterion_value") if plan.get("optimised_for") == "test-pose" else ())
     rest = {key: value for key, value in plan.items() if key not in shown}

@@ -131,3 +131,14 @@ def test_a_discriminating_request_without_its_pair_or_campaign_exits_2_with_one_
     err = capsys.readouterr().err.strip()
     assert message in err and "\n" not in err and err.startswith("bayescal plan: error:")
     assert not (tmp_path / "plan.csv").exists()
+
+
+def test_on_a_terminal_the_design_says_how_long_it_will_take(main, tmp_path, capsys, monkeypatch):
+    import sys
+
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    options = ["--angles", "3", "--per-angle", "1", "--model", "linear", "--starts", "1"]
+    assert main(["plan", "--config", CONFIG, "-o", str(tmp_path / "plan.csv")] + options) == 0
+    err = capsys.readouterr().err
+    assert "bayescal plan: designing 3 × 1 configurations with the linear model, about 5 s" in err
+    assert "best: ρ0 = " in err and err.rstrip().endswith("μm")  # the progress line ends with the criterion's unit
