@@ -261,7 +261,6 @@ def _independent_campaign(index: int, rng: np.random.Generator, *, cell: Cell, s
     from bayescal.twin.independent.generator import IndependentGenerator
     from bayescal.twin.independent.plans import random_plan as independent_plan
 
-    cell = dataclasses.replace(cell, robot=cell.robot.copy())
     masses = cell.design.mass_range or (cell.load_mass, cell.load_mass)
     plan = independent_plan(cell, rng, angles=size[0], per_angle=size[1], mass_kg=masses)
     campaign, truth = IndependentGenerator(cell, rng).simulate(plan, size[2])
