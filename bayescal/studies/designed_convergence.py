@@ -7,7 +7,7 @@ each designed plan is measured twice, by the digital twin (as ``bayescal
 simulate`` does) and by the independent generator (:mod:`bayescal.twin.independent`:
 truths, tool and tracker noise drawn unlike the cell's, a solver of its own), and
 each campaign is identified exactly as ``bayescal calibrate`` does
-without options: the exact model, the Gibbs sampler's default draws, extended by
+without options: the exact model, the default sampler's draws, extended by
 :data:`~bayescal.inference.elastostatic.EXTENSIONS` doublings while R-hat or the
 ESS fall short.  The table says, per campaign, whether R-hat and the bulk and tail
 ESS met :func:`bayescal.sampling.summary.converged`'s thresholds, and with how
@@ -96,7 +96,7 @@ def _campaigns(design: Design, rng: np.random.Generator, cell: Cell) -> list[dic
     }
     rows = []
     for generator, campaign in campaigns.items():
-        model = ElastostaticModel.from_cell(cell, model="exact", sampler=default_sampler("gibbs"), extensions=EXTENSIONS)
+        model = ElastostaticModel.from_cell(cell, model="exact", sampler=default_sampler(), extensions=EXTENSIONS)
         calibrating = time.perf_counter()
         with warnings.catch_warnings():
             # Not-identifiable parameters and extensions are warned about; the table records what matters here.
