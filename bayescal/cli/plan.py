@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 from bayescal.output import guard_outputs, write_atomically
 
 from ._command import CommandOutput, add_common_options, options_for, whole_number
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["add_parser", "run"]
 

@@ -75,7 +75,6 @@ def read_program(path: str | PathLike[str], cell: Cell) -> Program:
         A missing column, a bad number, joints outside the robot's limits, or a force
         beyond what the robot can carry (naming the line and the column).
     """
-    n = cell.robot.nq
     # A prismatic joint (a linear track) is programmed in mm, a revolute one in deg.
     joints = list(cell.robot.position_columns)
     columns = dict.fromkeys([*joints, *WRENCH_COLUMNS], "number")

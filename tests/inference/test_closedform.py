@@ -5,7 +5,6 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import pytest
 
 from bayescal.inference.closedform import closed_form
 from bayescal.inference.equations import deflection_equations
