@@ -381,23 +381,30 @@ def _unsagged(campaign: Campaign, points: np.ndarray) -> np.ndarray:
     the markers' median places (the least-squares rigid fit), when that motion is a
     turn of at most :data:`SAG_ROTATION`; other configurations are left as they are.
     """
-    labels = np.asarray(campaign.marker).astype(str)
-    names = sorted(set(labels))
-    median = {name: np.median(points[labels == name], axis=0) for name in names}
+    names, label = np.unique(np.asarray(campaign.marker).astype(str), return_inverse=True)
+    median = np.array([np.median(points[label == i], axis=0) for i in range(names.size)])
+    # Every configuration at once: (configuration, marker) cells hold the mean of their rows' points.
+    configs, config = np.unique(campaign.config, return_inverse=True)
+    cell = config * names.size + label
+    counts = np.bincount(cell, minlength=configs.size * names.size).reshape(configs.size, names.size)
+    sums = np.stack([np.bincount(cell, points[:, d], configs.size * names.size) for d in range(3)], axis=-1)
+    seen = counts > 0
+    mine = sums.reshape(configs.size, names.size, 3) / np.maximum(counts, 1)[..., None]
+    n_seen = np.maximum(seen.sum(axis=1), 1)[:, None]
+    mine_mean = np.sum(np.where(seen[..., None], mine, 0.0), axis=1) / n_seen
+    target_mean = seen.astype(float) @ median / n_seen
+    mine_c = np.where(seen[..., None], mine - mine_mean[:, None], 0.0)
+    target_c = np.where(seen[..., None], median[None] - target_mean[:, None], 0.0)
+    u, _, vt = np.linalg.svd(np.swapaxes(mine_c, 1, 2) @ target_c)
+    flip = np.ones((configs.size, 3))
+    flip[:, 2] = np.sign(np.linalg.det(u @ vt))
+    rotation = np.swapaxes((u * flip[:, None, :]) @ vt, 1, 2)
+    turn = np.arccos(np.clip((np.trace(rotation, axis1=1, axis2=2) - 1) / 2, -1.0, 1.0))
+    moved = (seen.sum(axis=1) >= 3) & (turn <= SAG_ROTATION)
+    rows = moved[config]
     aligned = np.array(points, dtype=float)
-    for config in np.unique(campaign.config):
-        rows = np.flatnonzero(campaign.config == config)
-        seen = sorted(set(labels[rows]))
-        if len(seen) < 3:
-            continue
-        mine = np.array([points[rows[labels[rows] == name]].mean(axis=0) for name in seen])
-        target = np.array([median[name] for name in seen])
-        mine_c, target_c = mine - mine.mean(axis=0), target - target.mean(axis=0)
-        u, _, vt = np.linalg.svd(mine_c.T @ target_c)
-        flip = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
-        rotation = (u @ flip @ vt).T
-        if np.arccos(np.clip((np.trace(rotation) - 1) / 2, -1.0, 1.0)) <= SAG_ROTATION:
-            aligned[rows] = (points[rows] - mine.mean(axis=0)) @ rotation.T + target.mean(axis=0)
+    shifted = points[rows] - mine_mean[config[rows]]
+    aligned[rows] = np.einsum("nij,nj->ni", rotation[config[rows]], shifted) + target_mean[config[rows]]
     return aligned
 
 

@@ -57,6 +57,10 @@ class Poses:
     flange_rotation: np.ndarray
     flange_origin: np.ndarray
 
+    def rows(self, index: np.ndarray) -> Poses:
+        """The flange frames of the configurations ``index`` ``(M,)``, one per row of a campaign, say."""
+        return Poses(self.axes[index], self.origins[index], self.com[index], self.flange_rotation[index], self.flange_origin[index])
+
     def points(self, in_flange: np.ndarray) -> np.ndarray:
         """``(N, 3)`` base-frame positions of flange-frame points ``(N, 3)`` or ``(3,)``, m."""
         return np.einsum("nij,nj->ni", self.flange_rotation, np.broadcast_to(in_flange, self.flange_origin.shape)) + self.flange_origin
@@ -66,11 +70,20 @@ class Poses:
         return np.einsum("nij,ni->nj", self.flange_rotation, in_base - self.flange_origin)
 
 
-def _rotations(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    """``(N, 3, 3)`` rotations by ``angle`` (rad, ``(N,)``) about the unit ``axis`` (Rodrigues)."""
+def _times(stack: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """``stack @ matrix`` for a stack ``(N, 3, 3)`` and one matrix ``(3, 3)`` or vector ``(3,)``.
+
+    One 2-D product over the stacked rows: numpy's batched ``matmul`` of 3 × 3
+    matrices runs a small loop per matrix, about 25 times slower at N = 10,000.
+    """
+    return (stack.reshape(-1, 3) @ matrix).reshape(stack.shape[:-1] + matrix.shape[1:])
+
+
+def _turned(stack: np.ndarray, axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """``stack @ R`` for rotations ``R`` by ``angle`` (rad, ``(N,)``) about the unit ``axis`` (Rodrigues' formula)."""
     cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
     sin, cos = np.sin(angle)[:, None, None], np.cos(angle)[:, None, None]
-    return np.eye(3) + sin * cross + (1.0 - cos) * (cross @ cross)
+    return stack + sin * _times(stack, cross) + (1.0 - cos) * _times(stack, cross @ cross)
 
 
 @dataclass(frozen=True)
@@ -151,30 +164,30 @@ class BatchedChain:
     def poses(self, q: np.ndarray) -> Poses:
         """The frames of the ``(N, nq)`` configurations ``q`` (rad or m)."""
         n, nq = q.shape
-        rotations = np.empty((n, nq, 3, 3))
-        origins = np.empty((n, nq, 3))
+        rotations, origins, axes, com = [], [], [], []
         for i in range(nq):
             parent = self.parents[i]
             if parent < 0:
                 rotation, origin = np.broadcast_to(self.rotations[i], (n, 3, 3)), np.broadcast_to(self.translations[i], (n, 3))
             else:
-                rotation = rotations[:, parent] @ self.rotations[i]
-                origin = origins[:, parent] + rotations[:, parent] @ self.translations[i]
+                rotation = _times(rotations[parent], self.rotations[i])
+                origin = origins[parent] + _times(rotations[parent], self.translations[i])
+            # A joint turns about, or slides along, its own axis: the axis is the same before and after the motion.
+            axes.append(_times(rotation, self.axes[i]))
             if self.prismatic[i]:
-                rotations[:, i] = rotation
-                origins[:, i] = origin + (rotation @ self.axes[i]) * q[:, i, None]
+                rotations.append(rotation)
+                origins.append(origin + axes[i] * q[:, i, None])
             else:
-                rotations[:, i] = rotation @ _rotations(self.axes[i], q[:, i])
-                origins[:, i] = origin
-        axes = np.einsum("nijk,ik->nij", rotations, self.axes)
-        com = origins + np.einsum("nijk,ik->nij", rotations, self.levers)
+                rotations.append(_turned(rotation, self.axes[i], q[:, i]))
+                origins.append(origin)
+            com.append(origins[i] + _times(rotations[i], self.levers[i]))
         f = self.flange_joint
         return Poses(
-            axes=axes,
-            origins=origins,
-            com=com,
-            flange_rotation=rotations[:, f] @ self.flange_rotation,
-            flange_origin=origins[:, f] + rotations[:, f] @ self.flange_translation,
+            axes=np.stack(axes, axis=1),
+            origins=np.stack(origins, axis=1),
+            com=np.stack(com, axis=1),
+            flange_rotation=_times(rotations[f], self.flange_rotation),
+            flange_origin=origins[f] + _times(rotations[f], self.flange_translation),
         )
 
     def point_jacobian(self, poses: Poses, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -190,26 +203,27 @@ class BatchedChain:
         flange body, and its derivative ``(N, nq, nq)`` with respect to the joints (the load's Hessian term of eq 3)."""
         linear, angular = self.point_jacobian(poses, point)
         force, couple = generalized[:, None, :3], generalized[:, None, 3:]
-        torque = np.sum(linear * force, axis=2) + np.sum(angular * couple, axis=2)
+        torque = (linear @ np.swapaxes(force, 1, 2) + angular @ np.swapaxes(couple, 1, 2))[:, :, 0]
         revolute = ~self.prismatic
         # Column i after joint j (j its ancestor or itself) turns with j: d/dq_j = z_j × column.
-        after = np.einsum("nid,njd->nij", np.cross(linear, force) + np.cross(angular, couple), poses.axes)
+        # (Batched matmul, not einsum, for these small products: four times faster at N = 10,000.)
+        after = (np.cross(linear, force) + np.cross(angular, couple)) @ np.swapaxes(poses.axes, 1, 2)
         after = np.where((self.support.T & revolute[None, :])[None], after, 0.0)
         # Column i of a revolute joint before joint j: the point moves, the axis stays.
-        before = np.einsum("nid,njd->nij", poses.axes, np.cross(linear, force))
+        before = poses.axes @ np.swapaxes(np.cross(linear, force), 1, 2)
         before = np.where((self.support & ~np.eye(self.support.shape[0], dtype=bool) & revolute[:, None])[None], before, 0.0)
         return torque, after + before
 
     def gravity_torque(self, poses: Poses) -> tuple[np.ndarray, np.ndarray]:
         """Pinocchio's ``g(q)`` ``(N, nq)`` (N·m) and its symmetric derivative ``∂g/∂q`` ``(N, nq, nq)``."""
-        moment = np.einsum("ib,nbd->nid", self.support.astype(float), self.masses[None, :, None] * poses.com)
+        moment = self.support.astype(float) @ (self.masses[None, :, None] * poses.com)
         subtree_mass = self.support.astype(float) @ self.masses
         lever = moment - subtree_mass[None, :, None] * poses.origins
         # How each joint's subtree moves its weight's application: z × (moment about the axis), or the mass along a slide.
         moved = np.where(self.prismatic[None, :, None], subtree_mass[None, :, None] * poses.axes, np.cross(poses.axes, lever))
         torque = -moved @ self.gravity
         # T[a, d] = ∂g_d/∂q_a for a revolute joint a before d (or d itself).
-        T = -np.einsum("nax,ndx->nad", poses.axes, np.cross(moved, self.gravity))
+        T = -(poses.axes @ np.swapaxes(np.cross(moved, self.gravity), 1, 2))
         T = np.where((self.support & ~self.prismatic[:, None])[None], T, 0.0)
         diagonal = np.einsum("nii->ni", T)
         derivative = T + np.swapaxes(T, 1, 2)
