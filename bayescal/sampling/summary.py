@@ -126,14 +126,17 @@ def summarize(tree: xr.DataTree, var_names: Sequence[str] | None = None) -> pd.D
     rows = {}
     for name in names:
         values = selected[name]
-        mean = values.mean(("chain", "draw"))
-        sd = values.std(("chain", "draw"), ddof=1)
-        quantiles = values.quantile(list(CENTRAL_3SIGMA), dim=("chain", "draw"))
+        # NumPy on the (chain·draw, ...) array: xarray's reductions cost more than the arithmetic here.
+        draws = values.transpose("chain", "draw", ...).values
+        draws = draws.reshape((-1,) + draws.shape[2:])
+        mean, sd = draws.mean(axis=0), draws.std(axis=0, ddof=1)
+        quantiles = np.quantile(draws, list(CENTRAL_3SIGMA), axis=0)
+        extra = [dim for dim in values.dims if dim not in ("chain", "draw")]
         unit = values.attrs.get("units", "")
         for label, index in _elements(values):
-            m = float(mean[index]) if index else float(mean)
-            s = float(sd[index]) if index else float(sd)
-            low, high = (quantiles[index] if index else quantiles).values
+            at = tuple(index[dim] for dim in extra)
+            m, s = float(mean[at]), float(sd[at])
+            low, high = quantiles[(slice(None),) + at]
             rows[label] = {
                 "mean": m,
                 "sd": s,
