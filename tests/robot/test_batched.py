@@ -66,6 +66,17 @@ def test_equilibria_without_gravity_vanish_without_load(setting):
 
 def test_an_unsettled_solve_names_its_configuration(setting):
     cell, q, _ = setting
-    with pytest.raises(EquilibriumError, match=f"for {len(q)} of {len(q)} configurations"):
+    with pytest.raises(EquilibriumError, match=f"for some of {len(q)} configurations .the first: 0"):
         equilibria(BatchedChain.of(cell.robot), q, np.zeros(6), cell.compliances, max_iter=1)
 
+
+
+def test_chunks_give_the_same_equilibria(setting, monkeypatch):
+    from bayescal.robot import batched
+
+    cell, q, _ = setting
+    options = dict(compensator=cell.compensator, compensated_joint=cell.compensated_joint if cell.compensator else None)
+    whole = equilibria(BatchedChain.of(cell.robot), q, [0.0, 0.0, -2500.0, 0.0, 0.0, 0.0], cell.compliances, **options)
+    monkeypatch.setattr(batched, "CHUNK", 3)
+    chunked = equilibria(BatchedChain.of(cell.robot), q, [0.0, 0.0, -2500.0, 0.0, 0.0, 0.0], cell.compliances, **options)
+    np.testing.assert_array_equal(chunked, whole)
