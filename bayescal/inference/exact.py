@@ -103,11 +103,11 @@ def campaign_deflections(
     points = load_point if campaign.load_point is None else campaign.load_point[first]
     chain = BatchedChain.of(robot)
     solve = partial(equilibria, chain, q, compliances=k, compensator=compensator, compensated_joint=equations.joint, load_point=points)
-    unloaded = chain.poses(q + solve(np.zeros(6))).rows(row_config)
-    loaded = chain.poses(q + solve(campaign.wrench[first])).rows(row_config)
+    unloaded = chain.poses(q + solve(np.zeros(6)))
+    loaded = chain.poses(q + solve(campaign.wrench[first]))
     # Each marker located on the tool at its configuration's unloaded equilibrium, as exact_deflections does.
-    on_tool = unloaded.in_flange(campaign.p0)
-    return loaded.points(on_tool) - unloaded.points(on_tool)
+    on_tool = unloaded.in_flange(campaign.p0, row_config)
+    return loaded.points(on_tool, row_config) - unloaded.points(on_tool, row_config)
 
 
 def linearisation_offset(

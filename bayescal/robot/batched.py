@@ -57,17 +57,18 @@ class Poses:
     flange_rotation: np.ndarray
     flange_origin: np.ndarray
 
-    def rows(self, index: np.ndarray) -> Poses:
-        """The flange frames of the configurations ``index`` ``(M,)``, one per row of a campaign, say."""
-        return Poses(self.axes[index], self.origins[index], self.com[index], self.flange_rotation[index], self.flange_origin[index])
+    def points(self, in_flange: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+        """``(M, 3)`` base-frame positions of flange-frame points ``(M, 3)`` or ``(3,)``, m.
 
-    def points(self, in_flange: np.ndarray) -> np.ndarray:
-        """``(N, 3)`` base-frame positions of flange-frame points ``(N, 3)`` or ``(3,)``, m."""
-        return np.einsum("nij,nj->ni", self.flange_rotation, np.broadcast_to(in_flange, self.flange_origin.shape)) + self.flange_origin
+        ``rows`` ``(M,)`` names each point's configuration (a campaign's rows, say); None: one point per configuration.
+        """
+        rotation, origin = (self.flange_rotation, self.flange_origin) if rows is None else (self.flange_rotation[rows], self.flange_origin[rows])
+        return np.einsum("nij,nj->ni", rotation, np.broadcast_to(in_flange, origin.shape)) + origin
 
-    def in_flange(self, in_base: np.ndarray) -> np.ndarray:
-        """``(N, 3)`` flange-frame coordinates of base-frame points ``(N, 3)``: the inverse of :meth:`points`."""
-        return np.einsum("nij,ni->nj", self.flange_rotation, in_base - self.flange_origin)
+    def in_flange(self, in_base: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+        """``(M, 3)`` flange-frame coordinates of base-frame points ``(M, 3)``: the inverse of :meth:`points`."""
+        rotation, origin = (self.flange_rotation, self.flange_origin) if rows is None else (self.flange_rotation[rows], self.flange_origin[rows])
+        return np.einsum("nij,ni->nj", rotation, in_base - origin)
 
 
 def _times(stack: np.ndarray, matrix: np.ndarray) -> np.ndarray:
