@@ -148,16 +148,22 @@ class DeflectionEquations:
                 columns.append((joint, None))
         return columns
 
-    def per_angle_design(self) -> np.ndarray:
+    def per_angle_design(self, keep: np.ndarray | None = None) -> np.ndarray:
         """The design of eq 30 with one compensated-joint column per distinct angle, ``(n, nq - 1 + m)``
-        (``(n, nq)`` without a compensator)."""
-        columns = []
-        for joint, angle in self.per_angle_columns():
-            column = self.design[:, joint].copy()
-            if angle is not None:
-                column[self.angle != angle] = 0.0
-            columns.append(column)
-        return np.column_stack(columns)
+        (``(n, nq)`` without a compensator); ``keep``, a boolean mask of those columns, selects some.
+
+        Written column by column into one array: a large campaign's design is hundreds of MB.
+        """
+        columns = self.per_angle_columns()
+        chosen = [c for c, kept in zip(columns, np.ones(len(columns), bool) if keep is None else keep) if kept]
+        design = np.zeros((self.n, len(chosen)))
+        for i, (joint, angle) in enumerate(chosen):
+            if angle is None:
+                design[:, i] = self.design[:, joint]
+            else:
+                rows = self.angle == angle
+                design[rows, i] = self.design[rows, joint]
+        return design
 
 
 
