@@ -176,7 +176,8 @@ def analyse(
     singular = np.linalg.svd(scaled, compute_uv=False) if kept.size else np.empty(0)
     rank = int(np.sum(singular > RANK_TOLERANCE * singular.max(initial=0.0))) if kept.size else 0
     if kept.size and rank < kept.size:
-        _, _, vt = np.linalg.svd(scaled)
+        # U is not needed: only a short, wide design needs the full V to span its null space.
+        _, _, vt = np.linalg.svd(scaled, full_matrices=scaled.shape[0] < scaled.shape[1])
         null = vt[rank:].T
         weight = np.linalg.norm(null, axis=1)
         confounded = kept[weight > 1e-6]
