@@ -1,6 +1,7 @@
 """Time and peak memory of a calibration against the campaign's size, against the per-configuration loop it replaced.
 
-Campaigns of 1,000, 10,000 and 100,000 random configurations within the joint
+The first line is the CPU time of one loaded equilibrium of the KR-270, solved for
+20,000 configurations together and one configuration at a time.  Then campaigns of 1,000, 10,000 and 100,000 random configurations within the joint
 limits (q2 free, one repeat, the cell's tracker) are simulated on the digital
 twin and identified with the default exact model, each in a fresh process so
 that its peak resident memory is its own (the simulation's included).  In the
@@ -105,6 +106,34 @@ def measure(n: int, config: Path, baseline: bool) -> None:
     print(line, flush=True)
 
 
+def equilibrium_costs(config: Path, n: int = 20000, looped: int = 500) -> None:
+    """Print the CPU time of one loaded equilibrium solved by :func:`bayescal.robot.batched.equilibria` for ``n``
+    configurations at once, against :meth:`ElasticArm.equilibrium <bayescal.robot.stiffness.ElasticArm.equilibrium>`
+    one configuration after another (the first ``looped`` of them)."""
+    import time
+
+    import numpy as np
+
+    from bayescal.cell.config import load_cell
+    from bayescal.robot.batched import BatchedChain, equilibria
+    from bayescal.robot.stiffness import ElasticArm
+    from bayescal.studies.elastostatic_coverage import random_plan
+
+    cell = load_cell(config)
+    q = random_plan(cell, n, 1, np.random.default_rng(0)).q
+    wrench = cell.load_wrench(q[0], cell.load_mass)
+    options = dict(compensator=cell.compensator, compensated_joint=cell.compensated_joint, load_point=cell.load_point)
+    arm = ElasticArm.linear(cell.robot, cell.compliances, **options)
+    began = time.process_time()
+    for qi in q[:looped]:
+        arm.equilibrium(qi, wrench)
+    loop = (time.process_time() - began) / looped
+    began = time.process_time()
+    equilibria(BatchedChain.of(cell.robot), q, wrench, cell.compliances, **options)
+    batched = (time.process_time() - began) / n
+    print(f"one equilibrium: {batched * 1e6:.1f} μs CPU batched ({n:,} configurations), {loop * 1e6:.0f} μs in a loop; ratio {loop / batched:.0f}x")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("sizes", nargs="*", type=int, default=[1000, 10000, 100000])
@@ -115,6 +144,7 @@ def main() -> None:
     if args.one:
         measure(args.sizes[0], config, args.sizes[0] <= args.baseline_max)
         return
+    equilibrium_costs(config)
     for n in args.sizes:
         done = subprocess.run(
             [sys.executable, __file__, "--one", str(n), "--baseline-max", str(args.baseline_max)], capture_output=True, text=True
