@@ -407,7 +407,6 @@ def _backtrack(chain, q, theta, step, value, loads: _Loads, springs: _Springs):
         # Backtracking keeps Newton stable on steep deflection laws, as the one-configuration solver.
         size[retry] *= 0.5
         moved = theta[retry] + size[retry, None] * step[retry]
-        part = _Loads(loads.point[retry], loads.generalized[retry])
-        t, d = _joint_load(chain, q[retry], moved, part, springs.take(retry))
+        t, d = _joint_load(chain, q[retry], moved, loads.take(retry), springs.take(retry))
         torque[retry], derivative[retry] = t, d
         candidate[retry] = moved - springs.compliances[retry] * t

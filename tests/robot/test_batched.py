@@ -80,3 +80,16 @@ def test_chunks_give_the_same_equilibria(setting, monkeypatch):
     monkeypatch.setattr(batched, "CHUNK", 3)
     chunked = equilibria(BatchedChain.of(cell.robot), q, [0.0, 0.0, -2500.0, 0.0, 0.0, 0.0], cell.compliances, **options)
     np.testing.assert_array_equal(chunked, whole)
+
+
+def test_soft_springs_that_make_newton_backtrack_give_the_loops_equilibria(cell):
+    # Springs 160 times the cell's under 2,700 N: the full Newton step overshoots for some configurations.
+    q = random_plan(cell, 60, 1, np.random.default_rng(0)).q
+    compliances = 160 * np.asarray(cell.compliances)
+    options = dict(compensator=cell.compensator, compensated_joint=cell.compensated_joint, load_point=cell.load_point)
+    wrench = np.array([0.0, 0.0, -2700.0, 0.0, 0.0, 0.0])
+    theta = equilibria(BatchedChain.of(cell.robot), q, wrench, compliances, **options)
+    arm = ElasticArm.linear(cell.robot, compliances, **options)
+    expected = np.array([arm.equilibrium(qi, wrench) for qi in q])
+    np.testing.assert_allclose(theta, expected, rtol=0, atol=1e-14)
+    assert np.abs(theta).max() > 0.1
