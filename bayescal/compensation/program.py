@@ -16,7 +16,7 @@ from os import PathLike
 import numpy as np
 import pandas as pd
 
-from bayescal.cell.campaign import MAX_LOAD_ARM, WRENCH_COLUMNS
+from bayescal.cell.loading import MAX_LOAD_ARM, WRENCH_COLUMNS
 from bayescal.cell.config import Cell
 from bayescal.errors import InputError
 from bayescal.tables import read_table
