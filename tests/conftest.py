@@ -67,7 +67,7 @@ def short_calibration(cell, campaign_csv, tmp_path_factory) -> dict[str, Path]:
     import warnings
 
     from bayescal.geometry.arcs import read_arc_points
-    from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler
+    from bayescal.geometry.posterior import GeometryPosteriorModel, geometry_sampler
     from bayescal.inference.elastostatic import ElastostaticModel
     from bayescal.inference.priors import posterior_geometry
     from bayescal.cell.campaign import read_campaign
@@ -78,7 +78,7 @@ def short_calibration(cell, campaign_csv, tmp_path_factory) -> dict[str, Path]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         points = read_arc_points(DATA / "table1_geometry.csv")
-        GeometryPosteriorModel(sampler=default_sampler(n_chains=2, n_tune=150, n_draws=100)).fit(points, 0).save(paths["geometry"])
+        GeometryPosteriorModel(sampler=geometry_sampler(n_chains=2, n_tune=150, n_draws=100)).fit(points, 0).save(paths["geometry"])
         model = ElastostaticModel.from_cell(
             cell, posterior_geometry(paths["geometry"]), sampler=GibbsSampler(n_chains=2, n_tune=100, n_draws=150)
         )

@@ -48,13 +48,13 @@ from bayescal.inference.identifiability import Identifiability, analyse, grouped
 from bayescal.inference.posterior import posterior_density, sample_posterior, sampler_coordinates
 from bayescal.inference.priors import GeometryPrior, config_geometry
 from bayescal.inference.results import ElastostaticDraws, ElastostaticResults
-from bayescal.inference.samplers import default_sampler
+from bayescal.inference.samplers import elastostatic_sampler
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.protocol import Sampler
 from bayescal.sampling.summary import diagnostics, sample_until_converged, summarize, warn_if_unconverged
 
-__all__ = ["ElastostaticModel", "default_sampler", "restore_results"]
+__all__ = ["ElastostaticModel", "restore_results"]
 
 CHI2_TOLERANCE = 2.0
 """chi2/dof of the fit against the config's tracker model beyond which (or below whose inverse) the tracker model
@@ -101,7 +101,7 @@ class ElastostaticModel:
         ``"exact"`` (default) or ``"linear"`` (eq 30 as is).
     sampler
         Any sampler of the protocol in :mod:`bayescal.sampling.protocol`; the
-        default is :func:`default_sampler` ``("collapsed")``.
+        default is :func:`~bayescal.inference.samplers.elastostatic_sampler` ``("collapsed")``.
     noise
         ``"axis"`` (one unknown noise level per base axis) or ``"marker"``.
     load_point
@@ -129,7 +129,7 @@ class ElastostaticModel:
     nominal_compliances: np.ndarray
     nominal_spring: tuple[float, float] | None
     model: str = "exact"
-    sampler: Sampler = field(default_factory=default_sampler)
+    sampler: Sampler = field(default_factory=elastostatic_sampler)
     noise: str = "axis"
     load_point: np.ndarray | None = None
     tracker: TrackerNoise | None = None
