@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 
 from bayescal.cell.campaign import Campaign
 from bayescal.inference.equations import ANGLE_DECIMALS, MAX_ANGLES, DeflectionEquations, deflection_equations, group_angles
