@@ -19,12 +19,14 @@ from __future__ import annotations
 import threading
 import warnings
 from collections.abc import Sequence
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor
 from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 import pandas as pd
+
+from bayescal.studies.parallel import seeded_map
 
 __all__ = ["TieCase", "TIE_CASES", "tie_resolution", "BETWEEN"]
 
@@ -95,14 +97,16 @@ def _campaigns(case: TieCase, cell, table3, seed: np.random.SeedSequence):
     return simulate, random_plan(cell, np.random.default_rng(plan_seed))
 
 
-def _one(task: tuple) -> dict:
-    """One seed: the tied campaign, the designed plan, and the comparison on the plan's campaign."""
+def _one(case: TieCase, rng: np.random.Generator, *, config: str, table3: str, mass_range: tuple[float, float], candidates_per_angle: int) -> dict:
+    """One seed (a task of :func:`~bayescal.studies.parallel.seeded_map`): the tied campaign, the designed plan,
+    and the comparison on the plan's campaign."""
     from bayescal.critique import Critique
     from bayescal.critique.model import DETECTION_Z
     from bayescal.design.constraints import load_design_space
     from bayescal.design.discriminate import DiscriminatingDesigner
 
-    config, table3, case, mass_range, seed, candidates_per_angle = task
+    # The task's stream: its children seed the plan, the truth, the noise and the design.
+    seed = rng.bit_generator.seed_seq
     cell, plan = _setup(config, table3, threading.get_ident())
     simulate, tied_plan = _campaigns(case, cell, plan, seed)
     with warnings.catch_warnings():
@@ -154,7 +158,7 @@ def tie_resolution(
     candidates_per_angle
         Candidate configurations per q2 angle of the plan's search.
     executor
-        Runs the seeds; default a :class:`concurrent.futures.ProcessPoolExecutor`.
+        Runs the seeds (:func:`~bayescal.studies.parallel.seeded_map`; default a process pool).
 
     Returns
     -------
@@ -164,17 +168,11 @@ def tie_resolution(
         ``separated`` when it exceeds 2 SE).
     """
     roots = np.random.SeedSequence(seed).spawn(len(cases))
-    tasks = [
-        (str(config), str(table3), TIE_CASES[name], tuple(mass_range), s, candidates_per_angle)
-        for name, root in zip(cases, roots)
-        for s in root.spawn(n_seeds)
-    ]
-    own = executor is None
-    executor = executor or ProcessPoolExecutor()
-    try:
-        results = list(executor.map(_one, tasks))
-    finally:
-        if own:
-            executor.shutdown()
+    streams = [s for root in roots for s in root.spawn(n_seeds)]
+    items = [TIE_CASES[name] for name in cases for _ in range(n_seeds)]
+    results = seeded_map(
+        _one, items, streams, executor=executor,
+        config=str(config), table3=str(table3), mass_range=tuple(mass_range), candidates_per_angle=candidates_per_angle,
+    )
     labels = [(name, k) for name in cases for k in range(n_seeds)]
     return pd.DataFrame.from_records([{"case": name, "seed": k} | record for (name, k), record in zip(labels, results)])
