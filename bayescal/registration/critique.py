@@ -31,7 +31,9 @@ clean sweeps and measured on the independent generator's
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
+from os import PathLike
 
 import numpy as np
 import pandas as pd
@@ -259,12 +261,18 @@ class SweepCritique:
         return pd.concat({j + 1: c.evidence for j, c in self.joints.items()}, names=["joint", "candidate"])
 
     def diagnostics(self) -> dict:
+        """The verdict and the naming rule (ΔELPD over its SE, and its floor in nats)."""
         return {"verdict": self.verdict, "rule": {"z": SWEEP_Z, "floor_nats": SWEEP_FLOOR}}
 
     def to_json(self) -> dict:
         return self.diagnostics() | {"joints": {str(j + 1): c.to_json() for j, c in self.joints.items()},
                                      "not_a_candidate": "a scale of the tracker's distances: it maps circles onto circles "
                                                         "about the same axis directions, which no sweep can tell"}
+
+    def save(self, path: str | PathLike[str]) -> None:
+        """Write :meth:`to_json` to a JSON file."""
+        with open(path, "w", encoding="utf-8") as out:
+            json.dump(self.to_json(), out, indent=2)
 
     def text(self) -> str:
         lines = [f"sweep critique (held out one angle at a time): {self.verdict}"]
