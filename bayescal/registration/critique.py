@@ -274,17 +274,6 @@ class SweepCritique:
         with open(path, "w", encoding="utf-8") as out:
             json.dump(self.to_json(), out, indent=2)
 
-    def text(self) -> str:
-        lines = [f"sweep critique (held out one angle at a time): {self.verdict}"]
-        for j, c in self.joints.items():
-            for name, row in c.evidence.iterrows():
-                lines.append(f"  joint {j + 1} {name:<14} ΔELPD {row['delta_elpd']:8.1f} ± {row['se']:6.1f} nats  "
-                             f"{row['estimate']:10.4g} ± {row['estimate_sd']:.2g} {row['unit']}{'  NAMED' if row['named'] else ''}")
-            if c.causes:
-                best = c.evidence.loc[c.causes[0]]
-                lines.append(f"  joint {j + 1}: {c.causes[0]} predicts held-out angles better: rms "
-                             f"{best['rms_circle_mm']:.4f} -> {best['rms_candidate_mm']:.4f} mm")
-        return "\n".join(lines)
 
 
 def critique_sweeps(sweeps: Sweeps, noise: TrackerNoise) -> SweepCritique:
