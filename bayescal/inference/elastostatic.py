@@ -7,14 +7,16 @@ forms of eqs 33-35 (:mod:`~bayescal.inference.closedform`), corrects the
 deflections by the exact model (:mod:`~bayescal.inference.exact`), samples the
 posterior of ``k1, k3..k6, K_theta2^0, K_c, s0`` with the joint-2 stiffness
 ``K_theta2^0 + K_c a L eta(q2; s0)`` of eq 8 (:mod:`~bayescal.inference.likelihood`)
-with the sampler it was given, and returns
-:class:`~bayescal.inference.results.ElastostaticResults`.
+with the sampler it was given (:mod:`~bayescal.inference.posterior`), checks the
+fit against the tracker's noise and the repeats (:mod:`~bayescal.inference.fit_checks`),
+and returns :class:`~bayescal.inference.results.ElastostaticResults`.
 
 The *exact* model (the default) replaces the linearisation of eq 30 by the
 static equilibrium of the virtual joint model with gravity and the
 compensator: the difference between the exact and the linear prediction at
 the current estimate is subtracted from the measured deflections and the
-linear problem is solved again, until the estimate no longer moves.  The
+linear problem is solved again, until the estimate no longer moves
+(:class:`~bayescal.inference.exact.ExactCorrection`).  The
 posterior is then the linear-Gaussian posterior of the corrected deflections;
 since the correction is a fraction of a percent of the deflection and varies
 with the parameters by a fraction of that, its dependence on the parameters
