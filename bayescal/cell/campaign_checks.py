@@ -39,7 +39,9 @@ def check_angles(cell: Cell, q: np.ndarray, lines: Sequence[int], source: str) -
         )
 
 
-def check_wrench(cell: Cell, wrench: np.ndarray, lines: Sequence[int], source: str) -> None:
+def check_wrench(
+    cell: Cell, wrench: np.ndarray, lines: Sequence[int], source: str, *, what: str = "load", about: str = "the flange", smallest: bool = True
+) -> None:
     """Reject wrenches the arm cannot carry or that no load on a tool produces: a wrench in a wrong unit.
 
     Parameters
@@ -53,6 +55,11 @@ def check_wrench(cell: Cell, wrench: np.ndarray, lines: Sequence[int], source: s
         (M,) the line of each row, for the messages.
     source
         The file, for the messages.
+    what, about
+        The kind of force (a calibration ``load``, a machining ``process`` force) and the point the
+        moment is taken about, for the messages.
+    smallest
+        Also refuse a largest force too small to be a calibration load (a machining program may rest).
 
     Raises
     ------
@@ -70,7 +77,7 @@ def check_wrench(cell: Cell, wrench: np.ndarray, lines: Sequence[int], source: s
     if force[worst] > cell.max_force:
         column = WRENCH_COLUMNS[int(np.argmax(np.abs(wrench[worst, :3])))]
         raise InputError(
-            f"a load force of {force[worst]:.4g} N is more than the {cell.max_force:.0f} N the arm can plausibly carry "
+            f"a {what} force of {force[worst]:.4g} N is more than the {cell.max_force:.0f} N the arm can plausibly carry "
             f"({OVERLOAD_FACTOR:g} x the weight of {capacity:g} kg, from {cell.source}): is the wrench in another unit "
             "than N and N·m?",
             source=source,
@@ -84,14 +91,14 @@ def check_wrench(cell: Cell, wrench: np.ndarray, lines: Sequence[int], source: s
         row = int(beyond[0])
         column = WRENCH_COLUMNS[3 + int(np.argmax(np.abs(wrench[row, 3:])))]
         raise InputError(
-            f"a moment of {moment[row]:.4g} N·m needs the load to act {moment[row] / max(force[row], cell.capacity_weight):.3g} m "
-            f"or more from the flange, beyond any tool ({MAX_LOAD_ARM:g} m): are mx_Nm..mz_Nm in N·mm instead of N·m?",
+            f"a moment of {moment[row]:.4g} N·m needs the {what} force to act {moment[row] / max(force[row], cell.capacity_weight):.3g} m "
+            f"or more from {about}, beyond any tool ({MAX_LOAD_ARM:g} m): are mx_Nm..mz_Nm in N·mm instead of N·m?",
             source=source,
             line=int(lines[row]),
             column=column,
         )
     floor = MIN_LOAD_FRACTION * cell.capacity_weight
-    if 0 < force[worst] < floor:
+    if smallest and 0 < force[worst] < floor:
         raise InputError(
             f"the largest load force of the campaign is {force[worst]:.4g} N, below {floor:.0f} N "
             f"({MIN_LOAD_FRACTION:.0%} of the weight of {capacity:g} kg, from {cell.source}), too small to deflect "
