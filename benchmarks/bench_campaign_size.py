@@ -98,7 +98,7 @@ def measure(n: int, config: Path, baseline: bool) -> None:
         f"peak memory {peak:5.0f} MB  R-hat max {results.diagnostics()['r_hat_max']:.3f}  (simulation {simulated:.1f} s CPU)"
     )
     if baseline:
-        with mock.patch("bayescal.inference.elastostatic.linearisation_offset", loop_offset):
+        with mock.patch("bayescal.inference.exact.linearisation_offset", loop_offset):
             looped, loop_wall, loop_cpu = _timed_fit(cell, campaign)
         mine, theirs = results.summary(), looped.summary()
         moved = float(np.max(np.abs(mine["mean"] - theirs["mean"]) / theirs["sd"]))
