@@ -93,3 +93,27 @@ def test_soft_springs_that_make_newton_backtrack_give_the_loops_equilibria(cell)
     expected = np.array([arm.equilibrium(qi, wrench) for qi in q])
     np.testing.assert_allclose(theta, expected, rtol=0, atol=1e-14)
     assert np.abs(theta).max() > 0.1
+
+
+@pytest.mark.parametrize("name", ["kr270.toml", "robots/arm6_j3.toml", "robots/track_arm6.toml"])
+def test_equilibria_equal_the_independent_generators_solver(data_dir, name):
+    # bayescal.twin.independent.solver: Pinocchio's kinematics, its own spring linkage, a derivative-free root finder.
+    from bayescal.twin.independent.solver import Load, SpringLinkage, Statics
+
+    cell = load_cell(data_dir / name)
+    rng = np.random.default_rng(5)
+    q = random_plan(cell, 3, 2, rng).q
+    compliances = np.asarray(cell.compliances)
+    force, couple, point = np.array([300.0, -200.0, -2500.0]), np.array([40.0, -25.0, 10.0]), np.array([0.05, -0.1, 0.35])
+    c = cell.compensator
+    linkage = None if c is None else SpringLinkage(cell.compensated_joint, c.L, c.a_x, c.a_y, c.phi, c.K_c, c.s0)
+    statics = Statics(cell.robot, lambda torque: compliances * torque, linkage)
+    chain = BatchedChain.of(cell.robot)
+    # The wrench at the flange origin whose force acts at the point, as applied at the commanded pose.
+    lever = np.einsum("nij,j->ni", chain.poses(q).flange_rotation, point)
+    wrench = np.column_stack([np.broadcast_to(force, (len(q), 3)), couple + np.cross(lever, force)])
+    options = dict(compensator=c, compensated_joint=cell.compensated_joint if c else None, load_point=point)
+    theta = equilibria(chain, q, wrench, compliances, **options)
+    for i, qi in enumerate(q):
+        expected, _ = statics.solve(qi, [Load(force=force, point=point, couple=couple)])
+        np.testing.assert_allclose(theta[i], expected, rtol=0, atol=1e-11)
