@@ -1,0 +1,150 @@
+"""Effective samples per second of the default (collapsed) sampler against NUTS (NumPyro) on the same posterior.
+
+The Table III campaign simulated on the digital twin (15 configurations, 3
+repeats, seed 1) is fitted in this process by ``ElastostaticModel`` (exact
+model, compensator geometry from the cell's Table II prior), once with the
+default sampler and once with :class:`jax_posterior.NutsSampler` in its place,
+for each seed: the model, its equations and the posterior the sampler is given
+are the same.  Before sampling, the JAX log density that NUTS follows is compared
+with the package's at the start, at draws of the default sampler and at points
+3 sd around the start (the largest absolute difference is printed; the script
+stops if it exceeds :data:`DENSITY_TOLERANCE`).
+
+Each line gives the wall and CPU time of the whole ``fit`` and of the sampler's
+``sample`` call alone, the smallest bulk and tail ESS over every reported
+parameter but the noise levels (ArviZ-style, all chains), the largest R-hat, and
+the smallest bulk ESS per second of sampling (wall).  NUTS's time includes JAX's
+tracing and compilation of its kernel, which a user pays on every fit of a new
+campaign, and NumPyro's initial state of each chain; the ratio "without
+compilation" counts only the compiled chains' running time, the most favourable
+figure for NUTS.  BLAS runs on
+one thread (as in ``bench_samplers.py``); XLA keeps its default threads.
+Needs the ``bench`` extra (``pip install -e '.[bench]'``).
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import sys
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import jax.numpy as jnp  # noqa: E402
+from jax_posterior import NutsSampler, log_density  # noqa: E402
+
+from bayescal.cell.config import load_cell  # noqa: E402
+from bayescal.cell.plan import read_plan  # noqa: E402
+from bayescal.inference.elastostatic import ElastostaticModel, default_sampler  # noqa: E402
+from bayescal.twin.simulator import DigitalTwin  # noqa: E402
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+REPEATS = 3
+SEEDS = (0, 1, 2)
+"""Seeds of the fits; each sampler is run once per seed."""
+DENSITY_TOLERANCE = 1e-9
+"""Largest absolute difference (nats) allowed between the two log densities: both are sums of a few
+hundred terms of order 1 in double precision, so rounding leaves ~1e-12."""
+
+
+@dataclass
+class Timed:
+    """A sampler that times its inner sampler's ``sample`` call and keeps what it was given."""
+
+    inner: object
+    seconds: float = 0.0
+    cpu: float = 0.0
+    given: dict = field(default_factory=dict)
+
+    def sample(self, target, start, scale, rng):
+        self.given = {"target": target, "start": start, "scale": scale}
+        began, cpu = time.perf_counter(), time.process_time()
+        draws = self.inner.sample(target, start, scale, rng)
+        self.seconds, self.cpu = time.perf_counter() - began, time.process_time() - cpu
+        self.given["draws"] = draws
+        return draws
+
+
+def fit(cell, campaign, sampler, seed: int) -> tuple[Timed, dict[str, float]]:
+    """Fit ``campaign`` with ``sampler``; the timings and the diagnostics of the reported parameters."""
+    timed = Timed(sampler)
+    model = ElastostaticModel.from_cell(cell, sampler=timed)
+    began, cpu = time.perf_counter(), time.process_time()
+    summary = model.fit(campaign, seed).summary()
+    seconds, cpu = time.perf_counter() - began, time.process_time() - cpu
+    summary = summary.drop([n for n in summary.index if n.startswith("sigma")])
+    return timed, {
+        "fit": seconds,
+        "fit_cpu": cpu,
+        "bulk": float(summary["ess_bulk"].min()),
+        "worst": str(summary["ess_bulk"].idxmin()),
+        "tail": float(summary["ess_tail"].min()),
+        "r_hat": float(summary["r_hat"].max()),
+    }
+
+
+def check_density(given: dict) -> float:
+    """The largest absolute difference between the JAX and the package's log density at 21 points."""
+    posterior, start, scale = given["target"], given["start"], given["scale"]
+    draws = given["draws"].reshape(-1, start.size)
+    rng = np.random.default_rng(0)
+    points = [start, *draws[rng.choice(draws.shape[0], 10, replace=False)]]
+    points += [start + 3.0 * scale * rng.standard_normal(start.size) for _ in range(10)]
+    jax_density = log_density(posterior)
+    return max(abs(float(jax_density(jnp.asarray(x))) - posterior(x)) for x in points if np.isfinite(posterior(x)))
+
+
+def line(name: str, seed: int, timed: Timed, result: dict[str, float], draws: int) -> str:
+    return (
+        f"{name:<10} seed {seed}  fit {result['fit']:6.2f} s wall, {result['fit_cpu']:6.2f} s CPU; sampling "
+        f"{timed.seconds:6.2f} s wall, {timed.cpu:6.2f} s CPU, {draws:6d} draws  min bulk ESS {result['bulk']:6.0f} "
+        f"({result['worst']})  min tail ESS {result['tail']:6.0f}  R-hat max {result['r_hat']:.4f}  "
+        f"bulk ESS per sampling second {result['bulk'] / timed.seconds:8.1f}"
+    )
+
+
+def main() -> None:
+    warnings.simplefilter("ignore")
+    cell = load_cell(DATA / "kr270.toml")
+    plan = read_plan(DATA / "table3_plan.csv", cell.robot)
+    campaign = DigitalTwin(cell).simulate(plan, REPEATS, np.random.default_rng(1))
+    rates: dict[str, list[float]] = {"default": [], "NUTS": [], "NUTS without compilation": []}
+    for seed in SEEDS:
+        default, result = fit(cell, campaign, default_sampler(), seed)
+        draws = default.given["draws"]
+        print(line("default", seed, default, result, draws.shape[0] * draws.shape[1]))
+        rates["default"].append(result["bulk"] / default.seconds)
+        difference = check_density(default.given)
+        print(f"{'':<10} seed {seed}  JAX against the package's log density at 21 points: largest difference {difference:.2e} nats")
+        if not difference <= DENSITY_TOLERANCE:
+            sys.exit(f"the JAX log density differs from the package's by {difference:.3g} nats: NUTS would sample another posterior")
+        sampler = NutsSampler()
+        nuts, result = fit(cell, campaign, sampler, seed)
+        record = sampler.record
+        print(line("NUTS", seed, nuts, result, sampler.n_chains * sampler.n_draws))
+        rates["NUTS"].append(result["bulk"] / nuts.seconds)
+        rates["NUTS without compilation"].append(result["bulk"] / record["loop_seconds"])
+        print(
+            f"{'':<10} seed {seed}  NUTS: initial states {record['init_seconds']:.2f} s, compilation {record['compile_seconds']:.2f} s, "
+            f"chains {record['loop_seconds']:.2f} s (bulk ESS per second {rates['NUTS without compilation'][-1]:.1f}); "
+            f"{record['gradients']} gradients in the kept draws ({record['gradients'] / (sampler.n_chains * sampler.n_draws):.1f} per draw), "
+            f"{record['divergences']} divergences"
+        )
+    default_rate = np.median(rates["default"])
+    for name in ("NUTS", "NUTS without compilation"):
+        print(
+            f"median over {len(SEEDS)} seeds, min bulk ESS per wall second of sampling, default over {name}: "
+            f"{default_rate / np.median(rates[name]):.1f} ({default_rate:.0f} against {np.median(rates[name]):.0f})"
+        )
+
+
+if __name__ == "__main__":
+    main()
