@@ -3,8 +3,8 @@
 The Table III campaign simulated on the digital twin (15 configurations, 3
 repeats, seed 1) is fitted in this process by ``ElastostaticModel`` (exact
 model, compensator geometry from the cell's Table II prior), once with the
-default sampler and once with :class:`jax_posterior.NutsSampler` in its place,
-for each seed: the model, its equations and the posterior the sampler is given
+default sampler and twice with :class:`jax_posterior.NutsSampler` in its place
+(NumPyro's default diagonal mass matrix, then a dense one), for each seed: the model, its equations and the posterior the sampler is given
 are the same.  Before sampling, the JAX log density that NUTS follows is compared
 with the package's at the start, at draws of the default sampler and at points
 3 sd around the start (the largest absolute difference is printed; the script
@@ -13,7 +13,8 @@ stops if it exceeds :data:`DENSITY_TOLERANCE`).
 Each line gives the wall and CPU time of the whole ``fit`` and of the sampler's
 ``sample`` call alone, the smallest bulk and tail ESS over every reported
 parameter but the noise levels (ArviZ-style, all chains), the largest R-hat, and
-the smallest bulk ESS per second of sampling (wall).  NUTS's time includes JAX's
+the smallest bulk ESS per second of sampling (wall); each NUTS fit's draws are
+compared with the default's (means and sd, in the default's sd).  NUTS's time includes JAX's
 tracing and compilation of its kernel, which a user pays on every fit of a new
 campaign, and NumPyro's initial state of each chain; the ratio "without
 compilation" counts only the compiled chains' running time, the most favourable
@@ -104,10 +105,34 @@ def check_density(given: dict) -> float:
 
 def line(name: str, seed: int, timed: Timed, result: dict[str, float], draws: int) -> str:
     return (
-        f"{name:<10} seed {seed}  fit {result['fit']:6.2f} s wall, {result['fit_cpu']:6.2f} s CPU; sampling "
+        f"{name:<16} seed {seed}  fit {result['fit']:6.2f} s wall, {result['fit_cpu']:6.2f} s CPU; sampling "
         f"{timed.seconds:6.2f} s wall, {timed.cpu:6.2f} s CPU, {draws:6d} draws  min bulk ESS {result['bulk']:6.0f} "
         f"({result['worst']})  min tail ESS {result['tail']:6.0f}  R-hat max {result['r_hat']:.4f}  "
         f"bulk ESS per sampling second {result['bulk'] / timed.seconds:8.1f}"
+    )
+
+
+def agreement(reference: np.ndarray, other: np.ndarray) -> str:
+    """How far ``other``'s draws ``(chain, draw, ndim)`` lie from ``reference``'s, in ``reference``'s sd."""
+    reference, other = (d.reshape(-1, d.shape[-1]) for d in (reference, other))
+    sd = reference.std(axis=0)
+    shift = np.max(np.abs(other.mean(axis=0) - reference.mean(axis=0)) / sd)
+    ratio = other.std(axis=0) / sd
+    return f"means within {shift:.3f} sd of the default's, sd {ratio.min():.3f}-{ratio.max():.3f} times the default's"
+
+
+def run_nuts(cell, campaign, sampler: NutsSampler, name: str, seed: int, default: Timed, rates: dict[str, list[float]]) -> None:
+    """Fit with NUTS, print its lines and append its two rates."""
+    nuts, result = fit(cell, campaign, sampler, seed)
+    record = sampler.record
+    print(line(name, seed, nuts, result, sampler.n_chains * sampler.n_draws))
+    rates.setdefault(name, []).append(result["bulk"] / nuts.seconds)
+    rates.setdefault(f"{name} without compilation", []).append(result["bulk"] / record["loop_seconds"])
+    print(
+        f"{'':<16} seed {seed}  initial states {record['init_seconds']:.2f} s, compilation {record['compile_seconds']:.2f} s, "
+        f"chains {record['loop_seconds']:.2f} s (bulk ESS per second of the chains {rates[f'{name} without compilation'][-1]:.1f}); "
+        f"{record['gradients'] / (sampler.n_chains * sampler.n_draws):.1f} gradients per kept draw, {record['divergences']} divergences; "
+        f"{agreement(default.given['draws'], nuts.given['draws'])}"
     )
 
 
@@ -116,30 +141,20 @@ def main() -> None:
     cell = load_cell(DATA / "kr270.toml")
     plan = read_plan(DATA / "table3_plan.csv", cell.robot)
     campaign = DigitalTwin(cell).simulate(plan, REPEATS, np.random.default_rng(1))
-    rates: dict[str, list[float]] = {"default": [], "NUTS": [], "NUTS without compilation": []}
+    rates: dict[str, list[float]] = {"default": []}
     for seed in SEEDS:
         default, result = fit(cell, campaign, default_sampler(), seed)
         draws = default.given["draws"]
         print(line("default", seed, default, result, draws.shape[0] * draws.shape[1]))
         rates["default"].append(result["bulk"] / default.seconds)
         difference = check_density(default.given)
-        print(f"{'':<10} seed {seed}  JAX against the package's log density at 21 points: largest difference {difference:.2e} nats")
+        print(f"{'':<16} seed {seed}  JAX against the package's log density at 21 points: largest difference {difference:.2e} nats")
         if not difference <= DENSITY_TOLERANCE:
             sys.exit(f"the JAX log density differs from the package's by {difference:.3g} nats: NUTS would sample another posterior")
-        sampler = NutsSampler()
-        nuts, result = fit(cell, campaign, sampler, seed)
-        record = sampler.record
-        print(line("NUTS", seed, nuts, result, sampler.n_chains * sampler.n_draws))
-        rates["NUTS"].append(result["bulk"] / nuts.seconds)
-        rates["NUTS without compilation"].append(result["bulk"] / record["loop_seconds"])
-        print(
-            f"{'':<10} seed {seed}  NUTS: initial states {record['init_seconds']:.2f} s, compilation {record['compile_seconds']:.2f} s, "
-            f"chains {record['loop_seconds']:.2f} s (bulk ESS per second {rates['NUTS without compilation'][-1]:.1f}); "
-            f"{record['gradients']} gradients in the kept draws ({record['gradients'] / (sampler.n_chains * sampler.n_draws):.1f} per draw), "
-            f"{record['divergences']} divergences"
-        )
+        run_nuts(cell, campaign, NutsSampler(), "NUTS", seed, default, rates)
+        run_nuts(cell, campaign, NutsSampler(dense_mass=True), "NUTS dense mass", seed, default, rates)
     default_rate = np.median(rates["default"])
-    for name in ("NUTS", "NUTS without compilation"):
+    for name in [n for n in rates if n != "default"]:
         print(
             f"median over {len(SEEDS)} seeds, min bulk ESS per wall second of sampling, default over {name}: "
             f"{default_rate / np.median(rates[name]):.1f} ({default_rate:.0f} against {np.median(rates[name]):.0f})"

@@ -79,11 +79,16 @@ def test_the_unconstrained_coordinates_start_at_the_start_with_their_jacobian(gi
 
 @pytest.mark.slow
 def test_nuts_and_the_collapsed_sampler_draw_the_same_posterior(given):
+    """Means and the 10 % and 90 % quantiles agree within a tenth of an sd.
+
+    Not the sd itself: log K_c has a long lower tail that the two samplers' sd estimates
+    (a few thousand effective draws each) resolve only to about 10 %.
+    """
     posterior, start, scale = given["target"], given["start"], given["scale"]
     nuts = jax_posterior.NutsSampler(n_chains=4, n_warmup=500, n_draws=1000)
     a = nuts.sample(posterior, start, scale, np.random.default_rng(1)).reshape(-1, posterior.ndim)
     b = CollapsedSampler().sample(posterior, start, scale, np.random.default_rng(2)).reshape(-1, posterior.ndim)
     assert nuts.record["divergences"] < 0.01 * a.shape[0]
-    for i in range(posterior.ndim):
-        assert abs(a[:, i].mean() - b[:, i].mean()) < 0.1 * b[:, i].std(), i
-        assert a[:, i].std() == pytest.approx(b[:, i].std(), rel=0.1), i
+    sd = b.std(axis=0)
+    assert np.all(np.abs(a.mean(axis=0) - b.mean(axis=0)) < 0.1 * sd)
+    assert np.all(np.abs(np.quantile(a, [0.1, 0.9], axis=0) - np.quantile(b, [0.1, 0.9], axis=0)) < 0.1 * sd)
