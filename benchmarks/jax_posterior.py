@@ -29,8 +29,8 @@ import numpy as np
 
 from bayescal.inference.likelihood import SPRING
 
-# The equations are whitened to unit noise but the compliances are ~1e-6 rad/(N·m) and the
-# stiffness ~1e6 N·m/rad: single precision loses the residuals.
+# JAX computes in single precision unless told otherwise; the package's density is in double, and the
+# residuals are small differences of terms in compliances of ~1e-6 rad/(N·m) and stiffnesses of ~1e6 N·m/rad.
 jax.config.update("jax_enable_x64", True)
 
 __all__ = ["log_density", "Unconstrained", "NutsSampler"]
