@@ -203,9 +203,10 @@ class NutsSampler:
     def sample(self, target, start: np.ndarray, scale: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Draws ``(chain, draw, ndim)`` of ``theta``; see :func:`log_density` for the targets it takes.
 
-        Each chain is NumPyro's NUTS kernel stepped by one compiled ``lax.scan`` over
-        warm-up and kept iterations (what ``numpyro.infer.MCMC`` runs), compiled once
-        for all chains ahead of time, so that the compilation is timed apart.
+        Each chain is NumPyro's NUTS kernel, with its warm-up adaptation, stepped by one
+        ``lax.scan`` over warm-up and kept iterations (``numpyro.infer.MCMC`` steps the same
+        kernel in a loop of its own), compiled once for all chains ahead of time, so that
+        the compilation is timed apart.
         """
         from numpyro.infer import NUTS
 
