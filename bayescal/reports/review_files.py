@@ -294,7 +294,7 @@ def _axes_table(axes: Mapping[str, Mapping]) -> tuple[pd.DataFrame, pd.DataFrame
             "χ²/dof": (chi2, fixed(2)),
         }
         numbers[joint] = {key: value for key, (value, _) in row.items()}
-        texts[joint] = {key: _text(value, how, sd_column=key.endswith("sd (mrad)") or key.endswith("sd (mm)")) for key, (value, how) in row.items()}
+        texts[joint] = {key: _text(value, how, sd_column=" sd " in key) for key, (value, how) in row.items()}
     return _framed(numbers, "joint"), _framed(texts, "joint")
 
 
