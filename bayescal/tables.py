@@ -94,23 +94,7 @@ def read_table(
     source = str(path)
     optional = dict(optional or {})
     units = dict(units or {})
-    file = Path(path)
-    if file.is_dir():
-        raise InputError("is a folder; expected a CSV file", source=source)
-    if not file.is_file():
-        raise InputError("file not found", source=source)
-    try:
-        text = file.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read the file as UTF-8 text ({exc.__class__.__name__})", source=source) from None
-
-    numbered = [
-        (number, line)
-        for number, line in enumerate(text.splitlines(), start=1)
-        if line.strip() and not line.lstrip().startswith("#")
-    ]
-    if not numbered:
-        raise InputError("the file is empty: expected a header row and data rows", source=source)
+    numbered = _numbered_lines(Path(path), source)
     rows = list(csv.reader([line for _, line in numbered], skipinitialspace=True))
     header_line = numbered[0][0]
     header = [name.strip() for name in rows[0]]
@@ -148,6 +132,26 @@ def read_table(
     frame = pd.DataFrame(values, index=pd.Index(lines, name="line"))
     frame.attrs["source"] = source
     return frame
+
+
+def _numbered_lines(file: Path, source: str) -> list[tuple[int, str]]:
+    """The file's ``(line number, text)`` pairs other than blank lines and ``#`` comments; refuses an empty or unreadable file."""
+    if file.is_dir():
+        raise InputError("is a folder; expected a CSV file", source=source)
+    if not file.is_file():
+        raise InputError("file not found", source=source)
+    try:
+        text = file.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the file as UTF-8 text ({exc.__class__.__name__})", source=source) from None
+    numbered = [
+        (number, line)
+        for number, line in enumerate(text.splitlines(), start=1)
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
+    if not numbered:
+        raise InputError("the file is empty: expected a header row and data rows", source=source)
+    return numbered
 
 
 def _parse(raw: str, kind: ColumnKind, column: str, unit: str | None, source: str, line: int):

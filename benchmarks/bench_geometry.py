@@ -4,9 +4,9 @@ The posterior is that of ``bayescal geometry data/table1_geometry.csv`` (the
 paper's Table I, concentric cylinder markers).  Both samplers run through
 ``GeometryPosteriorModel.fit`` in this process, one after the other, with
 their default settings: the independence Metropolis-Hastings sampler
-(:func:`~bayescal.geometry.posterior.default_sampler`) and the emcee
+(:func:`~bayescal.geometry.posterior.geometry_sampler`) and the emcee
 ensembles that were the default before it
-(:func:`~bayescal.geometry.posterior.emcee_sampler`).  The wall time is that
+(:func:`~bayescal.geometry.posterior.geometry_sampler` ``("emcee")``).  The wall time is that
 of the whole fit (closed form, sampling, σ draws, summary), with its CPU
 time beside it (on a shared machine the CPU time shows what the wall time
 would be on an idle one); ESS is the
@@ -28,7 +28,7 @@ import warnings
 from pathlib import Path
 
 from bayescal.geometry.arcs import read_arc_points
-from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler, emcee_sampler
+from bayescal.geometry.posterior import GeometryPosteriorModel, geometry_sampler
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "table1_geometry.csv"
 COMPARED = ("L", "a_x", "a_y", "phi")
@@ -72,8 +72,8 @@ def command_line_seconds() -> tuple[float, float]:
 def main() -> None:
     points = read_arc_points(DATA)
     print(f"posterior: {DATA.name}, concentric cylinder markers, seed {SEED}")
-    default = measure("independence", default_sampler(), points)
-    previous = measure("emcee", emcee_sampler(), points)
+    default = measure("independence", geometry_sampler(), points)
+    previous = measure("emcee", geometry_sampler("emcee"), points)
     print(
         f"min ESS/s ratio (independence / emcee): {(default[1] / default[0]) / (previous[1] / previous[0]):.0f} by wall time, "
         f"{(default[1] / default[3]) / (previous[1] / previous[3]):.0f} by CPU time"

@@ -30,7 +30,8 @@ import numpy as np
 
 from bayescal.cell.config import load_cell
 from bayescal.cell.plan import read_plan
-from bayescal.inference.elastostatic import ElastostaticModel, default_sampler
+from bayescal.inference.elastostatic import ElastostaticModel
+from bayescal.inference.samplers import elastostatic_sampler
 from bayescal.studies.elastostatic_coverage import random_plan
 from bayescal.twin.simulator import DigitalTwin
 
@@ -41,7 +42,7 @@ ANGLES = 15
 
 
 def fit(cell, campaign, sampler: str) -> tuple[float, float, float, str, float]:
-    model = ElastostaticModel.from_cell(cell, sampler=default_sampler(sampler))
+    model = ElastostaticModel.from_cell(cell, sampler=elastostatic_sampler(sampler))
     began, cpu = time.perf_counter(), time.process_time()
     results = model.fit(campaign, 0)
     seconds, cpu = time.perf_counter() - began, time.process_time() - cpu

@@ -7,12 +7,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_limits
 
 from bayescal.cell.campaign import write_campaign
 from bayescal.cell.config import load_cell
 from bayescal.cell.plan import read_plan
 
 DATA = Path(__file__).resolve().parents[1] / "data"
+
+# One BLAS thread, as `bayescal` itself sets before NumPy loads (pytest loads NumPy first, for the
+# warning filter of pyproject.toml): the samplers' matrices are a few columns wide, and on a busy
+# machine BLAS threads spin.  Measured: a test robot's calibration took 3.4 s of CPU with two BLAS
+# threads on the shared 2-core machine, 0.44 s with one.
+threadpool_limits(1, user_api="blas")
 
 
 @pytest.fixture(scope="session")
@@ -25,6 +32,35 @@ def data_dir() -> Path:
 def cell():
     """The KR-270 calibration cell of ``data/kr270.toml``."""
     return load_cell(DATA / "kr270.toml")
+
+
+PLANAR_LINKS = (1.0, 0.5)
+"""Link lengths (m) of :func:`planar_arm`."""
+
+
+@pytest.fixture(scope="session")
+def planar_arm(tmp_path_factory):
+    """Two revolute joints about the base z axis, links :data:`PLANAR_LINKS` along x, the flange at the tip:
+    small enough to work eq 31 by hand, and weightless about its axes (gravity along -z exerts no torque)."""
+    from bayescal.robot.kinematics import Robot
+
+    l1, l2 = PLANAR_LINKS
+    urdf = tmp_path_factory.mktemp("planar") / "planar.urdf"
+    inertia = '<inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>'
+    urdf.write_text(
+        f"""<robot name="planar">
+  <link name="base"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><origin xyz="0 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <link name="l1">{inertia}</link>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="{l1} 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <link name="l2">{inertia}</link>
+  <joint name="tip" type="fixed"><parent link="l2"/><child link="flange"/><origin xyz="{l2} 0 0"/></joint>
+  <link name="flange"/>
+</robot>"""
+    )
+    return Robot.from_urdf(urdf)
 
 
 @pytest.fixture(scope="session")
@@ -67,7 +103,7 @@ def short_calibration(cell, campaign_csv, tmp_path_factory) -> dict[str, Path]:
     import warnings
 
     from bayescal.geometry.arcs import read_arc_points
-    from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler
+    from bayescal.geometry.posterior import GeometryPosteriorModel, geometry_sampler
     from bayescal.inference.elastostatic import ElastostaticModel
     from bayescal.inference.priors import posterior_geometry
     from bayescal.cell.campaign import read_campaign
@@ -78,7 +114,7 @@ def short_calibration(cell, campaign_csv, tmp_path_factory) -> dict[str, Path]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         points = read_arc_points(DATA / "table1_geometry.csv")
-        GeometryPosteriorModel(sampler=default_sampler(n_chains=2, n_tune=150, n_draws=100)).fit(points, 0).save(paths["geometry"])
+        GeometryPosteriorModel(sampler=geometry_sampler(n_chains=2, n_tune=150, n_draws=100)).fit(points, 0).save(paths["geometry"])
         model = ElastostaticModel.from_cell(
             cell, posterior_geometry(paths["geometry"]), sampler=GibbsSampler(n_chains=2, n_tune=100, n_draws=150)
         )

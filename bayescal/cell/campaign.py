@@ -40,6 +40,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from bayescal.cell.campaign_checks import check_angles, check_deflection, check_wrench
+from bayescal.cell.loading import WRENCH_COLUMNS
 from bayescal.errors import InputError
 from bayescal.tables import read_header, read_table
 from bayescal.units import DEG, MM
@@ -54,23 +56,12 @@ __all__ = [
     "WRENCH_COLUMNS",
     "POSITION_COLUMNS",
     "LOAD_POINT_COLUMNS",
-    "MAX_LOAD_ARM",
-    "check_wrench",
-    "check_deflection",
 ]
 
-WRENCH_COLUMNS = ("fx_N", "fy_N", "fz_N", "mx_Nm", "my_Nm", "mz_Nm")
 POSITION_COLUMNS = ("x0_mm", "y0_mm", "z0_mm", "x1_mm", "y1_mm", "z1_mm")
 LOAD_POINT_COLUMNS = ("load_x_mm", "load_y_mm", "load_z_mm")
 _SAME_CONFIG_TOLERANCE = 1e-6
 """Largest difference (deg, N or N·m) between rows of one configuration still read as equal."""
-MAX_LOAD_ARM = 2.0
-"""Farthest (m) a load can plausibly act from the flange: the length of a long tool.
-
-The KR-270 cell hangs its load 0.39 m from the flange (``data/kr270.toml``).  A
-moment that needs a longer arm for its force is a moment column in N·mm."""
-_RADIAN_SPAN = 3.2
-"""Joint angles (in the file's deg) all within ± this are most likely radians: π rad is 3.14."""
 _JOINT_COLUMN = re.compile(r"q([0-9]+)_(deg|mm)")
 
 
@@ -240,7 +231,7 @@ def read_campaign(
         The cell the campaign was measured in; when given, the file must have
         one joint column per joint of its robot, every configuration must lie
         within the joint limits, and the wrench must be one the arm can carry
-        (see :func:`check_wrench`).
+        (see :func:`~bayescal.cell.campaign_checks.check_wrench`).
     to_base
         Maps ``(N, 3)`` positions as read (m) into the base frame, before the
         checks that compare them with the wrench; None: the file is in the base
@@ -267,94 +258,20 @@ def read_campaign(
     n_joints = prismatic.size
     joint_columns = _joint_columns(n_joints, prismatic)
     joint_scale = np.where(prismatic, MM, DEG)
-    columns: dict[str, str] = {"config": "integer", "repeat": "integer"}
-    columns |= {name: "number" for name in joint_columns}
-    columns |= {name: "number" for name in WRENCH_COLUMNS}
-    columns["marker"] = "text"
-    columns |= {name: "number" for name in POSITION_COLUMNS}
-    units = {name: name.rsplit("_", 1)[1] for name in joint_columns}
-    units |= {name: "N" for name in WRENCH_COLUMNS[:3]} | {name: "N·m" for name in WRENCH_COLUMNS[3:]}
-    units |= {name: "mm" for name in POSITION_COLUMNS + LOAD_POINT_COLUMNS}
-    try:
-        frame = read_table(path, columns, optional={name: "number" for name in LOAD_POINT_COLUMNS}, units=units)
-    except InputError as error:
-        if error.column in POSITION_COLUMNS and error.what.startswith("missing value"):
-            state = "unloaded" if error.column[1] == "0" else "loaded"
-            raise InputError(
-                f"the row has no {state} position ({error.what}): every row must pair an unloaded "
-                "(x0_mm, y0_mm, z0_mm) and a loaded (x1_mm, y1_mm, z1_mm) position",
-                source=error.source,
-                line=error.line,
-                column=error.column,
-            ) from None
-        raise
-
+    frame = _read_frame(path, joint_columns)
     if markers is not None:
-        known = set(markers)
-        for line, name in frame["marker"].items():
-            if name not in known:
-                raise InputError(
-                    f"unknown marker '{name}'; the tool carries {', '.join(sorted(known))}",
-                    source=source,
-                    line=int(line),
-                    column="marker",
-                )
-
-    first_seen: dict[tuple, int] = {}
-    for line, key in zip(frame.index, zip(frame["config"], frame["repeat"], frame["marker"])):
-        if key in first_seen:
-            raise InputError(
-                f"config {key[0]}, repeat {key[1]}, marker '{key[2]}' already appears on line {first_seen[key]}: "
-                "each marker is measured once per repeat",
-                source=source,
-                line=int(line),
-                column="marker",
-            )
-        first_seen[key] = int(line)
-
-    given = [name for name in LOAD_POINT_COLUMNS if name in frame.columns]
-    if given and len(given) < len(LOAD_POINT_COLUMNS):
-        missing = next(name for name in LOAD_POINT_COLUMNS if name not in given)
-        raise InputError(
-            f"the campaign gives {', '.join(given)} but not {missing}: the load point needs all of "
-            f"{', '.join(LOAD_POINT_COLUMNS)}",
-            source=source,
-            column=missing,
-        )
+        _check_markers(frame, markers, source)
+    _check_unique(frame, source)
+    given = _load_point_columns(frame, source)
     shared = joint_columns + list(WRENCH_COLUMNS) + given
     values = frame[shared].to_numpy(dtype=float)
     config = frame["config"].to_numpy(dtype=int)
-    reference_row: dict[int, int] = {}
-    for row, number in enumerate(config):
-        first = reference_row.setdefault(int(number), row)
-        difference = np.abs(values[row] - values[first])
-        if np.any(difference > _SAME_CONFIG_TOLERANCE):
-            column = shared[int(np.argmax(difference))]
-            raise InputError(
-                f"config {number} has {column} = {values[row, shared.index(column)]:g} here but "
-                f"{values[first, shared.index(column)]:g} on line {int(frame.index[first])}: all rows of a configuration "
-                "share its joint angles and wrench",
-                source=source,
-                line=int(frame.index[row]),
-                column=column,
-            )
-
+    firsts = _configuration_rows(frame, values, shared, config, source)
     if cell is not None:
-        firsts = np.array(sorted(reference_row.values()))
-        _check_angles(cell, values[firsts, :n_joints] * joint_scale, frame.index[firsts], source)
+        check_angles(cell, values[firsts, :n_joints] * joint_scale, frame.index[firsts], source)
         check_wrench(cell, values[firsts, n_joints : n_joints + len(WRENCH_COLUMNS)], frame.index[firsts], source)
 
-    positions = frame[list(POSITION_COLUMNS)].to_numpy(dtype=float) * MM
-    if to_base is not None:
-        positions = np.hstack([to_base(positions[:, :3]), to_base(positions[:, 3:])])
-    if np.array_equal(positions[:, :3], positions[:, 3:]):
-        raise InputError(
-            "every loaded position x1_mm, y1_mm, z1_mm equals its unloaded x0_mm, y0_mm, z0_mm: no tracker reads a "
-            "point twice to the last digit; were the unloaded columns copied into the loaded ones?",
-            source=source,
-            line=int(frame.index[0]),
-            column="x1_mm",
-        )
+    positions = _positions(frame, to_base, source)
     if cell is not None:
         check_deflection(frame[list(WRENCH_COLUMNS)].to_numpy(dtype=float), positions, frame.index.to_numpy(dtype=int), source)
     return Campaign(
@@ -372,139 +289,103 @@ def read_campaign(
     )
 
 
-def _check_angles(cell: Cell, q: np.ndarray, lines: Sequence[int], source: str) -> None:
-    """Joint angles (rad, one row per configuration) within the robot's limits and not written in radians."""
-    robot = cell.robot
-    for row, line in zip(q, lines):
-        robot.check_limits(row, source=source, line=int(line))
-    angles = q[:, ~robot.prismatic]
-    if len(q) >= 2 and angles.size and np.max(np.abs(angles)) <= _RADIAN_SPAN * DEG and np.ptp(angles, axis=0).max() > 0:
-        columns = [name for name in robot.position_columns if name.endswith("_deg")]
+def _read_frame(path: str | PathLike[str], joint_columns: list[str]) -> pd.DataFrame:
+    """The campaign's rows, indexed by line, with its columns checked for type and unit."""
+    columns: dict[str, str] = {"config": "integer", "repeat": "integer"}
+    columns |= {name: "number" for name in joint_columns}
+    columns |= {name: "number" for name in WRENCH_COLUMNS}
+    columns["marker"] = "text"
+    columns |= {name: "number" for name in POSITION_COLUMNS}
+    units = {name: name.rsplit("_", 1)[1] for name in joint_columns}
+    units |= {name: "N" for name in WRENCH_COLUMNS[:3]} | {name: "N·m" for name in WRENCH_COLUMNS[3:]}
+    units |= {name: "mm" for name in POSITION_COLUMNS + LOAD_POINT_COLUMNS}
+    try:
+        return read_table(path, columns, optional={name: "number" for name in LOAD_POINT_COLUMNS}, units=units)
+    except InputError as error:
+        if error.column in POSITION_COLUMNS and error.what.startswith("missing value"):
+            state = "unloaded" if error.column[1] == "0" else "loaded"
+            raise InputError(
+                f"the row has no {state} position ({error.what}): every row must pair an unloaded "
+                "(x0_mm, y0_mm, z0_mm) and a loaded (x1_mm, y1_mm, z1_mm) position",
+                source=error.source,
+                line=error.line,
+                column=error.column,
+            ) from None
+        raise
+
+
+def _check_markers(frame: pd.DataFrame, markers: Collection[str], source: str) -> None:
+    """Refuse a marker name the tool does not carry."""
+    known = set(markers)
+    for line, name in frame["marker"].items():
+        if name not in known:
+            raise InputError(
+                f"unknown marker '{name}'; the tool carries {', '.join(sorted(known))}",
+                source=source,
+                line=int(line),
+                column="marker",
+            )
+
+
+def _check_unique(frame: pd.DataFrame, source: str) -> None:
+    """Refuse a (config, repeat, marker) read twice."""
+    first_seen: dict[tuple, int] = {}
+    for line, key in zip(frame.index, zip(frame["config"], frame["repeat"], frame["marker"])):
+        if key in first_seen:
+            raise InputError(
+                f"config {key[0]}, repeat {key[1]}, marker '{key[2]}' already appears on line {first_seen[key]}: "
+                "each marker is measured once per repeat",
+                source=source,
+                line=int(line),
+                column="marker",
+            )
+        first_seen[key] = int(line)
+
+
+def _load_point_columns(frame: pd.DataFrame, source: str) -> list[str]:
+    """The load-point columns the file gives: all of them or none."""
+    given = [name for name in LOAD_POINT_COLUMNS if name in frame.columns]
+    if given and len(given) < len(LOAD_POINT_COLUMNS):
+        missing = next(name for name in LOAD_POINT_COLUMNS if name not in given)
         raise InputError(
-            f"every joint angle of the {len(q)} configurations lies within ±{_RADIAN_SPAN:g} deg, as angles in radians "
-            f"would: write {columns[0]}..{columns[-1]} in degrees",
+            f"the campaign gives {', '.join(given)} but not {missing}: the load point needs all of "
+            f"{', '.join(LOAD_POINT_COLUMNS)}",
             source=source,
-            line=int(lines[0]),
-            column=columns[0],
+            column=missing,
         )
+    return given
 
 
-def check_wrench(cell: Cell, wrench: np.ndarray, lines: Sequence[int], source: str) -> None:
-    """Reject wrenches the arm cannot carry or that no load on a tool produces: a wrench in a wrong unit.
+def _configuration_rows(frame: pd.DataFrame, values: np.ndarray, shared: list[str], config: np.ndarray, source: str) -> np.ndarray:
+    """The first row of each configuration, in order; refuses rows of one configuration that disagree on ``shared``."""
+    reference_row: dict[int, int] = {}
+    for row, number in enumerate(config):
+        first = reference_row.setdefault(int(number), row)
+        difference = np.abs(values[row] - values[first])
+        if np.any(difference > _SAME_CONFIG_TOLERANCE):
+            column = shared[int(np.argmax(difference))]
+            raise InputError(
+                f"config {number} has {column} = {values[row, shared.index(column)]:g} here but "
+                f"{values[first, shared.index(column)]:g} on line {int(frame.index[first])}: all rows of a configuration "
+                "share its joint angles and wrench",
+                source=source,
+                line=int(frame.index[row]),
+                column=column,
+            )
+    return np.array(sorted(reference_row.values()))
 
-    Parameters
-    ----------
-    cell
-        Gives the scale: :attr:`~bayescal.cell.config.Cell.max_force` and
-        :attr:`~bayescal.cell.config.Cell.capacity_weight`.
-    wrench
-        (M, 6) ``[f (N); m (N·m)]``, one row per configuration.
-    lines
-        (M,) the line of each row, for the messages.
-    source
-        The file, for the messages.
 
-    Raises
-    ------
-    InputError
-        A force above ``cell.max_force`` (a wrench 1000 times too large, or 1e12 N),
-        a moment that needs its force to act more than :data:`MAX_LOAD_ARM` from
-        the flange (moments in N·mm), or a campaign whose largest force is below
-        :data:`~bayescal.cell.config.MIN_LOAD_FRACTION` of the capacity's weight
-        (a wrench in kN).
-    """
-    from bayescal.cell.config import MIN_LOAD_FRACTION, OVERLOAD_FACTOR
-
-    force = np.linalg.norm(wrench[:, :3], axis=1)
-    moment = np.linalg.norm(wrench[:, 3:], axis=1)
-    capacity = cell.capacity_weight / cell.gravity
-    worst = int(np.argmax(force))
-    if force[worst] > cell.max_force:
-        column = WRENCH_COLUMNS[int(np.argmax(np.abs(wrench[worst, :3])))]
+def _positions(frame: pd.DataFrame, to_base: Callable[[np.ndarray], np.ndarray] | None, source: str) -> np.ndarray:
+    """``(N, 6)`` unloaded then loaded positions (m) in the base frame; refuses loaded columns copied from the unloaded."""
+    positions = frame[list(POSITION_COLUMNS)].to_numpy(dtype=float) * MM
+    if to_base is not None:
+        positions = np.hstack([to_base(positions[:, :3]), to_base(positions[:, 3:])])
+    if np.array_equal(positions[:, :3], positions[:, 3:]):
         raise InputError(
-            f"a load force of {force[worst]:.4g} N is more than the {cell.max_force:.0f} N the arm can plausibly carry "
-            f"({OVERLOAD_FACTOR:g} x the weight of {capacity:g} kg, from {cell.source}): is the wrench in another unit "
-            "than N and N·m?",
+            "every loaded position x1_mm, y1_mm, z1_mm equals its unloaded x0_mm, y0_mm, z0_mm: no tracker reads a "
+            "point twice to the last digit; were the unloaded columns copied into the loaded ones?",
             source=source,
-            line=int(lines[worst]),
-            column=column,
-        )
-    # A force at the flange gives a moment |m| <= |f| times its arm; a pure moment is bounded by the capacity's.
-    arm_limit = np.maximum(force, cell.capacity_weight) * MAX_LOAD_ARM
-    beyond = np.flatnonzero(moment > arm_limit)
-    if beyond.size:
-        row = int(beyond[0])
-        column = WRENCH_COLUMNS[3 + int(np.argmax(np.abs(wrench[row, 3:])))]
-        raise InputError(
-            f"a moment of {moment[row]:.4g} N·m needs the load to act {moment[row] / max(force[row], cell.capacity_weight):.3g} m "
-            f"or more from the flange, beyond any tool ({MAX_LOAD_ARM:g} m): are mx_Nm..mz_Nm in N·mm instead of N·m?",
-            source=source,
-            line=int(lines[row]),
-            column=column,
-        )
-    floor = MIN_LOAD_FRACTION * cell.capacity_weight
-    if 0 < force[worst] < floor:
-        raise InputError(
-            f"the largest load force of the campaign is {force[worst]:.4g} N, below {floor:.0f} N "
-            f"({MIN_LOAD_FRACTION:.0%} of the weight of {capacity:g} kg, from {cell.source}), too small to deflect "
-            "the arm beyond the tracker's noise: is the wrench in kN instead of N?",
-            source=source,
-            line=int(lines[worst]),
-            column=WRENCH_COLUMNS[int(np.argmax(np.abs(wrench[worst, :3])))],
-        )
-
-
-DEFLECTION_Z = 3.0
-"""Standard errors by which the markers' mean motion along the load force must be negative for
-:func:`check_deflection` to refuse a campaign: on loads lost in the noise it refused 10 of 4,000 random
-20-row campaigns (0.25 %), and 0 of 1,000 random elastic campaigns (tests/cell/test_campaign.py's generator)."""
-
-
-def check_deflection(wrench: np.ndarray, positions: np.ndarray, lines: Sequence[int], source: str) -> None:
-    """Reject a campaign whose markers move against its load: unloaded and loaded columns swapped, or the wrench's sign flipped.
-
-    The arm's compliance is positive definite, so a load force does positive
-    work: the point it acts on, and with it the tool's markers, moves along the
-    force.  A campaign whose markers move on average against the force, by
-    more than :data:`DEFLECTION_Z` standard errors of that mean, is refused; so
-    is one whose every wrench is zero.
-
-    Parameters
-    ----------
-    wrench
-        (n, 6) wrench of every row, N and N·m.
-    positions
-        (n, 6) unloaded then loaded marker positions of every row, m.
-    lines
-        (n,) the rows' line numbers in ``source``.
-    source
-        The campaign file, named in the error.
-
-    Raises
-    ------
-    InputError
-        Naming the line of the first row that moves against its load.
-    """
-    force = np.linalg.norm(wrench[:, :3], axis=1)
-    if not np.any(np.abs(wrench) > 0):
-        raise InputError(
-            "every wrench fx_N..mz_Nm is zero: a campaign without a load deflects nothing; were the wrench columns left empty?",
-            source=source,
-            line=int(lines[0]),
-            column="fz_N",
-        )
-    loaded = force > 0
-    if np.count_nonzero(loaded) < 2:
-        return
-    along = np.einsum("ij,ij->i", positions[loaded, 3:] - positions[loaded, :3], wrench[loaded, :3] / force[loaded, None])
-    mean, error = float(along.mean()), float(along.std(ddof=1) / np.sqrt(along.size))
-    if mean < 0 and mean < -DEFLECTION_Z * error:
-        first = int(np.flatnonzero(along < 0)[0])
-        raise InputError(
-            f"the markers move against the load force in {np.count_nonzero(along < 0)} of {along.size} rows "
-            f"(on average {-mean / MM:.3g} mm opposite to it), which no elastic arm does: are the unloaded (x0_mm..z0_mm) and "
-            "loaded (x1_mm..z1_mm) columns swapped, or the wrench's sign flipped?",
-            source=source,
-            line=int(lines[loaded][first]),
+            line=int(frame.index[0]),
             column="x1_mm",
         )
+    return positions

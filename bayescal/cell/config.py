@@ -6,28 +6,25 @@ A cell is described by a TOML file whose keys carry their units (schema in
 
 from __future__ import annotations
 
-import codecs
-import difflib
 import math
-import tomllib
 from collections.abc import Mapping
 from xml.etree import ElementTree
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from bayescal.cell.cellfile import CellFileReader, read_cell_file
 from bayescal.cell.joints import DEFAULT_COMPENSATED_JOINT, per_joint, read_compensator, reference_file
 from bayescal.robot.compensator import Compensator
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
-from bayescal.cell.loading import DIRECTIONS, Loading
+from bayescal.cell.loading import DIRECTIONS, MAX_LOAD_ARM, Loading
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.units import DEG, MM, UM, UM_PER_N, URAD_PER_NM
 
-__all__ = ["Cell", "DesignLimits", "load_cell", "OVERLOAD_FACTOR", "MIN_LOAD_FRACTION", "SCHEMA"]
+__all__ = ["Cell", "DesignLimits", "load_cell", "OVERLOAD_FACTOR", "MIN_LOAD_FRACTION"]
 
 OVERLOAD_FACTOR = 2.0
 """Largest plausible static load on the arm, as a multiple of the weight of its capacity.
@@ -48,23 +45,6 @@ moves them by at most about 90 μm, two or three times the noise: not a calibrat
 load.  A campaign whose largest force is below it is far more likely a wrench
 written in kN (1000 times smaller) than one measured so.
 """
-
-SCHEMA: dict[str, frozenset[str] | None] = {
-    "robot": frozenset({"urdf", "flange", "payload_kg", "joints", "locked_deg", "locked_mm", "reference_csv"}),
-    "joints": frozenset({"k_urad_per_Nm", "k_um_per_N"}),
-    "compensator": frozenset({"joint", "L_mm", "a_x_mm", "a_y_mm", "phi_deg", "K_c_N_per_mm", "s0_mm"}),
-    "tool": frozenset({"load_point_mm", "markers_mm", "tcp_mm"}),
-    "tool.markers_mm": None,
-    "tracker": frozenset({"position_mm", "U0_um", "U1_um_per_m", "factor"}),
-    "load": frozenset({"mass_kg", "gravity_m_per_s2", "directions", "force_max_N", "couple_max_Nm"}),
-    "test_pose": frozenset({"q_deg", "q_mm", "wrench_N_Nm", "point_mm"}),
-    "design": frozenset({"mass_kg", "acceptance_deg", "floor_z_mm", "hanging_clearance_mm"}),
-}
-"""The tables of a cell file and their keys (``None``: any key, e.g. marker names).
-
-Any other table or key is an error: a misspelt optional key (``factr``) would
-otherwise be ignored silently and its default used."""
-
 
 @dataclass(frozen=True)
 class DesignLimits:
@@ -150,13 +130,13 @@ class Cell:
     design: DesignLimits = DesignLimits()
     tcp: np.ndarray | None = None
     loading: Loading = Loading()
+    compensator_joint: int = DEFAULT_COMPENSATED_JOINT
+    reference: Path | None = None
 
     @property
     def tool_point(self) -> np.ndarray:
         """(3,) the machining tool's point in the flange frame, m: ``tool.tcp_mm``, else ``test_pose.point_mm``."""
         return self.test_point if self.tcp is None else self.tcp
-    compensator_joint: int = DEFAULT_COMPENSATED_JOINT
-    reference: Path | None = None
 
     @property
     def compensated_joint(self) -> int | None:
@@ -194,120 +174,6 @@ class Cell:
         return np.concatenate([force, np.cross(rotation @ self.load_point, force) + couple])
 
 
-class _Reader:
-    """Typed access to the TOML tables with errors naming the file, the line and the key."""
-
-    def __init__(self, data: Mapping[str, Any], text: str, source: str) -> None:
-        self.data = data
-        self.lines = text.splitlines()
-        self.source = source
-
-    def line(self, table: str, key: str | None = None) -> int | None:
-        current = ""
-        for number, raw in enumerate(self.lines, start=1):
-            stripped = raw.strip()
-            if stripped.startswith("["):
-                current = stripped.strip("[]").strip()
-                if key is None and current == table:
-                    return number
-            elif key is not None and current == table and stripped.split("=")[0].strip() == key:
-                return number
-        return None
-
-    def fail(self, what: str, table: str, key: str | None = None):
-        column = table if key is None else f"{table}.{key}"
-        raise InputError(what, source=self.source, line=self.line(table, key), column=column)
-
-    def table(self, name: str, *, required: bool = True) -> Mapping[str, Any] | None:
-        node: Any = self.data
-        for part in name.split("."):
-            if not isinstance(node, Mapping) or part not in node:
-                if required:
-                    raise InputError(f"missing table [{name}]", source=self.source)
-                return None
-            node = node[part]
-        if not isinstance(node, Mapping):
-            self.fail(f"expected a table [{name}]", name)
-        return node
-
-    def number(
-        self,
-        table: str,
-        key: str,
-        *,
-        unit: str,
-        positive: bool = False,
-        non_negative: bool = False,
-        default: float | None = None,
-    ) -> float:
-        values = self.table(table)
-        if key not in values:
-            if default is not None:
-                return default
-            self.fail(f"missing key '{key}' (a number in {unit})", table)
-        value = values[key]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            self.fail(f"expected a number in {unit}, got {value!r}", table, key)
-        if positive and value <= 0:
-            self.fail(f"expected a positive number in {unit}, got {value!r}", table, key)
-        if non_negative and value < 0:
-            self.fail(f"expected a number >= 0 in {unit}, got {value!r}", table, key)
-        return float(value)
-
-    def vector(self, table: str, key: str, size: int, *, unit: str) -> np.ndarray:
-        values = self.table(table)
-        if key not in values:
-            self.fail(f"missing key '{key}' (a list of {size} numbers in {unit})", table)
-        return self.vector_value(values[key], size, unit, table, key)
-
-    def vector_value(self, value: Any, size: int, unit: str, table: str, key: str) -> np.ndarray:
-        ok = isinstance(value, list) and len(value) == size
-        ok = ok and all(not isinstance(x, bool) and isinstance(x, (int, float)) and math.isfinite(x) for x in value)
-        if not ok:
-            self.fail(f"expected a list of {size} numbers in {unit}, got {value!r}", table, key)
-        return np.array(value, dtype=float)
-
-    def check_keys(self) -> None:
-        """Reject tables and keys the schema does not know, naming the closest known one."""
-        tables = sorted(name for name in SCHEMA if "." not in name)
-        for name, node in self.data.items():
-            if name in SCHEMA and isinstance(node, Mapping):
-                self._check_table(name, node)
-                continue
-            if name in SCHEMA:
-                raise InputError(
-                    f"expected the table [{name}], got the value {node!r}", source=self.source, line=self.line("", name), column=name
-                )
-            close = difflib.get_close_matches(name, tables, n=1, cutoff=0.6)
-            hint = f"did you mean [{close[0]}]? " if close else ""
-            kind = f"table [{name}]" if isinstance(node, Mapping) else f"key '{name}' outside any table"
-            raise InputError(
-                f"unknown {kind}; {hint}known tables: {', '.join(f'[{table}]' for table in tables)}",
-                source=self.source,
-                line=self.line(name) if isinstance(node, Mapping) else self.line("", name),
-                column=name,
-            )
-
-    def _check_table(self, table: str, node: Mapping[str, Any]) -> None:
-        known = SCHEMA[table]
-        if known is None:
-            return
-        for key, value in node.items():
-            if key not in known:
-                close = difflib.get_close_matches(key, sorted(known), n=1, cutoff=0.6)
-                hint = f"did you mean '{close[0]}'? " if close else ""
-                self.fail(f"unknown key '{key}' in [{table}]; {hint}known keys: {', '.join(sorted(known))}", table, key)
-            if isinstance(value, Mapping) and f"{table}.{key}" in SCHEMA:
-                self._check_table(f"{table}.{key}", value)
-
-    def text(self, table: str, key: str, default: str | None = None) -> str:
-        values = self.table(table)
-        value = values.get(key, default)
-        if not isinstance(value, str) or not value:
-            self.fail(f"expected a non-empty text, got {value!r}", table, key)
-        return value
-
-
 def _check_urdf_xml(urdf: Path) -> None:
     """Reject a URDF that is not XML with a ``<robot>`` root before the URDF parser prints its own lines to stderr."""
     if urdf.is_dir():
@@ -324,7 +190,7 @@ def _check_urdf_xml(urdf: Path) -> None:
         raise InputError(f"not a URDF: the root element is <{root.tag}>, expected <robot>", source=urdf, line=1)
 
 
-def _design_limits(reader: _Reader) -> DesignLimits:
+def _design_limits(reader: CellFileReader) -> DesignLimits:
     table = reader.table("design", required=False)
     if table is None:
         return DesignLimits()
@@ -349,7 +215,7 @@ def _design_limits(reader: _Reader) -> DesignLimits:
     )
 
 
-def _loading(reader: _Reader) -> Loading:
+def _loading(reader: CellFileReader) -> Loading:
     table = reader.table("load")
     directions = reader.text("load", "directions", default="down")
     if directions not in DIRECTIONS:
@@ -359,7 +225,7 @@ def _loading(reader: _Reader) -> Loading:
         reader.fail('missing key \'force_max_N\' (eq 41\'s F_max in N), required with directions = "any"', "load")
     couple_max = reader.number("load", "couple_max_Nm", unit="N·m", non_negative=True, default=0.0)
     return Loading(directions=directions, force_max=force_max, couple_max=couple_max)
-def _read_robot(reader: _Reader, file: Path) -> Robot:
+def _read_robot(reader: CellFileReader, file: Path) -> Robot:
     """The ``[robot]`` table: the URDF reduced to the named chain, other joints locked at their values."""
     urdf = file.parent / reader.text("robot", "urdf")
     flange = reader.text("robot", "flange", default="flange")
@@ -396,30 +262,7 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     """
     source = str(path)
     file = Path(path)
-    if file.is_dir():
-        raise InputError("is a folder; expected a cell TOML file", source=source)
-    if not file.is_file():
-        raise InputError("cell file not found", source=source)
-    try:
-        raw = file.read_bytes()
-    except OSError as exc:
-        raise InputError(f"cannot read the cell file ({exc.strerror or type(exc).__name__})", source=source) from None
-    # A byte-order mark is accepted here as by the CSV readers (editors on Windows add one).
-    raw = raw.removeprefix(codecs.BOM_UTF8)
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise InputError(
-            f"byte 0x{raw[exc.start]:02x} is not UTF-8 text (a Latin-1 or Windows-1252 character?): save the file as UTF-8",
-            source=source,
-            line=raw[: exc.start].count(b"\n") + 1,
-        ) from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"not a valid TOML file ({exc})", source=source) from None
-    reader = _Reader(data, text, source)
-    reader.check_keys()
+    reader = read_cell_file(file)
 
     robot = _read_robot(reader, file)
     payload = None
@@ -431,24 +274,8 @@ def load_cell(path: str | PathLike[str]) -> Cell:
         reader.fail("expected positive joint compliances in μrad/(N·m) (revolute) and μm/N (prismatic)", "joints")
     compensator, compensator_joint = read_compensator(reader, robot)
 
-    load_point = reader.vector("tool", "load_point_mm", 3, unit="mm") * MM
-    marker_table = reader.table("tool.markers_mm")
-    if not marker_table:
-        reader.fail("expected at least one marker, e.g. M1 = [x, y, z]", "tool.markers_mm")
-    markers = {
-        str(name): reader.vector_value(value, 3, "mm", "tool.markers_mm", str(name)) * MM
-        for name, value in marker_table.items()
-    }
-    _check_reach(reader, load_point, markers)
-
-    noise = {
-        "U0": reader.number("tracker", "U0_um", unit="μm", default=15.0) * UM,
-        "U1": reader.number("tracker", "U1_um_per_m", unit="μm/m", default=6.0) * UM,
-        "factor": reader.number("tracker", "factor", unit="a fraction", default=0.8),
-    }
-    if min(noise.values()) < 0:
-        reader.fail("the noise parameters U0_um, U1_um_per_m and factor must not be negative", "tracker")
-    tracker = TrackerNoise(position=reader.vector("tracker", "position_mm", 3, unit="mm") * MM, **noise)
+    load_point, markers = _read_tool(reader)
+    tracker = _read_tracker(reader)
 
     load_mass = reader.number("load", "mass_kg", unit="kg", positive=True)
     gravity = reader.number("load", "gravity_m_per_s2", unit="m/s²", positive=True, default=9.80665)
@@ -491,10 +318,35 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     return cell
 
 
+def _read_tool(reader: CellFileReader) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The ``[tool]`` table's load point (3,) and markers (3,) each, flange frame, m."""
+    load_point = reader.vector("tool", "load_point_mm", 3, unit="mm") * MM
+    marker_table = reader.table("tool.markers_mm")
+    if not marker_table:
+        reader.fail("expected at least one marker, e.g. M1 = [x, y, z]", "tool.markers_mm")
+    markers = {
+        str(name): reader.vector_value(value, 3, "mm", "tool.markers_mm", str(name)) * MM
+        for name, value in marker_table.items()
+    }
+    _check_reach(reader, load_point, markers)
+    return load_point, markers
+
+
+def _read_tracker(reader: CellFileReader) -> TrackerNoise:
+    """The ``[tracker]`` table: the tracker's position (base frame, m) and noise model."""
+    noise = {
+        "U0": reader.number("tracker", "U0_um", unit="μm", default=15.0) * UM,
+        "U1": reader.number("tracker", "U1_um_per_m", unit="μm/m", default=6.0) * UM,
+        "factor": reader.number("tracker", "factor", unit="a fraction", default=0.8),
+    }
+    if min(noise.values()) < 0:
+        reader.fail("the noise parameters U0_um, U1_um_per_m and factor must not be negative", "tracker")
+    tracker = TrackerNoise(position=reader.vector("tracker", "position_mm", 3, unit="mm") * MM, **noise)
+    return tracker
+
+
 def _check_reach(reader, load_point: np.ndarray, markers: dict[str, np.ndarray]) -> None:
     """Refuse a load point or a marker farther from the flange than any tool reaches."""
-    from bayescal.cell.campaign import MAX_LOAD_ARM
-
     for key, point in [("load_point_mm", load_point)] + [(name, point) for name, point in markers.items()]:
         distance = float(np.linalg.norm(point))
         if distance > MAX_LOAD_ARM:

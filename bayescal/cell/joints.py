@@ -3,22 +3,18 @@
 A robot's joints are revolute (angles in deg, compliances in μrad/(N·m) at the edges)
 or prismatic (positions in mm, compliances in μm/N); the cell lists each kind's values
 in chain order under its own key.  These readers take the cell file's reader
-(:class:`bayescal.cell.config._Reader`), which names the file, line and key of an error.
+(:class:`bayescal.cell.cellfile.CellFileReader`), which names the file, line and key of an error.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
-
 import numpy as np
 
+from bayescal.cell.cellfile import CellFileReader
 from bayescal.robot.compensator import Compensator
 from bayescal.robot.kinematics import Robot
 from bayescal.units import DEG, MM, N_PER_MM
-
-if TYPE_CHECKING:
-    from bayescal.cell.config import _Reader
 
 __all__ = ["DEFAULT_COMPENSATED_JOINT", "per_joint", "read_compensator", "reference_file"]
 
@@ -31,7 +27,7 @@ MAX_COMPENSATOR_LENGTH = 5.0
 (ESTIMATE; the KR-270's are 0.18 and 0.70 m, Klimchik et al. Table II)."""
 
 
-def reference_file(reader: _Reader, file: Path) -> Path | None:
+def reference_file(reader: CellFileReader, file: Path) -> Path | None:
     """The ``robot.reference_csv`` file of published results, or ``None`` without the key or the file.
 
     A cell file copied from ``data/kr270.toml`` to describe another robot keeps the key but
@@ -43,7 +39,7 @@ def reference_file(reader: _Reader, file: Path) -> Path | None:
     return path if path.is_file() else None
 
 
-def per_joint(reader: _Reader, robot: Robot, table: str, keys: tuple[str, str], scales: tuple[float, float]) -> np.ndarray:
+def per_joint(reader: CellFileReader, robot: Robot, table: str, keys: tuple[str, str], scales: tuple[float, float]) -> np.ndarray:
     """(nq,) values in SI from a list for the revolute joints and one for the prismatic joints, each in chain order."""
     values = np.empty(robot.nq)
     for key, scale, prismatic in zip(keys, scales, (False, True)):
@@ -58,7 +54,7 @@ def per_joint(reader: _Reader, robot: Robot, table: str, keys: tuple[str, str], 
     return values
 
 
-def read_compensator(reader: _Reader, robot: Robot) -> tuple[Compensator | None, int]:
+def read_compensator(reader: CellFileReader, robot: Robot) -> tuple[Compensator | None, int]:
     """The ``[compensator]`` table: the spring of eqs 4-9 and the (0-based) joint it acts on, or ``None``."""
     if reader.table("compensator", required=False) is None:
         return None, DEFAULT_COMPENSATED_JOINT

@@ -21,7 +21,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["DIRECTIONS", "Loading", "VERTICAL_TOLERANCE", "WRITTEN_RESOLUTION"]
+__all__ = ["DIRECTIONS", "Loading", "MAX_LOAD_ARM", "VERTICAL_TOLERANCE", "WRENCH_COLUMNS", "WRITTEN_RESOLUTION"]
+
+WRENCH_COLUMNS = ("fx_N", "fy_N", "fz_N", "mx_Nm", "my_Nm", "mz_Nm")
+"""The columns of a load in every file that carries one: the wrench at the flange origin in base axes."""
+MAX_LOAD_ARM = 2.0
+"""Farthest (m) a load can plausibly act from the flange: the length of a long tool.
+
+The KR-270 cell hangs its load 0.39 m from the flange (``data/kr270.toml``).  A
+moment that needs a longer arm for its force is a moment column in N·mm."""
 
 DIRECTIONS = ("down", "any")
 """The kinds of end-effector a cell file may declare in ``[load] directions``."""

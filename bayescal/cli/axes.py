@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 from bayescal.output import guard_outputs, write_atomically
+from bayescal.units import MM
 
 from ._command import CommandOutput, add_common_options
 
@@ -48,12 +49,46 @@ def run(args: argparse.Namespace) -> CommandOutput:
     cell = load_cell(args.config)
     sweeps = read_sweeps(args.sweeps)
     registration = register(sweeps, cell, rng=args.seed)
-    payload, text = registration.to_json(), registration.text()
+    payload, text = registration.to_json(), _registration_text(registration)
     if args.critique:
         critique = critique_sweeps(sweeps, replace(cell.tracker, position=np.zeros(3)))
         payload["critique"] = critique.to_json()
-        text += "\n\n" + critique.text()
+        text += "\n\n" + _critique_text(critique)
     if args.output:
         write_atomically("-o", args.output, lambda path: Path(path).write_text(json.dumps(payload, indent=2), encoding="utf-8"))
         text += f"\nregistration saved to {args.output}"
     return CommandOutput(payload, text)
+
+
+def _registration_text(registration) -> str:
+    """A readable table of the axes and frames of a :class:`~bayescal.registration.register.Registration`."""
+    lines = [f"Joint axes in the tracker frame from {registration.source}", "",
+             f"{'joint':>5}{'direction':>30}{'sd mrad':>9}{'point mm':>30}{'sd mm':>8}{'rms mm':>8}"]
+    for j, fit in registration.axes.items():
+        direction = " ".join(f"{v:9.6f}" for v in fit.direction)
+        point = " ".join(f"{v / MM:9.2f}" for v in fit.point)
+        lines.append(f"{j + 1:>5}{direction:>30}{fit.direction_sd * 1e3:9.4f}{point:>30}"
+                     f"{fit.point_sd / MM:8.4f}{fit.residual_rms / MM:8.4f}")
+    for name, frame in registration.frames.items():
+        data = frame.to_json()
+        lines += ["", f"{name} frame in the tracker frame (p_tracker = R p + t):"]
+        lines += [" ".join(f"{v:10.6f}" for v in row) for row in frame.rotation]
+        lines.append("t [mm] " + " ".join(f"{v:10.3f}" for v in data["translation_mm"])
+                     + "   sd [mm] " + " ".join(f"{v:.4f}" for v in data["translation_sd_mm"]))
+        lines.append("rotation sd [mrad] " + " ".join(f"{v:.4f}" for v in data["rotation_sd_mrad"]))
+        lines.append(f"not fixed by the sweeps: {frame.from_nominal}")
+    return "\n".join(lines)
+
+
+def _critique_text(critique) -> str:
+    """The sweep critique's evidence per joint and candidate, and what each named cause gains."""
+    lines = [f"sweep critique (held out one angle at a time): {critique.verdict}"]
+    for j, c in critique.joints.items():
+        for name, row in c.evidence.iterrows():
+            lines.append(f"  joint {j + 1} {name:<14} ΔELPD {row['delta_elpd']:8.1f} ± {row['se']:6.1f} nats  "
+                         f"{row['estimate']:10.4g} ± {row['estimate_sd']:.2g} {row['unit']}{'  NAMED' if row['named'] else ''}")
+        if c.causes:
+            best = c.evidence.loc[c.causes[0]]
+            lines.append(f"  joint {j + 1}: {c.causes[0]} predicts held-out angles better: rms "
+                         f"{best['rms_circle_mm']:.4f} -> {best['rms_candidate_mm']:.4f} mm")
+    return "\n".join(lines)

@@ -55,7 +55,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
     import numpy as np
 
     from bayescal.cell.config import load_cell
-    from bayescal.inference.elastostatic import EXTENSIONS, ElastostaticModel, default_sampler
+    from bayescal.inference.elastostatic import EXTENSIONS, ElastostaticModel
+    from bayescal.inference.samplers import elastostatic_sampler
     from bayescal.inference.priors import posterior_geometry
     from bayescal.errors import InputError
     from bayescal.robot.stiffness import EquilibriumError
@@ -77,7 +78,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         cell,
         geometry,
         model=args.model,
-        sampler=default_sampler(args.sampler, args.draws),
+        sampler=elastostatic_sampler(args.sampler, n_draws=args.draws),
         noise=args.noise,
         # Draws the user chose are kept as chosen; the default ones grow until they converge.
         extensions=EXTENSIONS if args.draws is None else 0,

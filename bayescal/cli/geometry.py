@@ -56,7 +56,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     """Fit the geometry and return the JSON payload and a readable table."""
     import numpy as np
 
-    from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler
+    from bayescal.geometry.posterior import GeometryPosteriorModel, geometry_sampler
     from bayescal.reference import REFERENCE_FILE, beside_published, read_paper_reference
 
     check_output("--posterior", args.posterior, {"the points file": args.points, "the --reference file": args.reference,
@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     reference = None
     if args.reference or reference_path.is_file():
         reference = read_paper_reference(reference_path)
-    model = GeometryPosteriorModel(args.cylinder_model, sampler=default_sampler(args.chains, args.tune, args.draws))
+    model = GeometryPosteriorModel(args.cylinder_model, sampler=geometry_sampler(n_chains=args.chains, n_tune=args.tune, n_draws=args.draws))
     result = model.fit(points, rng=args.seed)
     if args.posterior:
         write_atomically("--posterior", args.posterior, result.save)

@@ -1,8 +1,8 @@
 """``bayescal report --paper-reports FOLDER``: regenerate the reports committed in ``reports/``.
 
 Each report's findings are computed by :func:`bayescal.studies.paper_reports.paper_findings`
-and rendered by :func:`bayescal.reports.paper.render_paper_report`; the detection report by
-:func:`bayescal.reports.detection.render_report`.  Every file goes through the output guard,
+and rendered by :func:`bayescal.reports.paper.render_paper_report` (the detection report by
+:func:`bayescal.reports.detection.render_report`).  Every file goes through the output guard,
 before any work, and is put in place with the others by :func:`bayescal.output.write_folder`.
 """
 
@@ -58,7 +58,9 @@ def run_paper_reports(args: argparse.Namespace) -> CommandOutput:
         if not args.json:
             print(f"computing {name} (seed {PAPER_SEEDS[name]})", file=sys.stderr, flush=True)
         if name == "detection":
-            files["detection.md"] = _detection(sources, PAPER_SEEDS[name]).encode("utf-8")
+            from bayescal.reports.detection import render_report
+
+            files["detection.md"] = render_report(paper_findings(name, sources)).encode("utf-8")
         else:
             files |= render_paper_report(paper_findings(name, sources))
 
@@ -70,14 +72,3 @@ def run_paper_reports(args: argparse.Namespace) -> CommandOutput:
     payload = {"reports": names, "files": [str(path) for path in written]}
     return CommandOutput(payload=payload, text="\n".join(str(path) for path in written))
 
-
-def _detection(sources, seed: int) -> str:
-    from bayescal.reports.detection import render_report
-
-    return render_report(
-        str(sources.config),
-        str(sources.plan),
-        other_plans={"compensator": str(sources.compensator_plan)},
-        geometry_points=str(sources.points),
-        seed=seed,
-    )

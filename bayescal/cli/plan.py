@@ -128,17 +128,8 @@ def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFr
     space = load_design_space(cell, mass_range=None if args.mass_kg is None else tuple(args.mass_kg))
     designer = PlanDesigner(cell, space, repeats=args.repeats, model=args.model)
     if args.evaluate is not None:
-        plan = _read_evaluated_plan(args.evaluate, cell)
-        prediction = designer.evaluate(plan, "exact")
-        payload = prediction.to_json() | {
-            "model": "exact",
-            "linear_model": designer.evaluate(plan, "linear").to_json(),
-            "plan": args.evaluate,
-            "configurations": len(plan),
-            "repeats": args.repeats,
-            "violations": designer.violations(plan),
-        }
-        table = prediction.summary()
+        evaluation = designer.assess(_read_evaluated_plan(args.evaluate, cell), args.evaluate)
+        payload, table = evaluation.to_json(), evaluation.summary()
     else:
         import sys
 

@@ -16,7 +16,8 @@ from os import PathLike
 import numpy as np
 import pandas as pd
 
-from bayescal.cell.campaign import MAX_LOAD_ARM, WRENCH_COLUMNS
+from bayescal.cell.campaign_checks import check_wrench
+from bayescal.cell.loading import WRENCH_COLUMNS
 from bayescal.cell.config import Cell
 from bayescal.errors import InputError
 from bayescal.tables import read_table
@@ -91,7 +92,7 @@ def read_program(path: str | PathLike[str], cell: Cell) -> Program:
         missing = next(name for name in TCP_COLUMNS if name not in frame)
         raise InputError(f"missing column '{missing}': a per-row tool point needs tcp_x_mm, tcp_y_mm and tcp_z_mm", source=source)
     tcp = frame[list(TCP_COLUMNS)].to_numpy(dtype=float) * MM if present else np.tile(cell.tool_point, (len(frame), 1))
-    _check_wrench(cell, wrench, frame.index.to_numpy(dtype=int), source)
+    check_wrench(cell, wrench, frame.index.to_numpy(dtype=int), source, what="process", about="the tool point", smallest=False)
     return Program(q=q, wrench=wrench, tcp=tcp, table=full, source=source)
 
 
@@ -102,29 +103,3 @@ def _all_columns(source: str, lines: pd.Index) -> pd.DataFrame:
     rows = list(csv.reader([line for _, line in numbered], skipinitialspace=True))
     header = [name.strip() for name in rows[0]]
     return pd.DataFrame([[field.strip() for field in row] for row in rows[1:]], columns=header, index=lines)
-
-
-def _check_wrench(cell: Cell, wrench: np.ndarray, lines: np.ndarray, source: str) -> None:
-    """Refuse a force the arm cannot carry, or a moment about the tool point no tool's force could make (N·mm?)."""
-    force = np.linalg.norm(wrench[:, :3], axis=1)
-    moment = np.linalg.norm(wrench[:, 3:], axis=1)
-    worst = int(np.argmax(force))
-    if force[worst] > cell.max_force:
-        raise InputError(
-            f"a process force of {force[worst]:.4g} N is more than the {cell.max_force:.0f} N the robot can carry "
-            f"(from {cell.source}): is the wrench in another unit than N and N·m?",
-            source=source,
-            line=int(lines[worst]),
-            column=WRENCH_COLUMNS[int(np.argmax(np.abs(wrench[worst, :3])))],
-        )
-    limit = np.maximum(force, cell.capacity_weight) * MAX_LOAD_ARM
-    beyond = np.flatnonzero(moment > limit)
-    if beyond.size:
-        row = int(beyond[0])
-        raise InputError(
-            f"a moment of {moment[row]:.4g} N·m about the tool point is beyond what the robot can carry "
-            f"({limit[row]:.4g} N·m): are mx_Nm..mz_Nm in N·mm instead of N·m?",
-            source=source,
-            line=int(lines[row]),
-            column=WRENCH_COLUMNS[3 + int(np.argmax(np.abs(wrench[row, 3:])))],
-        )

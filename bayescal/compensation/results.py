@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from bayescal.compensation.program import Program
+from bayescal.jsonsafe import json_safe
 from bayescal.robot.kinematics import Robot
 from bayescal.units import MM
 
@@ -107,27 +108,19 @@ class CompensationResults:
         """Write :meth:`table` as CSV (joint targets to 1e-6 deg, lengths to 1e-6 mm)."""
         self.table().to_csv(path, index=False, float_format="%.9g")
 
-    def summary(self) -> dict:
-        """Program-level numbers (mm): deflections without compensation, errors left, flagged poses."""
-        flags = self.flags
-        q9973 = self.errors["q9973"]
+    def summary(self) -> pd.DataFrame:
+        """Program-level statistics over the poses, columns ``median`` and ``max``: the deflection without
+        compensation (``deflection_mm``, poses with an equilibrium), the errors left (``error_rms_mm``,
+        ``error_q9973_mm``) and the unidentified parameters' share of the mean-square error (a fraction)."""
         ok = ~self.failed
-        return {
-            "poses": len(self.program),
-            "draws": self.n_draws,
-            "deflection_mm": {"median": _mm(np.median, self.deflection[ok]), "max": _mm(np.max, self.deflection[ok])},
-            "error_rms_mm": {"median": _mm(np.median, self.errors["rms"]), "max": _mm(np.max, self.errors["rms"])},
-            "error_q9973_mm": {"median": _mm(np.median, q9973), "max": _mm(np.max, q9973)},
-            "unidentified": list(self.unidentified),
-            "unidentified_share_of_mean_square_error": {
-                "median": float(np.median(self.unidentified_share)),
-                "max": float(np.max(self.unidentified_share)),
-            },
-            "tolerance_mm": None if self.tolerance is None else self.tolerance / MM,
-            "flagged": int(sum(flag != FLAG_OK for flag in flags)),
-            "outside_joint_limits": int(sum("outside the limits" in flag for flag in flags)),
-            "no_equilibrium": int(self.failed.sum()),
+        columns = {
+            "deflection_mm": self.deflection[ok] / MM,
+            "error_rms_mm": self.errors["rms"] / MM,
+            "error_q9973_mm": self.errors["q9973"] / MM,
+            "unidentified_share_of_mean_square_error": self.unidentified_share,
         }
+        rows = {name: [np.median(v) if v.size else math.nan, np.max(v) if v.size else math.nan] for name, v in columns.items()}
+        return pd.DataFrame.from_dict(rows, orient="index", columns=["median", "max"])
 
     def diagnostics(self) -> dict:
         """How large the corrections are (deg; mm for a prismatic joint), draws used, and poses without a static equilibrium."""
@@ -157,8 +150,22 @@ class CompensationResults:
             }
             for p in order
         ]
-        return {"summary": self.summary(), "diagnostics": self.diagnostics(), "worst_poses": worst}
+        return {"summary": self._summary_json(), "diagnostics": self.diagnostics(), "worst_poses": worst}
 
-
-def _mm(statistic, values: np.ndarray) -> float | None:
-    return float(statistic(values) / MM) if values.size else None
+    def _summary_json(self) -> dict:
+        """:meth:`summary` with the program's counts: poses, draws, parameters not identified, tolerance, flags."""
+        flags = self.flags
+        stats = {name: {"median": json_safe(float(row["median"])), "max": json_safe(float(row["max"]))} for name, row in self.summary().iterrows()}
+        return {
+            "poses": len(self.program),
+            "draws": self.n_draws,
+            "deflection_mm": stats["deflection_mm"],
+            "error_rms_mm": stats["error_rms_mm"],
+            "error_q9973_mm": stats["error_q9973_mm"],
+            "unidentified": list(self.unidentified),
+            "unidentified_share_of_mean_square_error": stats["unidentified_share_of_mean_square_error"],
+            "tolerance_mm": None if self.tolerance is None else self.tolerance / MM,
+            "flagged": int(sum(flag != FLAG_OK for flag in flags)),
+            "outside_joint_limits": int(sum("outside the limits" in flag for flag in flags)),
+            "no_equilibrium": int(self.failed.sum()),
+        }

@@ -461,6 +461,17 @@ class CritiqueResults(Outcome):
         }
         return payload
 
+    def diagnostics(self) -> dict:
+        """What the comparison rests on: held-out configurations and equations, the decision rule, the
+        held-out residual rms (mm) of the classical and the final model, and the repeats' lack-of-fit p-value."""
+        return {
+            "n_configurations": self.n_configs,
+            "n_equations": self.n_equations,
+            "rule": dict(self.rule),
+            "held_out_rms_mm": {"classical": self.before.get("residual_rms_mm"), "final": self.after.get("residual_rms_mm")},
+            "lack_of_fit_p": None if self.lack_of_fit is None else self.lack_of_fit.p_value,
+        }
+
     def save(self, path: str | PathLike[str]) -> None:
         """Write :meth:`to_json` to ``path``."""
         Path(path).write_text(json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n")

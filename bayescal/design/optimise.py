@@ -46,7 +46,7 @@ from bayescal.design.criteria import (
     wrench_information,
 )
 from bayescal.design.loads import free_candidates, load_sizes, turned
-from bayescal.design.plan_design import PlanDesign
+from bayescal.design.plan_design import PlanDesign, PlanEvaluation
 from bayescal.design.progress import Progress, best_text
 from bayescal.errors import InputError
 from bayescal.units import DEG
@@ -150,6 +150,11 @@ class PlanDesigner:
         information = sum(wrench_information(self.cell, q, w, self.repeats, exact=exact) for q, w in zip(plan.q, plan.wrenches(self.cell)))
         design = self._exact_test_design if model == "exact" else self._test_design
         return predict(self.cell, information, test_design=design)
+
+    def assess(self, plan: Plan, source: str = "") -> PlanEvaluation:
+        """``plan`` (read from ``source``) scored with the exact and the linear model, with the configurations
+        that break a constraint of the cell."""
+        return PlanEvaluation(plan, self.evaluate(plan, "exact"), self.evaluate(plan, "linear"), self.repeats, self.violations(plan), source)
 
     def violations(self, plan: Plan) -> list[dict]:
         """The configurations of ``plan`` (numbered from 1) that break a constraint, and why."""

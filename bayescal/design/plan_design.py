@@ -1,7 +1,12 @@
-"""A designed calibration plan with what it is predicted to deliver: the result of :class:`~bayescal.design.optimise.PlanDesigner`."""
+"""A calibration plan with what it is predicted to deliver: the results of :class:`~bayescal.design.optimise.PlanDesigner`.
+
+:class:`PlanDesign` is a plan the designer optimised (:meth:`~bayescal.design.optimise.PlanDesigner.optimise`),
+:class:`PlanEvaluation` a given plan it scored (:meth:`~bayescal.design.optimise.PlanDesigner.assess`).
+"""
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 from os import PathLike
@@ -16,7 +21,7 @@ from bayescal.design.loads import loads_json
 from bayescal.jsonsafe import json_safe
 from bayescal.units import DEG, MM
 
-__all__ = ["PlanDesign"]
+__all__ = ["PlanDesign", "PlanEvaluation"]
 
 
 @dataclass(frozen=True)
@@ -98,3 +103,53 @@ class PlanDesign:
         rho0 = self.prediction.rho0
         note = f"predicted rms error at the test pose after compensation {rho0 / MM:.5f} mm" if math.isfinite(rho0) else ""
         write_plan(self.plan, path, comments=(f"plan optimised for the {self.criterion} criterion, {self.repeats} repeats; {note}",) + tuple(comments))
+
+
+@dataclass(frozen=True)
+class PlanEvaluation:
+    """A given plan scored: its predicted precision and test-pose error, and the configurations that break a constraint.
+
+    Attributes
+    ----------
+    plan : Plan
+        The plan scored.
+    prediction, linear : PlanPrediction
+        As :class:`PlanDesign`'s: with the exact model linearised, and with eq 31's design.
+    repeats : int
+        Measurements per configuration the prediction assumes.
+    violations : list of dict
+        ``{"config": number (from 1), "reason": text}`` of each configuration the cell cannot measure.
+    source : str
+        Where the plan was read from.
+    """
+
+    plan: Plan
+    prediction: PlanPrediction
+    linear: PlanPrediction
+    repeats: int
+    violations: list[dict] = field(default_factory=list)
+    source: str = ""
+
+    def summary(self) -> pd.DataFrame:
+        """Predicted precision per parameter (see :meth:`PlanPrediction.summary`)."""
+        return self.prediction.summary()
+
+    def diagnostics(self) -> dict:
+        """The plan's size and the configurations that break a constraint of the cell."""
+        return {"configurations": len(self.plan), "repeats": self.repeats, "violations": list(self.violations)}
+
+    def to_json(self) -> dict:
+        """``criterion`` (ρ0, mm) and each parameter's ±3σ width with both models, and the violations."""
+        return self.prediction.to_json() | {
+            "model": "exact",
+            "linear_model": self.linear.to_json(),
+            "plan": self.source,
+            "configurations": len(self.plan),
+            "repeats": self.repeats,
+            "violations": list(self.violations),
+        }
+
+    def save(self, path: str | PathLike[str]) -> None:
+        """Write :meth:`to_json` to a JSON file."""
+        with open(path, "w", encoding="utf-8") as out:
+            json.dump(self.to_json(), out, indent=2, allow_nan=False)

@@ -60,7 +60,7 @@ from bayescal.sampling.independence import IndependenceSampler
 from bayescal.sampling.protocol import Sampler
 from bayescal.units import DEG, MM
 
-__all__ = ["GeometryPriors", "GeometryPosteriorModel", "GeometryPosterior", "default_sampler", "emcee_sampler"]
+__all__ = ["GeometryPriors", "GeometryPosteriorModel", "GeometryPosterior", "geometry_sampler"]
 
 CylinderModel = Literal["concentric", "rigid"]
 
@@ -151,12 +151,13 @@ class GeometryPosterior:
         posterior.save(self.tree, path)
 
 
-def default_sampler(n_chains: int = 4, n_tune: int = 200, n_draws: int = 1000) -> IndependenceSampler:
-    """The sampler used by default: independence Metropolis-Hastings with a Laplace Student-t proposal.
+def geometry_sampler(name: str = "independence", *, n_chains: int | None = None, n_tune: int | None = None, n_draws: int | None = None) -> Sampler:
+    """The sampler of a name, sized for the geometry posterior.
 
-    The geometry posterior (σ integrated out) is a product of two nearly
-    Gaussian blocks, each close to a Student t with as many degrees of
-    freedom as its group has coordinates beyond its parameters (8 and 8 on
+    ``"independence"`` (the default) is independence Metropolis-Hastings with a
+    Laplace Student-t proposal.  The geometry posterior (σ integrated out) is a
+    product of two nearly Gaussian blocks, each close to a Student t with as many
+    degrees of freedom as its group has coordinates beyond its parameters (8 and 8 on
     Table I).  A multivariate t proposal with 4 degrees of freedom has tails
     at least as heavy as that product's in every direction, so the importance
     weights stay bounded; widened 1.4 times over the Laplace sd it accepted
@@ -164,26 +165,39 @@ def default_sampler(n_chains: int = 4, n_tune: int = 200, n_draws: int = 1000) -
     draw for every parameter (6 seeds, 4 chains of 1500 draws).  Each chain
     starts at a proposal, whose distribution is close to the posterior's, so
     200 discarded steps are ample.
-    """
-    return IndependenceSampler(n_chains=n_chains, n_tune=n_tune, n_draws=n_draws, dof=4.0, widen=1.4)
 
-
-def emcee_sampler(n_chains: int = 4, n_tune: int = 1000, n_draws: int = 1000) -> EnsembleSampler:
-    """emcee ensembles with differential-evolution and stretch moves (the default before the independence sampler).
-
-    On Table I the integrated autocorrelation time of the geometry posterior
-    is 60-90 steps with emcee's stretch move alone and 30-50 with its
-    ``DEMove``, but ``DEMove`` alone steps by differences of the other
-    walkers and so returns slowly from the posterior's heavy tails (in 1 of 6
-    seeds a walker strayed 20 posterior sd away for hundreds of steps); an
-    80/20 mixture keeps the speed and lets the scale-free stretch move bring
-    strays back.  emcee's ``DESnookerMove`` is not used: on this posterior it
+    ``"emcee"`` (the default before the independence sampler) is emcee ensembles with
+    differential-evolution and stretch moves.  On Table I the integrated
+    autocorrelation time of the geometry posterior is 60-90 steps with emcee's
+    stretch move alone and 30-50 with its ``DEMove``, but ``DEMove`` alone steps by
+    differences of the other walkers and so returns slowly from the posterior's heavy
+    tails (in 1 of 6 seeds a walker strayed 20 posterior sd away for hundreds of
+    steps); an 80/20 mixture keeps the speed and lets the scale-free stretch move
+    bring strays back.  emcee's ``DESnookerMove`` is not used: on this posterior it
     gave L an sd of 0.020 mm where the exact (Student t) posterior has 0.035 mm.
-    """
-    import emcee
 
-    moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.StretchMove(), 0.2)]
-    return EnsembleSampler(n_chains=n_chains, n_tune=n_tune, n_draws=n_draws, moves=moves)
+    Parameters
+    ----------
+    name
+        ``"independence"`` or ``"emcee"``.
+    n_chains
+        Independent chains (ensembles for emcee); default 4.
+    n_tune
+        Steps discarded per chain; default 200 (independence) or 1000 (emcee).
+    n_draws
+        Steps kept per chain (per walker for emcee); default 1000.
+    """
+    chains = 4 if n_chains is None else int(n_chains)
+    draws = 1000 if n_draws is None else int(n_draws)
+    if name == "independence":
+        tune = 200 if n_tune is None else int(n_tune)
+        return IndependenceSampler(n_chains=chains, n_tune=tune, n_draws=draws, dof=4.0, widen=1.4)
+    if name == "emcee":
+        import emcee
+
+        moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.StretchMove(), 0.2)]
+        return EnsembleSampler(n_chains=chains, n_tune=1000 if n_tune is None else int(n_tune), n_draws=draws, moves=moves)
+    raise ValueError(f"sampler must be 'independence' or 'emcee', got {name!r}")
 
 
 class GeometryPosteriorModel:
@@ -194,8 +208,8 @@ class GeometryPosteriorModel:
     cylinder_model
         ``"concentric"`` (the paper's model, default) or ``"rigid"``.
     sampler
-        Any :class:`bayescal.sampling.protocol.Sampler`; default :func:`default_sampler`
-        (:func:`emcee_sampler` gives emcee ensembles).
+        Any :class:`bayescal.sampling.protocol.Sampler`; default :func:`geometry_sampler`
+        (``geometry_sampler("emcee")`` gives emcee ensembles).
     priors
         Prior bounds and scales.
     """
@@ -209,7 +223,7 @@ class GeometryPosteriorModel:
         if cylinder_model not in ("concentric", "rigid"):
             raise ValueError(f"cylinder_model must be 'concentric' or 'rigid', got {cylinder_model!r}")
         self.cylinder_model: CylinderModel = cylinder_model
-        self.sampler = sampler if sampler is not None else default_sampler()
+        self.sampler = sampler if sampler is not None else geometry_sampler()
         self.priors = priors if priors is not None else GeometryPriors()
 
     def fit(self, points: MarkerPoints, rng: np.random.Generator | int | None = 0) -> GeometryPosterior:

@@ -5,21 +5,31 @@ computes it as the difference between the loaded and the unloaded static
 equilibria of the virtual-joint model with the links' weight and the
 compensator (eqs 1-3, 8).  The identification relinearises: the difference
 between the exact and the linear prediction at the current estimate is
-subtracted from the measured deflections and the linear problem solved again.
+subtracted from the measured deflections and the linear problem solved again
+(:class:`ExactCorrection`).
 """
 
 from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
 
 from bayescal.cell.campaign import Campaign
+from bayescal.inference.closedform import ClosedForm, closed_form
 from bayescal.inference.equations import DeflectionEquations
-from bayescal.robot.compensator import Compensator
+from bayescal.inference.identifiability import Identifiability
+from bayescal.robot.compensator import Compensator, CompensatorGeometry
 from bayescal.robot.kinematics import Robot
 from bayescal.robot.stiffness import ElasticArm
 
-__all__ = ["exact_deflections", "linearisation_offset", "scale_masses"]
+__all__ = ["ExactCorrection", "exact_deflections", "linearisation_offset", "scale_masses"]
+
+STATIC_STEPS = (0.05, 0.05, 0.05)
+"""Finite-difference steps of the static columns: relative in K_c and K_c s0, absolute in the mass scale;
+the correction is linear in all three to well within this (the compensator torque is linear in K_c and K_c s0, eq 7)."""
 
 
 def exact_deflections(
@@ -127,3 +137,95 @@ def linearisation_offset(
     if equations.joint is not None:
         per_row[:, equations.joint] = k2[equations.angle]
     return exact.reshape(-1) - np.einsum("ij,ij->i", equations.design, per_row)
+
+
+@dataclass(frozen=True)
+class ExactCorrection:
+    """The exact model's correction of a campaign's linear equations, at a closed-form estimate.
+
+    Parameters
+    ----------
+    robot
+        The robot (its URDF gives the link masses).
+    nominal_compliances
+        ``(nq,)`` compliances (rad/(N·m)) for the parameters the campaign cannot identify.
+    geometry_mean
+        The compensator geometry ``[L, a_x, a_y, phi]`` (m, rad); None without a compensator.
+    nominal_spring
+        ``(K_c, s0)`` (N/m, m) of the compensator's static torque; None without a compensator.
+    load_point
+        Flange-frame point (m) where the load's force acts.
+    max_iterations
+        Relinearisations before :meth:`relinearise` gives up with a warning.
+    """
+
+    robot: Robot
+    nominal_compliances: np.ndarray
+    geometry_mean: np.ndarray | None
+    nominal_spring: tuple[float, float] | None
+    load_point: np.ndarray | None
+    max_iterations: int = 10
+
+    def offset(self, campaign: Campaign, equations: DeflectionEquations, cf: ClosedForm, *, spring=None, robot: Robot | None = None) -> np.ndarray:
+        """Exact minus linear prediction of every equation at the closed-form estimate ``cf``.
+
+        The per-angle joint-2 compliances of ``cf`` fix joint 2's stiffness at each
+        angle; the compensator's static torque, which with the arm's weight sets
+        the sag under which the loads act, is that of ``spring`` ``(K_c, s0)``
+        (default: the config's), and the weights those of ``robot`` (default:
+        the URDF's).  The compensated model corrects both through
+        :meth:`static_columns`.
+        """
+        compliances = np.where(np.isfinite(cf.compliances) & (cf.compliances > 0), cf.compliances, self.nominal_compliances)
+        if equations.joint is None:
+            return linearisation_offset(robot or self.robot, campaign, equations, compliances, cf.k2, None, self.load_point)
+        compensator = CompensatorGeometry(*self.geometry_mean).with_spring(*(spring or self.nominal_spring))
+        nominal_k2 = compensator.equivalent_compliance(equations.compensated_angles, self.nominal_compliances[equations.joint])
+        k2 = np.where(np.isfinite(cf.k2) & (cf.k2 > 0), cf.k2, nominal_k2)
+        return linearisation_offset(robot or self.robot, campaign, equations, compliances, k2, compensator, self.load_point)
+
+    def static_columns(self, campaign: Campaign, equations: DeflectionEquations, cf: ClosedForm, base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The exact model's correction linearised in the compensator's static torque and the link weights.
+
+        Returns the linearisation point ``[K_c, K_c s0]`` (the config's spring)
+        and the ``(n, 3)`` derivatives of the correction with respect to
+        ``K_c`` (at fixed ``K_c s0``), ``K_c s0`` and a common scale of the link
+        masses, by finite differences, divided like the equations by their
+        relative noise.  The derivatives are taken at the closed form ``cf`` the
+        offset ``base`` was computed at, so that the offset itself is their base.
+        """
+        Kc, s0 = self.nominal_spring
+        dKc, dP, dg = STATIC_STEPS[0] * Kc, STATIC_STEPS[1] * Kc * s0, STATIC_STEPS[2]
+        columns = [
+            (self.offset(campaign, equations, cf, spring=(Kc + dKc, Kc * s0 / (Kc + dKc))) - base) / dKc,
+            (self.offset(campaign, equations, cf, spring=(Kc, s0 + dP / Kc)) - base) / dP,
+            (self.offset(campaign, equations, cf, robot=scale_masses(self.robot, 1.0 + dg)) - base) / dg,
+        ]
+        W = np.column_stack(columns)
+        if equations.scale is not None:
+            W = W / equations.scale[:, None]
+        return np.array([Kc, Kc * s0]), W
+
+    def relinearise(self, campaign: Campaign, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm):
+        """The closed form of the corrected equations, relinearised until it no longer moves.
+
+        Returns the closed form, the ``(n,)`` offset (m), the iterations run and the
+        closed form the offset was computed at.
+        """
+        sd = np.sqrt(np.diag(cf.cov))
+        offset = np.zeros(equations.n)
+        for iteration in range(1, self.max_iterations + 1):
+            at = cf
+            offset = self.offset(campaign, equations, at)
+            updated = closed_form(replace(equations, y=equations.y - offset).whitened(), ident, self.geometry_mean)
+            change = np.abs(updated.per_angle - cf.per_angle)
+            moved = float(np.max(change / sd))
+            cf = updated
+            if moved < 1e-3 or np.all(change <= 1e-9 * np.abs(cf.per_angle)):
+                return cf, offset, iteration, at
+        warnings.warn(
+            f"the exact model did not settle in {self.max_iterations} relinearisations (last move {moved:.2g} sd)",
+            UserWarning,
+            stacklevel=3,
+        )
+        return cf, offset, self.max_iterations, at

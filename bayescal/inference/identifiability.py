@@ -176,26 +176,47 @@ def analyse(
     singular = np.linalg.svd(scaled, compute_uv=False) if kept.size else np.empty(0)
     rank = int(np.sum(singular > RANK_TOLERANCE * singular.max(initial=0.0))) if kept.size else 0
     if kept.size and rank < kept.size:
-        _, _, vt = np.linalg.svd(scaled)
-        null = vt[rank:].T
-        weight = np.linalg.norm(null, axis=1)
-        confounded = kept[weight > 1e-6]
-        # Columns i and j are confounded together when the null space links them.
-        link = np.abs(null @ null.T)
-        for i in confounded:
-            row = np.flatnonzero(kept == i)[0]
-            partners = [names[kept[col]] for col in np.flatnonzero(link[row] > 1e-6) if kept[col] != i]
-            reasons[names[i]] = (
-                f"the campaign determines only a combination of {names[i]} with {', '.join(partners)}: "
-                "their columns of the design are linearly dependent"
-            )
-            identifiable[i] = False
+        _drop_confounded(scaled, kept, rank, names, identifiable, reasons)
         kept = np.flatnonzero(identifiable)
         scaled = design[:, kept] / norms[kept]
         singular = np.linalg.svd(scaled, compute_uv=False)
     condition = float(singular.max() / singular.min()) if singular.size else math.inf
     vif = dict(zip([names[i] for i in kept], np.diag(np.linalg.inv(scaled.T @ scaled)))) if kept.size else {}
 
+    compensator = _compensator_identifiable(columns, kept, q2, reasons)
+    return Identifiability(
+        names=names,
+        identifiable=identifiable,
+        rank=rank,
+        condition_number=condition,
+        vif={k: float(v) for k, v in vif.items()},
+        reasons=reasons,
+        compensator=compensator,
+    )
+
+
+def _drop_confounded(scaled: np.ndarray, kept: np.ndarray, rank: int, names: list[str], identifiable: np.ndarray, reasons: dict[str, str]) -> None:
+    """Mark the kept columns with a component in the null space of the unit-column design ``scaled`` not
+    identifiable, in ``identifiable`` and ``reasons``, naming the columns each is confounded with."""
+    _, _, vt = np.linalg.svd(scaled)
+    null = vt[rank:].T
+    weight = np.linalg.norm(null, axis=1)
+    confounded = kept[weight > 1e-6]
+    # Columns i and j are confounded together when the null space links them.
+    link = np.abs(null @ null.T)
+    for i in confounded:
+        row = np.flatnonzero(kept == i)[0]
+        partners = [names[kept[col]] for col in np.flatnonzero(link[row] > 1e-6) if kept[col] != i]
+        reasons[names[i]] = (
+            f"the campaign determines only a combination of {names[i]} with {', '.join(partners)}: "
+            "their columns of the design are linearly dependent"
+        )
+        identifiable[i] = False
+
+
+def _compensator_identifiable(columns: Sequence[tuple[int, int | None]], kept: np.ndarray, q2: np.ndarray, reasons: dict[str, str]) -> bool:
+    """Whether the kept columns hold :data:`_MIN_ANGLES` angles of the compensated joint; if not, the reason is
+    added to ``reasons`` for that joint's compliance, K_c and s0."""
     # Only the compensated joint's compliance has one column per angle; without a compensator no column has
     # one, and nothing is said about K_c and s0.
     per_angle_joint = next((j for j, angle in columns if angle is not None), None)
@@ -210,15 +231,7 @@ def analyse(
         )
         for name in (f"k{per_angle_joint + 1}", "K_c", "s0"):
             reasons[name] = why
-    return Identifiability(
-        names=names,
-        identifiable=identifiable,
-        rank=rank,
-        condition_number=condition,
-        vif={k: float(v) for k, v in vif.items()},
-        reasons=reasons,
-        compensator=compensator,
-    )
+    return compensator
 
 
 def _unloaded_reason(joint: int, angle: int | None, q2, torque, torque_angle, largest: float, prismatic: bool = False) -> str:

@@ -31,7 +31,9 @@ clean sweeps and measured on the independent generator's
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
+from os import PathLike
 
 import numpy as np
 import pandas as pd
@@ -259,6 +261,7 @@ class SweepCritique:
         return pd.concat({j + 1: c.evidence for j, c in self.joints.items()}, names=["joint", "candidate"])
 
     def diagnostics(self) -> dict:
+        """The verdict and the naming rule (ΔELPD over its SE, and its floor in nats)."""
         return {"verdict": self.verdict, "rule": {"z": SWEEP_Z, "floor_nats": SWEEP_FLOOR}}
 
     def to_json(self) -> dict:
@@ -266,17 +269,11 @@ class SweepCritique:
                                      "not_a_candidate": "a scale of the tracker's distances: it maps circles onto circles "
                                                         "about the same axis directions, which no sweep can tell"}
 
-    def text(self) -> str:
-        lines = [f"sweep critique (held out one angle at a time): {self.verdict}"]
-        for j, c in self.joints.items():
-            for name, row in c.evidence.iterrows():
-                lines.append(f"  joint {j + 1} {name:<14} ΔELPD {row['delta_elpd']:8.1f} ± {row['se']:6.1f} nats  "
-                             f"{row['estimate']:10.4g} ± {row['estimate_sd']:.2g} {row['unit']}{'  NAMED' if row['named'] else ''}")
-            if c.causes:
-                best = c.evidence.loc[c.causes[0]]
-                lines.append(f"  joint {j + 1}: {c.causes[0]} predicts held-out angles better: rms "
-                             f"{best['rms_circle_mm']:.4f} -> {best['rms_candidate_mm']:.4f} mm")
-        return "\n".join(lines)
+    def save(self, path: str | PathLike[str]) -> None:
+        """Write :meth:`to_json` to a JSON file."""
+        with open(path, "w", encoding="utf-8") as out:
+            json.dump(self.to_json(), out, indent=2)
+
 
 
 def critique_sweeps(sweeps: Sweeps, noise: TrackerNoise) -> SweepCritique:

@@ -68,24 +68,6 @@ class Registration:
         with open(path, "w", encoding="utf-8") as out:
             json.dump(self.to_json(), out, indent=2)
 
-    def text(self) -> str:
-        """A readable table of the axes and frames."""
-        lines = [f"Joint axes in the tracker frame from {self.source}", "",
-                 f"{'joint':>5}{'direction':>30}{'sd mrad':>9}{'point mm':>30}{'sd mm':>8}{'rms mm':>8}"]
-        for j, fit in self.axes.items():
-            direction = " ".join(f"{v:9.6f}" for v in fit.direction)
-            point = " ".join(f"{v / MM:9.2f}" for v in fit.point)
-            lines.append(f"{j + 1:>5}{direction:>30}{fit.direction_sd * 1e3:9.4f}{point:>30}"
-                         f"{fit.point_sd / MM:8.4f}{fit.residual_rms / MM:8.4f}")
-        for name, frame in self.frames.items():
-            data = frame.to_json()
-            lines += ["", f"{name} frame in the tracker frame (p_tracker = R p + t):"]
-            lines += [" ".join(f"{v:10.6f}" for v in row) for row in frame.rotation]
-            lines.append("t [mm] " + " ".join(f"{v:10.3f}" for v in data["translation_mm"])
-                         + "   sd [mm] " + " ".join(f"{v:.4f}" for v in data["translation_sd_mm"]))
-            lines.append("rotation sd [mrad] " + " ".join(f"{v:.4f}" for v in data["rotation_sd_mrad"]))
-            lines.append(f"not fixed by the sweeps: {frame.from_nominal}")
-        return "\n".join(lines)
 
 
 def _home(sweeps: Sweeps, nq: int) -> np.ndarray:

@@ -27,7 +27,8 @@ import pandas as pd
 
 from bayescal.cell.config import Cell
 from bayescal.design.optimise import STARTS, PlanDesigner
-from bayescal.inference.elastostatic import EXTENSIONS, ElastostaticModel, default_sampler
+from bayescal.inference.elastostatic import EXTENSIONS, ElastostaticModel
+from bayescal.inference.samplers import elastostatic_sampler
 from bayescal.sampling.summary import converged
 from bayescal.studies.parallel import seeded_map
 from bayescal.twin.independent import IndependentGenerator
@@ -96,7 +97,7 @@ def _campaigns(design: Design, rng: np.random.Generator, cell: Cell) -> list[dic
     }
     rows = []
     for generator, campaign in campaigns.items():
-        model = ElastostaticModel.from_cell(cell, model="exact", sampler=default_sampler(), extensions=EXTENSIONS)
+        model = ElastostaticModel.from_cell(cell, model="exact", sampler=elastostatic_sampler(), extensions=EXTENSIONS)
         calibrating = time.perf_counter()
         with warnings.catch_warnings():
             # Not-identifiable parameters and extensions are warned about; the table records what matters here.

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping, Sequence
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from os import PathLike
 
@@ -321,37 +321,31 @@ def detection_findings(
     """Run every study of ``reports/detection.md`` (twin, other plans, geometry, independent generator)."""
     import time
 
-    own = executor is None
-    executor = executor or ProcessPoolExecutor()
     seconds: dict[str, float] = {}
-    try:
+    began = time.perf_counter()
+    twin = detection_power(config, plan, magnitudes, n_seeds=n_seeds, n_null=n_null, repeats=repeats, seed=seed, executor=executor)
+    seconds["twin"] = time.perf_counter() - began
+    others = {}
+    for name, path in (other_plans or {}).items():
         began = time.perf_counter()
-        twin = detection_power(config, plan, magnitudes, n_seeds=n_seeds, n_null=n_null, repeats=repeats, seed=seed, executor=executor)
-        seconds["twin"] = time.perf_counter() - began
-        others = {}
-        for name, path in (other_plans or {}).items():
-            began = time.perf_counter()
-            others[name] = (
-                path,
-                detection_power(config, path, {name: magnitudes[name]}, n_seeds=n_seeds, n_null=n_null, repeats=repeats, seed=seed, executor=executor),
-            )
-            seconds[name] = time.perf_counter() - began
-        geometry, angles = None, 0
-        if geometry_points is not None:
-            from bayescal.geometry.arcs import CompensatorGeometryModel, MarkerLayout, read_arc_points
-            from bayescal.studies.geometry_critique import geometry_detection
+        others[name] = (
+            path,
+            detection_power(config, path, {name: magnitudes[name]}, n_seeds=n_seeds, n_null=n_null, repeats=repeats, seed=seed, executor=executor),
+        )
+        seconds[name] = time.perf_counter() - began
+    geometry, angles = None, 0
+    if geometry_points is not None:
+        from bayescal.geometry.arcs import CompensatorGeometryModel, MarkerLayout, read_arc_points
+        from bayescal.studies.geometry_critique import geometry_detection
 
-            began = time.perf_counter()
-            points = read_arc_points(geometry_points)
-            layout = MarkerLayout.from_fit(CompensatorGeometryModel().fit(points), points)
-            angles = np.unique(points.q2)
-            geometry = geometry_detection(layout, angles, geometry_magnitudes or {}, n_seeds=n_seeds, n_null=n_null, seed=seed, executor=executor)
-            seconds["geometry"], angles = time.perf_counter() - began, angles.size
         began = time.perf_counter()
-        independent = independent_detection(config, independent_effects, n_seeds=n_independent, n_null=n_independent, executor=executor)
-        seconds["independent"] = time.perf_counter() - began
-    finally:
-        if own:
-            executor.shutdown()
+        points = read_arc_points(geometry_points)
+        layout = MarkerLayout.from_fit(CompensatorGeometryModel().fit(points), points)
+        angles = np.unique(points.q2)
+        geometry = geometry_detection(layout, angles, geometry_magnitudes or {}, n_seeds=n_seeds, n_null=n_null, seed=seed, executor=executor)
+        seconds["geometry"], angles = time.perf_counter() - began, angles.size
+    began = time.perf_counter()
+    independent = independent_detection(config, independent_effects, n_seeds=n_independent, n_null=n_independent, executor=executor)
+    seconds["independent"] = time.perf_counter() - began
     settings = {"n_seeds": n_seeds, "n_null": n_null, "n_independent": n_independent, "repeats": repeats, "seed": seed}
     return DetectionFindings(str(config), str(plan), twin, others, independent, geometry, geometry_points, angles, seconds, settings)

@@ -16,15 +16,15 @@ written apart from the catalogue.
 
 from __future__ import annotations
 
-import threading
 import warnings
 from collections.abc import Sequence
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 import pandas as pd
+
+from bayescal.studies.parallel import seeded_map
 
 __all__ = ["TieCase", "TIE_CASES", "tie_resolution", "BETWEEN"]
 
@@ -65,16 +65,6 @@ within a few standard errors of each other (an eighth of the twin's default lost
 its default stiffening; the independent generator's default play; two fifths of its default knee)."""
 
 
-@lru_cache(maxsize=4)
-def _setup(config: str, plan: str, thread: int):
-    """The cell and Table III's plan, one copy per thread (a robot's Pinocchio workspace is not shared)."""
-    from bayescal.cell.config import load_cell
-    from bayescal.cell.plan import read_plan
-
-    cell = load_cell(config)
-    return cell, read_plan(plan, cell.robot)
-
-
 def _campaigns(case: TieCase, cell, table3, seed: np.random.SeedSequence):
     """``simulate(plan, rng_child)``: campaigns of one truth on any plan, and the tied campaign's plan."""
     from bayescal.twin.effects import parse_effect
@@ -95,15 +85,16 @@ def _campaigns(case: TieCase, cell, table3, seed: np.random.SeedSequence):
     return simulate, random_plan(cell, np.random.default_rng(plan_seed))
 
 
-def _one(task: tuple) -> dict:
-    """One seed: the tied campaign, the designed plan, and the comparison on the plan's campaign."""
+def _one(case: TieCase, rng: np.random.Generator, *, cell, plan, mass_range: tuple[float, float], candidates_per_angle: int) -> dict:
+    """One seed (a task of :func:`~bayescal.studies.parallel.seeded_map`): the tied campaign, the designed plan,
+    and the comparison on the plan's campaign."""
     from bayescal.critique import Critique
     from bayescal.critique.model import DETECTION_Z
     from bayescal.design.constraints import load_design_space
     from bayescal.design.discriminate import DiscriminatingDesigner
 
-    config, table3, case, mass_range, seed, candidates_per_angle = task
-    cell, plan = _setup(config, table3, threading.get_ident())
+    # The task's stream: its children seed the plan, the truth, the noise and the design.
+    seed = rng.bit_generator.seed_seq
     simulate, tied_plan = _campaigns(case, cell, plan, seed)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
@@ -154,7 +145,7 @@ def tie_resolution(
     candidates_per_angle
         Candidate configurations per q2 angle of the plan's search.
     executor
-        Runs the seeds; default a :class:`concurrent.futures.ProcessPoolExecutor`.
+        Runs the seeds (:func:`~bayescal.studies.parallel.seeded_map`; default a process pool).
 
     Returns
     -------
@@ -163,18 +154,16 @@ def tie_resolution(
         delta_elpd, se, separated`` (ΔELPD of the right candidate over the wrong one, nats;
         ``separated`` when it exceeds 2 SE).
     """
+    from bayescal.cell.config import load_cell
+    from bayescal.cell.plan import read_plan
+
+    cell = load_cell(config)
     roots = np.random.SeedSequence(seed).spawn(len(cases))
-    tasks = [
-        (str(config), str(table3), TIE_CASES[name], tuple(mass_range), s, candidates_per_angle)
-        for name, root in zip(cases, roots)
-        for s in root.spawn(n_seeds)
-    ]
-    own = executor is None
-    executor = executor or ProcessPoolExecutor()
-    try:
-        results = list(executor.map(_one, tasks))
-    finally:
-        if own:
-            executor.shutdown()
+    streams = [s for root in roots for s in root.spawn(n_seeds)]
+    items = [TIE_CASES[name] for name in cases for _ in range(n_seeds)]
+    results = seeded_map(
+        _one, items, streams, executor=executor,
+        cell=cell, plan=read_plan(table3, cell.robot), mass_range=tuple(mass_range), candidates_per_angle=candidates_per_angle,
+    )
     labels = [(name, k) for name in cases for k in range(n_seeds)]
     return pd.DataFrame.from_records([{"case": name, "seed": k} | record for (name, k), record in zip(labels, results)])

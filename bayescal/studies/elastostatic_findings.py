@@ -250,6 +250,20 @@ def _joint2(results: ElastostaticResults, cell: Cell) -> Joint2Findings:
     )
 
 
+def _weak(results: ElastostaticResults, truth: dict[str, float]) -> dict[str, dict]:
+    """The weakly determined parameters' summaries, with their ±3σ width (%) and whether the truth lies inside."""
+    return {
+        name: entry | {"width_pct": width_3sd_pct(entry["mean"], entry["sd"]), "truth_inside": bool(entry["lo3"] <= truth[name] <= entry["hi3"])}
+        for name, entry in results.weakly_determined().items()
+    }
+
+
+def _linear_vs_exact(results: ElastostaticResults, names: list[str]) -> pd.DataFrame:
+    """The linear fit's shift (in posterior sd) and sd ratio against the exact fit's, for the report's parameters and angles."""
+    comparison = results.linear_vs_exact()
+    return comparison.loc[[n for n in comparison.index if n in names or label_angle(n) is not None], ["shift_in_sd", "sd_ratio"]]
+
+
 def _fits(cell: Cell, campaign, seed: int) -> tuple[ElastostaticModel, ElastostaticResults, ElastostaticResults, tuple[str, ...]]:
     """The exact and the linear fit of ``campaign``, with the exact fit's warnings."""
     with warnings.catch_warnings(record=True) as caught:
@@ -292,8 +306,6 @@ def elastostatic_findings(
         {name: (parameters[name].get("mean", np.nan), parameters[name].get("sd", np.nan)) for name in names}, index=["mean", "sd"]
     ).T
     paper = beside_published(estimates, "IV")
-    comparison = results.linear_vs_exact()
-    comparison = comparison.loc[[n for n in comparison.index if n in names or label_angle(n) is not None], ["shift_in_sd", "sd_ratio"]]
     sampled = [name for name in names if name in summary.index]
     posterior = summary.loc[sampled, ["mean", "sd"]]
     truth_shift = {name: float((truth[name] - posterior.loc[name, "mean"]) / posterior.loc[name, "sd"]) for name in sampled}
@@ -306,8 +318,6 @@ def elastostatic_findings(
     masses = plan.masses(cell.load_mass)
     noise = np.concatenate([cell.tracker.sigma(campaign.p0), cell.tracker.sigma(campaign.p1)]) / UM
     reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in names}
-    weak = {name: entry | {"width_pct": width_3sd_pct(entry["mean"], entry["sd"]), "truth_inside": bool(entry["lo3"] <= truth[name] <= entry["hi3"])}
-            for name, entry in results.weakly_determined().items()}
     compensator = _compensator(results, cell) if results.closed_form.spring is not None else None
     linearisation = linearisation_findings(linearisation_study(cell, plan), unloaded_sag(cell, plan))
     return ElastostaticFindings(
@@ -326,14 +336,14 @@ def elastostatic_findings(
         linear_diagnostics=linear.diagnostics(),
         estimates=_estimates(paper, parameters, truth, results.parameter_units),
         not_identifiable=tuple((tuple(names), reason, names[0] in practical) for names, reason in grouped(reasons)),
-        weak=weak,
+        weak=_weak(results, truth),
         truth=truth,
         truth_shift=truth_shift,
         per_angle=summary.loc[[n for n in summary.index if label_angle(n) is not None], ["mean", "sd", "lo3", "hi3"]],
         compensator=compensator,
         linearisation=linearisation,
         max_deflection_mm=float(np.linalg.norm(campaign.displacement, axis=1).max() / MM),
-        linear_vs_exact=comparison,
+        linear_vs_exact=_linear_vs_exact(results, names),
         sensitivity=sensitivity,
         misstated=misstated_config_study(cell, seed),
         test_pose=test_pose.to_json(),

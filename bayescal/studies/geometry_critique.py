@@ -16,16 +16,18 @@ import pandas as pd
 
 from bayescal.geometry.arcs import MarkerLayout
 from bayescal.studies.arc_fit import TABLE_I_NOISE
+from bayescal.studies.parallel import seeded_map
 from bayescal.twin.arcs import PLANTED, SPRING_K, SPRING_S0, TILT_AXIS, simulate_markers
 
 __all__ = ["PLANTED", "SPRING_K", "SPRING_S0", "TILT_AXIS", "simulate_markers", "geometry_detection"]
 
 
-def _one(task: tuple) -> list[str]:
+def _one(case: tuple[str | None, float | None], rng: np.random.Generator, *, layout: MarkerLayout, q2: np.ndarray, sigma: float) -> list[str]:
+    """The causes the geometry critique names in one simulated campaign (a task of :func:`~bayescal.studies.parallel.seeded_map`)."""
     from bayescal.critique.geometry import GeometryCritique
 
-    layout, q2, effect, magnitude, sigma, seed = task
-    points = simulate_markers(layout, q2, np.random.default_rng(seed), effect, magnitude, sigma)
+    effect, magnitude = case
+    points = simulate_markers(layout, q2, rng, effect, magnitude, sigma)
     return GeometryCritique().run(points).causes
 
 
@@ -53,7 +55,7 @@ def geometry_detection(
     seed
         Root seed; every campaign's seed is spawned from it, so the table does not depend on the executor.
     executor
-        Any :class:`concurrent.futures.Executor` (default: run here).
+        Runs the campaigns (:func:`~bayescal.studies.parallel.seeded_map`; default a process pool).
 
     Returns
     -------
@@ -65,8 +67,10 @@ def geometry_detection(
     cases = [("none", None, n_null)] + [(effect, m, n_seeds) for effect, values in magnitudes.items() for m in values]
     seeds = np.random.SeedSequence(seed).generate_state(max(n_seeds, n_null))
     q2 = np.asarray(q2, dtype=float)
-    tasks = [(layout, q2, None if e == "none" else e, m, sigma, int(s)) for e, m, n in cases for s in seeds[:n]]
-    results = list((executor.map if executor is not None else map)(_one, tasks))
+    items = [(None if e == "none" else e, m) for e, m, n in cases for _ in range(n)]
+    # Campaign k of every case draws from seed k: the same noise across effects and magnitudes.
+    streams = [np.random.SeedSequence(int(s)) for _, _, n in cases for s in seeds[:n]]
+    results = seeded_map(_one, items, streams, executor=executor, layout=layout, q2=q2, sigma=sigma)
     rows, start = [], 0
     for effect, magnitude, n in cases:
         causes = results[start : start + n]

@@ -20,7 +20,7 @@ import pandas as pd
 
 from bayescal.critique.geometry import GeometryCritique, GeometryCritiqueResults
 from bayescal.geometry.arcs import LEVER_MARKER, CompensatorGeometryModel, GeometryFit, MarkerLayout, MarkerPoints, read_arc_points
-from bayescal.geometry.posterior import GeometryPosterior, GeometryPosteriorModel, default_sampler
+from bayescal.geometry.posterior import GeometryPosterior, GeometryPosteriorModel, geometry_sampler
 from bayescal.reference import beside_published, read_paper_reference
 from bayescal.sampling.protocol import Sampler
 from bayescal.studies.arc_fit import TABLE_I_NOISE, arc_fit_study
@@ -134,7 +134,7 @@ def geometry_findings(
         Replications of the two Monte-Carlo studies.
     sampler
         Sampler of the two posteriors of the data (default
-        :func:`~bayescal.geometry.posterior.default_sampler`); the coverage
+        :func:`~bayescal.geometry.posterior.geometry_sampler`); the coverage
         study always uses :data:`COVERAGE_SAMPLER`.
     """
     rng = np.random.default_rng(seed)
@@ -148,7 +148,7 @@ def geometry_findings(
     q2_sorted = np.sort(points.of(LEVER_MARKER)[0])
     layout = MarkerLayout.from_fit(closed, points)
     arc_study = arc_fit_study(layout, q2_sorted, TABLE_I_NOISE, n_arc_rep, rng)
-    light = GeometryPosteriorModel("concentric", sampler=default_sampler(**COVERAGE_SAMPLER))
+    light = GeometryPosteriorModel("concentric", sampler=geometry_sampler(**COVERAGE_SAMPLER))
     coverage = coverage_study(layout, q2_sorted, TABLE_I_NOISE, n_coverage_rep, light, rng)
     along = {name: along_arc_residuals(points, rigid.closed_form.p0[:2], name, rigid.residuals[name]) for name in points.cylinder_markers}
 

@@ -37,3 +37,19 @@ def test_a_missing_joint_column_names_it(cell, tmp_path):
     path.write_text(HEADER.replace("q6_deg,", "") + "\n0,-50,80,0,-30,-800,0,0,0,0,0\n")
     with pytest.raises(InputError, match="q6_deg"):
         read_program(path, cell)
+
+
+@pytest.mark.parametrize(
+    ("row", "message"),
+    [
+        ("0,-50,80,0,-30,0,-800000,0,0,0,0,0", r"p\.csv:3, column 'fx_N': a process force of 8e\+05 N is more than"),
+        ("0,-50,80,0,-30,0,-800,0,0,0,0,12500", r"p\.csv:3, column 'mz_Nm': .* from the tool point, beyond any tool .* N·mm instead of N·m"),
+    ],
+)
+def test_a_wrench_in_another_unit_is_refused_and_a_program_at_rest_is_not(cell, tmp_path, row, message):
+    path = tmp_path / "p.csv"
+    path.write_text(f"{HEADER}\n0,-50,80,0,-30,0,0,0,0,0,0,0\n{row}\n")
+    with pytest.raises(InputError, match=message):
+        read_program(path, cell)
+    path.write_text(f"{HEADER}\n0,-50,80,0,-30,0,0,0,0,0,0,0\n")
+    assert read_program(path, cell).wrench.sum() == 0

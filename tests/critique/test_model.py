@@ -60,6 +60,10 @@ def test_results_report_the_gain_on_held_out_configurations(cell, twin_campaign,
     assert len(results.residuals) == results.n_equations == 405
     results.save(tmp_path / "critique.json")
     assert json.loads((tmp_path / "critique.json").read_text()) == payload
+    diagnostics = results.diagnostics()
+    assert (diagnostics["n_configurations"], diagnostics["n_equations"]) == (15, 405)
+    assert diagnostics["held_out_rms_mm"] == {"classical": gain["before"]["residual_rms_mm"], "final": gain["after"]["residual_rms_mm"]}
+    assert diagnostics["lack_of_fit_p"] == payload["lack_of_fit"]["p_value"]
 
 
 def test_too_few_configurations_is_an_input_error(cell, twin_campaign):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -76,6 +77,16 @@ def test_table_iii_is_scored_and_its_violations_listed(designer, plan):
     assert math.isfinite(prediction.rho0)
     # its q1 were chosen for the paper's tracker, which is not where the twin's is
     assert len(designer.violations(plan)) > 0
+
+
+def test_an_assessed_plan_has_the_four_verbs_of_every_result(designer, plan, tmp_path):
+    evaluation = designer.assess(plan, "table3_plan.csv")
+    assert evaluation.to_json()["criterion"] == pytest.approx(designer.evaluate(plan, "exact").rho0 / 1e-3)
+    assert evaluation.to_json()["linear_model"]["criterion"] == pytest.approx(designer.evaluate(plan, "linear").rho0 / 1e-3)
+    assert evaluation.diagnostics()["violations"] == designer.violations(plan) and evaluation.diagnostics()["configurations"] == len(plan)
+    assert list(evaluation.summary().index) == list(evaluation.to_json()["parameters"])
+    evaluation.save(tmp_path / "evaluation.json")
+    assert json.loads((tmp_path / "evaluation.json").read_text()) == json.loads(json.dumps(evaluation.to_json()))
 
 
 def test_a_tracker_that_sees_no_marker_is_refused(cell):

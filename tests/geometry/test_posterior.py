@@ -8,7 +8,7 @@ from bayescal.sampling import summary as posterior
 from bayescal.geometry.circle import known_angle_crb
 from bayescal.geometry.arcs import CompensatorGeometryModel, MarkerLayout, MarkerPoints, read_arc_points
 from bayescal.geometry.density import _Density, _inner_range, _log_gamma_mass, _regularized_gamma, _truncated_gamma
-from bayescal.geometry.posterior import GeometryPosteriorModel, GeometryPriors, default_sampler, emcee_sampler
+from bayescal.geometry.posterior import GeometryPosteriorModel, GeometryPriors, geometry_sampler
 from bayescal.reference import read_paper_reference
 from bayescal.studies.arc_fit import TABLE_I_NOISE
 from bayescal.studies.geometry_coverage import coverage_study
@@ -29,7 +29,7 @@ def table1_posterior(table1):
 
 
 def light(model="concentric"):
-    return GeometryPosteriorModel(model, sampler=default_sampler(n_chains=2, n_tune=300, n_draws=200))
+    return GeometryPosteriorModel(model, sampler=geometry_sampler(n_chains=2, n_tune=300, n_draws=200))
 
 
 def test_table1_meets_the_paper_and_converges(table1_posterior, data_dir):
@@ -141,7 +141,7 @@ def test_intervals_cover_simulated_truth(table1):
     # A coarse default check (it fails if the sd is off by a factor of 2); the slow test below
     # repeats it with many campaigns and a binomial tolerance.
     layout = MarkerLayout.from_fit(CompensatorGeometryModel().fit(table1), table1)
-    model = GeometryPosteriorModel(sampler=default_sampler(n_chains=2, n_tune=200, n_draws=150))
+    model = GeometryPosteriorModel(sampler=geometry_sampler(n_chains=2, n_tune=200, n_draws=150))
     n_rep = 16
     study = coverage_study(layout, Q2, TABLE_I_NOISE, n_rep, model, np.random.default_rng(2024))
     names = ["L", "a_x", "a_y"]
@@ -153,7 +153,7 @@ def test_intervals_cover_simulated_truth(table1):
 def test_intervals_cover_at_their_posterior_content(table1):
     layout = MarkerLayout.from_fit(CompensatorGeometryModel().fit(table1), table1)
     n_rep = 300
-    model = GeometryPosteriorModel(sampler=default_sampler(n_chains=2, n_tune=400, n_draws=400))
+    model = GeometryPosteriorModel(sampler=geometry_sampler(n_chains=2, n_tune=400, n_draws=400))
     study = coverage_study(layout, Q2, TABLE_I_NOISE, n_rep, model, np.random.default_rng(7))
     for name in ("L", "a_x", "a_y", "p2_x", "p2_y", "p0_x", "p0_y", "phi"):
         for k in (1, 2, 3):
@@ -166,7 +166,7 @@ def test_z_coordinates_are_announced_as_unused_by_the_planar_posterior(table1):
     with_z = MarkerPoints(
         table1.marker, table1.q2, np.column_stack([table1.xyz, np.full(len(table1.q2), 0.05)]), table1.line, "z.csv"
     )
-    model = GeometryPosteriorModel(sampler=default_sampler(n_chains=2, n_tune=50, n_draws=50))
+    model = GeometryPosteriorModel(sampler=geometry_sampler(n_chains=2, n_tune=50, n_draws=50))
     with pytest.warns(UserWarning, match=r"z.csv: the posterior uses x and y only .* 0.00 deg from Z"):
         fit = model.fit(with_z, rng=0)
     assert fit.summary().loc["L", "mean"] == pytest.approx(184.72, abs=0.1)
@@ -217,10 +217,24 @@ def test_truncated_gamma_draws_have_the_truncated_mean(lo, hi):
 
 
 def test_emcee_ensembles_sample_the_same_posterior(table1, table1_posterior):
-    ensembles = GeometryPosteriorModel(sampler=emcee_sampler(n_chains=2, n_tune=200, n_draws=100)).fit(table1, rng=1)
+    ensembles = GeometryPosteriorModel(sampler=geometry_sampler("emcee", n_chains=2, n_tune=200, n_draws=100)).fit(table1, rng=1)
     assert ensembles.tree.attrs["sampler"].startswith("emcee, 2 independent ensembles")
     assert table1_posterior.tree.attrs["sampler"].startswith("independence Metropolis-Hastings")
     summary, reference = ensembles.summary(), table1_posterior.summary()
     for name in ("L", "a_x", "a_y", "phi"):
         assert abs(summary.loc[name, "mean"] - reference.loc[name, "mean"]) < 0.3 * reference.loc[name, "sd"], name
         assert summary.loc[name, "sd"] == pytest.approx(reference.loc[name, "sd"], rel=0.25), name
+
+
+def test_geometry_sampler_names_the_independence_and_the_emcee_samplers_with_the_same_arguments():
+    from bayescal.sampling.ensemble import EnsembleSampler
+    from bayescal.sampling.independence import IndependenceSampler
+
+    default, ensembles = geometry_sampler(), geometry_sampler("emcee")
+    assert isinstance(default, IndependenceSampler) and isinstance(ensembles, EnsembleSampler)
+    assert (default.n_chains, default.n_tune, default.n_draws) == (4, 200, 1000)
+    assert (ensembles.n_chains, ensembles.n_tune, ensembles.n_draws) == (4, 1000, 1000)
+    short = geometry_sampler("emcee", n_chains=2, n_tune=30, n_draws=50)
+    assert (short.n_chains, short.n_tune, short.n_draws) == (2, 30, 50)
+    with pytest.raises(ValueError, match="independence"):
+        geometry_sampler("gibbs")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from bayescal.sampling.gibbs import GibbsSampler
-from bayescal.inference.elastostatic import ElastostaticModel, default_sampler
+from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.exact import scale_masses
 from bayescal.inference.priors import posterior_geometry
 from bayescal.errors import InputError, NotIdentifiableWarning
@@ -321,18 +321,6 @@ def test_a_load_hanging_elsewhere_is_modelled_from_the_campaigns_load_point(cell
     assert not [w for w in caught if "couple differs" in str(w.message)]
     # Told where the load hangs, the fit reaches the tracker's noise; not told, it leaves twice its variance.
     assert 0.8 < informed.chi2_per_dof < 1.25 < 1.6 < blind.chi2_per_dof
-
-
-def test_default_samplers_are_sized_alike_by_the_same_number_of_draws():
-    from bayescal.sampling.ensemble import EnsembleSampler
-
-    gibbs, emcee = default_sampler("gibbs"), default_sampler("emcee")
-    assert isinstance(gibbs, GibbsSampler) and isinstance(emcee, EnsembleSampler)
-    assert default_sampler("gibbs", 400).n_draws == 400
-    # emcee's walker steps are a quarter of the draws asked for, so that --draws means comparable ESS
-    assert default_sampler("emcee", 400).n_draws == 100
-    with pytest.raises(ValueError, match="gibbs"):
-        default_sampler("nuts")
 
 
 def _fit_recording(model, campaign, seed):

@@ -6,6 +6,7 @@ independent generator (bayescal.twin.independent.sweeps), in forms of its own an
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -29,11 +30,14 @@ def _critique(cell, effect, magnitude, seed, joint=1):
     return critique_sweeps(_as_sweeps(table), replace(cell.tracker, position=np.zeros(3)))
 
 
-def test_clean_independent_sweeps_are_adequate(cell):
+def test_clean_independent_sweeps_are_adequate(cell, tmp_path):
     result = _critique(cell, None, 1.0, seed=4)
     assert result.verdict == "adequate"
     assert set(result.summary().index.get_level_values("candidate")) == set(CANDIDATES)
     assert "not_a_candidate" in result.to_json()
+    assert result.diagnostics()["verdict"] == "adequate"
+    result.save(tmp_path / "critique.json")
+    assert json.loads((tmp_path / "critique.json").read_text()) == json.loads(json.dumps(result.to_json()))
 
 
 @pytest.mark.parametrize(("effect", "joint"), [("gear_ratio", 1), ("transmission", 1), ("wobble", 0)])

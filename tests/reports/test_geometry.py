@@ -1,12 +1,12 @@
 """Tests of bayescal.reports.geometry: the report renders the fits, Table II and the studies it is given."""
 
-from bayescal.geometry.posterior import default_sampler
+from bayescal.geometry.posterior import geometry_sampler
 from bayescal.reports.geometry import ARCS_FIGURE, ETA_FIGURE, REPORT_FILE, render_geometry
 from bayescal.studies.geometry_findings import geometry_findings
 
 
 def test_report_is_rendered_with_figures(data_dir):
-    sampler = default_sampler(n_chains=2, n_tune=200, n_draws=100)
+    sampler = geometry_sampler(n_chains=2, n_tune=200, n_draws=100)
     findings = geometry_findings(
         data_dir / "table1_geometry.csv", data_dir / "paper_reference.csv", seed=0, n_arc_rep=50, n_coverage_rep=1, sampler=sampler
     )

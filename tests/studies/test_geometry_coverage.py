@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bayescal.geometry.posterior import GeometryPosteriorModel, default_sampler
+from bayescal.geometry.posterior import GeometryPosteriorModel, geometry_sampler
 from bayescal.studies.arc_fit import TABLE_I_NOISE
 from bayescal.studies.geometry_coverage import binomial_se, coverage_study, layout_truth
 from bayescal.units import DEG, MM
 
 
 def test_coverage_study_reports_rates_per_parameter(layout, q2):
-    model = GeometryPosteriorModel(sampler=default_sampler(n_chains=2, n_tune=100, n_draws=50))
+    model = GeometryPosteriorModel(sampler=geometry_sampler(n_chains=2, n_tune=100, n_draws=50))
     study = coverage_study(layout, q2, TABLE_I_NOISE, 2, model, np.random.default_rng(0))
     assert list(study.index) == ["L", "a_x", "a_y", "phi", "p2_x", "p2_y", "p0_x", "p0_y"]
     assert ((study[["covered_1", "covered_2", "covered_3"]].isin([0.0, 0.5, 1.0])).all()).all()

@@ -1,3 +1,5 @@
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 import pytest
 
@@ -70,7 +72,8 @@ def test_unknown_effect_is_refused():
 
 
 def test_detection_table():
-    table = geometry_detection(LAYOUT, ANGLES, {"cylinder_slip": [PLANTED["cylinder_slip"][0]]}, n_seeds=2, n_null=2)
+    with ThreadPoolExecutor(1) as executor:
+        table = geometry_detection(LAYOUT, ANGLES, {"cylinder_slip": [PLANTED["cylinder_slip"][0]]}, n_seeds=2, n_null=2, executor=executor)
     assert list(table["effect"]) == ["none", "cylinder_slip"]
     assert list(table["campaigns"]) == [2, 2]
     assert table.loc[1, "first_cause"] == 1.0 and table.loc[0, "misfit"] == 0.0

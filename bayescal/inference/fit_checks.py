@@ -1,0 +1,145 @@
+"""What a campaign and its elastostatic fit say about themselves.
+
+Before sampling: whether the campaign determines any compliance and its noise
+(:func:`check_determined`), and whether its deflections are in the units the
+columns name (:func:`check_scale`).  After: how the residuals compare with the
+tracker's nominal noise (:func:`residual_chi2`) and with the scatter of the
+repeats (:func:`residual_lack_of_fit`), and which sampled parameters the data
+did determine (:func:`practical_identifiability`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from bayescal.cell.campaign import Campaign
+from bayescal.cell.tracker import TrackerNoise
+from bayescal.errors import InputError
+from bayescal.inference.closedform import ClosedForm
+from bayescal.inference.equations import DeflectionEquations, deflection_noise
+from bayescal.inference.identifiability import Identifiability, label_angle, practical_reasons
+from bayescal.inference.lack_of_fit import LackOfFit, lack_of_fit, replicate_cells
+from bayescal.inference.priors import GeometryPrior
+from bayescal.robot.compensator import CompensatorGeometry
+from bayescal.units import MM, N_PER_MM, URAD_PER_NM
+
+__all__ = ["check_determined", "check_scale", "residual_chi2", "residual_lack_of_fit", "practical_identifiability"]
+
+IMPLAUSIBLE_RATIO = 100.0
+"""Factor between the compliances a campaign implies and the config's beyond which the data are taken to be in
+another unit: joints of one robot model differ by tens of percent, a unit slip by 1000 (m, μm against mm)."""
+DETERMINED_FRACTION = 0.25
+"""Closed-form sd, as a fraction of the estimate, under which a compliance counts in the unit check."""
+
+
+def residual_lack_of_fit(tracker: TrackerNoise | None, campaign: Campaign, residual: np.ndarray, n_free: int) -> LackOfFit | None:
+    """The lack-of-fit test of the ``(3 N,)`` residuals (m) against the repeats' scatter (None without repeats).
+
+    ``tracker`` weights the equations by its noise (None: equal weights); ``n_free`` is the
+    number of fitted parameters other than the noise levels.
+    """
+    scale = np.ones(residual.size) if tracker is None else np.repeat(deflection_noise(tracker, campaign), 3)
+    return lack_of_fit(residual, scale, replicate_cells(campaign.config, campaign.marker), n_free)
+
+
+def residual_chi2(tracker: TrackerNoise | None, campaign: Campaign, residual: np.ndarray, n_free: int) -> float | None:
+    """Chi-square per degree of freedom of the ``(3 N,)`` residuals (m) against the tracker's nominal noise; None without one."""
+    if tracker is None:
+        return None
+    normalised = residual / np.repeat(deflection_noise(tracker, campaign), 3)
+    return float(normalised @ normalised / (residual.size - n_free))
+
+
+def practical_identifiability(
+    summary: pd.DataFrame,
+    equations: DeflectionEquations,
+    ident: Identifiability,
+    cf: ClosedForm,
+    geometry: GeometryPrior | None,
+    nominal_spring: tuple[float, float] | None,
+) -> dict[str, str]:
+    """Practical identifiability of the sampled parameters (:func:`~bayescal.inference.identifiability.practical_reasons`),
+    from the posterior's summary.
+
+    ``geometry`` (the compensator geometry's prior) bounds s0's flat prior; ``nominal_spring``
+    ``(K_c, s0)`` (N/m, m) sets the scale of K_c's reason.
+    """
+    prior_sd: dict[str, float | None] = {name: None for name in equations.registry.names if name != "s0"}
+    if geometry is not None:
+        L, a_x, a_y = geometry.mean[:3]
+        # s0's prior is flat on (0, a + L): its sd is the width over sqrt(12).
+        prior_sd["s0"] = (math.hypot(a_x, a_y) + L) / math.sqrt(12.0) / MM
+    prior_sd |= {name: None for name in summary.index if label_angle(name) is not None}
+    context = {}
+    if "K_c" in summary.index:
+        k2 = summary.loc[f"k{equations.joint + 1}", "mean"] * URAD_PER_NM
+        context["K_c"] = _compensator_context(equations, ident, cf, k2, geometry, nominal_spring)
+    return practical_reasons(summary, prior_sd, requires={"s0": "K_c"}, context=context)
+
+
+def _compensator_context(equations, ident, cf, k2: float, geometry: GeometryPrior, nominal_spring: tuple[float, float]) -> str:
+    """How much the compensator changes the joint-2 stiffness, against how finely the per-angle compliances are known."""
+    Kc, s0 = nominal_spring
+    compensator = CompensatorGeometry(*geometry.mean).with_spring(Kc, s0)
+    share = 100.0 * np.abs(compensator.stiffness(equations.compensated_angles)) * k2
+    columns = [c for c, keep in zip(equations.per_angle_columns(), ident.identifiable) if keep]
+    sd = np.sqrt(np.diag(cf.cov))
+    resolution = [300.0 * sd[i] / cf.per_angle[i] for i, (joint, _) in enumerate(columns) if joint == equations.joint]
+    j = equations.joint + 1
+    return (
+        f"the compensator changes the joint-{j} stiffness by {share.min():.2f}–{share.max():.2f} % across the "
+        f"campaign's {equations.compensated_angles.size} q{j} angles (at the config's K_c = {Kc / N_PER_MM:.4g} N/mm, "
+        f"s0 = {s0 / MM:.4g} mm), while the per-angle joint-{j} compliances are resolved to "
+        f"±{np.median(resolution):.2f} % (3σ, median over the angles)"
+    )
+
+
+def check_determined(campaign: Campaign, equations: DeflectionEquations, ident: Identifiability) -> None:
+    """Reject a campaign that identifies no compliance, or has too few equations to estimate its noise."""
+    if not np.any(campaign.wrench):
+        raise InputError("no row of the campaign carries a load (every wrench is zero): nothing deflects", source=campaign.source)
+    if not ident.identifiable.any():
+        raise InputError(
+            f"the campaign identifies no joint compliance ({len(campaign)} rows, design rank {ident.rank} of "
+            f"{ident.identifiable.size} columns): measure more configurations",
+            source=campaign.source,
+        )
+    unknowns = int(ident.identifiable.sum()) + len(equations.group_names)
+    if equations.n <= unknowns:
+        raise InputError(
+            f"{equations.n} equations ({len(campaign)} rows x 3 coordinates) cannot determine {int(ident.identifiable.sum())} "
+            f"compliances and {len(equations.group_names)} noise levels: measure more markers or configurations",
+            source=campaign.source,
+        )
+
+
+def check_scale(campaign: Campaign, cf: ClosedForm, nominal: np.ndarray) -> None:
+    """Reject a campaign whose well-determined compliances are all :data:`IMPLAUSIBLE_RATIO` times the config's, or negative.
+
+    A unit slip scales every deflection alike (positions in m or μm under an
+    ``_mm`` header) or flips its sign (the loaded and unloaded columns swapped);
+    and so does a wrench of the wrong sign; the compliances it implies are then
+    off by the same factor, which no real robot differs from its nominal values by.
+    """
+    sd = np.sqrt(np.diag(cf.cov))
+    ratios = np.array([value / nominal[joint] for value, (joint, _) in zip(cf.per_angle, cf.columns)])
+    determined = sd < DETERMINED_FRACTION * np.abs(cf.per_angle)
+    if not determined.any():
+        return
+    ratio = float(np.median(ratios[determined]))
+    if ratio <= 0:
+        what = (
+            "negative joint compliances: is the wrench's sign flipped (a hanging load has fz_N < 0), or are the unloaded "
+            "(x0_mm..z0_mm) and loaded (x1_mm..z1_mm) positions swapped?"
+        )
+    elif not 1 / IMPLAUSIBLE_RATIO < ratio < IMPLAUSIBLE_RATIO:
+        what = (
+            f"joint compliances {ratio:.3g} times the config's: are the positions in another unit than mm "
+            "(or the config's k_urad_per_Nm in another than μrad/(N·m))?"
+        )
+    else:
+        return
+    raise InputError(f"the campaign's deflections imply {what}", source=campaign.source)

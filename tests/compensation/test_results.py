@@ -1,0 +1,45 @@
+"""Tests of bayescal.compensation.results: a compensated program's four verbs agree with its per-pose table."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pandas as pd
+
+from bayescal.compensation import compensate_program
+from bayescal.compensation.calibration import Calibration
+from bayescal.studies.compensation import random_program
+
+
+def _results(cell, tolerance=None):
+    bare = dataclasses.replace(cell, compensator=None)
+    rng = np.random.default_rng(3)
+    own = cell.compliances * np.exp(0.05 * rng.standard_normal((200, 6)))
+    calibration = Calibration(own=own, spring=None, geometry=None, gravity_scale=1.0, compensated_joint=None, unidentified=("k1",))
+    return compensate_program(random_program(bare, 10, np.random.default_rng(4)), calibration, bare, tolerance=tolerance)
+
+
+def test_the_summary_is_the_per_pose_tables_median_and_max(cell):
+    results = _results(cell)
+    table, summary = results.table(), results.summary()
+    assert isinstance(summary, pd.DataFrame) and list(summary.columns) == ["median", "max"]
+    for name in ("deflection_mm", "error_rms_mm", "error_q9973_mm"):
+        assert summary.loc[name, "median"] == np.median(table[name]) and summary.loc[name, "max"] == table[name].max()
+    share = summary.loc["unidentified_share_of_mean_square_error"]
+    assert 0 < share["median"] <= share["max"] < 1
+
+
+def test_the_json_carries_the_summary_the_counts_and_the_worst_poses_and_save_writes_the_table(cell, tmp_path):
+    results = _results(cell, tolerance=1e-6)
+    payload = results.to_json()
+    assert payload["summary"]["poses"] == 10 and payload["summary"]["unidentified"] == ["k1"]
+    assert payload["summary"]["error_q9973_mm"]["max"] == results.summary().loc["error_q9973_mm", "max"]
+    # A 1 μm tolerance flags every pose of a random program.
+    assert payload["summary"]["flagged"] == 10 and payload["diagnostics"]["equilibrium_failures"] == 0
+    worst = [pose["error_q9973_mm"] for pose in payload["worst_poses"]]
+    assert worst == sorted(worst, reverse=True)
+    results.save(tmp_path / "compensated.csv")
+    saved = pd.read_csv(tmp_path / "compensated.csv")
+    np.testing.assert_allclose(saved["error_q9973_mm"], results.table()["error_q9973_mm"], rtol=1e-8)
+    assert (saved["flag"] != "ok").all()
