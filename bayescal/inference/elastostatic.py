@@ -55,6 +55,7 @@ from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.protocol import Sampler
 from bayescal.sampling.summary import diagnostics, sample_until_converged, summarize, warn_if_unconverged
+from bayescal.units import MM, N_PER_MM
 
 __all__ = ["ElastostaticModel", "restore_results"]
 
@@ -66,6 +67,13 @@ EXTENSIONS = 3
 collapsed sampler hands over to the Gibbs sampler (:meth:`~bayescal.sampling.collapsed.CollapsedSampler.extended`),
 which then doubles its draws, up to 16 × 2,400.  On Table III with twice the twin's link compliance (seeds 0-5),
 16 × 600 Gibbs draws left R-hat above 1.01 or the tail ESS under 400 in 2 of 6 campaigns."""
+RELINEARISATIONS = 4
+"""Most times the exact model's correction is linearised again, about the posterior mean of the spring and the
+link-mass scale, when that mean lies far from the point it was linearised at (first the config's spring and the
+URDF's masses)."""
+SETTLED_SD = 0.5
+"""Distance (posterior sd of ``K_c``, ``K_c s0`` and the mass scale) within which the posterior mean is taken as the
+linearisation point itself: the correction's error is quadratic in that distance."""
 
 
 class _Prepared(NamedTuple):
@@ -80,6 +88,8 @@ class _Prepared(NamedTuple):
     iterations: int
     linearised_at: ClosedForm
     """The closed form ``offset`` was computed at: the exact model's linearisation point."""
+    point: tuple[float, float, float] | None = None
+    """``(K_c, s0, mass scale)`` (N/m, m, 1) the correction is linearised about; None: the config's spring, the URDF's masses."""
 
 
 @dataclass
@@ -171,16 +181,29 @@ class ElastostaticModel:
         """The compensator geometry's prior mean ``[L, a_x, a_y, phi]`` (m, rad); None without a compensator."""
         return None if self.geometry is None else self.geometry.mean
 
-    @property
-    def _exact(self) -> ExactCorrection:
-        """The exact model's correction with this model's robot, nominal stiffness and load point."""
+    def _exact_at(self, point: tuple[float, float, float] | None = None) -> ExactCorrection:
+        """The exact model's correction with this model's robot, nominal stiffness and load point, linearised about
+        ``point`` ``(K_c, s0, mass scale)`` (N/m, m, 1; None: the config's spring and the URDF's masses)."""
+        spring, masses = (self.nominal_spring, 1.0) if point is None else (tuple(point[:2]), float(point[2]))
         return ExactCorrection(
-            self.robot, self.nominal_compliances, self._geometry_mean, self.nominal_spring, self.load_point, self.max_iterations
+            self.robot, self.nominal_compliances, self._geometry_mean, spring, self.load_point, self.max_iterations, masses
         )
 
-    def _static_columns(self, campaign: Campaign, prepared: _Prepared) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`ExactCorrection.static_columns` at the closed form the offset of ``prepared`` was computed at."""
-        return self._exact.static_columns(campaign, prepared.equations, prepared.linearised_at, prepared.offset)
+    def _static_columns(self, campaign: Campaign, prepared: _Prepared) -> tuple[np.ndarray, np.ndarray] | None:
+        """:meth:`ExactCorrection.static_columns` at the closed form the offset of ``prepared`` was computed at; None
+        when the link weights are not sampled."""
+        # Without an identified compensator the link weights are not sampled: on arm6 masses 15 % heavier move the
+        # correction by 0.8 μm rms, against 11 μm of noise per deflection coordinate (docs/elastostatic.md).
+        if self.model != "exact" or not prepared.identifiability.compensator:
+            return None
+        return self._exact_at(prepared.point).static_columns(campaign, prepared.equations, prepared.linearised_at, prepared.offset)
+
+    def _relinearised(self, campaign: Campaign, prepared: _Prepared, point: tuple[float, float, float] | None) -> _Prepared:
+        """``prepared`` with the exact model's correction linearised about ``point`` (:meth:`_exact_at`)."""
+        cf, offset, iterations, at = self._exact_at(point).relinearise(
+            campaign, prepared.equations, prepared.identifiability, prepared.linear_closed_form
+        )
+        return prepared._replace(offset=offset, closed_form=cf, iterations=iterations, linearised_at=at, point=point)
 
     @property
     def geometry_source(self) -> str:
@@ -201,7 +224,7 @@ class ElastostaticModel:
         """
         return self._prepare(campaign, announce=False).offset
 
-    def _prepare(self, campaign: Campaign, *, announce: bool = True) -> _Prepared:
+    def _prepare(self, campaign: Campaign, *, announce: bool = True, point: tuple[float, float, float] | None = None) -> _Prepared:
         if self.model not in ("exact", "linear"):
             raise ValueError(f"model must be 'exact' or 'linear', got {self.model!r}")
         equations, torque, points = deflection_equations(
@@ -238,33 +261,21 @@ class ElastostaticModel:
                 )
         linear_cf = closed_form(equations.whitened(), ident, self._geometry_mean)
         check_scale(campaign, linear_cf, self.nominal_compliances)
-        offset = np.zeros(equations.n)
-        iterations = 0
-        cf = at = linear_cf
-        if self.model == "exact":
-            cf, offset, iterations, at = self._exact.relinearise(campaign, equations, ident, linear_cf)
-        return _Prepared(equations, ident, linear_cf, offset, cf, iterations, at)
+        prepared = _Prepared(equations, ident, linear_cf, np.zeros(equations.n), linear_cf, 0, linear_cf)
+        return self._relinearised(campaign, prepared, point) if self.model == "exact" else prepared
 
     def fit(self, campaign: Campaign, rng: np.random.Generator | int = 0) -> ElastostaticResults:
         """Identify the parameters from ``campaign``; ``rng`` seeds every random draw."""
         rng = np.random.default_rng(rng)
-        prepared = self._prepare(campaign)
-        equations, ident, offset, cf = prepared.equations, prepared.identifiability, prepared.offset, prepared.closed_form
-        corrected = replace(equations, y=equations.y - offset)
-        # Without an identified compensator the link weights are not sampled: on arm6 masses 15 % heavier move the
-        # correction by 0.8 μm rms, against 11 μm of noise per deflection coordinate (docs/elastostatic.md).
-        static = self._static_columns(campaign, prepared) if self.model == "exact" and ident.compensator else None
-        (tree, draws, residual, n_free), summary, sampler = sample_until_converged(
-            lambda sampler: sample_posterior(corrected.whitened(), ident, cf, sampler, self.geometry, self.nominal_spring, rng, static),
-            self.sampler,
-            self.extensions,
-            what="the elastostatic posterior",
-        )
+        prepared, (tree, draws, residual, n_free), summary, sampler = self._sample(campaign, self._prepare(campaign), rng)
+        equations, ident, cf = prepared.equations, prepared.identifiability, prepared.closed_form
         tree.attrs.update(
             {"model": self.model, "noise": self.noise, "sampler": type(sampler).__name__, "geometry": self.geometry_source}
         )
-        if corrected.scale is not None:
-            residual = residual * corrected.scale
+        if prepared.point is not None:
+            tree.attrs.update(dict(zip(LINEARISATION_ATTRS, _edge_point(prepared.point))))
+        if equations.scale is not None:
+            residual = residual * equations.scale
         practical = practical_identifiability(summary, equations, ident, cf, self.geometry, self.nominal_spring)
         # What a later user of the saved posterior (bayescal compensate) must know without the campaign:
         # the robot it belongs to and which sampled parameters the data did not determine.
@@ -298,6 +309,42 @@ class ElastostaticModel:
             )
         return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, type(sampler).__name__, misfit)
 
+    def _sample(self, campaign: Campaign, prepared: _Prepared, rng: np.random.Generator):
+        """Sample the posterior of ``prepared``, relinearising the exact model's correction about the posterior mean of the
+        spring and the link-mass scale while that mean lies far from the linearisation point (:data:`SETTLED_SD`), then
+        extending the sampling while the diagnostics fall short (``extensions``).
+
+        Far from the config's spring the correction, linear in ``K_c``, ``K_c s0`` and the mass scale, misses the exact
+        model by more than a precise tracker's noise: the misfit widens the noise levels and the chains disagree.
+
+        Returns the prepared campaign last linearised, :func:`sample_posterior`'s output, its summary and the sampler.
+        """
+
+        def run(sampler: Sampler) -> tuple:
+            corrected = replace(prepared.equations, y=prepared.equations.y - prepared.offset).whitened()
+            return sample_posterior(corrected, prepared.identifiability, prepared.closed_form, sampler, self.geometry, self.nominal_spring, rng, static)
+
+        static = self._static_columns(campaign, prepared)
+        first = run(self.sampler) if static is not None else None
+        times = 0
+        while static is not None and times < RELINEARISATIONS and (point := _settled(first[1], static[0])) is not None:
+            prepared = self._relinearised(campaign, prepared, point)
+            static = self._static_columns(campaign, prepared)
+            first = run(self.sampler)
+            times += 1
+        if times:
+            settled = _settled(first[1], static[0]) is None
+            K_c, s0, masses = _edge_point(prepared.point)
+            warnings.warn(
+                f"{campaign.source}: the posterior's spring and link masses lie far from the config's, about which the exact "
+                f"model's correction is first linearised: linearised again {times} times, last about "
+                f"K_c = {K_c:.4g} N/mm, s0 = {s0:.4g} mm, link masses × {masses:.4g}"
+                + ("" if settled else f" (the posterior mean still moved by more than {SETTLED_SD} sd)"),
+                UserWarning,
+                stacklevel=3,
+            )
+        return prepared, *sample_until_converged(run, self.sampler, self.extensions, what="the elastostatic posterior", first=first)
+
     def restore(self, campaign: Campaign, tree) -> ElastostaticResults:
         """The results of an earlier :meth:`fit` of ``campaign`` from its saved posterior, without sampling again.
 
@@ -317,7 +364,8 @@ class ElastostaticModel:
         InputError
             When the posterior does not belong to this campaign and model.
         """
-        prepared = self._prepare(campaign, announce=False)
+        point = _stored_point(tree)
+        prepared = self._prepare(campaign, announce=False, point=point)
         try:
             draws = ElastostaticDraws.from_tree(tree, prepared.equations)
         except (KeyError, ValueError) as exc:
@@ -342,7 +390,7 @@ class ElastostaticModel:
             )
         equations, offset, cf = prepared.equations, prepared.offset, prepared.closed_form
         corrected = replace(equations, y=equations.y - offset)
-        static = self._static_columns(campaign, prepared) if self.model == "exact" and ident.compensator else None
+        static = self._static_columns(campaign, prepared)
         whitened = corrected.whitened()
         posterior, joints = posterior_density(whitened, ident, self.geometry, static)
         if (static is None) != (draws.gravity is None):
@@ -427,6 +475,34 @@ def restore_results(cell: Cell, campaign: Campaign, tree, geometry: GeometryPrio
     groups = tuple(str(v) for v in tree["posterior"]["noise_group"].values) if "noise_group" in tree["posterior"].coords else ()
     noise = str(attrs.get("noise", "axis" if groups == ("x", "y", "z") else "marker"))
     return ElastostaticModel.from_cell(cell, geometry, model=model, noise=noise).restore(campaign, tree)
+
+
+LINEARISATION_ATTRS = ("linearised_K_c_N_per_mm", "linearised_s0_mm", "linearised_mass_scale")
+"""The posterior tree's attributes of the point the exact model's correction was linearised about, when not the config's."""
+
+
+def _edge_point(point: tuple[float, float, float]) -> tuple[float, float, float]:
+    """``(K_c, s0, mass scale)`` from SI to N/mm, mm and 1."""
+    return point[0] / N_PER_MM, point[1] / MM, point[2]
+
+
+def _stored_point(tree) -> tuple[float, float, float] | None:
+    """The linearisation point (SI) a saved posterior records; None when it was the config's."""
+    if not all(name in tree.attrs for name in LINEARISATION_ATTRS):
+        return None
+    K_c, s0, masses = (float(tree.attrs[name]) for name in LINEARISATION_ATTRS)
+    return K_c * N_PER_MM, s0 * MM, masses
+
+
+def _settled(draws: ElastostaticDraws, at: np.ndarray) -> tuple[float, float, float] | None:
+    """None when the posterior mean of ``[K_c, K_c s0, mass scale]`` lies within :data:`SETTLED_SD` posterior sd of the
+    linearisation point ``at`` (N/m, N, 1); otherwise that mean as ``(K_c, s0, mass scale)`` (N/m, m, 1)."""
+    K_c = draws.spring[..., 1].reshape(-1)
+    values = np.column_stack([K_c, K_c * draws.spring[..., 2].reshape(-1), draws.gravity.reshape(-1)])
+    mean, sd = values.mean(axis=0), values.std(axis=0)
+    if np.all(np.abs(mean - at) <= SETTLED_SD * sd):
+        return None
+    return float(mean[0]), float(mean[1] / mean[0]), float(mean[2])
 
 
 def _listed(names: list[str]) -> str:

@@ -166,11 +166,14 @@ class ExactCorrection:
     geometry_mean
         The compensator geometry ``[L, a_x, a_y, phi]`` (m, rad); None without a compensator.
     nominal_spring
-        ``(K_c, s0)`` (N/m, m) of the compensator's static torque; None without a compensator.
+        ``(K_c, s0)`` (N/m, m) of the compensator's static torque about which the correction is linearised
+        (the config's, or the posterior's when that is far from it); None without a compensator.
     load_point
         Flange-frame point (m) where the load's force acts.
     max_iterations
         Relinearisations before :meth:`relinearise` gives up with a warning.
+    masses
+        Scale on the URDF's link masses about which the correction is linearised.
     """
 
     robot: Robot
@@ -179,6 +182,12 @@ class ExactCorrection:
     nominal_spring: tuple[float, float] | None
     load_point: np.ndarray | None
     max_iterations: int = 10
+    masses: float = 1.0
+
+    def _robot(self, masses: float | None = None) -> Robot:
+        """The robot with its link masses scaled by ``masses`` (default: the linearisation point's)."""
+        factor = self.masses if masses is None else masses
+        return self.robot if factor == 1.0 else scale_masses(self.robot, factor)
 
     def offset(self, campaign: Campaign, equations: DeflectionEquations, cf: ClosedForm, *, spring=None, robot: Robot | None = None) -> np.ndarray:
         """Exact minus linear prediction of every equation at the closed-form estimate ``cf``.
@@ -186,22 +195,23 @@ class ExactCorrection:
         The per-angle joint-2 compliances of ``cf`` fix joint 2's stiffness at each
         angle; the compensator's static torque, which with the arm's weight sets
         the sag under which the loads act, is that of ``spring`` ``(K_c, s0)``
-        (default: the config's), and the weights those of ``robot`` (default:
-        the URDF's).  The compensated model corrects both through
-        :meth:`static_columns`.
+        (default: the linearisation point's), and the weights those of ``robot`` (default:
+        the URDF's scaled by the linearisation point's ``masses``).  The compensated model
+        corrects both through :meth:`static_columns`.
         """
+        robot = robot or self._robot()
         compliances = np.where(np.isfinite(cf.compliances) & (cf.compliances > 0), cf.compliances, self.nominal_compliances)
         if equations.joint is None:
-            return linearisation_offset(robot or self.robot, campaign, equations, compliances, cf.k2, None, self.load_point)
+            return linearisation_offset(robot, campaign, equations, compliances, cf.k2, None, self.load_point)
         compensator = CompensatorGeometry(*self.geometry_mean).with_spring(*(spring or self.nominal_spring))
         nominal_k2 = compensator.equivalent_compliance(equations.compensated_angles, self.nominal_compliances[equations.joint])
         k2 = np.where(np.isfinite(cf.k2) & (cf.k2 > 0), cf.k2, nominal_k2)
-        return linearisation_offset(robot or self.robot, campaign, equations, compliances, k2, compensator, self.load_point)
+        return linearisation_offset(robot, campaign, equations, compliances, k2, compensator, self.load_point)
 
     def static_columns(self, campaign: Campaign, equations: DeflectionEquations, cf: ClosedForm, base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The exact model's correction linearised in the compensator's static torque and the link weights.
 
-        Returns the linearisation point ``[K_c, K_c s0]`` (the config's spring)
+        Returns the linearisation point ``[K_c, K_c s0, mass scale]`` (N/m, N, 1)
         and the ``(n, 3)`` derivatives of the correction with respect to
         ``K_c`` (at fixed ``K_c s0``), ``K_c s0`` and a common scale of the link
         masses, by finite differences, divided like the equations by their
@@ -213,12 +223,12 @@ class ExactCorrection:
         columns = [
             (self.offset(campaign, equations, cf, spring=(Kc + dKc, Kc * s0 / (Kc + dKc))) - base) / dKc,
             (self.offset(campaign, equations, cf, spring=(Kc, s0 + dP / Kc)) - base) / dP,
-            (self.offset(campaign, equations, cf, robot=scale_masses(self.robot, 1.0 + dg)) - base) / dg,
+            (self.offset(campaign, equations, cf, robot=self._robot(self.masses + dg)) - base) / dg,
         ]
         W = np.column_stack(columns)
         if equations.scale is not None:
             W = W / equations.scale[:, None]
-        return np.array([Kc, Kc * s0]), W
+        return np.array([Kc, Kc * s0, self.masses]), W
 
     def relinearise(self, campaign: Campaign, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm):
         """The closed form of the corrected equations, relinearised until it no longer moves.

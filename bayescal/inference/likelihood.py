@@ -61,9 +61,9 @@ class CompensatorBlock:
     product, which is what a Metropolis proposal needs.
 
     With ``static`` (the exact model), the block also sets the coefficients
-    ``u(z) = [K_c - K_c*, K_c s0 - (K_c s0)*, gravity_scale - 1]`` of the
+    ``u(z) = [K_c - K_c*, K_c s0 - (K_c s0)*, gravity_scale - g*]`` of the
     columns ``W`` that linearise the exact model's correction about the
-    spring ``static = [K_c*, (K_c s0)*]`` and the URDF's link weights: the
+    spring and link-mass scale ``static = [K_c*, (K_c s0)*, g*]``: the
     compensator's static torque, linear in ``K_c`` and ``K_c s0`` (eq 7), and
     the arm's weight set the sag under which the loads act.  ``z`` then holds
     ``gravity_scale`` after ``s0``, a factor on every link's mass with a
@@ -105,7 +105,7 @@ class CompensatorBlock:
         if self.static is None:
             return np.zeros((z.shape[0], 0))
         K_c = np.exp(z[:, 1])
-        return np.column_stack([K_c - self.static[0], K_c * z[:, 2] - self.static[1], z[:, len(SPRING)] - 1.0])
+        return np.column_stack([K_c - self.static[0], K_c * z[:, 2] - self.static[1], z[:, len(SPRING)] - self.static[2]])
 
     def _regressor(self, z: np.ndarray, q2: np.ndarray) -> np.ndarray:
         """``(c|1, m + 1, 3)`` eq-35 rows at ``q2`` and, last, at ``q_ref``."""
@@ -198,7 +198,7 @@ def compensated_posterior(
     ``K_ref, log K_c, s0`` (:class:`CompensatorBlock`, reference angle the campaign's median q2), then
     ``gravity_scale`` with ``static``, then the geometry ``L, a_x, a_y, phi`` unless
     its prior is fixed, then ``log sigma`` per noise group.  ``static`` is the
-    linearisation point ``[K_c, K_c s0]`` (N/m, N) and the ``(n, 3)`` columns
+    linearisation point ``[K_c, K_c s0, gravity_scale]`` (N/m, N, 1) and the ``(n, 3)`` columns
     ``W`` of the exact model's correction (:class:`CompensatorBlock`).
     """
     if equations.joint in joints:

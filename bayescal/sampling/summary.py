@@ -178,7 +178,7 @@ def converged(report: dict[str, float | int]) -> bool:
     return report["r_hat_max"] <= R_HAT_LIMIT and min(report["ess_bulk_min"], report["ess_tail_min"]) >= ESS_LIMIT
 
 
-def sample_until_converged(run: Callable[[Any], tuple], sampler: Any, extensions: int, *, what: str):
+def sample_until_converged(run: Callable[[Any], tuple], sampler: Any, extensions: int, *, what: str, first: tuple | None = None):
     """``run(sampler)``, run again with the sampler's extension while the diagnostics fall short.
 
     A sampler's extension is what its ``extended()`` method returns, when it has
@@ -195,6 +195,8 @@ def sample_until_converged(run: Callable[[Any], tuple], sampler: Any, extensions
         Most runs after the first.
     what
         The posterior, as the user knows it, for the warning that announces an extension.
+    first
+        ``run(sampler)``'s output when it has been run already, so that it is not run again.
 
     Returns
     -------
@@ -202,7 +204,7 @@ def sample_until_converged(run: Callable[[Any], tuple], sampler: Any, extensions
         ``run``'s last output, the tree's :func:`summarize` and the sampler that drew it.
     """
     for extension in range(extensions + 1):
-        output = run(sampler)
+        output = first if extension == 0 and first is not None else run(sampler)
         summary = summarize(output[0])
         report = diagnostics(output[0], summary)
         if converged(report) or extension == extensions:
