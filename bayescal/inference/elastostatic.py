@@ -49,7 +49,7 @@ from bayescal.inference.fit_checks import check_determined, check_scale, practic
 from bayescal.inference.identifiability import Identifiability, analyse, grouped, label_angle
 from bayescal.inference.posterior import posterior_density, sample_posterior, sampler_coordinates
 from bayescal.inference.priors import GeometryPrior, config_geometry
-from bayescal.inference.results import ElastostaticDraws, ElastostaticResults
+from bayescal.inference.results import LINEARISATION_ATTRS, ElastostaticDraws, ElastostaticResults
 from bayescal.inference.samplers import elastostatic_sampler
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.robot.kinematics import Robot
@@ -475,10 +475,6 @@ def restore_results(cell: Cell, campaign: Campaign, tree, geometry: GeometryPrio
     groups = tuple(str(v) for v in tree["posterior"]["noise_group"].values) if "noise_group" in tree["posterior"].coords else ()
     noise = str(attrs.get("noise", "axis" if groups == ("x", "y", "z") else "marker"))
     return ElastostaticModel.from_cell(cell, geometry, model=model, noise=noise).restore(campaign, tree)
-
-
-LINEARISATION_ATTRS = ("linearised_K_c_N_per_mm", "linearised_s0_mm", "linearised_mass_scale")
-"""The posterior tree's attributes of the point the exact model's correction was linearised about, when not the config's."""
 
 
 def _edge_point(point: tuple[float, float, float]) -> tuple[float, float, float]:

@@ -23,6 +23,10 @@ from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
 
 __all__ = ["ElastostaticResults", "ElastostaticDraws"]
 
+LINEARISATION_ATTRS = ("linearised_K_c_N_per_mm", "linearised_s0_mm", "linearised_mass_scale")
+"""The posterior tree's attributes of the spring and link-mass scale the exact model's correction was linearised about,
+when not the config's spring and the URDF's masses."""
+
 
 @dataclass(frozen=True)
 class ElastostaticDraws:
@@ -302,6 +306,9 @@ class ElastostaticResults:
             "chi2_per_dof": self.chi2_per_dof,
             "nonlinearity_mm": self.nonlinearity / MM,
             "relinearisations": self.iterations,
+            "linearised_at": {name.removeprefix("linearised_"): float(self.tree.attrs[name]) for name in LINEARISATION_ATTRS}
+            if all(name in self.tree.attrs for name in LINEARISATION_ATTRS)
+            else None,
             "lack_of_fit": None if self.lack_of_fit is None else self.lack_of_fit.to_json(),
         }
         return report

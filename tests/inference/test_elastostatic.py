@@ -375,6 +375,7 @@ def test_a_spring_far_from_the_configs_is_relinearised_until_the_chains_agree(ce
     assert abs(summary.loc["K_c", "mean"] - 660.0) < 4 * summary.loc["K_c", "sd"]
     assert abs(summary.loc["s0", "mean"] - 575.0) < 4 * summary.loc["s0", "sd"]
     assert results.chi2_per_dof < 1.25
+    assert results.diagnostics()["linearised_at"]["K_c_N_per_mm"] == pytest.approx(660.0, rel=0.02)
     results.save(tmp_path / "posterior.nc")
     restored = restore_results(precise, campaign, load(tmp_path / "posterior.nc"))
     np.testing.assert_allclose(restored.residuals, results.residuals, rtol=0, atol=1e-15)
