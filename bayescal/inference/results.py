@@ -18,7 +18,7 @@ from bayescal.jsonsafe import json_safe
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.robot.compensator import stiffness_regressor
 from bayescal.sampling.gibbs import ConditionallyLinear
-from bayescal.sampling.summary import diagnostics
+from bayescal.sampling.summary import converged, diagnostics
 from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
 
 __all__ = ["ElastostaticResults", "ElastostaticDraws"]
@@ -299,6 +299,7 @@ class ElastostaticResults:
         """Convergence and fit diagnostics (the CLI's ``diagnostics`` block)."""
         report = diagnostics(self.tree, self.summary())
         report |= {
+            "converged": converged(report),
             "model": self.model,
             "sampler": self.sampler_name,
             "n_equations": self.n_equations,
