@@ -247,7 +247,9 @@ def _misstated_section(frame: pd.DataFrame, seed: int) -> list[str]:
         "",
         "The model is built from the config, whose spring (Table IV) and link masses (the URDF's) are guesses. Campaigns "
         "simulated with another spring or heavier links (random plan of 6 q2 angles × 5 configurations, 3 repeats, seed "
-        f"{seed}), identified with the unchanged config (K_c, s0 in N/mm and mm):",
+        f"{seed}), identified with the unchanged config (K_c, s0 in N/mm and mm) as `calibrate` identifies them: the "
+        "exact model's correction linearised again about the posterior's spring and link masses while they lie far "
+        "from the config's, then the sampling extended while it falls short of convergence:",
         "",
         _table(frame, {"mean": "±3σ", "±3σ": "±3σ"}, {"(truth - mean) / sd": fixed(2), "R-hat": fixed(3)}),
         "",

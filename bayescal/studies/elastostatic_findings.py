@@ -207,8 +207,8 @@ def misstated_config_study(cell: Cell, seed: int) -> pd.DataFrame:
     records = []
     for noise in MISSTATED_NOISE_UM:
         for label, truth in cases.items():
-            # Identified as `bayescal calibrate` identifies: at 0.3 μm the collapsed sampler's first draws of the
-            # stiffer spring's campaign end at R-hat 1.99, which its extension to the Gibbs sampler mends.
+            # Identified as `bayescal calibrate` identifies: at 0.3 μm the stiffer spring's campaign needs the exact
+            # model's correction linearised again about the posterior's spring (R-hat 1.83 after every extension without).
             for row in fit_against_truth(cell, truth, np.random.default_rng(seed), noise_um=noise, extensions=EXTENSIONS):
                 if row["parameter"] in ("K_c", "s0", "gravity_scale"):
                     records.append(
