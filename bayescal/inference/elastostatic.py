@@ -44,7 +44,7 @@ from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError, NotIdentifiableWarning
 from bayescal.inference.closedform import ClosedForm, check_regression, closed_form
 from bayescal.inference.equations import HANGING_ONLY_REASON, DeflectionEquations, check_campaign, check_load_point, deflection_equations
-from bayescal.inference.exact import ExactCorrection
+from bayescal.inference.exact import SETTLED_SD, ExactCorrection, moved_point
 from bayescal.inference.fit_checks import check_determined, check_scale, practical_identifiability, residual_chi2, residual_lack_of_fit
 from bayescal.inference.identifiability import Identifiability, analyse, grouped, label_angle
 from bayescal.inference.posterior import posterior_density, sample_posterior, sampler_coordinates
@@ -71,9 +71,6 @@ RELINEARISATIONS = 4
 """Most times the exact model's correction is linearised again, about the posterior mean of the spring and the
 link-mass scale, when that mean lies far from the point it was linearised at (first the config's spring and the
 URDF's masses)."""
-SETTLED_SD = 0.5
-"""Distance (posterior sd of ``K_c``, ``K_c s0`` and the mass scale) within which the posterior mean is taken as the
-linearisation point itself: the correction's error is quadratic in that distance."""
 
 
 class _Prepared(NamedTuple):
@@ -310,12 +307,13 @@ class ElastostaticModel:
         return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, type(sampler).__name__, misfit)
 
     def _sample(self, campaign: Campaign, prepared: _Prepared, rng: np.random.Generator):
-        """Sample the posterior of ``prepared``, relinearising the exact model's correction about the posterior mean of the
-        spring and the link-mass scale while that mean lies far from the linearisation point (:data:`SETTLED_SD`), then
-        extending the sampling while the diagnostics fall short (``extensions``).
+        """Sample the posterior of ``prepared``, relinearising the exact model's correction about the posterior mean of
+        the spring and the link-mass scale while that mean lies far from the linearisation point
+        (:func:`~bayescal.inference.exact.moved_point`), then extending the sampling while the diagnostics fall short.
 
-        Far from the config's spring the correction, linear in ``K_c``, ``K_c s0`` and the mass scale, misses the exact
-        model by more than a precise tracker's noise: the misfit widens the noise levels and the chains disagree.
+        Far from the config's spring, eq 34's closed form of the equations corrected at the config's can leave the
+        spring's support: the chains then start at the config's spring, hundreds of posterior sd from the mode along a
+        ridge, and do not reach it.  Corrected about the first run's mean, the closed form lands near the mode.
 
         Returns the prepared campaign last linearised, :func:`sample_posterior`'s output, its summary and the sampler.
         """
@@ -327,17 +325,17 @@ class ElastostaticModel:
         static = self._static_columns(campaign, prepared)
         first = run(self.sampler) if static is not None else None
         times = 0
-        while static is not None and times < RELINEARISATIONS and (point := _settled(first[1], static[0])) is not None:
+        while static is not None and times < RELINEARISATIONS and (point := moved_point(first[1].spring, first[1].gravity, static[0])):
             prepared = self._relinearised(campaign, prepared, point)
             static = self._static_columns(campaign, prepared)
             first = run(self.sampler)
             times += 1
         if times:
-            settled = _settled(first[1], static[0]) is None
+            settled = moved_point(first[1].spring, first[1].gravity, static[0]) is None
             K_c, s0, masses = _edge_point(prepared.point)
             warnings.warn(
                 f"{campaign.source}: the posterior's spring and link masses lie far from the config's, about which the exact "
-                f"model's correction is first linearised: linearised again {times} times, last about "
+                f"model's correction is first linearised: linearised again {'once' if times == 1 else f'{times} times'}, last about "
                 f"K_c = {K_c:.4g} N/mm, s0 = {s0:.4g} mm, link masses × {masses:.4g}"
                 + ("" if settled else f" (the posterior mean still moved by more than {SETTLED_SD} sd)"),
                 UserWarning,
@@ -488,17 +486,6 @@ def _stored_point(tree) -> tuple[float, float, float] | None:
         return None
     K_c, s0, masses = (float(tree.attrs[name]) for name in LINEARISATION_ATTRS)
     return K_c * N_PER_MM, s0 * MM, masses
-
-
-def _settled(draws: ElastostaticDraws, at: np.ndarray) -> tuple[float, float, float] | None:
-    """None when the posterior mean of ``[K_c, K_c s0, mass scale]`` lies within :data:`SETTLED_SD` posterior sd of the
-    linearisation point ``at`` (N/m, N, 1); otherwise that mean as ``(K_c, s0, mass scale)`` (N/m, m, 1)."""
-    K_c = draws.spring[..., 1].reshape(-1)
-    values = np.column_stack([K_c, K_c * draws.spring[..., 2].reshape(-1), draws.gravity.reshape(-1)])
-    mean, sd = values.mean(axis=0), values.std(axis=0)
-    if np.all(np.abs(mean - at) <= SETTLED_SD * sd):
-        return None
-    return float(mean[0]), float(mean[1] / mean[0]), float(mean[2])
 
 
 def _listed(names: list[str]) -> str:

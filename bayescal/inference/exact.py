@@ -27,11 +27,42 @@ from bayescal.robot.compensator import Compensator, CompensatorGeometry
 from bayescal.robot.kinematics import Robot
 from bayescal.robot.stiffness import ElasticArm
 
-__all__ = ["ExactCorrection", "campaign_deflections", "exact_deflections", "linearisation_offset", "scale_masses"]
+__all__ = ["ExactCorrection", "campaign_deflections", "exact_deflections", "linearisation_offset", "moved_point", "scale_masses"]
 
 STATIC_STEPS = (0.05, 0.05, 0.05)
 """Finite-difference steps of the static columns: relative in K_c and K_c s0, absolute in the mass scale;
 the correction is linear in all three to well within this (the compensator torque is linear in K_c and K_c s0, eq 7)."""
+
+
+SETTLED_SD = 0.5
+"""Distance (posterior sd of ``K_c``, ``K_c s0`` and the mass scale) within which the posterior mean is taken as the
+linearisation point itself: the correction's error is quadratic in that distance."""
+
+
+def moved_point(spring: np.ndarray, masses: np.ndarray, at: np.ndarray) -> tuple[float, float, float] | None:
+    """Where to linearise the correction next: None when the posterior mean of ``[K_c, K_c s0, mass scale]`` lies within
+    :data:`SETTLED_SD` posterior sd of the linearisation point ``at`` (N/m, N, 1), otherwise that mean.
+
+    Parameters
+    ----------
+    spring
+        ``(..., 3)`` draws of ``[K_theta2^0, K_c, s0]`` (N·m/rad, N/m, m).
+    masses
+        ``(...)`` draws of the link-mass scale.
+    at
+        ``(3,)`` the point the correction was linearised about (:meth:`ExactCorrection.static_columns`).
+
+    Returns
+    -------
+    tuple or None
+        ``(K_c, s0, mass scale)`` (N/m, m, 1) with ``K_c s0`` at its posterior mean, or None.
+    """
+    K_c = spring[..., 1].reshape(-1)
+    values = np.column_stack([K_c, K_c * spring[..., 2].reshape(-1), masses.reshape(-1)])
+    mean, sd = values.mean(axis=0), values.std(axis=0)
+    if np.all(np.abs(mean - at) <= SETTLED_SD * sd):
+        return None
+    return float(mean[0]), float(mean[1] / mean[0]), float(mean[2])
 
 
 def exact_deflections(

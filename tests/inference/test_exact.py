@@ -96,3 +96,16 @@ def test_campaign_deflections_equal_the_loop_over_configurations(data_dir, name)
     np.testing.assert_allclose(batched, expected, rtol=0, atol=1e-12)
     offset = linearisation_offset(cell.robot, campaign, equations, compliances, k2, cell.compensator, cell.load_point)
     assert offset.shape == (equations.n,) and np.all(np.isfinite(offset))
+
+
+def test_the_linearisation_point_moves_to_a_posterior_mean_far_from_it_and_stays_near_it():
+    from bayescal.inference.exact import moved_point
+
+    rng = np.random.default_rng(0)
+    K_c, s0, g = rng.normal(660e3, 1.5e3, 4000), rng.normal(0.575, 4e-4, 4000), rng.normal(1.0, 0.01, 4000)
+    spring = np.column_stack([np.full(4000, 3.3e6), K_c, s0])
+    assert moved_point(spring, g, np.array([660e3, 660e3 * 0.575, 1.0])) is None
+    point = moved_point(spring, g, np.array([144e3, 144e3 * 0.458, 1.0]))
+    assert point == pytest.approx((K_c.mean(), np.mean(K_c * s0) / K_c.mean(), g.mean()))
+    # the mass scale alone off by 2 sd moves it too
+    assert moved_point(spring, g, np.array([660e3, 660e3 * 0.575, 1.02])) is not None
