@@ -44,7 +44,7 @@ from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError, NotIdentifiableWarning
 from bayescal.inference.closedform import ClosedForm, check_regression, closed_form
 from bayescal.inference.equations import HANGING_ONLY_REASON, DeflectionEquations, check_campaign, check_load_point, deflection_equations
-from bayescal.inference.exact import SETTLED_SD, ExactCorrection, moved_point
+from bayescal.inference.exact import SETTLED_SD, UNCONVERGED_SD, ExactCorrection, moved_point
 from bayescal.inference.fit_checks import check_determined, check_scale, practical_identifiability, residual_chi2, residual_lack_of_fit
 from bayescal.inference.identifiability import Identifiability, analyse, grouped, label_angle
 from bayescal.inference.posterior import posterior_density, sample_posterior, sampler_coordinates
@@ -54,7 +54,7 @@ from bayescal.inference.samplers import elastostatic_sampler
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.protocol import Sampler
-from bayescal.sampling.summary import diagnostics, sample_until_converged, summarize, warn_if_unconverged
+from bayescal.sampling.summary import converged, diagnostics, sample_until_converged, summarize, warn_if_unconverged
 from bayescal.units import MM, N_PER_MM
 
 __all__ = ["ElastostaticModel", "restore_results"]
@@ -322,22 +322,26 @@ class ElastostaticModel:
             corrected = replace(prepared.equations, y=prepared.equations.y - prepared.offset).whitened()
             return sample_posterior(corrected, prepared.identifiability, prepared.closed_form, sampler, self.geometry, self.nominal_spring, rng, static)
 
+        def moved(output: tuple) -> tuple[float, float, float] | None:
+            tolerance = SETTLED_SD if converged(diagnostics(output[0])) else UNCONVERGED_SD
+            return moved_point(output[1].spring, output[1].gravity, static[0], tolerance)
+
         static = self._static_columns(campaign, prepared)
         first = run(self.sampler) if static is not None else None
         times = 0
-        while static is not None and times < RELINEARISATIONS and (point := moved_point(first[1].spring, first[1].gravity, static[0])):
+        while static is not None and times < RELINEARISATIONS and (point := moved(first)):
             prepared = self._relinearised(campaign, prepared, point)
             static = self._static_columns(campaign, prepared)
             first = run(self.sampler)
             times += 1
         if times:
-            settled = moved_point(first[1].spring, first[1].gravity, static[0]) is None
+            settled = moved(first) is None
             K_c, s0, masses = _edge_point(prepared.point)
             warnings.warn(
                 f"{campaign.source}: the posterior's spring and link masses lie far from the config's, about which the exact "
                 f"model's correction is first linearised: linearised again {'once' if times == 1 else f'{times} times'}, last about "
                 f"K_c = {K_c:.4g} N/mm, s0 = {s0:.4g} mm, link masses × {masses:.4g}"
-                + ("" if settled else f" (the posterior mean still moved by more than {SETTLED_SD} sd)"),
+                + ("" if settled else " (the posterior mean still moving)"),
                 UserWarning,
                 stacklevel=3,
             )
