@@ -382,6 +382,23 @@ def test_a_spring_far_from_the_configs_is_relinearised_until_the_chains_agree(ce
     np.testing.assert_allclose(restored.residuals, results.residuals, rtol=0, atol=1e-15)
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("spring, masses", [((660.0, 575.0), 1.0), ((144.0, 458.0), 1.15), ((300.0, 520.0), 0.9)])
+def test_default_calibration_converges_on_campaigns_unlike_the_config_at_a_precise_trackers_noise(cell, spring, masses):
+    from bayescal.inference.elastostatic import EXTENSIONS
+    from bayescal.sampling.summary import converged
+    from bayescal.studies.elastostatic_coverage import random_plan
+
+    precise = dataclasses.replace(cell, tracker=dataclasses.replace(cell.tracker, U0=0.3e-6 / cell.tracker.factor, U1=0.0))
+    compensator = cell.compensator.geometry.with_spring(spring[0] * N_PER_MM, spring[1] * MM)
+    truth = dataclasses.replace(precise, robot=scale_masses(cell.robot, masses), compensator=compensator)
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        campaign = DigitalTwin(truth).simulate(random_plan(cell, 6, 5, rng), 3, rng)
+        results, _ = _fit_recording(ElastostaticModel.from_cell(precise, extensions=EXTENSIONS), campaign, rng)
+        assert converged(results.diagnostics()), (seed, results.diagnostics())
+
+
 def _robot_fit(data_dir, name, seed=3):
     """A cell of data/robots/, a random campaign of it on the twin and its fit."""
     from bayescal.cell.config import load_cell
