@@ -58,6 +58,7 @@ from bayescal.geometry.density import _Density
 from bayescal.sampling.ensemble import EnsembleSampler
 from bayescal.sampling.independence import IndependenceSampler
 from bayescal.sampling.protocol import Sampler
+from bayescal.threads import single_blas_thread
 from bayescal.units import DEG, MM
 
 __all__ = ["GeometryPriors", "GeometryPosteriorModel", "GeometryPosterior", "geometry_sampler"]
@@ -226,6 +227,7 @@ class GeometryPosteriorModel:
         self.sampler = sampler if sampler is not None else geometry_sampler()
         self.priors = priors if priors is not None else GeometryPriors()
 
+    @single_blas_thread
     def fit(self, points: MarkerPoints, rng: np.random.Generator | int | None = 0) -> GeometryPosterior:
         """Sample the posterior of the geometry given marker points.
 

@@ -55,6 +55,7 @@ from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.protocol import Sampler
 from bayescal.sampling.summary import diagnostics, sample_until_converged, summarize, warn_if_unconverged
+from bayescal.threads import single_blas_thread
 
 __all__ = ["ElastostaticModel", "restore_results"]
 
@@ -244,6 +245,7 @@ class ElastostaticModel:
             cf, offset, iterations, at = self._exact.relinearise(campaign, equations, ident, linear_cf)
         return _Prepared(equations, ident, linear_cf, offset, cf, iterations, at)
 
+    @single_blas_thread
     def fit(self, campaign: Campaign, rng: np.random.Generator | int = 0) -> ElastostaticResults:
         """Identify the parameters from ``campaign``; ``rng`` seeds every random draw."""
         rng = np.random.default_rng(rng)

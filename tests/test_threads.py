@@ -1,0 +1,107 @@
+import ast
+import contextlib
+import os
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+from threadpoolctl import threadpool_info, threadpool_limits
+
+from bayescal.sampling.collapsed import CollapsedSampler, MarginalDensity
+from bayescal.threads import one_blas_thread
+
+from tests.sampling.test_gibbs import compensated_problem
+
+ROOT = str(Path(__file__).resolve().parents[1])
+
+
+def _blas_threads() -> list[int]:
+    return [pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"]
+
+
+@pytest.fixture
+def two_blas_threads():
+    """BLAS at two threads, as OpenBLAS starts on a two-core machine (the tests' conftest sets one)."""
+    if not _blas_threads():
+        pytest.skip("no BLAS library that threadpoolctl controls")
+    with threadpool_limits(2, user_api="blas"):
+        if max(_blas_threads()) < 2:
+            pytest.skip("this BLAS runs one thread at most")
+        yield
+
+
+def test_one_thread_inside_and_the_users_setting_after(two_blas_threads):
+    before = _blas_threads()
+    with one_blas_thread():
+        assert set(_blas_threads()) == {1}
+        with one_blas_thread():
+            assert set(_blas_threads()) == {1}
+        # Leaving the inner block must not lift the outer one's limit.
+        assert set(_blas_threads()) == {1}
+    assert _blas_threads() == before
+
+
+def test_the_limit_is_lifted_when_the_block_raises(two_blas_threads):
+    before = _blas_threads()
+    with pytest.raises(ZeroDivisionError), one_blas_thread():
+        1 / 0
+    assert _blas_threads() == before
+
+
+def test_a_block_in_another_thread_leaves_blas_as_it_is(two_blas_threads):
+    """OpenBLAS ignores a size set from another thread once the main thread set one: such a block does not try."""
+    before = _blas_threads()
+    seen = []
+
+    def other():
+        with one_blas_thread():
+            seen.append(_blas_threads())
+
+    worker = threading.Thread(target=other)
+    worker.start()
+    worker.join(timeout=30)
+    assert seen == [before]
+    assert _blas_threads() == before
+
+
+def test_a_library_imported_after_a_block_is_limited_by_the_next_block():
+    """scipy.linalg brings its own OpenBLAS: a block entered after its import limits it too (a fresh process)."""
+    script = """
+import numpy
+from threadpoolctl import threadpool_info, threadpool_limits
+from bayescal.threads import one_blas_thread
+with one_blas_thread():
+    pass
+import scipy.linalg
+with threadpool_limits(2, user_api="blas"), one_blas_thread():
+    print(sorted((pool["filepath"], pool["num_threads"]) for pool in threadpool_info() if pool["user_api"] == "blas"))
+"""
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True, env=os.environ | {"PYTHONPATH": ROOT})
+    pools = ast.literal_eval(done.stdout)
+    assert len(pools) == 2 and {threads for _, threads in pools} == {1}
+
+
+def test_a_sampler_runs_on_one_blas_thread_and_leaves_the_setting_alone(two_blas_threads, monkeypatch):
+    import bayescal.threads
+
+    posterior, start = compensated_problem(np.random.default_rng(5))
+    seen = []
+    density = MarginalDensity.__call__
+
+    def recording(self, x):
+        seen.append(set(_blas_threads()))
+        return density(self, x)
+
+    monkeypatch.setattr(MarginalDensity, "__call__", recording)
+    before = _blas_threads()
+    sampler = CollapsedSampler(n_chains=2, n_draws=50, n_adapt=200, pilot_chains=4, pilot_sweeps=5)
+    limited = sampler.sample(posterior, start, np.full(start.size, 0.05), np.random.default_rng(0))
+    assert seen and all(threads == {1} for threads in seen)
+    assert _blas_threads() == before
+    # The same draws, to rounding, as on two threads without the limit, for the same seed.
+    monkeypatch.setattr(bayescal.threads, "one_blas_thread", contextlib.nullcontext)
+    unlimited = sampler.sample(posterior, start, np.full(start.size, 0.05), np.random.default_rng(0))
+    assert np.allclose(limited, unlimited, rtol=1e-12, atol=0)
