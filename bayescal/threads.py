@@ -4,8 +4,10 @@ Every matrix of a fit is a few columns wide (a dozen compliances, eleven nonline
 coordinates, stacks of 6 × 6 Jacobians), so BLAS threads only add their start-up and
 spinning; on a shared machine they spin against the other processes.  The command line
 sets ``OPENBLAS_NUM_THREADS=1`` before NumPy loads, which a user's script does not: a fit
-called from Python limits BLAS to one thread itself, for its own duration only
-(``benchmarks/bench_threads.py`` measures both).
+called from Python (:meth:`ElastostaticModel.fit
+<bayescal.inference.elastostatic.ElastostaticModel.fit>`, :meth:`GeometryPosteriorModel.fit
+<bayescal.geometry.posterior.GeometryPosteriorModel.fit>`) limits BLAS to one thread
+itself, for its own duration only (``benchmarks/bench_threads.py`` measures both).
 
 The limit is set and lifted from the main thread only.  OpenBLAS's pool is shared by
 the whole process, and once the main thread has set its size, OpenBLAS (0.3.34, NumPy's
@@ -18,19 +20,14 @@ during a fit run on one thread too.
 
 from __future__ import annotations
 
-import functools
 import sys
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import ParamSpec, TypeVar
 
 from threadpoolctl import ThreadpoolController
 
-__all__ = ["one_blas_thread", "single_blas_thread"]
-
-_P = ParamSpec("_P")
-_R = TypeVar("_R")
+__all__ = ["one_blas_thread"]
 
 # The controller lists the BLAS libraries loaded when it is made (0.7 ms: it walks the process's shared
 # libraries); an import can load another (scipy.linalg its own OpenBLAS), so it is made again when the
@@ -54,15 +51,3 @@ def one_blas_thread() -> Iterator[None]:
         return
     with _current_controller().limit(limits=1, user_api="blas"):
         yield
-
-
-def single_blas_thread(function: Callable[_P, _R]) -> Callable[_P, _R]:
-    """Decorator: run ``function`` inside :func:`one_blas_thread`."""
-
-    @functools.wraps(function)
-    def limited(*args: _P.args, **kwargs: _P.kwargs) -> _R:
-        # The name is looked up at each call, so that benchmarks/bench_threads.py can lift the limit to measure without it.
-        with one_blas_thread():
-            return function(*args, **kwargs)
-
-    return limited

@@ -12,8 +12,8 @@ fits each ``REPEATS`` times, alternating, in this process:
 * ``library``: the fit as a script calls it, BLAS threads as the process has them;
 * ``one thread``: the same inside ``threadpoolctl.threadpool_limits(1, user_api="blas")``;
 * ``BASELINE``: the same with the library's own limit lifted
-  (:func:`bayescal.threads.one_blas_thread` replaced by a no-op), the library before it
-  limited its threads.
+  (:func:`bayescal.threads.one_blas_thread` replaced by a no-op in
+  :mod:`bayescal.inference.elastostatic`), the library before it limited its threads.
 
 Printed: BLAS's threads as found, the load average, the median CPU and wall seconds of
 each, the ratios against ``one thread``, the largest difference of each one's posterior
@@ -66,7 +66,7 @@ def _fits(model, campaign, label: str) -> None:
     contexts = {
         "library": nullcontext,
         "one thread": lambda: threadpool_limits(1, user_api="blas"),
-        "BASELINE": lambda: mock.patch("bayescal.threads.one_blas_thread", nullcontext),
+        "BASELINE": lambda: mock.patch("bayescal.inference.elastostatic.one_blas_thread", nullcontext),
     }
     model.fit(campaign, np.random.default_rng(0))  # the first call pays for lazy imports
     cpu: dict[str, list[float]] = {name: [] for name in contexts}

@@ -55,7 +55,7 @@ from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.protocol import Sampler
 from bayescal.sampling.summary import diagnostics, sample_until_converged, summarize, warn_if_unconverged
-from bayescal.threads import single_blas_thread
+from bayescal.threads import one_blas_thread
 
 __all__ = ["ElastostaticModel", "restore_results"]
 
@@ -245,59 +245,61 @@ class ElastostaticModel:
             cf, offset, iterations, at = self._exact.relinearise(campaign, equations, ident, linear_cf)
         return _Prepared(equations, ident, linear_cf, offset, cf, iterations, at)
 
-    @single_blas_thread
     def fit(self, campaign: Campaign, rng: np.random.Generator | int = 0) -> ElastostaticResults:
         """Identify the parameters from ``campaign``; ``rng`` seeds every random draw."""
-        rng = np.random.default_rng(rng)
-        prepared = self._prepare(campaign)
-        equations, ident, offset, cf = prepared.equations, prepared.identifiability, prepared.offset, prepared.closed_form
-        corrected = replace(equations, y=equations.y - offset)
-        # Without an identified compensator the link weights are not sampled: on arm6 masses 15 % heavier move the
-        # correction by 0.8 μm rms, against 11 μm of noise per deflection coordinate (docs/elastostatic.md).
-        static = self._static_columns(campaign, prepared) if self.model == "exact" and ident.compensator else None
-        (tree, draws, residual, n_free), summary = sample_until_converged(
-            lambda sampler: sample_posterior(corrected.whitened(), ident, cf, sampler, self.geometry, self.nominal_spring, rng, static),
-            self.sampler,
-            self.extensions,
-            what="the elastostatic posterior",
-        )
-        tree.attrs.update(
-            {"model": self.model, "noise": self.noise, "sampler": type(self.sampler).__name__, "geometry": self.geometry_source}
-        )
-        if corrected.scale is not None:
-            residual = residual * corrected.scale
-        practical = practical_identifiability(summary, equations, ident, cf, self.geometry, self.nominal_spring)
-        # What a later user of the saved posterior (bayescal compensate) must know without the campaign:
-        # the robot it belongs to and which sampled parameters the data did not determine.
-        tree.attrs.update(
-            {
-                "robot": self.robot.model.name,
-                "n_joints": self.robot.nq,
-                "not_identifiable": ",".join(sorted(set(ident.not_identifiable) | set(practical))),
-            }
-        )
-        for names, reason in grouped(practical):
-            warnings.warn(f"{_listed(names)} not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=2)
-        warn_if_unconverged(diagnostics(tree, summary), what="the elastostatic posterior")
-        chi2 = residual_chi2(self.tracker, campaign, residual, n_free)
-        if chi2 is not None and not 1 / CHI2_TOLERANCE < chi2 < CHI2_TOLERANCE:
-            warnings.warn(
-                f"{campaign.source}: the residuals are {math.sqrt(chi2):.2f} times the tracker noise of the config "
-                f"(chi2/dof {chi2:.3g}): the config's tracker model does not describe these data "
-                f"({'a larger error, or a misfit of the model' if chi2 > 1 else 'a noise model too pessimistic'}); "
-                "the intervals use the noise the data show",
-                UserWarning,
-                stacklevel=2,
+        # One BLAS thread, as the command line sets (bayescal/threads.py); a block, not a decorator, so that
+        # the warnings' stack levels still name the caller's line.
+        with one_blas_thread():
+            rng = np.random.default_rng(rng)
+            prepared = self._prepare(campaign)
+            equations, ident, offset, cf = prepared.equations, prepared.identifiability, prepared.offset, prepared.closed_form
+            corrected = replace(equations, y=equations.y - offset)
+            # Without an identified compensator the link weights are not sampled: on arm6 masses 15 % heavier move the
+            # correction by 0.8 μm rms, against 11 μm of noise per deflection coordinate (docs/elastostatic.md).
+            static = self._static_columns(campaign, prepared) if self.model == "exact" and ident.compensator else None
+            (tree, draws, residual, n_free), summary = sample_until_converged(
+                lambda sampler: sample_posterior(corrected.whitened(), ident, cf, sampler, self.geometry, self.nominal_spring, rng, static),
+                self.sampler,
+                self.extensions,
+                what="the elastostatic posterior",
             )
-        misfit = residual_lack_of_fit(self.tracker, campaign, residual, n_free)
-        if misfit is not None and misfit.significant():
-            warnings.warn(
-                f"{campaign.source}: the model misses the repeated configurations: {misfit.describe()}; "
-                "bayescal critique names the likely cause",
-                UserWarning,
-                stacklevel=2,
+            tree.attrs.update(
+                {"model": self.model, "noise": self.noise, "sampler": type(self.sampler).__name__, "geometry": self.geometry_source}
             )
-        return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, type(self.sampler).__name__, misfit)
+            if corrected.scale is not None:
+                residual = residual * corrected.scale
+            practical = practical_identifiability(summary, equations, ident, cf, self.geometry, self.nominal_spring)
+            # What a later user of the saved posterior (bayescal compensate) must know without the campaign:
+            # the robot it belongs to and which sampled parameters the data did not determine.
+            tree.attrs.update(
+                {
+                    "robot": self.robot.model.name,
+                    "n_joints": self.robot.nq,
+                    "not_identifiable": ",".join(sorted(set(ident.not_identifiable) | set(practical))),
+                }
+            )
+            for names, reason in grouped(practical):
+                warnings.warn(f"{_listed(names)} not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=2)
+            warn_if_unconverged(diagnostics(tree, summary), what="the elastostatic posterior")
+            chi2 = residual_chi2(self.tracker, campaign, residual, n_free)
+            if chi2 is not None and not 1 / CHI2_TOLERANCE < chi2 < CHI2_TOLERANCE:
+                warnings.warn(
+                    f"{campaign.source}: the residuals are {math.sqrt(chi2):.2f} times the tracker noise of the config "
+                    f"(chi2/dof {chi2:.3g}): the config's tracker model does not describe these data "
+                    f"({'a larger error, or a misfit of the model' if chi2 > 1 else 'a noise model too pessimistic'}); "
+                    "the intervals use the noise the data show",
+                    UserWarning,
+                    stacklevel=2,
+                )
+            misfit = residual_lack_of_fit(self.tracker, campaign, residual, n_free)
+            if misfit is not None and misfit.significant():
+                warnings.warn(
+                    f"{campaign.source}: the model misses the repeated configurations: {misfit.describe()}; "
+                    "bayescal critique names the likely cause",
+                    UserWarning,
+                    stacklevel=2,
+                )
+            return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, type(self.sampler).__name__, misfit)
 
     def restore(self, campaign: Campaign, tree) -> ElastostaticResults:
         """The results of an earlier :meth:`fit` of ``campaign`` from its saved posterior, without sampling again.

@@ -31,7 +31,6 @@ import numpy as np
 
 from bayescal.sampling.gibbs import ConditionallyLinear, GibbsSampler, _positive_gaussian
 from bayescal.sampling.independence import _run_chains
-from bayescal.threads import single_blas_thread
 
 __all__ = ["CollapsedSampler", "MarginalDensity"]
 
@@ -266,7 +265,6 @@ class CollapsedSampler:
             f"{self.n_chains} chains of {self.n_tune} tuning + {self.n_draws} kept steps"
         )
 
-    @single_blas_thread
     def sample(self, target: ConditionallyLinear, start: np.ndarray, scale: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Draws ``(chain, draw, ndim)`` of ``theta = [k, z, log sigma]``.
 

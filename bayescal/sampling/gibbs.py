@@ -31,8 +31,6 @@ from typing import Protocol
 
 import numpy as np
 
-from bayescal.threads import single_blas_thread
-
 __all__ = ["GibbsSampler", "ConditionallyLinear", "NonlinearBlock"]
 
 T_DOF = 5.0
@@ -305,7 +303,6 @@ class GibbsSampler:
     n_tune: int = 200
     n_draws: int = 1000
 
-    @single_blas_thread
     def sample(self, target: ConditionallyLinear, start: np.ndarray, scale: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Draws ``(chain, draw, ndim)`` of ``theta = [k, z, log sigma]``.
 
