@@ -3,11 +3,10 @@
 The command line sets ``OPENBLAS_NUM_THREADS=1`` before NumPy loads; a script that
 calls ``ElastostaticModel(...).fit(...)`` does not, and gets OpenBLAS's default
 (one thread per core).  This script leaves the environment alone, as such a script
-would, makes the demo's Table III twin campaign (``bayescal geometry`` on Table I,
+would.  It makes the demo's Table III twin campaign (``bayescal geometry`` on Table I,
 ``bayescal simulate`` of Table III with 3 repeats and seed 1, in a temporary folder)
-and, in this process, a campaign of ``--configurations`` random configurations
-(default 10,000) on the digital twin, and
-fits each ``REPEATS`` times, alternating, in this process:
+and a campaign of ``--configurations`` random configurations (default 10,000) on the
+digital twin, and fits each ``REPEATS`` times in this process, alternating:
 
 * ``library``: the fit as a script calls it, BLAS threads as the process has them;
 * ``one thread``: the same inside ``threadpoolctl.threadpool_limits(1, user_api="blas")``;
