@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.cell.config import load_cell
     from bayescal.design.optimise import PlanDesigner
     from bayescal.errors import InputError
-    from bayescal.studies.angles import identification_cost, q2_angle_study
+    from bayescal.studies.angles import identification_cost, q2_angle_study, width_targets
     from bayescal.tables import markdown_table
 
     outputs = {"--output": args.output, "--markdown": args.markdown}
@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         table = q2_angle_study(
             cell, angles=range(3, args.max_angles + 1), per_angle=range(1, args.max_per_angle + 1), repeats=args.repeats, seed=args.seed
         )
-    cost = identification_cost(table, repeats=args.repeats)
+    cost = identification_cost(table, targets=width_targets(cell), repeats=args.repeats)
     columns = ["angles", "per_angle", "noise_fraction", "test_pose_rms_mm", "k2_width_3sd_pct", "K_c_width_3sd_pct", "s0_width_3sd_pct"]
     rows = [[f"{v:.4g}" if isinstance(v, float) else v for v in row] for row in table[columns].itertuples(index=False)]
     answer = markdown_table(list(cost.columns), [[f"{v:.4g}" if isinstance(v, float) else v for v in row] for row in cost.itertuples(index=False)])
