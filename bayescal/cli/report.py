@@ -117,7 +117,6 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
 def _read_inputs(args: argparse.Namespace):
     from bayescal.reports.review import ReviewInputs
-    from bayescal.sampling.summary import load
 
     from bayescal.cell.config import load_cell
     from bayescal.inference.priors import posterior_geometry
@@ -128,7 +127,7 @@ def _read_inputs(args: argparse.Namespace):
     geometry = None
     if args.geometry:
         sources["geometry posterior"] = args.geometry
-        review.geometry = _load_tree(args.geometry, "--geometry", load, needs=("L", "a_x", "a_y"), foreign="k2_q2")
+        review.geometry = _load_tree(args.geometry, "--geometry", needs=("L", "a_x", "a_y"), foreign="k2_q2")
         # The check calibrate applies: units, finite draws and, with a cell, nearness to its compensator.
         geometry = posterior_geometry(args.geometry, None if cell is None else cell.compensator)
     if args.registration:
@@ -147,7 +146,7 @@ def _read_inputs(args: argparse.Namespace):
 
         # A robot without a compensator has no per-angle compliances; the geometry's own 'R' tells the other kind apart.
         per_angle = ParameterRegistry.of_cell(cell).per_angle_variable if cell is not None else None
-        tree = _load_tree(args.calibration, "--calibration", load, needs=(*([per_angle] if per_angle else []), "sigma"), foreign="R")
+        tree = _load_tree(args.calibration, "--calibration", needs=(*([per_angle] if per_angle else []), "sigma"), foreign="R")
         _check_joint_count(tree, cell, args.calibration)
         calibration = calibration_findings(cell, campaign, tree, geometry)
         _check_fit(calibration.results, args)
@@ -170,18 +169,15 @@ def _read_inputs(args: argparse.Namespace):
     return review
 
 
-def _load_tree(path: str, option: str, load, needs: tuple[str, ...], foreign: str):
+def _load_tree(path: str, option: str, needs: tuple[str, ...], foreign: str):
     """The posterior at ``path``, refused when it lacks a variable of ``needs``, has ``foreign``, a variable only
     the other kind of posterior has (an elastostatic posterior also holds the geometry it sampled), or non-finite draws."""
     import numpy as np
 
     from bayescal.errors import InputError
+    from bayescal.sampling.summary import read_posterior
 
-    try:
-        tree = load(path)
-        posterior = tree["posterior"]
-    except (OSError, KeyError, ValueError) as exc:
-        raise InputError(f"cannot read a posterior DataTree ({type(exc).__name__})", source=path) from None
+    tree, posterior = read_posterior(path)
     missing = [name for name in needs if name not in posterior]
     if missing:
         raise InputError(f"the posterior has no variable {', '.join(repr(m) for m in missing)}: is it the file {option} expects?", source=path)

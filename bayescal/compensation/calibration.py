@@ -159,14 +159,10 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
         When the file is not an elastostatic posterior, belongs to another robot or joint
         count, or lacks the compensator model the cell needs.
     """
-    from bayescal.sampling.summary import load
+    from bayescal.sampling.summary import read_posterior
 
     source = str(path)
-    try:
-        tree = load(path)
-        posterior = tree["posterior"]
-    except (OSError, KeyError, ValueError) as exc:
-        raise InputError(f"cannot read a posterior DataTree ({type(exc).__name__})", source=source) from None
+    tree, posterior = read_posterior(path)
     # A robot without a compensator has no per-angle compliances: any joint compliance tells the kind.
     if "sigma" not in posterior or not any(name[:1] == "k" and name[1:].isdigit() for name in posterior.data_vars):
         raise InputError("not an elastostatic posterior (no joint compliance k<j> or no 'sigma'): expected `bayescal calibrate --posterior`", source=source)

@@ -92,13 +92,9 @@ def posterior_geometry(path, expected: CompensatorGeometry | None = None) -> Geo
         For a file that is not a geometry posterior (an elastostatic posterior included), a variable
         missing, in another unit or with non-finite draws, a singular covariance, or a mean far from ``expected``.
     """
-    from bayescal.sampling.summary import load
+    from bayescal.sampling.summary import read_posterior
 
-    try:
-        tree = load(path)
-        posterior = tree["posterior"]
-    except (OSError, KeyError, ValueError) as exc:
-        raise InputError(f"cannot read a geometry posterior ({type(exc).__name__})", source=str(path)) from None
+    tree, posterior = read_posterior(path, "a geometry posterior")
     per_angle = [str(name) for name in posterior.data_vars if is_per_angle_variable(str(name))]
     if per_angle:
         tree.close()
