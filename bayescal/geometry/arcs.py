@@ -30,7 +30,7 @@ import pandas as pd
 from numpy.typing import ArrayLike
 
 from bayescal.robot.compensator import CompensatorGeometry
-from bayescal.geometry.layout import cylinder_direction, cylinder_points, lever_angle, lever_points
+from bayescal.geometry.layout import circular_mean, cylinder_direction, cylinder_points, lever_angle, lever_points, marker_offset
 # The points and their reader live in geometry/points.py; they are named here too, beside the fits.
 from bayescal.geometry.points import LEVER_MARKER, MarkerPoints, read_arc_points
 from bayescal.units import DEG, MM
@@ -345,10 +345,8 @@ class MarkerLayout:
         layout = cls(lever.centre[:2], lever.radius, lever.phi, lever.sense, fit.p0[:2], {})
         for name in points.cylinder_markers:
             q2, xyz = points.of(name)
-            direction = layout._cylinder_direction(q2)
-            d = xyz[:, :2] - fit.p0[:2]
-            offset = float(np.angle(np.mean(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - direction)))))
-            layout.cylinder[name] = (fit.cylinder.radii[name], offset)
+            offset = marker_offset(xyz[:, 0], xyz[:, 1], fit.p0[0], fit.p0[1], layout._cylinder_direction(q2))
+            layout.cylinder[name] = (fit.cylinder.radii[name], circular_mean(offset))
         return layout
 
     def _lever_points(self, q2: np.ndarray) -> np.ndarray:
