@@ -314,7 +314,8 @@ class CompensatorGeometryModel:
 
 @dataclass(frozen=True)
 class MarkerLayout:
-    """Where the markers are at any joint angle: a ground truth for simulated campaigns (SI, tracker frame).
+    """Where the markers are at any joint angle: the ground truth of simulated points (SI, tracker frame;
+    :func:`bayescal.twin.arcs.simulate_markers`).
 
     P1 is at ``p2 + L·[cos(phi + sense·q2), sin(phi + sense·q2)]``; each
     cylinder marker is rigid on the cylinder P0→P1, at distance ``radius``
@@ -365,13 +366,3 @@ class MarkerLayout:
             x, y, _ = cylinder_points(self.p0[0], self.p0[1], direction, radius, offset)
             out[name] = np.column_stack([x, y])
         return out
-
-    def simulate(self, q2: ArrayLike, sigma: float, rng: np.random.Generator) -> MarkerPoints:
-        """Tracker points at joint angles ``q2`` (rad) with isotropic Gaussian noise of sd ``sigma`` (m)."""
-        q2 = np.atleast_1d(np.asarray(q2, dtype=float))
-        names, angles, xyz = [], [], []
-        for name, exact in self.positions(q2).items():
-            names += [name] * q2.size
-            angles.append(q2)
-            xyz.append(exact + sigma * rng.standard_normal(exact.shape))
-        return MarkerPoints.from_arrays(np.array(names), np.concatenate(angles), np.vstack(xyz))
