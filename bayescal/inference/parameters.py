@@ -158,6 +158,21 @@ class ParameterRegistry:
         """``{name: edge unit}``."""
         return {p.name: p.unit for p in self.parameters}
 
+    def edge_values(self, compliances, spring=None) -> dict:
+        """SI values by name in the edge units: ``{k1: …, k<n>: …}`` and, given the spring, ``K_c`` and ``s0``.
+
+        Parameters
+        ----------
+        compliances
+            ``(n_joints,)`` joint compliances, rad/(N·m) or m/N for a prismatic joint.
+        spring
+            ``(K_c, s0)`` in N/m and m, or None.
+        """
+        values = {parameter.name: parameter.to_edge(value) for parameter, value in zip(self.parameters[: self.n_joints], compliances)}
+        if spring is not None:
+            values |= {"K_c": self["K_c"].to_edge(spring[0]), "s0": self["s0"].to_edge(spring[1])}
+        return values
+
     def __getitem__(self, name: str) -> Parameter:
         for parameter in self.parameters:
             if parameter.name == name:

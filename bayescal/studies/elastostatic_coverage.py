@@ -204,12 +204,10 @@ def fit_against_truth(
     summary = results.summary()
     not_identifiable = results.identifiability.not_identifiable
     r_hat = results.diagnostics()["r_hat_max"]
-    # hanging masses never turn A1 (k1 stays the config's); loads in any direction do
-    first = 0 if not cell.loading.hanging_only else 1
-    registry = ParameterRegistry.of_cell(cell)
-    values = {f"k{j + 1}": registry[f"k{j + 1}"].to_edge(truth.compliances[j]) for j in range(first, cell.robot.nq)}
-    if truth.spring is not None:
-        values |= {"K_c": registry["K_c"].to_edge(truth.spring[0]), "s0": registry["s0"].to_edge(truth.spring[1])}
+    values = ParameterRegistry.of_cell(cell).edge_values(truth.compliances, truth.spring)
+    if cell.loading.hanging_only:
+        # hanging masses never turn A1 (k1 stays the config's); loads in any direction do
+        del values["k1"]
     values["gravity_scale"] = truth.masses
     out = []
     for name, value in values.items():
