@@ -21,8 +21,9 @@ import numpy as np
 
 from bayescal.cell.config import Cell
 from bayescal.errors import InputError
+from bayescal.inference.parameters import ParameterRegistry
 from bayescal.robot.compensator import Compensator, stiffness_regressor
-from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
+from bayescal.units import DEG, MM
 
 __all__ = ["Calibration", "load_calibration", "UNIDENTIFIED_LOG_SD", "GRID_STEP", "MAX_DRAWS"]
 
@@ -177,12 +178,13 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
     keep = np.linspace(0, total - 1, min(total, MAX_DRAWS)).round().astype(int)
     size = keep.size
     joint = cell.compensated_joint
+    registry = ParameterRegistry.of_cell(cell)
     own = np.empty((size, n))
     unidentified = {name for name in str(tree.attrs.get("not_identifiable", "")).split(",") if name}
     for j in range(n):
         name = f"k{j + 1}"
         if name in posterior:
-            own[:, j] = values(name) * URAD_PER_NM
+            own[:, j] = registry[name].to_si(values(name))
         else:
             own[:, j] = cell.compliances[j] * np.exp(UNIDENTIFIED_LOG_SD * rng.standard_normal(size))
             unidentified.add(name)
@@ -194,7 +196,7 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
                 "the cell's compensated joint cannot be predicted at other angles",
                 source=source,
             )
-        spring = np.column_stack([values("K_c") * N_PER_MM, values("s0") * MM])
+        spring = np.column_stack([registry["K_c"].to_si(values("K_c")), registry["s0"].to_si(values("s0"))])
         if "L" in posterior:
             geometry = np.column_stack([values(name) * f for name, f in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG))])
         else:
