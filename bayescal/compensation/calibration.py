@@ -21,9 +21,9 @@ import numpy as np
 
 from bayescal.cell.config import Cell
 from bayescal.errors import InputError
-from bayescal.inference.parameters import ParameterRegistry
+from bayescal.inference.parameters import GEOMETRY_PARAMETERS, ParameterRegistry
 from bayescal.robot.compensator import Compensator, stiffness_regressor
-from bayescal.units import DEG, MM
+from bayescal.units import DEG
 
 __all__ = ["Calibration", "load_calibration", "UNIDENTIFIED_LOG_SD", "GRID_STEP", "MAX_DRAWS"]
 
@@ -198,7 +198,7 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
             )
         spring = np.column_stack([registry["K_c"].to_si(values("K_c")), registry["s0"].to_si(values("s0"))])
         if "L" in posterior:
-            geometry = np.column_stack([values(name) * f for name, f in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG))])
+            geometry = np.column_stack([p.to_si(values(p.name)) for p in GEOMETRY_PARAMETERS])
         else:
             c = cell.compensator
             geometry = np.tile([c.L, c.a_x, c.a_y, c.phi], (size, 1))

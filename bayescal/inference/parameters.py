@@ -26,10 +26,11 @@ from dataclasses import dataclass
 from types import MappingProxyType
 
 from bayescal.cell.joints import DEFAULT_COMPENSATED_JOINT
-from bayescal.units import MM, N_PER_MM, URAD_PER_NM
+from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
 
 __all__ = [
     "COMPLIANCE_UNIT",
+    "GEOMETRY_PARAMETERS",
     "PRISMATIC_COMPLIANCE_UNIT",
     "Parameter",
     "ParameterRegistry",
@@ -84,6 +85,16 @@ class Parameter:
     def to_si(self, value):
         """An edge-unit value (float or array) in SI."""
         return value * self.si_factor
+
+
+GEOMETRY_PARAMETERS = (
+    Parameter("L", "L", MM, "mm", "length of the compensator's lever P2-P1 (eq 10)"),
+    Parameter("a_x", "a_x", MM, "mm", "x of the cylinder's pivot P0 from the joint-2 axis (Table II)"),
+    Parameter("a_y", "a_y", MM, "mm", "y of the cylinder's pivot P0 from the joint-2 axis (Table II)"),
+    Parameter("phi", "φ", DEG, "deg", "angle of the lever at q2 = 0"),
+)
+"""The compensator geometry a saved posterior carries (``bayescal geometry``, and the elastostatic
+posterior that propagated it), in the order of :class:`~bayescal.robot.compensator.CompensatorGeometry`."""
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from bayescal.errors import InputError
-from bayescal.inference.parameters import is_per_angle_variable
+from bayescal.inference.parameters import GEOMETRY_PARAMETERS, is_per_angle_variable
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.units import DEG, MM
 
@@ -63,9 +63,6 @@ PHI_SD = 0.05 * DEG
 (Table II gives none); the arc fits of the geometry step determine phi to a few hundredths of a degree."""
 
 
-GEOMETRY_UNITS = {"L": "mm", "a_x": "mm", "a_y": "mm", "phi": "deg"}
-"""The variables of a geometry posterior and the unit each is stored in (its ``units`` attribute)."""
-
 MAX_GEOMETRY_OFFSET = 0.5
 """Largest difference between a geometry posterior's L or |(a_x, a_y)| and the cell's, as a fraction of the
 cell's value, and (times 60 deg) of phi: the twin's and Table II's geometries differ by under 1 %, a value in
@@ -103,7 +100,8 @@ def posterior_geometry(path, expected: CompensatorGeometry | None = None) -> Geo
             source=str(path),
         )
     columns = []
-    for name, unit in GEOMETRY_UNITS.items():
+    for parameter in GEOMETRY_PARAMETERS:
+        name, unit = parameter.name, parameter.unit
         if name not in posterior:
             tree.close()
             raise InputError(f"the geometry posterior has no variable '{name}'", source=str(path), column=name)
@@ -113,7 +111,7 @@ def posterior_geometry(path, expected: CompensatorGeometry | None = None) -> Geo
             tree.close()
             problem = f"is in {given}" if given != unit else f"has {np.count_nonzero(~np.isfinite(values))} non-finite draws"
             raise InputError(f"the variable {problem}; expected finite draws in {unit}", source=str(path), column=name)
-        columns.append(values * (MM if unit == "mm" else DEG))
+        columns.append(parameter.to_si(values))
     tree.close()
     draws = np.column_stack(columns)
     spread = draws.std(axis=0)

@@ -11,7 +11,7 @@ import pandas as pd
 from bayescal.inference.closedform import ClosedForm
 from bayescal.inference.equations import ANGLE_DECIMALS, DeflectionEquations
 from bayescal.inference.identifiability import Identifiability
-from bayescal.inference.parameters import COMPLIANCE_UNIT, ParameterRegistry, is_per_angle_variable, label_angle
+from bayescal.inference.parameters import COMPLIANCE_UNIT, GEOMETRY_PARAMETERS, ParameterRegistry, is_per_angle_variable, label_angle
 from bayescal.inference.lack_of_fit import LackOfFit
 from bayescal.inference.priors import GeometryPrior
 from bayescal.jsonsafe import json_safe
@@ -126,7 +126,7 @@ class ElastostaticDraws:
             spring = np.stack([1.0 / compliances[f"k{equations.joint + 1}"], registry["K_c"].to_si(values("K_c")), registry["s0"].to_si(values("s0"))], axis=-1)
         geometry = None
         if "L" in posterior:
-            geometry = np.stack([values(name) * factor for name, factor in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG))], axis=-1)
+            geometry = np.stack([p.to_si(values(p.name)) for p in GEOMETRY_PARAMETERS], axis=-1)
         gravity = values("gravity_scale") if "gravity_scale" in posterior else None
         return cls(compliances=compliances, spring=spring, k2=k2, sigma=values("sigma") * MM, geometry=geometry, gravity=gravity)
 
@@ -157,9 +157,9 @@ class ElastostaticDraws:
             values["gravity_scale"] = self.gravity
             units["gravity_scale"] = "1"
         if self.geometry is not None:
-            for i, (name, unit, factor) in enumerate((("L", "mm", MM), ("a_x", "mm", MM), ("a_y", "mm", MM), ("phi", "deg", DEG))):
-                values[name] = self.geometry[..., i] / factor
-                units[name] = unit
+            for i, parameter in enumerate(GEOMETRY_PARAMETERS):
+                values[parameter.name] = parameter.to_edge(self.geometry[..., i])
+                units[parameter.name] = parameter.unit
         return posterior_tree(values, units=units, dims=dims, coords=coords)
 
 
