@@ -15,6 +15,7 @@ import numpy as np
 
 from bayescal.errors import InputError
 from bayescal.inference.parameters import GEOMETRY_PARAMETERS, is_per_angle_variable
+from bayescal.reference import published
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.units import DEG, MM
 
@@ -56,8 +57,9 @@ class GeometryPrior:
         return float(value) if np.ndim(value) == 0 else value
 
 
-TABLE_II_SD = np.array([0.06, 0.70, 0.69]) / 3 * MM
-"""Standard deviations of L, a_x, a_y: Klimchik et al., Table II's ±3σ half-widths divided by 3."""
+TABLE_II_SD = np.array([published("II")[name][1] for name in ("L", "a_x", "a_y")]) / 3 * MM
+"""Standard deviations of L, a_x, a_y (m): Klimchik et al., Table II's ±3σ half-widths (``data/paper_reference.csv``)
+divided by 3."""
 PHI_SD = 0.05 * DEG
 """Standard deviation of the lever angle phi when no geometry posterior is given: an ESTIMATE
 (Table II gives none); the arc fits of the geometry step determine phi to a few hundredths of a degree."""
