@@ -36,12 +36,12 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> CommandOutput:
-    import math
     import sys
 
     from bayescal.cell.config import load_cell
     from bayescal.design.optimise import PlanDesigner
     from bayescal.errors import InputError
+    from bayescal.jsonsafe import json_safe
     from bayescal.studies.angles import identification_cost, q2_angle_study, width_targets
     from bayescal.tables import markdown_table
 
@@ -75,13 +75,10 @@ def run(args: argparse.Namespace) -> CommandOutput:
     if args.markdown is not None:
         write_atomically("--markdown", args.markdown, lambda path: path.write_text(text + "\n", encoding="utf-8"))
 
-    def clean(value):
-        return None if isinstance(value, float) and not math.isfinite(value) else value
-
     payload = {
-        "table": [{key: clean(value) for key, value in row.items()} for row in table.to_dict(orient="records")],
-        "identification_cost": [{key: clean(value) for key, value in row.items()} for row in cost.to_dict(orient="records")],
+        "table": table.to_dict(orient="records"),
+        "identification_cost": cost.to_dict(orient="records"),
         "repeats": args.repeats,
         "seed": args.seed,
     }
-    return CommandOutput(payload=payload, text=text)
+    return CommandOutput(payload=json_safe(payload), text=text)
