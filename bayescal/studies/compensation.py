@@ -157,15 +157,11 @@ def compensation_check(
 
 
 def draw_truth(cell: Cell, spread: TruthSpread | None, rng: np.random.Generator) -> Truth:
-    """The cell's own values (``spread`` None), or a truth drawn unlike them as the elastostatic coverage study draws it."""
+    """The cell's own values (``spread`` None), or a truth drawn unlike them as the elastostatic coverage study
+    draws it (:meth:`~bayescal.studies.elastostatic_coverage.TruthSpread.draw`)."""
     if spread is None:
         return Truth(compliances=cell.compliances, spring=(cell.compensator.K_c, cell.compensator.s0))
-    factor = lambda width, n=None: rng.uniform(1.0 - width, 1.0 + width, n)  # noqa: E731
-    return Truth(
-        compliances=cell.compliances * factor(spread.compliances, cell.robot.nq),
-        spring=(cell.compensator.K_c * factor(spread.K_c), cell.compensator.s0 * factor(spread.s0)),
-        masses=factor(spread.masses),
-    )
+    return spread.draw(cell, rng)
 
 
 def compensation_coverage(

@@ -50,6 +50,15 @@ class TruthSpread:
     s0: float = 0.05
     masses: float = 0.15
 
+    def draw(self, cell: Cell, rng: np.random.Generator) -> Truth:
+        """A truth drawn about ``cell``'s values: each joint compliance, K_c, s0 and the link masses
+        times its own uniform factor (in that order of draws)."""
+        factor = lambda width, n=None: rng.uniform(1.0 - width, 1.0 + width, n)  # noqa: E731
+        compliances = cell.compliances * factor(self.compliances, cell.robot.nq)
+        # A robot without a compensator has no spring to draw.
+        spring = None if cell.compensator is None else (cell.compensator.K_c * factor(self.K_c), cell.compensator.s0 * factor(self.s0))
+        return Truth(compliances=compliances, spring=spring, masses=factor(self.masses))
+
 
 def random_plan(cell: Cell, angles: int, per_angle: int, rng: np.random.Generator) -> Plan:
     """A plan of ``angles`` q2 angles spread over joint 2's range with ``per_angle`` random configurations each.
@@ -131,11 +140,7 @@ def elastostatic_coverage(
 
 
 def _one_campaign(index: int, rng: np.random.Generator, *, cell, sampler, spread, size, noise_um) -> list[dict]:
-    factor = lambda width, n=None: rng.uniform(1.0 - width, 1.0 + width, n)  # noqa: E731
-    compliances = cell.compliances * factor(spread.compliances, cell.robot.nq)
-    # A robot without a compensator has no spring to draw.
-    spring = None if cell.compensator is None else (cell.compensator.K_c * factor(spread.K_c), cell.compensator.s0 * factor(spread.s0))
-    truth = Truth(compliances=compliances, spring=spring, masses=factor(spread.masses))
+    truth = spread.draw(cell, rng)
     return [{"campaign": index} | row for row in fit_against_truth(cell, truth, rng, sampler=sampler, size=size, noise_um=noise_um)]
 
 

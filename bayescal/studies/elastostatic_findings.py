@@ -164,9 +164,7 @@ class ElastostaticFindings:
 
 def _truth(cell: Cell) -> dict[str, float]:
     """The twin's values of the registry's parameters, in their edge units."""
-    registry = ParameterRegistry.of_cell(cell)
-    si = [*cell.compliances, cell.compensator.K_c, cell.compensator.s0]
-    return {p.name: p.to_edge(value) for p, value in zip(registry.parameters, si)}
+    return ParameterRegistry.of_cell(cell).edge_values(cell.compliances, (cell.compensator.K_c, cell.compensator.s0))
 
 
 def _estimates(paper: pd.DataFrame, parameters: dict, truth: dict[str, float], units: dict[str, str]) -> pd.DataFrame:
