@@ -33,7 +33,7 @@ from functools import cached_property
 import numpy as np
 
 from bayescal.cell.config import Cell
-from bayescal.cell.plan import Plan
+from bayescal.cell.plan import Plan, prismatic_flags
 from bayescal.design.constraints import DesignSpace, Feasibility, load_design_space
 from bayescal.design.criteria import (
     CRITERIA,
@@ -278,7 +278,7 @@ class PlanDesigner:
 
     def _plan(self, q: np.ndarray, loads: np.ndarray) -> Plan:
         lines = np.zeros(len(q), dtype=int)
-        prismatic = self.cell.robot.prismatic.copy() if self.cell.robot.prismatic.any() else None
+        prismatic = prismatic_flags(self.cell.robot)
         if not self.free:
             return Plan(q=q, load_kg=np.full(len(q), self.mass), lines=lines, source="optimised", prismatic=prismatic)
         return Plan(

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from bayescal.cell.config import Cell
-from bayescal.cell.plan import Plan
+from bayescal.cell.plan import Plan, prismatic_flags
 from bayescal.design.loads import draw_loads
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.exact import scale_masses
@@ -74,8 +74,7 @@ def random_plan(cell: Cell, angles: int, per_angle: int, rng: np.random.Generato
     q2 = rng.uniform(edges[:-1], edges[1:])
     q = rng.uniform(low, high, (angles * per_angle, robot.nq))
     q[:, cell.plan_joint] = np.repeat(q2, per_angle)
-    prismatic = cell.robot.prismatic.copy() if cell.robot.prismatic.any() else None
-    plan = Plan(q=q, load_kg=None, lines=np.zeros(len(q), dtype=int), source="random plan", prismatic=prismatic)
+    plan = Plan(q=q, load_kg=None, lines=np.zeros(len(q), dtype=int), source="random plan", prismatic=prismatic_flags(robot))
     if cell.loading.hanging_only:
         return plan
     loads = draw_loads(len(q) + 1, cell.loading.force_max, cell.loading.couple_max, rng)[1:]  # the first is straight down
