@@ -259,7 +259,7 @@ def group_angles(q2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def deflection_noise(tracker: TrackerNoise, campaign: Campaign) -> np.ndarray:
     """Nominal sd (m) of each coordinate of each row's deflection: the tracker reads p0 and p1 independently,
     plus the variance the campaign's frame adds (:attr:`Campaign.added_variance`, a registration's)."""
-    variance = tracker.sigma(campaign.p0) ** 2 + tracker.sigma(campaign.p1) ** 2
+    variance = tracker.deflection_variance(campaign.p0, campaign.p1)
     return np.sqrt(variance if campaign.added_variance is None else variance + campaign.added_variance)
 
 

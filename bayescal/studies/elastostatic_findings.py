@@ -311,7 +311,6 @@ def elastostatic_findings(
     truth_block = dataclasses.replace(test_pose, reference=true_deflection).to_json().get("residual_error_mm")
 
     masses = plan.masses(cell.load_mass)
-    noise = np.concatenate([cell.tracker.sigma(campaign.p0), cell.tracker.sigma(campaign.p1)]) / UM
     reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in names}
     compensator = _compensator(results, cell) if results.closed_form.spring is not None else None
     linearisation = linearisation_findings(linearisation_study(cell, plan), unloaded_sag(cell, plan))
@@ -325,7 +324,7 @@ def elastostatic_findings(
         n_equations=results.n_equations,
         n_angles=int(results.compensated_angles.size),
         mass_range_kg=(float(masses.min()), float(masses.max())),
-        noise_range_um=(float(noise.min()), float(noise.max())),
+        noise_range_um=tuple(sd / UM for sd in cell.tracker.sigma_range(campaign.p0, campaign.p1)),
         sampler_name=results.sampler_name,
         diagnostics=results.diagnostics(),
         linear_diagnostics=linear.diagnostics(),

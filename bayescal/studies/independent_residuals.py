@@ -80,7 +80,7 @@ def effect_residuals(
             exact = _campaign(cell, seed, effect, magnitude, False)
             bare = _campaign(cell, seed, None, magnitude, False)
             change = np.sqrt(np.mean((exact.displacement - bare.displacement) ** 2))
-            noise = np.sqrt(np.mean(cell.tracker.sigma(campaign.p0) ** 2 + cell.tracker.sigma(campaign.p1) ** 2))
+            noise = np.sqrt(np.mean(cell.tracker.deflection_variance(campaign.p0, campaign.p1)))
             row = {
                 "effect": effect or "none",
                 "cause": EFFECTS[effect].cause if effect else None,
