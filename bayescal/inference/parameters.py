@@ -29,6 +29,8 @@ from bayescal.cell.joints import DEFAULT_COMPENSATED_JOINT
 from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
 
 __all__ = [
+    "ANGLE_DECIMALS",
+    "ANGLE_FORMAT",
     "COMPLIANCE_UNIT",
     "GEOMETRY_PARAMETERS",
     "PRISMATIC_COMPLIANCE_UNIT",
@@ -47,8 +49,11 @@ PRISMATIC_COMPLIANCE_UNIT = "um/N"
 
 _LABEL = re.compile(r"^k(\d+)_q\1\[(-?\d+(?:\.\d*)?)\]$")
 _VARIABLE = re.compile(r"^k(\d+)_q\1$")
-ANGLE_FORMAT = "{:.3f}"
-"""Degrees of a per-angle label: the angles of a campaign are told apart to a thousandth of a degree."""
+ANGLE_DECIMALS = 3
+"""Decimals of a degree to which the compensated joint's angles are told apart: angles equal when rounded to
+them are one angle of eq 34, and a per-angle label or coordinate names its angle with them."""
+ANGLE_FORMAT = f"{{:.{ANGLE_DECIMALS}f}}"
+"""Degrees of a per-angle label or coordinate (:data:`ANGLE_DECIMALS` decimals)."""
 
 
 @dataclass(frozen=True)

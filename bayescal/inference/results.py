@@ -9,9 +9,9 @@ import numpy as np
 import pandas as pd
 
 from bayescal.inference.closedform import ClosedForm
-from bayescal.inference.equations import ANGLE_DECIMALS, DeflectionEquations
+from bayescal.inference.equations import DeflectionEquations
 from bayescal.inference.identifiability import Identifiability
-from bayescal.inference.parameters import COMPLIANCE_UNIT, GEOMETRY_PARAMETERS, ParameterRegistry, is_per_angle_variable, label_angle
+from bayescal.inference.parameters import ANGLE_DECIMALS, ANGLE_FORMAT, COMPLIANCE_UNIT, GEOMETRY_PARAMETERS, ParameterRegistry, is_per_angle_variable, label_angle
 from bayescal.inference.lack_of_fit import LackOfFit
 from bayescal.inference.priors import GeometryPrior
 from bayescal.jsonsafe import json_safe
@@ -108,7 +108,7 @@ class ElastostaticDraws:
             raise ValueError(f"it lacks the per-angle compliances '{variable}' of the cell's compensated joint")
         if variable is None and any(is_per_angle_variable(str(name)) for name in posterior.data_vars):
             raise ValueError("it has per-angle compliances, and the cell has no compensator")
-        angles = [f"{v:.3f}" for v in equations.compensated_angles / DEG]
+        angles = [ANGLE_FORMAT.format(v) for v in equations.compensated_angles / DEG]
         saved = [str(v) for v in posterior[dimension].values] if variable is not None else []
         if not set(saved) <= set(angles):
             raise ValueError(f"its q2 angles ({', '.join(saved)} deg) are not the campaign's ({', '.join(angles)} deg)")
@@ -150,7 +150,7 @@ class ElastostaticDraws:
             values[variable] = self.k2[..., keep] / URAD_PER_NM
             units[variable] = COMPLIANCE_UNIT
             dims[variable] = [registry.angle_dimension]
-            coords[registry.angle_dimension] = [f"{v:.3f}" for v in equations.compensated_angles[keep] / DEG]
+            coords[registry.angle_dimension] = [ANGLE_FORMAT.format(v) for v in equations.compensated_angles[keep] / DEG]
         values["sigma"] = self.sigma / MM
         units["sigma"] = "mm"
         if self.gravity is not None:
