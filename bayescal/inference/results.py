@@ -332,7 +332,7 @@ class ElastostaticResults:
         out = {
             "parameters": self.parameters(),
             "weakly_determined": self.weakly_determined(),
-            "k2_per_angle": {f"{angle:.3f} deg": entry for angle, entry in self.per_angle().items()},
+            "k2_per_angle": {f"{ANGLE_FORMAT.format(angle)} deg": entry for angle, entry in self.per_angle().items()},
             "diagnostics": self.diagnostics() | {"geometry": "none: the cell has no compensator" if self.geometry is None else self.geometry.source},
             "identifiability": self.identifiability.to_json(),
         }
