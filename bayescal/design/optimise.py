@@ -49,6 +49,7 @@ from bayescal.design.loads import free_candidates, load_sizes, turned
 from bayescal.design.plan_design import PlanDesign, PlanEvaluation
 from bayescal.design.progress import Progress, best_text
 from bayescal.errors import InputError
+from bayescal.robot.compensator import MIN_ANGLES
 from bayescal.units import DEG
 
 __all__ = ["PlanDesign", "PlanDesigner"]
@@ -200,9 +201,9 @@ class PlanDesigner:
                 source="angles",
             )
         # every criterion inverts the information in K_θ2^0, K_c and s0, singular below three angles
-        if self.cell.compensator is not None and angles < 3 and scored:
+        if self.cell.compensator is not None and angles < MIN_ANGLES and scored:
             raise InputError(
-                f"the compensator's K_θ2^0, K_c and s0 need at least 3 distinct q2 angles, got {angles}", source="angles"
+                f"the compensator's K_θ2^0, K_c and s0 need at least {MIN_ANGLES} distinct q2 angles, got {angles}", source="angles"
             )
 
     # ----------------------------------------------------------------- candidates

@@ -48,7 +48,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["CompensatorGeometry", "Compensator", "alpha", "stiffness_regressor"]
+__all__ = ["CompensatorGeometry", "Compensator", "MIN_ANGLES", "alpha", "stiffness_regressor"]
+
+MIN_ANGLES = 3
+"""Distinct angles of the compensated joint that eq 34 needs: one per unknown, K_θ^0, K_c and s0·K_c."""
 
 
 def _out(value: np.ndarray) -> np.ndarray | float:

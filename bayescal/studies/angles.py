@@ -33,6 +33,7 @@ from bayescal.cell.config import Cell
 from bayescal.design.optimise import CANDIDATES_PER_ANGLE, PlanDesigner
 from bayescal.errors import InputError
 from bayescal.inference.parameters import ParameterRegistry
+from bayescal.robot.compensator import MIN_ANGLES
 from bayescal.studies.parallel import seeded_map
 from bayescal.units import MM
 
@@ -98,8 +99,8 @@ def q2_angle_study(
         ``<parameter>_width_3sd_pct`` (NaN for a parameter the plans do not excite).
     """
     angles, per_angle = list(angles), list(per_angle)
-    if min(angles) < 3 and cell.compensator is not None:
-        raise InputError(f"K_c and s0 need at least 3 distinct q2 angles, got {min(angles)}", source="angles")
+    if min(angles) < MIN_ANGLES and cell.compensator is not None:
+        raise InputError(f"K_c and s0 need at least {MIN_ANGLES} distinct q2 angles, got {min(angles)}", source="angles")
     root = np.random.SeedSequence(seed)
     candidate_seed, *design_seeds = root.spawn(1 + len(angles) * len(per_angle))
     designer = PlanDesigner(cell, repeats=repeats, model="exact")
