@@ -178,7 +178,8 @@ def read_plan(
     force = frame[list(FORCE_COLUMNS)].to_numpy(dtype=float) if FORCE_COLUMNS[0] in frame else None
     couple = frame[list(COUPLE_COLUMNS)].to_numpy(dtype=float) if COUPLE_COLUMNS[0] in frame else None
     _check_wrenches(frame.index, force, couple, max_load_kg, loading, source)
-    return Plan(q=q, load_kg=load, lines=frame.index.to_numpy(dtype=int), source=source, force=force, couple=couple, prismatic=prismatic_flags(robot))
+    lines = frame.index.to_numpy(dtype=int)
+    return Plan(q=q, load_kg=load, lines=lines, source=source, force=force, couple=couple, prismatic=prismatic_flags(robot))
 
 
 def _check_load_columns(header: tuple[int, list[str]] | None, source: str) -> None:

@@ -11,7 +11,15 @@ import pandas as pd
 from bayescal.inference.closedform import ClosedForm
 from bayescal.inference.equations import DeflectionEquations
 from bayescal.inference.identifiability import Identifiability
-from bayescal.inference.parameters import ANGLE_DECIMALS, ANGLE_FORMAT, COMPLIANCE_UNIT, GEOMETRY_PARAMETERS, ParameterRegistry, is_per_angle_variable, label_angle
+from bayescal.inference.parameters import (
+    ANGLE_DECIMALS,
+    ANGLE_FORMAT,
+    COMPLIANCE_UNIT,
+    GEOMETRY_PARAMETERS,
+    ParameterRegistry,
+    is_per_angle_variable,
+    label_angle,
+)
 from bayescal.inference.lack_of_fit import LackOfFit
 from bayescal.inference.priors import GeometryPrior
 from bayescal.jsonsafe import json_safe

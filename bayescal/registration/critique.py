@@ -137,7 +137,8 @@ class _Data:
 def _data(sweep: Sweeps, joint: int, noise: TrackerNoise) -> _Data:
     """The sweep of ``joint`` set up for fitting, started at the circle model's own start."""
     start = axis_start(sweep, joint)
-    return _Data(start.q, start.index, start.xyz, noise.sigma(start.xyz), len(start.names), float(np.median(start.q)), start.frame, start.x0)
+    q_mid = float(np.median(start.q))
+    return _Data(start.q, start.index, start.xyz, noise.sigma(start.xyz), len(start.names), q_mid, start.frame, start.x0)
 
 
 @dataclass(frozen=True)

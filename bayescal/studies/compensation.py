@@ -201,11 +201,15 @@ def compensation_coverage(
     pandas.DataFrame
         :func:`compensation_check`'s rows with a ``campaign`` column.
     """
-    frames = seeded_map(_campaign, range(campaigns), seed, executor=executor, cell=cell, plan=plan, spread=spread, poses=poses, sampler=sampler)
+    frames = seeded_map(
+        _campaign, range(campaigns), seed, executor=executor, cell=cell, plan=plan, spread=spread, poses=poses, sampler=sampler
+    )
     return pd.concat(frames, ignore_index=True)
 
 
-def _campaign(index: int, rng: np.random.Generator, cell: Cell, plan: Plan | None, spread: TruthSpread | None, poses: int, sampler) -> pd.DataFrame:
+def _campaign(
+    index: int, rng: np.random.Generator, cell: Cell, plan: Plan | None, spread: TruthSpread | None, poses: int, sampler
+) -> pd.DataFrame:
     """One task of :func:`~bayescal.studies.parallel.seeded_map`: campaign ``index`` of :func:`compensation_coverage`."""
     truth = draw_truth(cell, spread, rng)
     campaign_plan = plan if plan is not None else random_plan(cell, 6, 5, rng)
