@@ -138,6 +138,7 @@ def _read_inputs(args: argparse.Namespace):
         for name in review.registration["frames"]:
             read_frame(args.registration, name)
     if args.calibration:
+        from bayescal.compensation.calibration import check_calibration_robot
         from bayescal.studies.review import calibration_findings
 
         sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
@@ -147,7 +148,7 @@ def _read_inputs(args: argparse.Namespace):
         # A robot without a compensator has no per-angle compliances; the geometry's own 'R' tells the other kind apart.
         per_angle = ParameterRegistry.of_cell(cell).per_angle_variable if cell is not None else None
         tree = _load_tree(args.calibration, "--calibration", needs=(*([per_angle] if per_angle else []), "sigma"), foreign="R")
-        _check_joint_count(tree, cell, args.calibration)
+        check_calibration_robot(tree, cell, args.calibration)
         calibration = calibration_findings(cell, campaign, tree, geometry)
         _check_fit(calibration.results, args)
         review.results, review.campaign, review.cell = calibration.results, campaign, cell
@@ -233,22 +234,6 @@ def _read_csv(path: str, option: str):
         if not pd.api.types.is_numeric_dtype(frame[column]):
             raise InputError("expected numbers", source=path, column=column)
     return frame
-
-
-def _check_joint_count(tree, cell, path: str) -> None:
-    """Refuse a calibration with a compliance ``k<j>`` of a joint the cell's robot does not have."""
-    import re
-
-    from bayescal.errors import InputError
-
-    joints = [int(match.group(1)) for name in tree["posterior"].data_vars if (match := re.fullmatch(r"k(\d+)", str(name)))]
-    if joints and max(joints) > cell.robot.nq:
-        raise InputError(
-            f"the calibration has the compliance k{max(joints)} but the robot of {cell.source} has {cell.robot.nq} joints: "
-            "was it computed for this cell?",
-            source=path,
-            column=f"k{max(joints)}",
-        )
 
 
 def _check_fit(results, args: argparse.Namespace) -> None:

@@ -25,7 +25,7 @@ from bayescal.inference.parameters import GEOMETRY_PARAMETERS, ParameterRegistry
 from bayescal.robot.compensator import Compensator, stiffness_regressor
 from bayescal.units import DEG
 
-__all__ = ["Calibration", "load_calibration", "UNIDENTIFIED_LOG_SD", "GRID_STEP", "MAX_DRAWS"]
+__all__ = ["Calibration", "check_calibration_robot", "load_calibration", "UNIDENTIFIED_LOG_SD", "GRID_STEP", "MAX_DRAWS"]
 
 MAX_DRAWS = 2000
 """Posterior draws kept (evenly thinned): the cost of the spread is linear in them, and 2000 draws
@@ -168,7 +168,7 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
     if "sigma" not in posterior or not any(name[:1] == "k" and name[1:].isdigit() for name in posterior.data_vars):
         raise InputError("not an elastostatic posterior (no joint compliance k<j> or no 'sigma'): expected `bayescal calibrate --posterior`", source=source)
     n = cell.robot.nq
-    _check_robot(tree.attrs, posterior, cell, source)
+    check_calibration_robot(tree, cell, source)
 
     def values(name: str, thin: bool = True) -> np.ndarray:
         flat = np.asarray(posterior[name].transpose("chain", "draw", ...).values, dtype=float).reshape(-1)
@@ -220,8 +220,10 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
     )
 
 
-def _check_robot(attrs, posterior, cell: Cell, source: str) -> None:
-    """Refuse a posterior of another robot: another joint count, or another robot name when the file records it."""
+def check_calibration_robot(tree, cell: Cell, source: str) -> None:
+    """Refuse a saved elastostatic posterior of another robot than ``cell``'s: another joint count, or another
+    robot name when the file records it (an :class:`~bayescal.errors.InputError` naming ``source``)."""
+    attrs, posterior = tree.attrs, tree["posterior"]
     n = cell.robot.nq
     sampled = [int(name[1:]) for name in posterior.data_vars if name[:1] == "k" and name[1:].isdigit()]
     # Files written before the joint count was recorded show it only by their highest sampled joint.
