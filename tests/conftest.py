@@ -7,12 +7,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_limits
 
 from bayescal.cell.campaign import write_campaign
 from bayescal.cell.config import load_cell
 from bayescal.cell.plan import read_plan
 
 DATA = Path(__file__).resolve().parents[1] / "data"
+
+# One BLAS thread, as `bayescal` itself sets before NumPy loads (pytest loads NumPy first, for the
+# warning filter of pyproject.toml): the samplers' matrices are a few columns wide, and on a busy
+# machine BLAS threads spin.  Measured: a test robot's calibration took 3.4 s of CPU with two BLAS
+# threads on the shared 2-core machine, 0.44 s with one.
+threadpool_limits(1, user_api="blas")
 
 
 @pytest.fixture(scope="session")

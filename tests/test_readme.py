@@ -96,3 +96,22 @@ def test_the_python_example_runs_and_writes_only_into_its_own_folder(tmp_path, m
     assert sorted(p.name for p in tmp_path.iterdir()) == ["data", "example"]
     written = {p.name for p in (tmp_path / "example").iterdir()}
     assert {"geometry_posterior.nc", "calibration.nc", "program.csv", "compensated.csv", "plan.csv"} <= written
+
+
+def test_the_misstated_config_figures_the_readme_quotes_are_the_committed_reports():
+    report = (ROOT / "reports" / "elastostatic.md").read_text(encoding="utf-8")
+    rows = {}
+    for line in report.splitlines():
+        cells = [cell.strip() for cell in line.strip("|").split("|")]
+        if len(cells) == 9 and cells[0] in ("spring 4.6x stiffer, s0 +26 %", "link masses 15 % heavier"):
+            rows[cells[0].split()[0], cells[1], cells[2]] = cells
+    quoted = re.search(r"0\.3 μm noise; `reports/elastostatic\.md`\) K_c = ([\d.]+) ± ([\d.]+) N/mm, s0 = ([\d.]+) ± ([\d.]+) mm\n"
+                       r"\(±3σ\), but from chains that still disagree after `calibrate`'s extensions \(R-hat ([\d.]+)", README)
+    assert quoted, "the README no longer quotes the stiffer spring's fit at 0.3 μm"
+    kc, s0 = rows["spring", "0.3", "K_c"], rows["spring", "0.3", "s0"]
+    assert quoted.groups()[:4] == (kc[4], kc[5], s0[4], s0[5])
+    assert f"{float(kc[8]):.2f}" == quoted.group(5)
+    scale = rows["link", "0.3", "gravity_scale"]
+    assert f"mass scale\ncomes out {scale[4]} ± {scale[5]} (R-hat {scale[8]})" in README
+    kc9, s09 = rows["spring", "9", "K_c"], rows["spring", "9", "s0"]
+    assert f"K_c = {kc9[4]} ± {kc9[5]}\nN/mm and s0 = {s09[4]} ± {s09[5]} mm (R-hat {kc9[8]})" in README

@@ -41,7 +41,8 @@ def add_parser(subparsers) -> None:
         "--draws",
         type=whole_number(MIN_DRAWS, "fewer give no usable R-hat or effective sample size"),
         default=None,
-        help=f"kept draws per chain, at least {MIN_DRAWS} (default: the sampler's, 600 for collapsed and gibbs, 800 for emcee, doubled up to twice while R-hat or ESS fall short)",
+        help=(f"kept draws per chain, at least {MIN_DRAWS}, never extended (default: the sampler's, 600 for collapsed and gibbs, 800 for "
+              "emcee, run again up to 3 times while R-hat or ESS fall short: collapsed hands over to gibbs, which doubles its draws)"),
     )
     add_registration_option(parser, "the campaign's positions")
     add_common_options(parser)

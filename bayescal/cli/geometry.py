@@ -97,6 +97,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
 
 def _text(args, summary, closed_table, result, paper) -> str:
+    from bayescal.reports.numbers import decimals_of, fixed, rounded_pair
+
     header = (
         f"{'parameter':<16}{'unit':<5}{'mean':>11}{'sd':>9}{'mean-3sd':>11}{'mean+3sd':>11}{'r_hat':>7}"
         f"{'closed form':>13}{'Table II':>10}{'±3σ':>7}"
@@ -108,12 +110,16 @@ def _text(args, summary, closed_table, result, paper) -> str:
         "-" * len(header),
     ]
     for name, row in summary.iterrows():
-        closed = f"{closed_table.loc[name, 'value']:13.3f}" if name in closed_table.index else " " * 13
+        # Every number of a row to the decimal of the second significant digit of its sd (bayescal.reports.numbers).
+        shown = fixed(decimals_of(row["sd"]))
+        closed = f"{shown(closed_table.loc[name, 'value']):>13}" if name in closed_table.index else " " * 13
         published = ""
         if paper is not None and name in paper.index:
+            # As Table II prints them: two decimals, which is all its half-widths give.
             published = f"{paper.loc[name, 'published']:10.2f}{paper.loc[name, 'published_half_width_3sd']:7.2f}"
+        mean, sd = rounded_pair(row["mean"], row["sd"])
         lines.append(
-            f"{name:<16}{row['unit']:<5}{row['mean']:11.3f}{row['sd']:9.3f}{row['lo3']:11.3f}{row['hi3']:11.3f}"
+            f"{name:<16}{row['unit']:<5}{mean:>11}{sd:>9}{shown(row['lo3']):>11}{shown(row['hi3']):>11}"
             f"{row['r_hat']:7.3f}{closed}{published}"
         )
     d = result.diagnostics()
@@ -121,7 +127,7 @@ def _text(args, summary, closed_table, result, paper) -> str:
     sense = result.closed_form.lever
     lines += [
         "",
-        f"R-hat max {d['r_hat_max']:.4f}, bulk ESS min {d['ess_bulk_min']:.0f}, tail ESS min {d['ess_tail_min']:.0f} "
+        f"R-hat max {d['r_hat_max']:.3f}, bulk ESS min {d['ess_bulk_min']:.0f}, tail ESS min {d['ess_tail_min']:.0f} "
         f"({d['n_chains']} chains x {d['n_draws']} draws)",
         f"residual rms at the posterior mean [mm]: {rms}",
         f"P1 arc: {'clockwise' if sense.sense < 0 else 'counter-clockwise'} in (x, y) as q2 increases "

@@ -243,7 +243,7 @@ def _check_fit(results, args: argparse.Namespace) -> None:
     chi2 = results.diagnostics().get("chi2_per_dof")
     if chi2 is not None and chi2 > MAX_CHI2_PER_DOF:
         raise InputError(
-            f"the calibration fits the campaign {args.campaign} with χ²/dof = {chi2:.4g}, above {MAX_CHI2_PER_DOF:g} (residuals "
+            f"the calibration fits the campaign {args.campaign} with χ²/dof = {chi2:.2f}, above {MAX_CHI2_PER_DOF:g} (residuals "
             f"{chi2 ** 0.5:.0f} times the tracker noise of {args.config}): was it computed from this campaign and cell?",
             source=args.calibration,
         )

@@ -43,7 +43,6 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.errors import InputError
     from bayescal.jsonsafe import json_safe
     from bayescal.studies.angles import identification_cost, q2_angle_study, width_targets
-    from bayescal.tables import markdown_table
 
     outputs = {"--output": args.output, "--markdown": args.markdown}
     guard_outputs({"the config": args.config}, outputs)
@@ -66,10 +65,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
             cell, angles=range(3, args.max_angles + 1), per_angle=range(1, args.max_per_angle + 1), repeats=args.repeats, seed=args.seed
         )
     cost = identification_cost(table, targets=width_targets(cell), repeats=args.repeats)
-    columns = ["angles", "per_angle", "noise_fraction", "test_pose_rms_mm", "k2_width_3sd_pct", "K_c_width_3sd_pct", "s0_width_3sd_pct"]
-    rows = [[f"{v:.4g}" if isinstance(v, float) else v for v in row] for row in table[columns].itertuples(index=False)]
-    answer = markdown_table(list(cost.columns), [[f"{v:.4g}" if isinstance(v, float) else v for v in row] for row in cost.itertuples(index=False)])
-    text = markdown_table(columns, rows) + "\n\n" + answer
+    text = _shown(table, cost)
     if args.output is not None:
         write_atomically("--output", args.output, lambda path: table.to_csv(path, index=False))
     if args.markdown is not None:
@@ -82,3 +78,18 @@ def run(args: argparse.Namespace) -> CommandOutput:
         "seed": args.seed,
     }
     return CommandOutput(payload=json_safe(payload), text=text)
+
+
+def _shown(table, cost) -> str:
+    """The study's two tables as Markdown, each number as a person reads it: the error left in μm to 0.01, widths in %
+    to 0.1, noise fractions to two significant digits (:mod:`bayescal.reports.numbers`); the CSV keeps every digit."""
+    from bayescal.reports.numbers import fixed, table_texts
+    from bayescal.tables import markdown_table
+
+    columns = ["angles", "per_angle", "noise_fraction", "test_pose_rms_mm", "k2_width_3sd_pct", "K_c_width_3sd_pct", "s0_width_3sd_pct"]
+    shown = table[columns].assign(test_pose_rms_mm=table["test_pose_rms_mm"] * 1000).rename(columns={"test_pose_rms_mm": "test_pose_rms_μm"})
+    two_digits = lambda value: f"{value:.2g}"  # noqa: E731
+    formats = {"noise_fraction": two_digits, "noise_fraction_needed": two_digits, "test_pose_rms_μm": fixed(2)}
+    formats |= {column: fixed(1) for column in (*shown.columns, *cost.columns) if column.endswith("_pct")}
+    texts = [table_texts(frame, {}, {c: f for c, f in formats.items() if c in frame.columns}) for frame in (shown, cost)]
+    return "\n\n".join(markdown_table(list(frame.columns), [list(row) for row in frame.itertuples(index=False)]) for frame in texts)

@@ -61,7 +61,7 @@ def closed_form(
 
     ``geometry`` ``[L, a_x, a_y, phi]`` (m, rad) of the compensator; None without one.
     """
-    X = equations.per_angle_design()[:, identifiability.identifiable]
+    X = equations.per_angle_design(identifiability.identifiable)
     k, *_ = np.linalg.lstsq(X, equations.y, rcond=None)
     residual = equations.y - X @ k
     dof = max(equations.n - X.shape[1], 1)

@@ -61,10 +61,11 @@ __all__ = ["ElastostaticModel", "restore_results"]
 CHI2_TOLERANCE = 2.0
 """chi2/dof of the fit against the config's tracker model beyond which (or below whose inverse) the tracker model
 is reported as not describing the data: with a few hundred equations chi2/dof has an sd below 0.1."""
-EXTENSIONS = 2
-"""Doublings of the kept draws ``bayescal calibrate`` allows by default: up to 4 × 600 draws per chain.  On
-Table III with twice the twin's link compliance (seeds 0-5), 16 × 600 draws left R-hat above 1.01 or the tail
-ESS under 400 in 2 of 6 campaigns."""
+EXTENSIONS = 3
+"""Runs after the first that ``bayescal calibrate`` allows by default while R-hat or the ESS fall short: the
+collapsed sampler hands over to the Gibbs sampler (:meth:`~bayescal.sampling.collapsed.CollapsedSampler.extended`),
+which then doubles its draws, up to 16 × 2,400.  On Table III with twice the twin's link compliance (seeds 0-5),
+16 × 600 Gibbs draws left R-hat above 1.01 or the tail ESS under 400 in 2 of 6 campaigns."""
 
 
 class _Prepared(NamedTuple):
@@ -253,14 +254,14 @@ class ElastostaticModel:
         # Without an identified compensator the link weights are not sampled: on arm6 masses 15 % heavier move the
         # correction by 0.8 μm rms, against 11 μm of noise per deflection coordinate (docs/elastostatic.md).
         static = self._static_columns(campaign, prepared) if self.model == "exact" and ident.compensator else None
-        (tree, draws, residual, n_free), summary = sample_until_converged(
+        (tree, draws, residual, n_free), summary, sampler = sample_until_converged(
             lambda sampler: sample_posterior(corrected.whitened(), ident, cf, sampler, self.geometry, self.nominal_spring, rng, static),
             self.sampler,
             self.extensions,
             what="the elastostatic posterior",
         )
         tree.attrs.update(
-            {"model": self.model, "noise": self.noise, "sampler": type(self.sampler).__name__, "geometry": self.geometry_source}
+            {"model": self.model, "noise": self.noise, "sampler": type(sampler).__name__, "geometry": self.geometry_source}
         )
         if corrected.scale is not None:
             residual = residual * corrected.scale
@@ -295,7 +296,7 @@ class ElastostaticModel:
                 UserWarning,
                 stacklevel=2,
             )
-        return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, type(self.sampler).__name__, misfit)
+        return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, type(sampler).__name__, misfit)
 
     def restore(self, campaign: Campaign, tree) -> ElastostaticResults:
         """The results of an earlier :meth:`fit` of ``campaign`` from its saved posterior, without sampling again.

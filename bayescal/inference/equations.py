@@ -20,8 +20,8 @@ from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.inference.parameters import ANGLE_DECIMALS, ParameterRegistry
+from bayescal.robot.batched import CHUNK, BatchedChain
 from bayescal.robot.kinematics import Robot
-from bayescal.robot.stiffness import compliance_design
 from bayescal.units import DEG, MM
 
 __all__ = [
@@ -145,16 +145,22 @@ class DeflectionEquations:
                 columns.append((joint, None))
         return columns
 
-    def per_angle_design(self) -> np.ndarray:
+    def per_angle_design(self, keep: np.ndarray | None = None) -> np.ndarray:
         """The design of eq 30 with one compensated-joint column per distinct angle, ``(n, nq - 1 + m)``
-        (``(n, nq)`` without a compensator)."""
-        columns = []
-        for joint, angle in self.per_angle_columns():
-            column = self.design[:, joint].copy()
-            if angle is not None:
-                column[self.angle != angle] = 0.0
-            columns.append(column)
-        return np.column_stack(columns)
+        (``(n, nq)`` without a compensator); ``keep``, a boolean mask of those columns, selects some.
+
+        Written column by column into one array: a large campaign's design is hundreds of MB.
+        """
+        columns = self.per_angle_columns()
+        chosen = [c for c, kept in zip(columns, np.ones(len(columns), bool) if keep is None else keep) if kept]
+        design = np.zeros((self.n, len(chosen)))
+        for i, (joint, angle) in enumerate(chosen):
+            if angle is None:
+                design[:, i] = self.design[:, joint]
+            else:
+                rows = self.angle == angle
+                design[rows, i] = self.design[rows, joint]
+        return design
 
 
 
@@ -194,14 +200,19 @@ def deflection_equations(
         ``(N, 3)`` markers in the flange frame (m), from the unloaded positions.
     """
     n = len(campaign)
-    design = np.empty((n, 3, robot.nq))
-    torque = np.empty((n, robot.nq))
-    points = np.empty((n, 3))
-    workspace = robot.workspace()
-    for i in range(n):
-        points[i] = workspace.point_in_flange(campaign.q[i], campaign.p0[i])
-        design[i] = compliance_design(workspace, campaign.q[i], points[i], campaign.wrench[i])
-        torque[i] = workspace.flange_jacobian(campaign.q[i]).T @ campaign.wrench[i]
+    design, torque, points = np.empty((n, 3, robot.nq)), np.empty((n, robot.nq)), np.empty((n, 3))
+    chain = BatchedChain.of(robot)
+    # Rows by chunks of the batched chain (a loop of Pinocchio calls cost ~45 μs a row; all rows at once held
+    # 450 MB of joint frames at 100,000 configurations).
+    for start in range(0, n, CHUNK):
+        rows = slice(start, start + CHUNK)
+        poses = chain.poses(campaign.q[rows])
+        points[rows] = poses.in_flange(campaign.p0[rows])
+        flange_linear, angular = chain.point_jacobian(poses, poses.flange_origin)
+        wrench = campaign.wrench[rows]
+        torque[rows] = np.einsum("njd,nd->nj", flange_linear, wrench[:, :3]) + np.einsum("njd,nd->nj", angular, wrench[:, 3:])
+        # Eq 31: column j of a marker's design is its Jacobian's column j times the load's torque on joint j.
+        design[rows] = np.swapaxes(chain.point_jacobian(poses, campaign.p0[rows])[0], 1, 2) * torque[rows, None, :]
     if joint is None:
         values, angle = np.empty(0), np.zeros(n, dtype=int)
     else:
@@ -333,12 +344,9 @@ def check_load_point(robot: Robot, campaign: Campaign, load_point: np.ndarray | 
     points = np.zeros((len(campaign), 3)) if load_point is None else np.broadcast_to(load_point, (len(campaign), 3))
     if campaign.load_point is not None:
         points = campaign.load_point
-    discrepancy = np.zeros(configs.size)
-    workspace = robot.workspace()
-    for index, row in enumerate(configs):
-        rotation, _ = workspace.flange_pose(campaign.q[row])
-        force, couple = campaign.wrench[row, :3], campaign.wrench[row, 3:]
-        discrepancy[index] = np.linalg.norm(couple - np.cross(rotation @ points[row], force))
+    rotation = BatchedChain.of(robot).poses(campaign.q[configs]).flange_rotation
+    force, couple = campaign.wrench[configs, :3], campaign.wrench[configs, 3:]
+    discrepancy = np.linalg.norm(couple - np.cross(np.einsum("nij,nj->ni", rotation, points[configs]), force), axis=1)
     worst = int(np.argmax(discrepancy)) if discrepancy.size else 0
     if discrepancy.size and discrepancy[worst] > COUPLE_TOLERANCE:
         line = int(campaign.lines[configs[worst]])
@@ -378,23 +386,30 @@ def _unsagged(campaign: Campaign, points: np.ndarray) -> np.ndarray:
     the markers' median places (the least-squares rigid fit), when that motion is a
     turn of at most :data:`SAG_ROTATION`; other configurations are left as they are.
     """
-    labels = np.asarray(campaign.marker).astype(str)
-    names = sorted(set(labels))
-    median = {name: np.median(points[labels == name], axis=0) for name in names}
+    names, label = np.unique(np.asarray(campaign.marker).astype(str), return_inverse=True)
+    median = np.array([np.median(points[label == i], axis=0) for i in range(names.size)])
+    # Every configuration at once: (configuration, marker) cells hold the mean of their rows' points.
+    configs, config = np.unique(campaign.config, return_inverse=True)
+    cell = config * names.size + label
+    counts = np.bincount(cell, minlength=configs.size * names.size).reshape(configs.size, names.size)
+    sums = np.stack([np.bincount(cell, points[:, d], configs.size * names.size) for d in range(3)], axis=-1)
+    seen = counts > 0
+    mine = sums.reshape(configs.size, names.size, 3) / np.maximum(counts, 1)[..., None]
+    n_seen = np.maximum(seen.sum(axis=1), 1)[:, None]
+    mine_mean = np.sum(np.where(seen[..., None], mine, 0.0), axis=1) / n_seen
+    target_mean = seen.astype(float) @ median / n_seen
+    mine_c = np.where(seen[..., None], mine - mine_mean[:, None], 0.0)
+    target_c = np.where(seen[..., None], median[None] - target_mean[:, None], 0.0)
+    u, _, vt = np.linalg.svd(np.swapaxes(mine_c, 1, 2) @ target_c)
+    flip = np.ones((configs.size, 3))
+    flip[:, 2] = np.sign(np.linalg.det(u @ vt))
+    rotation = np.swapaxes((u * flip[:, None, :]) @ vt, 1, 2)
+    turn = np.arccos(np.clip((np.trace(rotation, axis1=1, axis2=2) - 1) / 2, -1.0, 1.0))
+    moved = (seen.sum(axis=1) >= 3) & (turn <= SAG_ROTATION)
+    rows = moved[config]
     aligned = np.array(points, dtype=float)
-    for config in np.unique(campaign.config):
-        rows = np.flatnonzero(campaign.config == config)
-        seen = sorted(set(labels[rows]))
-        if len(seen) < 3:
-            continue
-        mine = np.array([points[rows[labels[rows] == name]].mean(axis=0) for name in seen])
-        target = np.array([median[name] for name in seen])
-        mine_c, target_c = mine - mine.mean(axis=0), target - target.mean(axis=0)
-        u, _, vt = np.linalg.svd(mine_c.T @ target_c)
-        flip = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
-        rotation = (u @ flip @ vt).T
-        if np.arccos(np.clip((np.trace(rotation) - 1) / 2, -1.0, 1.0)) <= SAG_ROTATION:
-            aligned[rows] = (points[rows] - mine.mean(axis=0)) @ rotation.T + target.mean(axis=0)
+    shifted = points[rows] - mine_mean[config[rows]]
+    aligned[rows] = np.einsum("nij,nj->ni", rotation[config[rows]], shifted) + target_mean[config[rows]]
     return aligned
 
 

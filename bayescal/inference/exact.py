@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 import pinocchio as pin
@@ -21,11 +22,12 @@ from bayescal.cell.campaign import Campaign
 from bayescal.inference.closedform import ClosedForm, closed_form
 from bayescal.inference.equations import DeflectionEquations
 from bayescal.inference.identifiability import Identifiability
+from bayescal.robot.batched import BatchedChain, equilibria
 from bayescal.robot.compensator import Compensator, CompensatorGeometry
 from bayescal.robot.kinematics import Robot
 from bayescal.robot.stiffness import ElasticArm
 
-__all__ = ["ExactCorrection", "exact_deflections", "linearisation_offset", "scale_masses"]
+__all__ = ["ExactCorrection", "campaign_deflections", "exact_deflections", "linearisation_offset", "scale_masses"]
 
 STATIC_STEPS = (0.05, 0.05, 0.05)
 """Finite-difference steps of the static columns: relative in K_c and K_c s0, absolute in the mass scale;
@@ -86,6 +88,35 @@ def scale_masses(robot: Robot, factor: float) -> Robot:
     return Robot(model, flange=robot.flange, source=robot.source)
 
 
+def campaign_deflections(
+    robot: Robot,
+    campaign: Campaign,
+    equations: DeflectionEquations,
+    compliances: np.ndarray,
+    k2: np.ndarray,
+    compensator: Compensator | None,
+    load_point: np.ndarray | None,
+) -> np.ndarray:
+    """``(N, 3)`` exact deflections (m) of every row of ``campaign``, all configurations solved together.
+
+    What :func:`exact_deflections` gives one configuration at a time, from the
+    unloaded and loaded equilibria of every configuration at once
+    (:func:`~bayescal.robot.batched.equilibria`); arguments as :func:`linearisation_offset`'s.
+    """
+    configs, first, row_config = np.unique(campaign.config, return_index=True, return_inverse=True)
+    q = campaign.q[first]
+    k = np.repeat(np.asarray(compliances, dtype=float)[None, :], configs.size, axis=0)
+    if equations.joint is not None:
+        angle = equations.angle[::3][first]
+        k[:, equations.joint] = compensator.own_compliance(q[:, equations.joint], k2[angle])
+    points = load_point if campaign.load_point is None else campaign.load_point[first]
+    chain = BatchedChain.of(robot)
+    solve = partial(equilibria, chain, q, compliances=k, compensator=compensator, compensated_joint=equations.joint, load_point=points)
+    unloaded = chain.poses(q + solve(np.zeros(6)))
+    loaded = chain.poses(q + solve(campaign.wrench[first]))
+    # Each marker located on the tool at its configuration's unloaded equilibrium, as exact_deflections does.
+    on_tool = unloaded.in_flange(campaign.p0, row_config)
+    return loaded.points(on_tool, row_config) - unloaded.points(on_tool, row_config)
 
 
 def linearisation_offset(
@@ -115,24 +146,7 @@ def linearisation_offset(
         Flange-frame point where the load's force acts when the campaign gives
         none (its ``load_point`` columns take precedence); None: flange origin, dead load.
     """
-    exact = np.empty((len(campaign), 3))
-    row_angle = equations.angle[::3]
-    for config in np.unique(campaign.config):
-        rows = np.flatnonzero(campaign.config == config)
-        q = campaign.q[rows[0]]
-        k = np.array(compliances, dtype=float)
-        if equations.joint is not None:
-            k[equations.joint] = compensator.own_compliance(q[equations.joint], k2[row_angle[rows[0]]])
-        exact[rows] = exact_deflections(
-            robot,
-            q,
-            campaign.wrench[rows[0]],
-            k,
-            compensator,
-            unloaded_positions=campaign.p0[rows],
-            load_point=load_point if campaign.load_point is None else campaign.load_point[rows[0]],
-            compensated_joint=equations.joint,
-        )
+    exact = campaign_deflections(robot, campaign, equations, compliances, k2, compensator, load_point)
     per_row = np.repeat(np.asarray(compliances, dtype=float)[None, :], equations.n, axis=0)
     if equations.joint is not None:
         per_row[:, equations.joint] = k2[equations.angle]

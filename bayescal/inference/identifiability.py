@@ -198,7 +198,8 @@ def analyse(
 def _drop_confounded(scaled: np.ndarray, kept: np.ndarray, rank: int, names: list[str], identifiable: np.ndarray, reasons: dict[str, str]) -> None:
     """Mark the kept columns with a component in the null space of the unit-column design ``scaled`` not
     identifiable, in ``identifiable`` and ``reasons``, naming the columns each is confounded with."""
-    _, _, vt = np.linalg.svd(scaled)
+    # U is not needed: only a short, wide design needs the full V to span its null space.
+    _, _, vt = np.linalg.svd(scaled, full_matrices=scaled.shape[0] < scaled.shape[1])
     null = vt[rank:].T
     weight = np.linalg.norm(null, axis=1)
     confounded = kept[weight > 1e-6]

@@ -37,10 +37,10 @@ the caller falls back on the residuals against the configured noise level
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import fdtrc
 
 __all__ = ["LackOfFit", "LACK_OF_FIT_LEVEL", "lack_of_fit", "replicate_cells"]
 
@@ -141,4 +141,49 @@ def lack_of_fit(residual: np.ndarray, scale: np.ndarray, cells: np.ndarray, n_pa
     if dof_pe < 1 or dof_lof < 1 or ss_pe <= 0:
         return None
     statistic = (ss_lof / dof_lof) / (ss_pe / dof_pe)
-    return LackOfFit(float(statistic), float(fdtrc(dof_lof, dof_pe, statistic)), (dof_lof, dof_pe))
+    return LackOfFit(float(statistic), f_survival(dof_lof, dof_pe, statistic), (dof_lof, dof_pe))
+
+
+def f_survival(d1: float, d2: float, f: float) -> float:
+    """``P(F > f)`` for an F distribution of ``d1`` and ``d2`` degrees of freedom.
+
+    ``I_x(d2/2, d1/2)`` at ``x = d2 / (d2 + d1 f)``, the regularized incomplete beta
+    function, with the standard library only: ``scipy.special`` would add about
+    0.3 s to ``bayescal calibrate``'s start (measured with ``python -X importtime``).
+    """
+    if f <= 0:
+        return 1.0
+    return _regularized_beta(d2 / (d2 + d1 * f), d2 / 2.0, d1 / 2.0)
+
+
+_BETA_TERMS = 100_000
+"""Most continued-fraction terms: the fraction settles in about ``sqrt(max(a, b))`` terms, a few hundred
+for the degrees of freedom of a campaign of 100,000 configurations."""
+
+
+def _regularized_beta(x: float, a: float, b: float) -> float:
+    """``I_x(a, b)``, from the continued fraction of DLMF 8.17.22 on the side of ``x`` where it converges quickly.
+
+    The fraction is evaluated by the modified Lentz method; beyond ``x = (a + 1) / (a + b + 2)``
+    the symmetry ``I_x(a, b) = 1 - I_{1-x}(b, a)`` is used instead.
+    """
+    if x <= 0.0 or x >= 1.0:
+        return float(x >= 1.0)
+    if x > (a + 1.0) / (a + b + 2.0):
+        return 1.0 - _regularized_beta(1.0 - x, b, a)
+    log_front = a * math.log(x) + b * math.log1p(-x) - math.log(a) - (math.lgamma(a) + math.lgamma(b) - math.lgamma(a + b))
+    tiny = 1e-300
+    # Modified Lentz: the fraction 1 / (1 + d1 / (1 + d2 / (1 + ...))).
+    first = 1.0 - (a + b) * x / (a + 1.0)
+    c, d = 1.0, 1.0 / (first if abs(first) > tiny else tiny)
+    value = d
+    for m in range(1, _BETA_TERMS):
+        for term in (m * (b - m) * x / ((a + 2 * m - 1) * (a + 2 * m)), -(a + m) * (a + b + m) * x / ((a + 2 * m) * (a + 2 * m + 1))):
+            d = 1.0 + term * d
+            d = 1.0 / (d if abs(d) > tiny else tiny)
+            c = 1.0 + term / c
+            c = c if abs(c) > tiny else tiny
+            value *= c * d
+        if abs(c * d - 1.0) < 1e-15:
+            break
+    return math.exp(log_front) * value

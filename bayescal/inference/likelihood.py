@@ -179,7 +179,7 @@ def per_angle_posterior(equations: DeflectionEquations, free: np.ndarray) -> Con
     """Posterior of eq 30 with one joint-2 compliance per angle: ``theta = [compliances of the free columns, log sigma]``."""
     return ConditionallyLinear(
         y=equations.y,
-        X=equations.per_angle_design()[:, free],
+        X=equations.per_angle_design(free),
         group=equations.group,
         n_groups=len(equations.group_names),
     )

@@ -16,7 +16,9 @@ import math
 import numpy as np
 import pandas as pd
 
+from bayescal.reports.numbers import deflection_mm, error_um, fixed, rounded_pair, table_texts, with_uncertainty
 from bayescal.reports.plots import plot_joint2_compliance
+from bayescal.sampling.summary import R_HAT_LIMIT
 from bayescal.studies.balance import BALANCE_Q2_DEG
 from bayescal.studies.elastostatic_findings import REPEATS, PAPER_EQUATIONS, CompensatorFindings, ElastostaticFindings, Joint2Findings
 from bayescal.studies.linearisation import (
@@ -50,13 +52,17 @@ def _signed(value: float) -> str:
     return f"{value:.0f}".replace("-", "−")
 
 
-def _table(frame: pd.DataFrame, digits: int = 4) -> str:
+def _table(frame: pd.DataFrame, rounded_to: dict[str, str] | None = None, formats: dict | None = None, digits: int = 4) -> str:
+    """A Markdown table: columns in ``rounded_to`` to their row's uncertainty, those in ``formats`` by their formatter
+    (:func:`bayescal.reports.numbers.table_texts`), any other number to ``digits`` significant digits."""
+    texts = table_texts(frame, rounded_to or {}, formats)
+
     def cell(value):
         if isinstance(value, float | np.floating):
             return "–" if np.isnan(value) else f"{value:.{digits}g}"
         return value
 
-    rows = [[name, *(cell(v) for v in row)] for name, row in frame.iterrows()]
+    rows = [[name, *(cell(v) for v in row)] for name, row in texts.iterrows()]
     return markdown_table([frame.index.name or "", *frame.columns], rows)
 
 
@@ -119,7 +125,7 @@ def _estimates_section(f: ElastostaticFindings) -> list[str]:
         lines.append(f"- **{', '.join(names)} {verb} {kind}**: {reason}.")
     if f.weak:
         kept = "; ".join(
-            f"{name} {entry['mean']:.4g} ± {3 * entry['sd']:.4g} {entry['unit']} "
+            f"{name} {with_uncertainty(entry['mean'], 3 * entry['sd'], entry['unit'])} "
             f"({entry['width_pct']:.0f} %, truth {f.truth[name]:g} "
             f"{'inside' if entry['truth_inside'] else 'OUTSIDE'})"
             for name, entry in f.weak.items()
@@ -133,7 +139,7 @@ def _estimates_section(f: ElastostaticFindings) -> list[str]:
         "",
         "Equivalent joint-2 compliance at each campaign angle (μrad/(N·m)):",
         "",
-        _table(f.per_angle),
+        _table(f.per_angle, {"mean": "sd", "sd": "sd", "lo3": "sd", "hi3": "sd"}),
         "",
     ]
 
@@ -149,7 +155,7 @@ def _models_section(f: ElastostaticFindings) -> list[str]:
         f"({f.n_equations} equations); the exact model settled after {d['relinearisations']} relinearisations. "
         "Shift of the linear model's posterior mean in exact-model sd, and ratio of the sds:",
         "",
-        _table(f.linear_vs_exact),
+        _table(f.linear_vs_exact, formats={"shift_in_sd": fixed(2), "sd_ratio": fixed(3)}),
         "",
         "## Dependence on the assumed link masses and compensator spring",
         "",
@@ -157,7 +163,7 @@ def _models_section(f: ElastostaticFindings) -> list[str]:
         "the compensator torque that balances it (the config's spring: the deflections determine K_c too loosely). "
         "Change of the closed-form estimates, in posterior sd, when these are changed:",
         "",
-        _table(f.sensitivity),
+        _table(f.sensitivity, formats={column: fixed(3) for column in f.sensitivity.columns}),
         "",
     ]
 
@@ -172,13 +178,14 @@ def _test_pose_section(f: ElastostaticFindings) -> list[str]:
     lines += [
         f"Test pose q0 = {np.array2string(f.test_q_deg, precision=1)} deg under F0 = "
         f"{np.array2string(f.test_wrench, precision=0)} (N, N·m) at the tool point "
-        f"{np.array2string(f.test_point_mm, precision=0)} mm: predicted deflection {norm['mean']:.4f} mm "
-        f"± {3 * norm['sd']:.4f} mm (3σ); true deflection {f.true_deflection_mm:.4f} mm.",
+        f"{np.array2string(f.test_point_mm, precision=0)} mm: predicted deflection {deflection_mm(norm['mean'], 3 * norm['sd'])} "
+        f"(3σ); true deflection {deflection_mm(f.true_deflection_mm)}.",
         "",
-        "| positioning error after compensation (mm) | rms | 95 % | 99.73 % | ρ0 from covariance (eq 38) |",
+        "| positioning error after compensation | rms | 95 % | 99.73 % | ρ0 from covariance (eq 38) |",
         "|---|---|---|---|---|",
-        f"| spread of the posterior about its mean | {error['rms']:.4f} | {error['q95']:.4f} | {error['q99.73']:.4f} | {error['rho0_from_covariance']:.4f} |",
-        f"| posterior draws against the truth | {truth_block['rms']:.4f} | {truth_block['q95']:.4f} | {truth_block['q99.73']:.4f} | |",
+        "| spread of the posterior about its mean | "
+        + " | ".join(error_um(error[key]) for key in ("rms", "q95", "q99.73", "rho0_from_covariance")) + " |",
+        "| posterior draws against the truth | " + " | ".join(error_um(truth_block[key]) for key in ("rms", "q95", "q99.73")) + " | |",
         "",
     ]
     for name, entry in block["assumed"].items():
@@ -199,7 +206,8 @@ def _estimates_table(estimates: pd.DataFrame) -> pd.DataFrame:
             rows[name] = [row["unit"], "not identifiable", "", "", row["truth"], "", *paper_cells]
             continue
         inside = "yes" if row["truth_inside"] else "NO"
-        rows[name] = [row["unit"], row["mean"], row["half_width_3sd"], f"{row['width_3sd_pct']:.1f}%", row["truth"], inside, *paper_cells]
+        mean, half = rounded_pair(row["mean"], row["half_width_3sd"])
+        rows[name] = [row["unit"], mean, half, f"{row['width_3sd_pct']:.1f}%", row["truth"], inside, *paper_cells]
     frame = pd.DataFrame.from_dict(
         rows,
         orient="index",
@@ -241,9 +249,13 @@ def _misstated_section(frame: pd.DataFrame, seed: int) -> list[str]:
         "simulated with another spring or heavier links (random plan of 6 q2 angles × 5 configurations, 3 repeats, seed "
         f"{seed}), identified with the unchanged config (K_c, s0 in N/mm and mm):",
         "",
-        _table(frame),
+        _table(frame, {"mean": "±3σ", "±3σ": "±3σ"}, {"(truth - mean) / sd": fixed(2), "R-hat": fixed(3)}),
         "",
-    ]
+    ] + (
+        [f"Rows with R-hat above {R_HAT_LIMIT} come from chains that still disagree after `calibrate`'s extensions "
+         "(the Gibbs sampler's 2,400 draws a chain): their means and intervals are not to be trusted.", ""]
+        if (frame["R-hat"] > R_HAT_LIMIT).any() else []
+    )
 
 
 def _linearisation_section(findings: LinearisationFindings) -> list[str]:

@@ -18,6 +18,7 @@ from matplotlib.figure import Figure
 
 from bayescal.critique.geometry import GEOMETRY_CATALOGUE, GeometryCritiqueResults
 from bayescal.geometry.arcs import LEVER_MARKER
+from bayescal.reports.numbers import fixed, table_texts
 from bayescal.reports.plots import plot_arc_fit, plot_eta_curves
 from bayescal.studies.arc_fit import TABLE_I_NOISE
 from bayescal.studies.geometry_coverage import binomial_se
@@ -43,13 +44,16 @@ SE_RATE = 0.99
 """Coverage rate at which the report quotes the binomial standard error: about that of ±3σ."""
 
 
-def _markdown(frame: pd.DataFrame, digits: int = 3) -> str:
+def _markdown(frame: pd.DataFrame, digits: int = 3, rounded_to: dict[str, str] | None = None, formats: dict | None = None) -> str:
+    """A Markdown table: columns in ``rounded_to`` to their row's uncertainty and those in ``formats`` by their
+    formatter (:func:`bayescal.reports.numbers.table_texts`), any other number to ``digits`` decimals."""
     def cell(value) -> str:
         if isinstance(value, (float, np.floating)):
             return f"{value:.{digits}f}"
         return str(value)
 
-    rows = [[index, *map(cell, row)] for index, row in zip(frame.index, frame.to_numpy())]
+    texts = table_texts(frame, rounded_to or {}, formats)
+    rows = [[index, *map(cell, row)] for index, row in zip(texts.index, texts.to_numpy())]
     return markdown_table([frame.index.name or "", *frame.columns], rows)
 
 
@@ -102,10 +106,11 @@ def _report_text(f: GeometryFindings) -> str:
         "## Posterior (concentric cylinder markers, the paper's model)",
         "",
         f"Sampler: {concentric.tree.attrs['sampler']}. {d['n_chains']} chains × {d['n_draws']} draws: "
-        f"R-hat max {d['r_hat_max']:.4f}, bulk ESS min {d['ess_bulk_min']:.0f}, tail ESS min {d['ess_tail_min']:.0f}. "
+        f"R-hat max {d['r_hat_max']:.3f}, bulk ESS min {d['ess_bulk_min']:.0f}, tail ESS min {d['ess_tail_min']:.0f}. "
         "`lo3`/`hi3` are mean ∓ 3 sd, the paper's ±3σ.",
         "",
-        _markdown(summary[["mean", "sd", "lo3", "hi3", "r_hat", "ess_bulk", "unit"]], 4),
+        _markdown(summary[["mean", "sd", "lo3", "hi3", "r_hat", "ess_bulk", "unit"]], 4,
+                  {"mean": "sd", "sd": "sd", "lo3": "sd", "hi3": "sd"}, {"r_hat": fixed(3), "ess_bulk": fixed(0)}),
         "",
     ]
     if f.paper is not None:

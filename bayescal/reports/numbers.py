@@ -18,7 +18,7 @@ import pandas as pd
 
 from bayescal.units import MM, UM
 
-__all__ = ["decimals_for", "rounded_pair", "with_uncertainty", "error_um", "deflection_mm", "table_texts", "fixed"]
+__all__ = ["decimals_for", "decimals_of", "rounded_pair", "with_uncertainty", "error_um", "deflection_mm", "table_texts", "fixed"]
 
 SIGNIFICANT = 2
 """Significant digits kept of an uncertainty."""
@@ -39,16 +39,19 @@ def decimals_for(uncertainty: float, significant: int = SIGNIFICANT) -> int:
     return max(0, significant - 1 - math.floor(math.log10(uncertainty)))
 
 
+def decimals_of(uncertainty: float, significant: int = SIGNIFICANT) -> int:
+    """Decimals of a row shown beside ``uncertainty``: those of the uncertainty once rounded (0.0996 -> 0.10: 2)."""
+    return decimals_for(_rounded(uncertainty, significant), significant) if math.isfinite(uncertainty) else 0
+
+
 def rounded_pair(mean: float, uncertainty: float, *, significant: int = SIGNIFICANT) -> tuple[str, str]:
     """``(mean, uncertainty)`` as texts for two table columns, rounded as :func:`with_uncertainty` does; "–" when missing."""
     if not math.isfinite(mean):
         return "–", "–"
     if not math.isfinite(uncertainty):
         return f"{mean:.4g}", "–"
-    # Rounding may add a digit (0.0996 -> 0.10): the decimals follow the rounded uncertainty.
-    shown = _rounded(uncertainty, significant)
-    places = decimals_for(shown, significant)
-    return f"{mean:.{places}f}", f"{shown:.{places}f}"
+    places = decimals_of(uncertainty, significant)
+    return f"{mean:.{places}f}", f"{_rounded(uncertainty, significant):.{places}f}"
 
 
 def with_uncertainty(mean: float, uncertainty: float, unit: str = "", *, significant: int = SIGNIFICANT) -> str:

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from bayescal.reports.figures import plot_evidence
-from bayescal.reports.numbers import fixed, table_texts
+from bayescal.reports.numbers import fixed, rounded_pair, table_texts
 from bayescal.reports.page import Page, finite_number, generic
 from bayescal.reports.terms import label
 
@@ -232,52 +232,36 @@ def _gain(page: Page, gain) -> None:
 
 
 def registration_section(page: Page, registration: Mapping, source: str) -> None:
-    """The tracker's registration as ``bayescal axes -o`` wrote it: axes, frames with their sd, arc residuals."""
-    from scipy.spatial.transform import Rotation
+    """The tracker's registration as ``bayescal axes -o`` wrote it: axes, frames with their sd, arc residuals.
 
+    Every coordinate is rounded to its own sd (:mod:`bayescal.reports.numbers`): an axis point about 2 m
+    from the tracker, known to 0.2 mm, reads ``-1850.88``, not four significant digits' ``-1851``.
+    """
     page.heading("registration", "Tracker registration")
     page.paragraph(
         f"{'From ' + source + ': t' if source else 'T'}he joint axes fitted from sweeps in the tracker frame, and the robot's "
         "frames built from axes 1 and 2 (p_tracker = R p + t); a campaign or arcs given with this registration were "
         "moved into these frames, the rotation's uncertainty added to each reading (docs/registration.md)."
     )
-    axes = {}
-    for joint, axis in registration.get("axes", {}).items():
-        if isinstance(axis, Mapping):
-            axes[str(joint)] = {
-                **{f"a{c}": v for c, v in zip("xyz", axis.get("direction", []))},
-                "direction sd (mrad)": axis.get("direction_sd_mrad"),
-                **{f"{c} (mm)": v for c, v in zip("xyz", axis.get("point_mm", []))},
-                "point sd (mm)": axis.get("point_sd_mm"),
-                "arc rms (mm)": axis.get("rms_mm"),
-                "χ²/dof": axis["chi2"] / axis["dof"] if finite_number(axis.get("chi2")) and axis.get("dof") else None,
-            }
+    axes = {str(joint): axis for joint, axis in registration.get("axes", {}).items() if isinstance(axis, Mapping)}
     if axes:
-        frame = pd.DataFrame.from_dict(axes, orient="index")
-        frame.index.name = "joint"
-        page.table("axes", frame, caption="Joint axes in the tracker frame: unit direction and the point nearest the tracker's origin")
-    frames = {}
-    for name, entry in registration.get("frames", {}).items():
-        if isinstance(entry, Mapping):
-            rotation = np.asarray(entry.get("rotation", np.eye(3)), dtype=float)
-            frames[str(name)] = {
-                **{f"rotation vector {c} (deg)": v for c, v in zip("xyz", np.degrees(Rotation.from_matrix(rotation).as_rotvec()))},
-                **{f"rotation sd {c} (mrad)": v for c, v in zip("xyz", entry.get("rotation_sd_mrad", []))},
-                **{f"t{c} (mm)": v for c, v in zip("xyz", entry.get("translation_mm", []))},
-                **{f"t{c} sd (mm)": v for c, v in zip("xyz", entry.get("translation_sd_mm", []))},
-            }
-            if entry.get("from_nominal"):
-                page.paragraph(f"{name} frame: {entry['from_nominal']}.")
+        frame, shown = _axes_table(axes)
+        page.table("axes", frame, shown=shown, caption="Joint axes in the tracker frame: unit direction and the point nearest the tracker's origin")
+    frames = {str(name): entry for name, entry in registration.get("frames", {}).items() if isinstance(entry, Mapping)}
+    for name, entry in frames.items():
+        if entry.get("from_nominal"):
+            page.paragraph(f"{name} frame: {entry['from_nominal']}.")
     if frames:
-        frame = pd.DataFrame.from_dict(frames, orient="index")
-        frame.index.name = "frame"
-        page.table("frames", frame, caption="The robot's frames in the tracker frame: R as a rotation vector, t, and their sd")
-    rows = [{"joint": joint, **reflector} for joint, axis in registration.get("axes", {}).items() if isinstance(axis, Mapping)
-            for reflector in axis.get("reflectors", []) if isinstance(reflector, Mapping)]
+        frame, shown = _frames_table(frames)
+        page.table("frames", frame, shown=shown, caption="The robot's frames in the tracker frame: R as a rotation vector, t, and their sd")
+    rows = [{"joint": joint, **reflector} for joint, axis in axes.items() for reflector in axis.get("reflectors", []) if isinstance(reflector, Mapping)]
     if rows:
         frame = pd.DataFrame(rows)
         frame.index = pd.Index([f"{row['joint']} {row.get('marker', '')}" for row in rows], name="joint, reflector")
-        page.table("reflectors", frame.drop(columns=["joint"]),
+        frame = frame.drop(columns=["joint"])
+        # Lengths and angles to 1 μm and 0.001°, the standardised rms to 0.01: no sd of their own in the file.
+        formats = {c: fixed(2 if c == "z_rms" else 3) for c in frame.columns if c.endswith(("_mm", "_deg")) or c == "z_rms"}
+        page.table("reflectors", frame, shown=table_texts(frame, {}, formats), words=label,
                    caption="Arc residuals per reflector (z_rms: rms standardised residual, about 1 when the tracker model holds)")
     critique = registration.get("critique")
     if isinstance(critique, Mapping):
@@ -287,5 +271,68 @@ def registration_section(page: Page, registration: Mapping, source: str) -> None
         if evidence:
             frame = pd.DataFrame.from_dict(evidence, orient="index")
             frame.index.name = "joint, candidate"
-            page.table("sweep_critique", frame, caption="Held-out gain (ΔELPD, nats) of each candidate over the circle model")
+            rounded = {"estimate": "estimate_sd", "estimate_sd": "estimate_sd"} if {"estimate", "estimate_sd"} <= set(frame.columns) else {}
+            formats = {c: fixed(1) if c in ("delta_elpd", "se") else fixed(4) for c in frame.columns if c in ("delta_elpd", "se") or c.endswith("_mm")}
+            page.table("sweep_critique", frame, shown=table_texts(frame, rounded, formats), words=label,
+                       caption="Held-out gain (ΔELPD, nats) of each candidate over the circle model")
     page.close()
+
+
+def _axes_table(axes: Mapping[str, Mapping]) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The axes' numbers and their texts: directions to their sd, points to theirs, arc rms to 1 μm, χ²/dof to 0.01."""
+    numbers, texts = {}, {}
+    for joint, axis in axes.items():
+        direction_sd = _number(axis.get("direction_sd_mrad")) * 1e-3
+        point_sd = _number(axis.get("point_sd_mm"))
+        chi2 = axis["chi2"] / axis["dof"] if finite_number(axis.get("chi2")) and axis.get("dof") else None
+        row = {
+            **{f"a{c}": (v, direction_sd) for c, v in zip("xyz", axis.get("direction", []))},
+            "direction sd (mrad)": (axis.get("direction_sd_mrad"), _number(axis.get("direction_sd_mrad"))),
+            **{f"{c} (mm)": (v, point_sd) for c, v in zip("xyz", axis.get("point_mm", []))},
+            "point sd (mm)": (axis.get("point_sd_mm"), point_sd),
+            "arc rms (mm)": (axis.get("rms_mm"), fixed(3)),
+            "χ²/dof": (chi2, fixed(2)),
+        }
+        numbers[joint] = {key: value for key, (value, _) in row.items()}
+        texts[joint] = {key: _text(value, how, sd_column=" sd " in key) for key, (value, how) in row.items()}
+    return _framed(numbers, "joint"), _framed(texts, "joint")
+
+
+def _frames_table(frames: Mapping[str, Mapping]) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The frames' rotation vectors (deg) and translations (mm), each to its own sd, and the sd to two digits."""
+    from scipy.spatial.transform import Rotation
+
+    numbers, texts = {}, {}
+    for name, entry in frames.items():
+        rotation = np.asarray(entry.get("rotation", np.eye(3)), dtype=float)
+        rotation_sd = [_number(v) for v in entry.get("rotation_sd_mrad", [])]
+        translation_sd = [_number(v) for v in entry.get("translation_sd_mm", [])]
+        row = {
+            **{f"rotation vector {c} (deg)": (v, np.degrees(sd * 1e-3)) for c, v, sd in
+               zip("xyz", np.degrees(Rotation.from_matrix(rotation).as_rotvec()), rotation_sd or [math.nan] * 3)},
+            **{f"rotation sd {c} (mrad)": (v, v) for c, v in zip("xyz", rotation_sd)},
+            **{f"t{c} (mm)": (v, sd) for c, v, sd in zip("xyz", entry.get("translation_mm", []), translation_sd or [math.nan] * 3)},
+            **{f"t{c} sd (mm)": (v, v) for c, v in zip("xyz", translation_sd)},
+        }
+        numbers[name] = {key: value for key, (value, _) in row.items()}
+        texts[name] = {key: _text(value, sd, sd_column=" sd " in key) for key, (value, sd) in row.items()}
+    return _framed(numbers, "frame"), _framed(texts, "frame")
+
+
+def _number(value) -> float:
+    return float(value) if finite_number(value) else math.nan
+
+
+def _text(value, how, *, sd_column: bool) -> str:
+    """``value`` rounded to the sd ``how`` (the sd itself to two digits when ``sd_column``), or by the formatter ``how``."""
+    if not finite_number(value):
+        return "–"
+    if callable(how):
+        return how(float(value))
+    return rounded_pair(float(value), how)[1 if sd_column else 0]
+
+
+def _framed(rows: Mapping[str, Mapping], index: str) -> pd.DataFrame:
+    frame = pd.DataFrame.from_dict(rows, orient="index")
+    frame.index.name = index
+    return frame

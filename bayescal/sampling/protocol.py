@@ -14,7 +14,9 @@ A target with a true attribute ``vectorized`` also takes a batch ``(n, ndim)``
 and returns ``(n,)`` values; samplers that can use batches then evaluate it
 once per batch (see :func:`bayescal.sampling.independence.evaluate`).  A
 sampler may offer ``describe(ndim)``, a one-line account of its settings for
-result files.
+result files, and ``extended()``, the sampler to run instead when its draws fall
+short of convergence (:func:`bayescal.sampling.summary.sample_until_converged`;
+without it, the same sampler with twice its ``n_draws``).
 """
 
 from __future__ import annotations

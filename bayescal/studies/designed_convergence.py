@@ -7,11 +7,11 @@ each designed plan is measured twice, by the digital twin (as ``bayescal
 simulate`` does) and by the independent generator (:mod:`bayescal.twin.independent`:
 truths, tool and tracker noise drawn unlike the cell's, a solver of its own), and
 each campaign is identified exactly as ``bayescal calibrate`` does
-without options: the exact model, the default sampler's draws, extended by
-:data:`~bayescal.inference.elastostatic.EXTENSIONS` doublings while R-hat or the
+without options: the exact model, the default sampler's draws, extended up to
+:data:`~bayescal.inference.elastostatic.EXTENSIONS` times while R-hat or the
 ESS fall short.  The table says, per campaign, whether R-hat and the bulk and tail
-ESS met :func:`bayescal.sampling.summary.converged`'s thresholds, and with how
-many draws.
+ESS met :func:`bayescal.sampling.summary.converged`'s thresholds, with how
+many draws and which sampler.
 """
 
 from __future__ import annotations
@@ -77,7 +77,7 @@ def designed_plan_convergence(cell: Cell, designs: Sequence[Design], seed: int, 
     pandas.DataFrame
         Two rows per design, ``generator`` ``"twin"`` and ``"independent"``: ``criterion, angles, per_angle, model, design_seed``, the
         plan's ``q2_deg`` (text), ``r_hat_max``, ``ess_bulk_min``, ``ess_tail_min``,
-        ``n_draws`` (kept per chain, after any extension), ``converged``, and the wall
+        ``n_draws`` (kept per chain, after any extension), ``sampler`` (the one that drew them), ``converged``, and the wall
         times ``design_s`` and ``calibrate_s``.
     """
     rows = seeded_map(_campaigns, list(designs), seed, executor=executor, cell=cell)
@@ -102,7 +102,8 @@ def _campaigns(design: Design, rng: np.random.Generator, cell: Cell) -> list[dic
         with warnings.catch_warnings():
             # Not-identifiable parameters and extensions are warned about; the table records what matters here.
             warnings.simplefilter("ignore")
-            report = model.fit(campaign, rng).diagnostics()
+            results = model.fit(campaign, rng)
+        report = results.diagnostics()
         rows.append(
             {
                 "generator": generator,
@@ -116,6 +117,7 @@ def _campaigns(design: Design, rng: np.random.Generator, cell: Cell) -> list[dic
                 "ess_bulk_min": report["ess_bulk_min"],
                 "ess_tail_min": report["ess_tail_min"],
                 "n_draws": report["n_draws"],
+                "sampler": results.sampler_name,
                 "converged": bool(converged(report)),
                 "design_s": designed,
                 "calibrate_s": time.perf_counter() - calibrating,

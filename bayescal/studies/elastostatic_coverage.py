@@ -161,6 +161,7 @@ def fit_against_truth(
     sampler: Sampler | None = None,
     size: tuple[int, int, int] = (6, 5, 3),
     noise_um: float | None = 8.0,
+    extensions: int = 0,
 ) -> list[dict]:
     """Simulate a random campaign with ``truth``, identify it with the model of the unchanged ``cell``.
 
@@ -178,6 +179,10 @@ def fit_against_truth(
         ``(angles, per_angle, repeats)`` of the random plan (:func:`random_plan`).
     noise_um
         Tracker noise sd per coordinate (μm) at every distance; None: the cell's tracker model.
+    extensions
+        Runs the sampling may be extended by while it falls short of convergence
+        (:class:`~bayescal.inference.elastostatic.ElastostaticModel`'s ``extensions``; ``bayescal calibrate``'s
+        :data:`~bayescal.inference.elastostatic.EXTENSIONS`).
 
     Returns
     -------
@@ -201,7 +206,7 @@ def fit_against_truth(
     plan = random_plan(cell, *size[:2], rng)
     campaign = DigitalTwin(twin).simulate(plan, size[2], rng)
     options = {} if sampler is None else {"sampler": sampler}
-    model = ElastostaticModel.from_cell(dataclasses.replace(cell, tracker=tracker), **options)
+    model = ElastostaticModel.from_cell(dataclasses.replace(cell, tracker=tracker), extensions=extensions, **options)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         results = model.fit(campaign, rng)

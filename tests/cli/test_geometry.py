@@ -58,6 +58,18 @@ def test_text_output_sets_table2_beside(capsys, table1_csv):
     assert "R-hat max" in text
 
 
+def test_text_rounds_every_row_to_its_sd_as_the_json_gives_it(capsys, table1_csv):
+    from bayescal.reports.numbers import decimals_of, rounded_pair
+
+    payload = run_json(capsys, table1_csv)
+    assert main(["geometry", table1_csv, *LIGHT]) == 0
+    rows = {line.split()[0]: line.split() for line in capsys.readouterr().out.splitlines() if line.split()}
+    for name, block in payload["parameters"].items():
+        mean, sd = rounded_pair(block["mean"], block["sd"])
+        places = decimals_of(block["sd"])
+        assert rows[name][2:6] == [mean, sd, f"{block['lo3']:.{places}f}", f"{block['hi3']:.{places}f}"], name
+
+
 def test_posterior_is_saved(capsys, tmp_path, table1_csv):
     path = tmp_path / "geometry.nc"
     payload = run_json(capsys, table1_csv, "--posterior", str(path))

@@ -339,7 +339,7 @@ def test_short_chains_are_doubled_and_the_extension_announced(cell, twin_campaig
     grown, messages = _fit_recording(ElastostaticModel.from_cell(cell, model="linear", sampler=short, extensions=2), campaign, 0)
     # 2 chains of at most 80 draws cannot reach an ESS of 400: both doublings are spent, and said.
     assert grown.diagnostics()["n_draws"] == 80
-    assert any("sampled again with 80 draws per chain" in m for m in messages)
+    assert any("sampled again (GibbsSampler, 80 draws per chain)" in m for m in messages)
     assert any("may not have converged" in m for m in messages)
 
 

@@ -1,12 +1,17 @@
-"""Tests of bayescal.inference.exact: the exact model's deflections, the mass scale and the relinearisation."""
+"""Tests of bayescal.inference.exact: the exact model's deflections, a campaign's solved together against one
+configuration at a time, the mass scale and the relinearisation."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from bayescal.inference.exact import ExactCorrection, exact_deflections, scale_masses
+from bayescal.cell.config import load_cell
+from bayescal.inference.equations import deflection_equations
+from bayescal.inference.exact import ExactCorrection, campaign_deflections, exact_deflections, linearisation_offset, scale_masses
 from bayescal.robot.stiffness import compliance_design
+from bayescal.studies.elastostatic_coverage import random_plan
+from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import DEG
 
 
@@ -56,3 +61,38 @@ def test_the_relinearisation_recovers_the_compliances_of_exact_deflections(plana
     assert np.max(np.abs(linear.compliances / truth - 1)) > 1e-4
     np.testing.assert_allclose(exact.compliances, truth, rtol=1e-6)
     assert 1 <= iterations < 10 and offset.shape == (equations.n,)
+
+
+def _one_at_a_time(cell, campaign, equations, compliances, k2):
+    expected = np.empty((len(campaign), 3))
+    for config in np.unique(campaign.config):
+        rows = np.flatnonzero(campaign.config == config)
+        q = campaign.q[rows[0]]
+        k = np.array(compliances)
+        if equations.joint is not None:
+            k[equations.joint] = cell.compensator.own_compliance(q[equations.joint], k2[equations.angle[3 * rows[0]]])
+        expected[rows] = exact_deflections(
+            cell.robot, q, campaign.wrench[rows[0]], k, cell.compensator,
+            unloaded_positions=campaign.p0[rows], load_point=cell.load_point, compensated_joint=equations.joint,
+        )
+    return expected
+
+
+@pytest.mark.parametrize("name", ["kr270.toml", "robots/arm7.toml", "robots/arm6.toml", "robots/track_arm6.toml"])
+def test_campaign_deflections_equal_the_loop_over_configurations(data_dir, name):
+    cell = load_cell(data_dir / name)
+    rng = np.random.default_rng(11)
+    campaign = DigitalTwin(cell).simulate(random_plan(cell, 4, 2, rng), 2, rng)
+    joint = cell.compensated_joint if cell.compensator else None
+    equations, _, _ = deflection_equations(cell.robot, campaign, joint=joint)
+    compliances = np.asarray(cell.compliances) * rng.uniform(0.8, 1.25, cell.robot.nq)
+    k2 = np.empty(0)
+    if joint is not None:
+        k2 = cell.compensator.equivalent_compliance(equations.compensated_angles, compliances[joint]) * rng.uniform(0.9, 1.1, equations.compensated_angles.size)
+    expected = _one_at_a_time(cell, campaign, equations, compliances, k2)
+    batched = campaign_deflections(cell.robot, campaign, equations, compliances, k2, cell.compensator, cell.load_point)
+    # Deflections of millimetres, the difference of positions of metres: equal to a picometre, the positions' rounding.
+    assert np.abs(expected).max() > 1e-4
+    np.testing.assert_allclose(batched, expected, rtol=0, atol=1e-12)
+    offset = linearisation_offset(cell.robot, campaign, equations, compliances, k2, cell.compensator, cell.load_point)
+    assert offset.shape == (equations.n,) and np.all(np.isfinite(offset))

@@ -135,3 +135,13 @@ def test_per_angle_names_are_read_back_to_their_angle():
     assert label_angle(angle_label(-1e-4)) == pytest.approx(-0.006)
     for other in ("k2", "K_c", "s0", "k2_q2", "sigma[P1]"):
         assert label_angle(other) is None
+
+
+def test_a_tall_confounded_design_is_analysed_without_its_full_left_basis():
+    # 200,000 rows: a full U would be 200,000 × 200,000 (320 GB).
+    rng = np.random.default_rng(0)
+    design = rng.normal(size=(200_000, 4))
+    design[:, 3] = design[:, 1] + design[:, 2]
+    result = analyse(design, [(0, None), (1, None), (2, None), (3, None)], np.zeros(0), np.ones((10, 4)), np.zeros(10, int))
+    assert list(result.identifiable) == [True, False, False, False]
+    assert "k3, k4" in result.reasons["k2"]

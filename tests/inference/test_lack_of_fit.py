@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, lack_of_fit, replicate_cells
+from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, f_survival, lack_of_fit, replicate_cells
 
 
 def _regression(rng, n_levels=12, repeats=3, curvature=0.0, scale=None):
@@ -72,3 +72,15 @@ def test_non_finite_residuals_are_refused(bad):
     residual[0] = bad
     with pytest.raises(ValueError, match="finite"):
         lack_of_fit(residual, scale, cells, n_parameters=2)
+
+
+@pytest.mark.parametrize("d1", [1, 2, 7, 155, 90_000])
+@pytest.mark.parametrize("d2", [1, 5, 90, 60_000, 200_000])
+def test_f_survival_equals_scipy(d1, d2):
+    from scipy.special import fdtrc
+
+    for f in (1e-3, 0.5, 1.0, 1.02, 1.5, 4.0, 30.0):
+        expected = fdtrc(d1, d2, f)
+        # Relative to the value; the lgamma differences in the front factor of DLMF 8.17.22 limit it to about 1e-9.
+        assert f_survival(d1, d2, f) == pytest.approx(expected, rel=1e-8, abs=1e-300)
+    assert f_survival(d1, d2, 0.0) == 1.0

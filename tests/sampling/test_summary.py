@@ -139,3 +139,50 @@ def test_converged_needs_rhat_and_both_effective_sizes():
     assert not converged(good | {"r_hat_max": R_HAT_LIMIT + 0.001})
     assert not converged(good | {"ess_tail_min": ESS_LIMIT - 1})
     assert not converged(good | {"r_hat_max": float("nan")})
+
+
+def test_a_sampler_that_falls_short_hands_over_to_its_extension_and_the_result_names_it():
+    from dataclasses import dataclass
+
+    from bayescal.sampling.summary import sample_until_converged
+
+    @dataclass(frozen=True)
+    class Stuck:
+        n_draws: int = 500
+
+        def draws(self, rng):
+            # every chain held at its own place: R-hat far above 1.01 however long the chains
+            return rng.normal(size=(4, self.n_draws)) * 0.01 + np.arange(4)[:, None]
+
+        def extended(self):
+            return Mixing(self.n_draws)
+
+    @dataclass(frozen=True)
+    class Mixing(Stuck):
+        def draws(self, rng):
+            return rng.normal(size=(4, self.n_draws))
+
+    rng = np.random.default_rng(0)
+    run = lambda sampler: (posterior_tree({"x": sampler.draws(rng)}, units={"x": "1"}),)  # noqa: E731
+    with pytest.warns(UserWarning, match=r"sampled again \(Mixing, 500 draws per chain\)"):
+        (tree,), summary, used = sample_until_converged(run, Stuck(), 1, what="the test posterior")
+    assert used == Mixing(500) and summary.loc["x", "r_hat"] < 1.01
+    # without an extension allowed, the stuck draws are returned as they are, and nothing is said of extending
+    (tree,), summary, used = sample_until_converged(run, Stuck(), 0, what="the test posterior")
+    assert used == Stuck() and summary.loc["x", "r_hat"] > 1.5
+
+
+def test_a_sampler_without_an_extension_doubles_its_draws():
+    from dataclasses import dataclass
+
+    from bayescal.sampling.summary import sample_until_converged
+
+    @dataclass(frozen=True)
+    class Short:
+        n_draws: int = 25
+
+    rng = np.random.default_rng(1)
+    run = lambda sampler: (posterior_tree({"x": rng.normal(size=(4, sampler.n_draws))}, units={"x": "1"}),)  # noqa: E731
+    with pytest.warns(UserWarning, match=r"sampled again \(Short, 100 draws per chain\)"):
+        _, _, used = sample_until_converged(run, Short(), 2, what="the test posterior")
+    assert used == Short(100)

@@ -1,0 +1,42 @@
+"""The review's sections for the JSON files it is given: numbers rounded to their own uncertainty, the JSON kept whole."""
+
+import numpy as np
+
+from bayescal.reports.page import Page
+from bayescal.reports.review_files import registration_section
+
+REGISTRATION = {
+    "axes": {
+        "1": {
+            "direction": [-0.05033038, 0.06217209, -0.99679561],
+            "direction_sd_mrad": 0.0830449,
+            "point_mm": [-1850.879969, -3092.621475, -99.437866],
+            "point_sd_mm": 0.2279402,
+            "rms_mm": 0.0524656,
+            "chi2": 88.5,
+            "dof": 68,
+            "reflectors": [{"marker": "R1", "height_mm": -1711.648446, "radius_mm": 1754.009724, "phase_deg": -2.7595788,
+                            "rms_mm": 0.0520726, "z_rms": 1.0523758}],
+        }
+    },
+    "frames": {"base": {"rotation": np.eye(3).tolist(), "rotation_sd_mrad": [0.0344, 0.1089, 0.0962],
+                        "translation_mm": [-1850.880279, -3092.619527, -99.442312], "translation_sd_mm": [0.1958, 0.0457, 0.0543]}},
+}
+
+
+def _rows(page: Page, caption_start: str) -> list[list[str]]:
+    lines = page.markdown[next(i for i, line in enumerate(page.markdown) if line.startswith(f"*{caption_start}")) + 4:]
+    return [[cell.strip() for cell in line.strip("|").split("|")] for line in lines[: lines.index("")]]
+
+
+def test_the_registration_rounds_each_coordinate_to_its_own_sd_and_keeps_the_numbers_in_the_json():
+    page = Page("T")
+    registration_section(page, REGISTRATION, "reg.json")
+    axis = _rows(page, "Joint axes")[0]
+    # direction to 0.083 mrad (6 decimals), point to 0.23 mm (2 decimals), rms to 1 μm, χ²/dof to 0.01
+    assert axis == ["1", "-0.050330", "0.062172", "-0.996796", "0.083", "-1850.88", "-3092.62", "-99.44", "0.23", "0.052", "1.30"]
+    base = _rows(page, "The robot's frames")[0]
+    assert base[7:] == ["-1850.88", "-3092.620", "-99.442", "0.20", "0.046", "0.054"]
+    reflector = _rows(page, "Arc residuals")[0]
+    assert reflector[2:] == ["-1711.648", "1754.010", "-2.760", "0.052", "1.05"]
+    assert page.numbers["registration"]["axes"]["1"]["x (mm)"] == -1850.879969
