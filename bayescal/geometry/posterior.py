@@ -50,7 +50,7 @@ import pandas as pd
 import xarray as xr
 
 from bayescal.sampling import summary as posterior
-from bayescal.robot.compensator import CompensatorGeometry
+from bayescal.robot.compensator import CompensatorGeometry, alpha
 from bayescal.errors import InputError
 from bayescal.geometry.arcs import CompensatorGeometryModel, GeometryFit, MarkerPoints
 from bayescal.jsonsafe import json_safe
@@ -287,7 +287,7 @@ class GeometryPosteriorModel:
             "a_x": a_x / MM,
             "a_y": a_y / MM,
             "phi": phi / DEG,
-            "alpha": (phi - np.arctan2(a_y, a_x)) / DEG,
+            "alpha": alpha(phi, a_x, a_y) / DEG,
             "p2_x": p["p2"][..., 0] / MM,
             "p2_y": p["p2"][..., 1] / MM,
             "p0_x": p["p0"][..., 0] / MM,
