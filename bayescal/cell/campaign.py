@@ -42,9 +42,10 @@ import pandas as pd
 
 from bayescal.cell.campaign_checks import check_angles, check_deflection, check_wrench
 from bayescal.cell.loading import WRENCH_COLUMNS
+from bayescal.cell.plan import position_columns
 from bayescal.errors import InputError
 from bayescal.tables import read_header, read_table
-from bayescal.units import DEG, MM
+from bayescal.units import MM
 
 if TYPE_CHECKING:
     from bayescal.cell.config import Cell
@@ -63,11 +64,6 @@ LOAD_POINT_COLUMNS = ("load_x_mm", "load_y_mm", "load_z_mm")
 _SAME_CONFIG_TOLERANCE = 1e-6
 """Largest difference (deg, N or N·m) between rows of one configuration still read as equal."""
 _JOINT_COLUMN = re.compile(r"q([0-9]+)_(deg|mm)")
-
-
-def _joint_columns(n: int, prismatic: np.ndarray | None = None) -> list[str]:
-    """``q<j>_deg`` per joint, ``q<j>_mm`` for the joints ``prismatic`` flags."""
-    return [f"q{j + 1}_{'mm' if prismatic is not None and prismatic[j] else 'deg'}" for j in range(n)]
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,8 +142,8 @@ class Campaign:
     def to_frame(self) -> pd.DataFrame:
         """The campaign as the CSV's columns, in mm, deg, N and N·m."""
         frame = pd.DataFrame({"config": self.config.astype(int), "repeat": self.repeat.astype(int)})
-        scale = np.where(self.prismatic, MM, DEG) if self.prismatic is not None else DEG
-        for name, values in zip(_joint_columns(self.q.shape[1], self.prismatic), (self.q / scale).T):
+        columns, scale = position_columns(self.q.shape[1], self.prismatic)
+        for name, values in zip(columns, (self.q / scale).T):
             frame[name] = values
         for name, values in zip(WRENCH_COLUMNS, self.wrench.T):
             frame[name] = values
@@ -256,8 +252,7 @@ def read_campaign(
     source = str(path)
     prismatic = _joint_layout(Path(path), cell)
     n_joints = prismatic.size
-    joint_columns = _joint_columns(n_joints, prismatic)
-    joint_scale = np.where(prismatic, MM, DEG)
+    joint_columns, joint_scale = position_columns(n_joints, prismatic)
     frame = _read_frame(path, joint_columns)
     if markers is not None:
         _check_markers(frame, markers, source)

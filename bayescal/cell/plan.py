@@ -25,7 +25,7 @@ from bayescal.robot.kinematics import Robot
 from bayescal.tables import read_header, read_table
 from bayescal.units import DEG, MM
 
-__all__ = ["FORCE_COLUMNS", "COUPLE_COLUMNS", "Plan", "read_plan", "write_plan"]
+__all__ = ["FORCE_COLUMNS", "COUPLE_COLUMNS", "Plan", "position_columns", "prismatic_flags", "read_plan", "write_plan"]
 
 FORCE_COLUMNS = ("fx_N", "fy_N", "fz_N")
 """A plan's force columns: the force through the load point, base axes, N."""
@@ -178,8 +178,8 @@ def read_plan(
     force = frame[list(FORCE_COLUMNS)].to_numpy(dtype=float) if FORCE_COLUMNS[0] in frame else None
     couple = frame[list(COUPLE_COLUMNS)].to_numpy(dtype=float) if COUPLE_COLUMNS[0] in frame else None
     _check_wrenches(frame.index, force, couple, max_load_kg, loading, source)
-    prismatic = robot.prismatic.copy() if robot.prismatic.any() else None
-    return Plan(q=q, load_kg=load, lines=frame.index.to_numpy(dtype=int), source=source, force=force, couple=couple, prismatic=prismatic)
+    lines = frame.index.to_numpy(dtype=int)
+    return Plan(q=q, load_kg=load, lines=lines, source=source, force=force, couple=couple, prismatic=prismatic_flags(robot))
 
 
 def _check_load_columns(header: tuple[int, list[str]] | None, source: str) -> None:
@@ -219,6 +219,22 @@ def _check_wrenches(lines, force, couple, max_load_kg, loading: Loading | None, 
             raise InputError(reason, source=source, line=int(line), column=column)
 
 
+def prismatic_flags(robot: Robot) -> np.ndarray | None:
+    """A plan's or a campaign's ``prismatic`` field for ``robot``: a copy of its flags, ``None`` for an all-revolute arm."""
+    return robot.prismatic.copy() if robot.prismatic.any() else None
+
+
+def position_columns(n: int, prismatic: np.ndarray | None) -> tuple[list[str], np.ndarray]:
+    """The plan and campaign files' column of each of ``n`` joints and the SI value of its unit.
+
+    ``q<j>_deg`` (rad per deg) for a revolute joint, ``q<j>_mm`` (m per mm) for a joint that
+    ``prismatic`` (``(n,)`` bool, or ``None`` for an all-revolute arm) flags; as
+    :attr:`~bayescal.robot.kinematics.Robot.position_columns` names them for a robot.
+    """
+    flags = np.zeros(n, dtype=bool) if prismatic is None else np.asarray(prismatic, dtype=bool)
+    return [f"q{j + 1}_{'mm' if linear else 'deg'}" for j, linear in enumerate(flags)], np.where(flags, MM, DEG)
+
+
 def write_plan(plan: Plan, path: str | PathLike[str], *, comments: Sequence[str] = ()) -> None:
     """Write ``plan`` in the format :func:`read_plan` reads; ``comments`` become leading ``#`` lines.
 
@@ -227,9 +243,7 @@ def write_plan(plan: Plan, path: str | PathLike[str], *, comments: Sequence[str]
     loads with 1 decimal in kg, forces in N and couples in N·m.
     """
     lines = [f"# {line}" for comment in comments for line in str(comment).splitlines()]
-    prismatic = np.zeros(plan.q.shape[1], dtype=bool) if plan.prismatic is None else plan.prismatic
-    joints = [f"q{j + 1}_{'mm' if linear else 'deg'}" for j, linear in enumerate(prismatic)]
-    scale = np.where(prismatic, MM, DEG)
+    joints, scale = position_columns(plan.q.shape[1], plan.prismatic)
     columns = joints + ([] if plan.load_kg is None else ["load_kg"])
     columns += list(FORCE_COLUMNS) * (plan.force is not None) + list(COUPLE_COLUMNS) * (plan.couple is not None)
     lines.append(",".join(columns))

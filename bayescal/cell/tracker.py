@@ -55,6 +55,18 @@ class TrackerNoise:
         distance = np.linalg.norm(np.asarray(points, dtype=float) - self.position, axis=-1)
         return self.factor * (self.U0 + self.U1 * distance)
 
+    def deflection_variance(self, unloaded, loaded) -> np.ndarray:
+        """Variance (m²) of each coordinate of a deflection ``loaded - unloaded``: two independent readings.
+
+        ``unloaded`` and ``loaded`` are ``(..., 3)`` points (m); the result has their shape without the last axis.
+        """
+        return self.sigma(unloaded) ** 2 + self.sigma(loaded) ** 2
+
+    def sigma_range(self, *points) -> tuple[float, float]:
+        """Smallest and largest sd per coordinate (m) of the readings at every point of the ``(..., 3)`` arrays ``points``."""
+        sigma = np.concatenate([np.ravel(self.sigma(p)) for p in points])
+        return float(sigma.min()), float(sigma.max())
+
     def measure(self, points, rng: np.random.Generator) -> np.ndarray:
         """The points as the tracker reads them: each coordinate plus an independent Gaussian error."""
         points = np.asarray(points, dtype=float)

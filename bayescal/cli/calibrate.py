@@ -103,7 +103,7 @@ def _text(results, test_pose, args, reference_file) -> str:
     import pandas as pd
 
     from bayescal.inference.identifiability import grouped
-    from bayescal.reference import beside_published, read_paper_reference
+    from bayescal.reference import beside_published, read_paper_reference, width_3sd_pct
     from bayescal.reports.numbers import rounded_pair, with_uncertainty
 
     parameters = results.parameters()
@@ -115,7 +115,7 @@ def _text(results, test_pose, args, reference_file) -> str:
     if compared:
         paper = beside_published(estimates, "IV", read_paper_reference(reference_file))
     else:
-        paper = estimates.assign(half_width_3sd=3 * estimates["sd"], width_3sd_pct=300 * estimates["sd"] / estimates["mean"].abs())
+        paper = estimates.assign(half_width_3sd=3 * estimates["sd"], width_3sd_pct=width_3sd_pct(estimates["mean"], estimates["sd"]))
     units = results.parameter_units
     reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in units}
     lines = [

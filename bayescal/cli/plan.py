@@ -227,6 +227,7 @@ def _read_evaluated_plan(path: str, cell):
     from bayescal.cell.campaign import POSITION_COLUMNS
     from bayescal.cell.plan import read_plan
     from bayescal.errors import InputError
+    from bayescal.robot.compensator import MIN_ANGLES
 
     try:
         header = pd.read_csv(path, comment="#", nrows=0).columns
@@ -242,10 +243,10 @@ def _read_evaluated_plan(path: str, cell):
     joint = cell.compensated_joint
     if joint is not None:
         angles = len(np.unique(np.round(plan.q[:, joint], 9)))
-        if angles < 3:
+        if angles < MIN_ANGLES:
             raise InputError(
                 f"the plan has {angles} distinct q{joint + 1} angle(s); the compensator's stiffness, K_c and s0 need at "
-                "least 3 to be predicted at all",
+                f"least {MIN_ANGLES} to be predicted at all",
                 source=path,
             )
     return plan

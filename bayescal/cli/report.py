@@ -117,7 +117,6 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
 def _read_inputs(args: argparse.Namespace):
     from bayescal.reports.review import ReviewInputs
-    from bayescal.sampling.summary import load
 
     from bayescal.cell.config import load_cell
     from bayescal.inference.priors import posterior_geometry
@@ -128,7 +127,7 @@ def _read_inputs(args: argparse.Namespace):
     geometry = None
     if args.geometry:
         sources["geometry posterior"] = args.geometry
-        review.geometry = _load_tree(args.geometry, "--geometry", load, needs=("L", "a_x", "a_y"), foreign="k2_q2")
+        review.geometry = _load_tree(args.geometry, "--geometry", needs=("L", "a_x", "a_y"), foreign="k2_q2")
         # The check calibrate applies: units, finite draws and, with a cell, nearness to its compensator.
         geometry = posterior_geometry(args.geometry, None if cell is None else cell.compensator)
     if args.registration:
@@ -139,6 +138,7 @@ def _read_inputs(args: argparse.Namespace):
         for name in review.registration["frames"]:
             read_frame(args.registration, name)
     if args.calibration:
+        from bayescal.compensation.calibration import check_calibration_robot
         from bayescal.studies.review import calibration_findings
 
         sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
@@ -147,8 +147,8 @@ def _read_inputs(args: argparse.Namespace):
 
         # A robot without a compensator has no per-angle compliances; the geometry's own 'R' tells the other kind apart.
         per_angle = ParameterRegistry.of_cell(cell).per_angle_variable if cell is not None else None
-        tree = _load_tree(args.calibration, "--calibration", load, needs=(*([per_angle] if per_angle else []), "sigma"), foreign="R")
-        _check_joint_count(tree, cell, args.calibration)
+        tree = _load_tree(args.calibration, "--calibration", needs=(*([per_angle] if per_angle else []), "sigma"), foreign="R")
+        check_calibration_robot(tree, cell, args.calibration)
         calibration = calibration_findings(cell, campaign, tree, geometry)
         _check_fit(calibration.results, args)
         review.results, review.campaign, review.cell = calibration.results, campaign, cell
@@ -170,18 +170,15 @@ def _read_inputs(args: argparse.Namespace):
     return review
 
 
-def _load_tree(path: str, option: str, load, needs: tuple[str, ...], foreign: str):
+def _load_tree(path: str, option: str, needs: tuple[str, ...], foreign: str):
     """The posterior at ``path``, refused when it lacks a variable of ``needs``, has ``foreign``, a variable only
     the other kind of posterior has (an elastostatic posterior also holds the geometry it sampled), or non-finite draws."""
     import numpy as np
 
     from bayescal.errors import InputError
+    from bayescal.sampling.summary import read_posterior
 
-    try:
-        tree = load(path)
-        posterior = tree["posterior"]
-    except (OSError, KeyError, ValueError) as exc:
-        raise InputError(f"cannot read a posterior DataTree ({type(exc).__name__})", source=path) from None
+    tree, posterior = read_posterior(path)
     missing = [name for name in needs if name not in posterior]
     if missing:
         raise InputError(f"the posterior has no variable {', '.join(repr(m) for m in missing)}: is it the file {option} expects?", source=path)
@@ -237,22 +234,6 @@ def _read_csv(path: str, option: str):
         if not pd.api.types.is_numeric_dtype(frame[column]):
             raise InputError("expected numbers", source=path, column=column)
     return frame
-
-
-def _check_joint_count(tree, cell, path: str) -> None:
-    """Refuse a calibration with a compliance ``k<j>`` of a joint the cell's robot does not have."""
-    import re
-
-    from bayescal.errors import InputError
-
-    joints = [int(match.group(1)) for name in tree["posterior"].data_vars if (match := re.fullmatch(r"k(\d+)", str(name)))]
-    if joints and max(joints) > cell.robot.nq:
-        raise InputError(
-            f"the calibration has the compliance k{max(joints)} but the robot of {cell.source} has {cell.robot.nq} joints: "
-            "was it computed for this cell?",
-            source=path,
-            column=f"k{max(joints)}",
-        )
 
 
 def _check_fit(results, args: argparse.Namespace) -> None:

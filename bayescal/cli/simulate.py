@@ -107,7 +107,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     ]
     write_atomically("-o", args.output, partial(write_campaign, campaign, comments=comments))
 
-    sigma = np.concatenate([cell.tracker.sigma(campaign.p0), cell.tracker.sigma(campaign.p1)]) / UM
+    low, high = (sd / UM for sd in cell.tracker.sigma_range(campaign.p0, campaign.p1))
     deflection = float(np.linalg.norm(campaign.displacement, axis=1).max() / MM)
     payload = {
         "output": args.output,
@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         "equations": campaign.n_equations,
         "compensator": twin.arm.compensator is not None,
         "effects": [{"name": effect.name, "magnitude": effect.magnitude, "unit": effect.unit} for effect in twin.effects],
-        "noise_sd_um": {"min": float(sigma.min()), "max": float(sigma.max())},
+        "noise_sd_um": {"min": low, "max": high},
         "max_deflection_mm": deflection,
         "seed": args.seed,
     }
@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
             f"wrote {args.output}: {len(campaign)} rows = {len(plan)} configurations x {args.repeats} repeats x "
             f"{len(twin.marker_names)} markers, {campaign.n_equations} equations",
             f"compensator: {'on' if twin.arm.compensator else 'off'}; effects: {', '.join(planted) if planted else 'none'}",
-            f"tracker noise sd per coordinate: {sigma.min():.1f} to {sigma.max():.1f} um",
+            f"tracker noise sd per coordinate: {low:.1f} to {high:.1f} um",
             f"largest marker deflection: {deflection:.3f} mm",
         ]
     )

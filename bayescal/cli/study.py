@@ -36,13 +36,13 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> CommandOutput:
-    import math
     import sys
 
     from bayescal.cell.config import load_cell
     from bayescal.design.optimise import PlanDesigner
     from bayescal.errors import InputError
-    from bayescal.studies.angles import identification_cost, q2_angle_study
+    from bayescal.jsonsafe import json_safe
+    from bayescal.studies.angles import identification_cost, q2_angle_study, width_targets
 
     outputs = {"--output": args.output, "--markdown": args.markdown}
     guard_outputs({"the config": args.config}, outputs)
@@ -64,23 +64,20 @@ def run(args: argparse.Namespace) -> CommandOutput:
         table = q2_angle_study(
             cell, angles=range(3, args.max_angles + 1), per_angle=range(1, args.max_per_angle + 1), repeats=args.repeats, seed=args.seed
         )
-    cost = identification_cost(table, repeats=args.repeats)
+    cost = identification_cost(table, targets=width_targets(cell), repeats=args.repeats)
     text = _shown(table, cost)
     if args.output is not None:
         write_atomically("--output", args.output, lambda path: table.to_csv(path, index=False))
     if args.markdown is not None:
         write_atomically("--markdown", args.markdown, lambda path: path.write_text(text + "\n", encoding="utf-8"))
 
-    def clean(value):
-        return None if isinstance(value, float) and not math.isfinite(value) else value
-
     payload = {
-        "table": [{key: clean(value) for key, value in row.items()} for row in table.to_dict(orient="records")],
-        "identification_cost": [{key: clean(value) for key, value in row.items()} for row in cost.to_dict(orient="records")],
+        "table": table.to_dict(orient="records"),
+        "identification_cost": cost.to_dict(orient="records"),
         "repeats": args.repeats,
         "seed": args.seed,
     }
-    return CommandOutput(payload=payload, text=text)
+    return CommandOutput(payload=json_safe(payload), text=text)
 
 
 def _shown(table, cost) -> str:

@@ -21,10 +21,11 @@ import numpy as np
 
 from bayescal.cell.config import Cell
 from bayescal.errors import InputError
+from bayescal.inference.parameters import GEOMETRY_PARAMETERS, ParameterRegistry
 from bayescal.robot.compensator import Compensator, stiffness_regressor
-from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
+from bayescal.units import DEG
 
-__all__ = ["Calibration", "load_calibration", "UNIDENTIFIED_LOG_SD", "GRID_STEP", "MAX_DRAWS"]
+__all__ = ["Calibration", "check_calibration_robot", "load_calibration", "UNIDENTIFIED_LOG_SD", "GRID_STEP", "MAX_DRAWS"]
 
 MAX_DRAWS = 2000
 """Posterior draws kept (evenly thinned): the cost of the spread is linear in them, and 2000 draws
@@ -159,19 +160,15 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
         When the file is not an elastostatic posterior, belongs to another robot or joint
         count, or lacks the compensator model the cell needs.
     """
-    from bayescal.sampling.summary import load
+    from bayescal.sampling.summary import read_posterior
 
     source = str(path)
-    try:
-        tree = load(path)
-        posterior = tree["posterior"]
-    except (OSError, KeyError, ValueError) as exc:
-        raise InputError(f"cannot read a posterior DataTree ({type(exc).__name__})", source=source) from None
+    tree, posterior = read_posterior(path)
     # A robot without a compensator has no per-angle compliances: any joint compliance tells the kind.
     if "sigma" not in posterior or not any(name[:1] == "k" and name[1:].isdigit() for name in posterior.data_vars):
         raise InputError("not an elastostatic posterior (no joint compliance k<j> or no 'sigma'): expected `bayescal calibrate --posterior`", source=source)
     n = cell.robot.nq
-    _check_robot(tree.attrs, posterior, cell, source)
+    check_calibration_robot(tree, cell, source)
 
     def values(name: str, thin: bool = True) -> np.ndarray:
         flat = np.asarray(posterior[name].transpose("chain", "draw", ...).values, dtype=float).reshape(-1)
@@ -181,12 +178,13 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
     keep = np.linspace(0, total - 1, min(total, MAX_DRAWS)).round().astype(int)
     size = keep.size
     joint = cell.compensated_joint
+    registry = ParameterRegistry.of_cell(cell)
     own = np.empty((size, n))
     unidentified = {name for name in str(tree.attrs.get("not_identifiable", "")).split(",") if name}
     for j in range(n):
         name = f"k{j + 1}"
         if name in posterior:
-            own[:, j] = values(name) * URAD_PER_NM
+            own[:, j] = registry[name].to_si(values(name))
         else:
             own[:, j] = cell.compliances[j] * np.exp(UNIDENTIFIED_LOG_SD * rng.standard_normal(size))
             unidentified.add(name)
@@ -198,9 +196,9 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
                 "the cell's compensated joint cannot be predicted at other angles",
                 source=source,
             )
-        spring = np.column_stack([values("K_c") * N_PER_MM, values("s0") * MM])
+        spring = np.column_stack([registry["K_c"].to_si(values("K_c")), registry["s0"].to_si(values("s0"))])
         if "L" in posterior:
-            geometry = np.column_stack([values(name) * f for name, f in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG))])
+            geometry = np.column_stack([p.to_si(values(p.name)) for p in GEOMETRY_PARAMETERS])
         else:
             c = cell.compensator
             geometry = np.tile([c.L, c.a_x, c.a_y, c.phi], (size, 1))
@@ -222,8 +220,10 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
     )
 
 
-def _check_robot(attrs, posterior, cell: Cell, source: str) -> None:
-    """Refuse a posterior of another robot: another joint count, or another robot name when the file records it."""
+def check_calibration_robot(tree, cell: Cell, source: str) -> None:
+    """Refuse a saved elastostatic posterior of another robot than ``cell``'s: another joint count, or another
+    robot name when the file records it (an :class:`~bayescal.errors.InputError` naming ``source``)."""
+    attrs, posterior = tree.attrs, tree["posterior"]
     n = cell.robot.nq
     sampled = [int(name[1:]) for name in posterior.data_vars if name[:1] == "k" and name[1:].isdigit()]
     # Files written before the joint count was recorded show it only by their highest sampled joint.

@@ -250,7 +250,7 @@ class ExactLinearisation:
             columns.append((moved[0] - moved[1]) / (2.0 * DIFFERENCE_STEP))
         unloaded, loaded = self._nominal.positions_under(q, wrench)
         tracker = self.cell.tracker
-        sigma = np.sqrt(tracker.sigma(unloaded) ** 2 + tracker.sigma(loaded) ** 2)
+        sigma = np.sqrt(tracker.deflection_variance(unloaded, loaded))
         return np.column_stack(columns), np.repeat(sigma, 3)
 
     def test_design(self) -> np.ndarray:

@@ -33,7 +33,7 @@ from functools import cached_property
 import numpy as np
 
 from bayescal.cell.config import Cell
-from bayescal.cell.plan import Plan
+from bayescal.cell.plan import Plan, prismatic_flags
 from bayescal.design.constraints import DesignSpace, Feasibility, load_design_space
 from bayescal.design.criteria import (
     CRITERIA,
@@ -49,6 +49,7 @@ from bayescal.design.loads import free_candidates, load_sizes, turned
 from bayescal.design.plan_design import PlanDesign, PlanEvaluation
 from bayescal.design.progress import Progress, best_text
 from bayescal.errors import InputError
+from bayescal.robot.compensator import MIN_ANGLES
 from bayescal.units import DEG
 
 __all__ = ["PlanDesign", "PlanDesigner"]
@@ -200,9 +201,9 @@ class PlanDesigner:
                 source="angles",
             )
         # every criterion inverts the information in K_θ2^0, K_c and s0, singular below three angles
-        if self.cell.compensator is not None and angles < 3 and scored:
+        if self.cell.compensator is not None and angles < MIN_ANGLES and scored:
             raise InputError(
-                f"the compensator's K_θ2^0, K_c and s0 need at least 3 distinct q2 angles, got {angles}", source="angles"
+                f"the compensator's K_θ2^0, K_c and s0 need at least {MIN_ANGLES} distinct q2 angles, got {angles}", source="angles"
             )
 
     # ----------------------------------------------------------------- candidates
@@ -278,7 +279,7 @@ class PlanDesigner:
 
     def _plan(self, q: np.ndarray, loads: np.ndarray) -> Plan:
         lines = np.zeros(len(q), dtype=int)
-        prismatic = self.cell.robot.prismatic.copy() if self.cell.robot.prismatic.any() else None
+        prismatic = prismatic_flags(self.cell.robot)
         if not self.free:
             return Plan(q=q, load_kg=np.full(len(q), self.mass), lines=lines, source="optimised", prismatic=prismatic)
         return Plan(

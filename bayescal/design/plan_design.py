@@ -18,6 +18,7 @@ from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.cell.plan import Plan, write_plan
 from bayescal.design.criteria import PlanPrediction, criterion_value
 from bayescal.design.loads import loads_json
+from bayescal.inference.parameters import ANGLE_DECIMALS
 from bayescal.jsonsafe import json_safe
 from bayescal.units import DEG, MM
 
@@ -82,7 +83,7 @@ class PlanDesign:
 
     def to_json(self) -> dict:
         """``criterion`` (ρ0, mm), the optimised criterion, the plan's angles and each parameter's ±3σ width."""
-        q2 = np.unique(np.round(self.plan.q[:, self.plan_joint] / DEG, 3))
+        q2 = np.unique(np.round(self.plan.q[:, self.plan_joint] / DEG, ANGLE_DECIMALS))
         return self.prediction.to_json() | {
             "model": "exact",
             "linear_model": self.linear.to_json(),

@@ -30,7 +30,7 @@ import pandas as pd
 from numpy.typing import ArrayLike
 
 from bayescal.robot.compensator import CompensatorGeometry
-from bayescal.geometry.layout import cylinder_direction, cylinder_points, lever_angle, lever_points
+from bayescal.geometry.layout import circular_mean, cylinder_direction, cylinder_points, lever_angle, lever_points, marker_offset
 # The points and their reader live in geometry/points.py; they are named here too, beside the fits.
 from bayescal.geometry.points import LEVER_MARKER, MarkerPoints, read_arc_points
 from bayescal.units import DEG, MM
@@ -314,7 +314,8 @@ class CompensatorGeometryModel:
 
 @dataclass(frozen=True)
 class MarkerLayout:
-    """Where the markers are at any joint angle: a ground truth for simulated campaigns (SI, tracker frame).
+    """Where the markers are at any joint angle: the ground truth of simulated points (SI, tracker frame;
+    :func:`bayescal.twin.arcs.simulate_markers`).
 
     P1 is at ``p2 + L·[cos(phi + sense·q2), sin(phi + sense·q2)]``; each
     cylinder marker is rigid on the cylinder P0→P1, at distance ``radius``
@@ -345,10 +346,8 @@ class MarkerLayout:
         layout = cls(lever.centre[:2], lever.radius, lever.phi, lever.sense, fit.p0[:2], {})
         for name in points.cylinder_markers:
             q2, xyz = points.of(name)
-            direction = layout._cylinder_direction(q2)
-            d = xyz[:, :2] - fit.p0[:2]
-            offset = float(np.angle(np.mean(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - direction)))))
-            layout.cylinder[name] = (fit.cylinder.radii[name], offset)
+            offset = marker_offset(xyz[:, 0], xyz[:, 1], fit.p0[0], fit.p0[1], layout._cylinder_direction(q2))
+            layout.cylinder[name] = (fit.cylinder.radii[name], circular_mean(offset))
         return layout
 
     def _lever_points(self, q2: np.ndarray) -> np.ndarray:
@@ -367,13 +366,3 @@ class MarkerLayout:
             x, y, _ = cylinder_points(self.p0[0], self.p0[1], direction, radius, offset)
             out[name] = np.column_stack([x, y])
         return out
-
-    def simulate(self, q2: ArrayLike, sigma: float, rng: np.random.Generator) -> MarkerPoints:
-        """Tracker points at joint angles ``q2`` (rad) with isotropic Gaussian noise of sd ``sigma`` (m)."""
-        q2 = np.atleast_1d(np.asarray(q2, dtype=float))
-        names, angles, xyz = [], [], []
-        for name, exact in self.positions(q2).items():
-            names += [name] * q2.size
-            angles.append(q2)
-            xyz.append(exact + sigma * rng.standard_normal(exact.shape))
-        return MarkerPoints.from_arrays(np.array(names), np.concatenate(angles), np.vstack(xyz))

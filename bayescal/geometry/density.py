@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from bayescal.geometry.arcs import LEVER_MARKER, GeometryFit, MarkerPoints
-from bayescal.geometry.layout import cylinder_direction, lever_angle, lever_points
+from bayescal.geometry.layout import circular_mean, cylinder_direction, lever_angle, lever_points, marker_offset
 
 if TYPE_CHECKING:
     from bayescal.geometry.posterior import CylinderModel, GeometryPriors
@@ -185,10 +185,9 @@ class _Density:
     def _delta_start(self) -> np.ndarray:
         cf = self.closed_form
         p = {"p2": cf.lever.centre, "L": np.asarray(cf.lever.radius), "phi": np.asarray(cf.lever.phi), "p0": cf.cylinder.centre}
-        theta = self._cylinder_direction(p, self.cq)
-        d = self.cp - cf.cylinder.centre
-        offset = np.arctan2(d[:, 1], d[:, 0]) - theta
-        return np.array([np.angle(np.mean(np.exp(1j * offset[self.cindex == j]))) for j in range(self.k)])
+        centre = cf.cylinder.centre
+        offset = marker_offset(self.cp[:, 0], self.cp[:, 1], centre[0], centre[1], self._cylinder_direction(p, self.cq))
+        return np.array([circular_mean(offset[self.cindex == j]) for j in range(self.k)])
 
     def start(self) -> np.ndarray:
         """The closed-form estimate."""

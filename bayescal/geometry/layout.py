@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["lever_angle", "lever_points", "cylinder_direction", "cylinder_points"]
+__all__ = ["lever_angle", "lever_points", "cylinder_direction", "cylinder_points", "marker_offset", "circular_mean"]
 
 
 def lever_angle(phi: ArrayLike, sense: int, q2: ArrayLike, joint_scale: ArrayLike = 0.0) -> np.ndarray:
@@ -82,3 +82,26 @@ def cylinder_points(
     """
     angle = direction + offset + turn
     return pivot_x + radius * np.cos(angle), pivot_y + radius * np.sin(angle), angle
+
+
+def marker_offset(x: ArrayLike, y: ArrayLike, pivot_x: ArrayLike, pivot_y: ArrayLike, direction: ArrayLike) -> np.ndarray:
+    """A cylinder marker's angle about the pivot from the cylinder's direction, read from its position.
+
+    The inverse of :func:`cylinder_points` for ``offset + turn``: rad, not wrapped (the
+    difference of two angles in (-π, π]).
+
+    Parameters
+    ----------
+    x, y
+        The marker's position (m), broadcast against the rest.
+    pivot_x, pivot_y
+        The cylinder's pivot (m).
+    direction
+        The cylinder's direction (:func:`cylinder_direction`) at the marker's joint angle, rad.
+    """
+    return np.arctan2(y - pivot_y, x - pivot_x) - direction
+
+
+def circular_mean(angles: ArrayLike) -> float:
+    """The mean direction (rad, in (-π, π]) of ``angles`` (rad): a marker's offset over its points."""
+    return float(np.angle(np.mean(np.exp(1j * np.asarray(angles)))))

@@ -50,7 +50,7 @@ import pandas as pd
 import xarray as xr
 
 from bayescal.sampling import summary as posterior
-from bayescal.robot.compensator import CompensatorGeometry
+from bayescal.robot.compensator import CompensatorGeometry, alpha
 from bayescal.errors import InputError
 from bayescal.geometry.arcs import CompensatorGeometryModel, GeometryFit, MarkerPoints
 from bayescal.jsonsafe import json_safe
@@ -58,6 +58,7 @@ from bayescal.geometry.density import _Density
 from bayescal.sampling.ensemble import EnsembleSampler
 from bayescal.sampling.independence import IndependenceSampler
 from bayescal.sampling.protocol import Sampler
+from bayescal.threads import one_blas_thread
 from bayescal.units import DEG, MM
 
 __all__ = ["GeometryPriors", "GeometryPosteriorModel", "GeometryPosterior", "geometry_sampler"]
@@ -236,40 +237,42 @@ class GeometryPosteriorModel:
         rng
             Generator or seed; the same seed gives the same draws.
         """
-        rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
-        if points.xyz.shape[1] == 3:
-            tilt = CompensatorGeometryModel().fit(points).axis_tilt
-            warnings.warn(
-                f"{points.source or 'points'}: the posterior uses x and y only (the paper's planar model, tracker Z "
-                f"along the joint-2 axis); the 3D closed-form fit puts the cylinder's axis {tilt / DEG:.2f} deg from Z",
-                UserWarning,
-                stacklevel=2,
-            )
-        planar = MarkerPoints.from_arrays(points.marker, points.q2, points.xyz[:, :2], line=points.line, source=points.source)
-        closed_form = CompensatorGeometryModel().fit(planar)
-        density = _Density(planar, closed_form, self.cylinder_model, self.priors)
-        unknowns = 2 + density.n_offset
-        if density.counts[1] <= unknowns:
-            raise InputError(
-                f"the cylinder markers give {density.counts[1]:.0f} informative coordinates for {unknowns} unknowns "
-                "(p0 and each marker's offset), so their noise cannot be estimated: measure more angles or markers",
-                source=points.source,
-            )
-        start = density.start()
-        # The noise scale each group's residuals give at the closed form; outside the prior's range the
-        # posterior would be ruled by the prior's bound, which signals wrong units rather than a result.
-        noise = np.sqrt(density.sums_of_squares(start) / density.counts)
-        outside = (noise < self.priors.sigma_min) | (noise > self.priors.sigma_max)
-        if outside.any() or not np.isfinite(density(start)):
-            worst = noise[np.argmax(outside)]
-            raise InputError(
-                f"the closed-form fit leaves a residual rms of {worst / MM:.3g} mm per coordinate, outside the noise prior's "
-                f"{self.priors.sigma_min / MM:g} to {self.priors.sigma_max / MM:g} mm: are q2 in deg and x, y in mm?",
-                source=points.source,
-            )
-        draws = self.sampler.sample(density, start, density.scale(start), rng)
-        sigma = density.draw_sigma(draws, rng)
-        return self._result(density, draws, sigma, closed_form, points)
+        # One BLAS thread, as the command line sets (bayescal/threads.py).
+        with one_blas_thread():
+            rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+            if points.xyz.shape[1] == 3:
+                tilt = CompensatorGeometryModel().fit(points).axis_tilt
+                warnings.warn(
+                    f"{points.source or 'points'}: the posterior uses x and y only (the paper's planar model, tracker Z "
+                    f"along the joint-2 axis); the 3D closed-form fit puts the cylinder's axis {tilt / DEG:.2f} deg from Z",
+                    UserWarning,
+                    stacklevel=2,
+                )
+            planar = MarkerPoints.from_arrays(points.marker, points.q2, points.xyz[:, :2], line=points.line, source=points.source)
+            closed_form = CompensatorGeometryModel().fit(planar)
+            density = _Density(planar, closed_form, self.cylinder_model, self.priors)
+            unknowns = 2 + density.n_offset
+            if density.counts[1] <= unknowns:
+                raise InputError(
+                    f"the cylinder markers give {density.counts[1]:.0f} informative coordinates for {unknowns} unknowns "
+                    "(p0 and each marker's offset), so their noise cannot be estimated: measure more angles or markers",
+                    source=points.source,
+                )
+            start = density.start()
+            # The noise scale each group's residuals give at the closed form; outside the prior's range the
+            # posterior would be ruled by the prior's bound, which signals wrong units rather than a result.
+            noise = np.sqrt(density.sums_of_squares(start) / density.counts)
+            outside = (noise < self.priors.sigma_min) | (noise > self.priors.sigma_max)
+            if outside.any() or not np.isfinite(density(start)):
+                worst = noise[np.argmax(outside)]
+                raise InputError(
+                    f"the closed-form fit leaves a residual rms of {worst / MM:.3g} mm per coordinate, outside the noise prior's "
+                    f"{self.priors.sigma_min / MM:g} to {self.priors.sigma_max / MM:g} mm: are q2 in deg and x, y in mm?",
+                    source=points.source,
+                )
+            draws = self.sampler.sample(density, start, density.scale(start), rng)
+            sigma = density.draw_sigma(draws, rng)
+            return self._result(density, draws, sigma, closed_form, points)
 
     def _result(
         self, density: _Density, draws: np.ndarray, sigma: np.ndarray, closed_form: GeometryFit, points: MarkerPoints
@@ -284,7 +287,7 @@ class GeometryPosteriorModel:
             "a_x": a_x / MM,
             "a_y": a_y / MM,
             "phi": phi / DEG,
-            "alpha": (phi - np.arctan2(a_y, a_x)) / DEG,
+            "alpha": alpha(phi, a_x, a_y) / DEG,
             "p2_x": p["p2"][..., 0] / MM,
             "p2_y": p["p2"][..., 1] / MM,
             "p0_x": p["p0"][..., 0] / MM,

@@ -55,6 +55,7 @@ from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.protocol import Sampler
 from bayescal.sampling.summary import converged, diagnostics, sample_until_converged, summarize, warn_if_unconverged
+from bayescal.threads import one_blas_thread
 from bayescal.units import MM, N_PER_MM
 
 __all__ = ["ElastostaticModel", "restore_results"]
@@ -68,9 +69,8 @@ collapsed sampler hands over to the Gibbs sampler (:meth:`~bayescal.sampling.col
 which then doubles its draws, up to 16 × 2,400.  On Table III with twice the twin's link compliance (seeds 0-5),
 16 × 600 Gibbs draws left R-hat above 1.01 or the tail ESS under 400 in 2 of 6 campaigns."""
 RELINEARISATIONS = 4
-"""Most times the exact model's correction is linearised again, about the posterior mean of the spring and the
-link-mass scale, when that mean lies far from the point it was linearised at (first the config's spring and the
-URDF's masses)."""
+"""Most times the exact model's correction is linearised again about the posterior mean of the spring and the link-mass
+scale (:meth:`ElastostaticModel._sample`)."""
 
 
 class _Prepared(NamedTuple):
@@ -263,58 +263,60 @@ class ElastostaticModel:
 
     def fit(self, campaign: Campaign, rng: np.random.Generator | int = 0) -> ElastostaticResults:
         """Identify the parameters from ``campaign``; ``rng`` seeds every random draw."""
-        rng = np.random.default_rng(rng)
-        prepared, (tree, draws, residual, n_free), summary, sampler = self._sample(campaign, self._prepare(campaign), rng)
-        equations, ident, cf = prepared.equations, prepared.identifiability, prepared.closed_form
-        tree.attrs.update(
-            {"model": self.model, "noise": self.noise, "sampler": type(sampler).__name__, "geometry": self.geometry_source}
-        )
-        if prepared.point is not None:
-            tree.attrs.update(dict(zip(LINEARISATION_ATTRS, _edge_point(prepared.point))))
-        if equations.scale is not None:
-            residual = residual * equations.scale
-        practical = practical_identifiability(summary, equations, ident, cf, self.geometry, self.nominal_spring)
-        # What a later user of the saved posterior (bayescal compensate) must know without the campaign:
-        # the robot it belongs to and which sampled parameters the data did not determine.
-        tree.attrs.update(
-            {
-                "robot": self.robot.model.name,
-                "n_joints": self.robot.nq,
-                "not_identifiable": ",".join(sorted(set(ident.not_identifiable) | set(practical))),
-            }
-        )
-        for names, reason in grouped(practical):
-            warnings.warn(f"{_listed(names)} not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=2)
-        warn_if_unconverged(diagnostics(tree, summary), what="the elastostatic posterior")
-        chi2 = residual_chi2(self.tracker, campaign, residual, n_free)
-        if chi2 is not None and not 1 / CHI2_TOLERANCE < chi2 < CHI2_TOLERANCE:
-            warnings.warn(
-                f"{campaign.source}: the residuals are {math.sqrt(chi2):.2f} times the tracker noise of the config "
-                f"(chi2/dof {chi2:.3g}): the config's tracker model does not describe these data "
-                f"({'a larger error, or a misfit of the model' if chi2 > 1 else 'a noise model too pessimistic'}); "
-                "the intervals use the noise the data show",
-                UserWarning,
-                stacklevel=2,
+        # One BLAS thread, as the command line sets (bayescal/threads.py); a block, not a decorator, so that
+        # the warnings' stack levels still name the caller's line.
+        with one_blas_thread():
+            rng = np.random.default_rng(rng)
+            prepared, (tree, draws, residual, n_free), summary, sampler = self._sample(campaign, self._prepare(campaign), rng)
+            equations, ident, cf = prepared.equations, prepared.identifiability, prepared.closed_form
+            tree.attrs.update(
+                {"model": self.model, "noise": self.noise, "sampler": type(sampler).__name__, "geometry": self.geometry_source}
             )
-        misfit = residual_lack_of_fit(self.tracker, campaign, residual, n_free)
-        if misfit is not None and misfit.significant():
-            warnings.warn(
-                f"{campaign.source}: the model misses the repeated configurations: {misfit.describe()}; "
-                "bayescal critique names the likely cause",
-                UserWarning,
-                stacklevel=2,
+            if prepared.point is not None:
+                tree.attrs.update(dict(zip(LINEARISATION_ATTRS, _edge_point(prepared.point))))
+            if equations.scale is not None:
+                residual = residual * equations.scale
+            practical = practical_identifiability(summary, equations, ident, cf, self.geometry, self.nominal_spring)
+            # What a later user of the saved posterior (bayescal compensate) must know without the campaign:
+            # the robot it belongs to and which sampled parameters the data did not determine.
+            tree.attrs.update(
+                {
+                    "robot": self.robot.model.name,
+                    "n_joints": self.robot.nq,
+                    "not_identifiable": ",".join(sorted(set(ident.not_identifiable) | set(practical))),
+                }
             )
-        return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, type(sampler).__name__, misfit)
+            for names, reason in grouped(practical):
+                warnings.warn(f"{_listed(names)} not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=2)
+            warn_if_unconverged(diagnostics(tree, summary), what="the elastostatic posterior")
+            chi2 = residual_chi2(self.tracker, campaign, residual, n_free)
+            if chi2 is not None and not 1 / CHI2_TOLERANCE < chi2 < CHI2_TOLERANCE:
+                warnings.warn(
+                    f"{campaign.source}: the residuals are {math.sqrt(chi2):.2f} times the tracker noise of the config "
+                    f"(chi2/dof {chi2:.3g}): the config's tracker model does not describe these data "
+                    f"({'a larger error, or a misfit of the model' if chi2 > 1 else 'a noise model too pessimistic'}); "
+                    "the intervals use the noise the data show",
+                    UserWarning,
+                    stacklevel=2,
+                )
+            misfit = residual_lack_of_fit(self.tracker, campaign, residual, n_free)
+            if misfit is not None and misfit.significant():
+                warnings.warn(
+                    f"{campaign.source}: the model misses the repeated configurations: {misfit.describe()}; "
+                    "bayescal critique names the likely cause",
+                    UserWarning,
+                    stacklevel=2,
+                )
+            return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, type(sampler).__name__, misfit)
 
     def _sample(self, campaign: Campaign, prepared: _Prepared, rng: np.random.Generator):
-        """Sample the posterior of ``prepared``, relinearising the exact model's correction about the posterior mean of
-        the spring and the link-mass scale while that mean lies far from the linearisation point
-        (:func:`~bayescal.inference.exact.moved_point`), then extending the sampling while the diagnostics fall short.
+        """Sample ``prepared``, relinearising the exact model's correction about the posterior mean of the spring and the
+        link-mass scale while it lies far from the linearisation point (:func:`~bayescal.inference.exact.moved_point`),
+        at most :data:`RELINEARISATIONS` times, then extending the sampling while the diagnostics fall short.
 
         Far from the config's spring, eq 34's closed form of the equations corrected at the config's can leave the
         spring's support: the chains then start at the config's spring, hundreds of posterior sd from the mode along a
         ridge, and do not reach it.  Corrected about the first run's mean, the closed form lands near the mode.
-
         Returns the prepared campaign last linearised, :func:`sample_posterior`'s output, its summary and the sampler.
         """
 
@@ -480,8 +482,7 @@ def restore_results(cell: Cell, campaign: Campaign, tree, geometry: GeometryPrio
 
 
 def _edge_point(point: tuple[float, float, float]) -> tuple[float, float, float]:
-    """``(K_c, s0, mass scale)`` from SI to N/mm, mm and 1."""
-    return point[0] / N_PER_MM, point[1] / MM, point[2]
+    return point[0] / N_PER_MM, point[1] / MM, point[2]  # (K_c, s0, mass scale) from SI to N/mm, mm and 1
 
 
 def _stored_point(tree) -> tuple[float, float, float] | None:

@@ -19,7 +19,7 @@ from bayescal.cell.campaign import Campaign
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
-from bayescal.inference.parameters import ParameterRegistry
+from bayescal.inference.parameters import ANGLE_DECIMALS, ParameterRegistry
 from bayescal.robot.batched import CHUNK, BatchedChain
 from bayescal.robot.kinematics import Robot
 from bayescal.units import DEG, MM
@@ -32,7 +32,6 @@ __all__ = [
     "check_load_point",
     "COUPLE_TOLERANCE",
     "group_angles",
-    "ANGLE_DECIMALS",
     "MAX_ANGLES",
     "MAX_DEFLECTION",
     "MAX_MARKER_DISTANCE",
@@ -57,8 +56,6 @@ labels on a symmetric tool is a half turn, far beyond it."""
 COUPLE_TOLERANCE = 5.0
 """Largest difference (N·m) between a wrench's couple and its force's moment at the load point taken as
 rounding: the moment of the KR-270's 2,650 N rated load over 2 mm of load point."""
-ANGLE_DECIMALS = 3
-"""q2 angles equal when rounded to this many decimals of a degree are one angle of eq 34."""
 MAX_ANGLES = 16
 """Most distinct q2 angles kept apart.  The paper's device of one joint-2 compliance per angle
 (eq 33) suits a handful of angles; a campaign whose q2 varies freely has its rows grouped into
@@ -270,7 +267,7 @@ def group_angles(q2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def deflection_noise(tracker: TrackerNoise, campaign: Campaign) -> np.ndarray:
     """Nominal sd (m) of each coordinate of each row's deflection: the tracker reads p0 and p1 independently,
     plus the variance the campaign's frame adds (:attr:`Campaign.added_variance`, a registration's)."""
-    variance = tracker.sigma(campaign.p0) ** 2 + tracker.sigma(campaign.p1) ** 2
+    variance = tracker.deflection_variance(campaign.p0, campaign.p1)
     return np.sqrt(variance if campaign.added_variance is None else variance + campaign.added_variance)
 
 

@@ -39,6 +39,7 @@ import numpy as np
 import pandas as pd
 
 from bayescal.inference.parameters import angle_label, label_angle
+from bayescal.robot.compensator import MIN_ANGLES
 
 __all__ = [
     "Identifiability",
@@ -59,7 +60,6 @@ ILL_CONDITIONED = 1e4
 """Condition number of the unit-column design above which the estimates are flagged as fragile."""
 _NO_TORQUE = 1e-6
 """A joint whose largest torque is below this fraction of the largest torque on any joint is taken as unloaded."""
-_MIN_ANGLES = 3
 CONTRACTION_LIMIT = 0.5
 """Posterior sd above this fraction of a proper prior's sd: the data have not determined the parameter."""
 PRACTICAL_RULE = (
@@ -216,19 +216,19 @@ def _drop_confounded(scaled: np.ndarray, kept: np.ndarray, rank: int, names: lis
 
 
 def _compensator_identifiable(columns: Sequence[tuple[int, int | None]], kept: np.ndarray, q2: np.ndarray, reasons: dict[str, str]) -> bool:
-    """Whether the kept columns hold :data:`_MIN_ANGLES` angles of the compensated joint; if not, the reason is
+    """Whether the kept columns hold :data:`~bayescal.robot.compensator.MIN_ANGLES` angles of the compensated joint; if not, the reason is
     added to ``reasons`` for that joint's compliance, K_c and s0."""
     # Only the compensated joint's compliance has one column per angle; without a compensator no column has
     # one, and nothing is said about K_c and s0.
     per_angle_joint = next((j for j, angle in columns if angle is not None), None)
     joint2_angles = sorted({columns[i][1] for i in kept if columns[i][1] is not None})
-    compensator = len(joint2_angles) >= _MIN_ANGLES
+    compensator = len(joint2_angles) >= MIN_ANGLES
     if not compensator and per_angle_joint is not None:
         listed = ", ".join(f"{math.degrees(q2[a]):.2f}" for a in joint2_angles) or "none"
         j = per_angle_joint + 1
         why = (
             f"the campaign has {len(joint2_angles)} q{j} angle(s) with an identifiable joint-{j} compliance "
-            f"({listed} deg); K_theta{j}^0, K_c and s0*K_c of eq 34 need at least {_MIN_ANGLES}"
+            f"({listed} deg); K_theta{j}^0, K_c and s0*K_c of eq 34 need at least {MIN_ANGLES}"
         )
         for name in (f"k{per_angle_joint + 1}", "K_c", "s0"):
             reasons[name] = why

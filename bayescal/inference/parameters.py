@@ -26,10 +26,13 @@ from dataclasses import dataclass
 from types import MappingProxyType
 
 from bayescal.cell.joints import DEFAULT_COMPENSATED_JOINT
-from bayescal.units import MM, N_PER_MM, URAD_PER_NM
+from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
 
 __all__ = [
+    "ANGLE_DECIMALS",
+    "ANGLE_FORMAT",
     "COMPLIANCE_UNIT",
+    "GEOMETRY_PARAMETERS",
     "PRISMATIC_COMPLIANCE_UNIT",
     "Parameter",
     "ParameterRegistry",
@@ -46,8 +49,11 @@ PRISMATIC_COMPLIANCE_UNIT = "um/N"
 
 _LABEL = re.compile(r"^k(\d+)_q\1\[(-?\d+(?:\.\d*)?)\]$")
 _VARIABLE = re.compile(r"^k(\d+)_q\1$")
-ANGLE_FORMAT = "{:.3f}"
-"""Degrees of a per-angle label: the angles of a campaign are told apart to a thousandth of a degree."""
+ANGLE_DECIMALS = 3
+"""Decimals of a degree to which the compensated joint's angles are told apart: angles equal when rounded to
+them are one angle of eq 34, and a per-angle label or coordinate names its angle with them."""
+ANGLE_FORMAT = f"{{:.{ANGLE_DECIMALS}f}}"
+"""Degrees of a per-angle label or coordinate (:data:`ANGLE_DECIMALS` decimals)."""
 
 
 @dataclass(frozen=True)
@@ -84,6 +90,16 @@ class Parameter:
     def to_si(self, value):
         """An edge-unit value (float or array) in SI."""
         return value * self.si_factor
+
+
+GEOMETRY_PARAMETERS = (
+    Parameter("L", "L", MM, "mm", "length of the compensator's lever P2-P1 (eq 10)"),
+    Parameter("a_x", "a_x", MM, "mm", "x of the cylinder's pivot P0 from the joint-2 axis (Table II)"),
+    Parameter("a_y", "a_y", MM, "mm", "y of the cylinder's pivot P0 from the joint-2 axis (Table II)"),
+    Parameter("phi", "φ", DEG, "deg", "angle of the lever at q2 = 0"),
+)
+"""The compensator geometry a saved posterior carries (``bayescal geometry``, and the elastostatic
+posterior that propagated it), in the order of :class:`~bayescal.robot.compensator.CompensatorGeometry`."""
 
 
 @dataclass(frozen=True)
@@ -157,6 +173,21 @@ class ParameterRegistry:
     def units(self) -> dict[str, str]:
         """``{name: edge unit}``."""
         return {p.name: p.unit for p in self.parameters}
+
+    def edge_values(self, compliances, spring=None) -> dict:
+        """SI values by name in the edge units: ``{k1: …, k<n>: …}`` and, given the spring, ``K_c`` and ``s0``.
+
+        Parameters
+        ----------
+        compliances
+            ``(n_joints,)`` joint compliances, rad/(N·m) or m/N for a prismatic joint.
+        spring
+            ``(K_c, s0)`` in N/m and m, or None.
+        """
+        values = {parameter.name: parameter.to_edge(value) for parameter, value in zip(self.parameters[: self.n_joints], compliances)}
+        if spring is not None:
+            values |= {"K_c": self["K_c"].to_edge(spring[0]), "s0": self["s0"].to_edge(spring[1])}
+        return values
 
     def __getitem__(self, name: str) -> Parameter:
         for parameter in self.parameters:

@@ -14,7 +14,8 @@ from functools import cached_property
 import numpy as np
 
 from bayescal.errors import InputError
-from bayescal.inference.parameters import is_per_angle_variable
+from bayescal.inference.parameters import GEOMETRY_PARAMETERS, is_per_angle_variable
+from bayescal.reference import published
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.units import DEG, MM
 
@@ -56,15 +57,13 @@ class GeometryPrior:
         return float(value) if np.ndim(value) == 0 else value
 
 
-TABLE_II_SD = np.array([0.06, 0.70, 0.69]) / 3 * MM
-"""Standard deviations of L, a_x, a_y: Klimchik et al., Table II's ±3σ half-widths divided by 3."""
+TABLE_II_SD = np.array([published("II")[name][1] for name in ("L", "a_x", "a_y")]) / 3 * MM
+"""Standard deviations of L, a_x, a_y (m): Klimchik et al., Table II's ±3σ half-widths (``data/paper_reference.csv``)
+divided by 3."""
 PHI_SD = 0.05 * DEG
 """Standard deviation of the lever angle phi when no geometry posterior is given: an ESTIMATE
 (Table II gives none); the arc fits of the geometry step determine phi to a few hundredths of a degree."""
 
-
-GEOMETRY_UNITS = {"L": "mm", "a_x": "mm", "a_y": "mm", "phi": "deg"}
-"""The variables of a geometry posterior and the unit each is stored in (its ``units`` attribute)."""
 
 MAX_GEOMETRY_OFFSET = 0.5
 """Largest difference between a geometry posterior's L or |(a_x, a_y)| and the cell's, as a fraction of the
@@ -92,13 +91,9 @@ def posterior_geometry(path, expected: CompensatorGeometry | None = None) -> Geo
         For a file that is not a geometry posterior (an elastostatic posterior included), a variable
         missing, in another unit or with non-finite draws, a singular covariance, or a mean far from ``expected``.
     """
-    from bayescal.sampling.summary import load
+    from bayescal.sampling.summary import read_posterior
 
-    try:
-        tree = load(path)
-        posterior = tree["posterior"]
-    except (OSError, KeyError, ValueError) as exc:
-        raise InputError(f"cannot read a geometry posterior ({type(exc).__name__})", source=str(path)) from None
+    tree, posterior = read_posterior(path, "a geometry posterior")
     per_angle = [str(name) for name in posterior.data_vars if is_per_angle_variable(str(name))]
     if per_angle:
         tree.close()
@@ -107,7 +102,8 @@ def posterior_geometry(path, expected: CompensatorGeometry | None = None) -> Geo
             source=str(path),
         )
     columns = []
-    for name, unit in GEOMETRY_UNITS.items():
+    for parameter in GEOMETRY_PARAMETERS:
+        name, unit = parameter.name, parameter.unit
         if name not in posterior:
             tree.close()
             raise InputError(f"the geometry posterior has no variable '{name}'", source=str(path), column=name)
@@ -117,7 +113,7 @@ def posterior_geometry(path, expected: CompensatorGeometry | None = None) -> Geo
             tree.close()
             problem = f"is in {given}" if given != unit else f"has {np.count_nonzero(~np.isfinite(values))} non-finite draws"
             raise InputError(f"the variable {problem}; expected finite draws in {unit}", source=str(path), column=name)
-        columns.append(values * (MM if unit == "mm" else DEG))
+        columns.append(parameter.to_si(values))
     tree.close()
     draws = np.column_stack(columns)
     spread = draws.std(axis=0)

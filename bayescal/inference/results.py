@@ -9,9 +9,17 @@ import numpy as np
 import pandas as pd
 
 from bayescal.inference.closedform import ClosedForm
-from bayescal.inference.equations import ANGLE_DECIMALS, DeflectionEquations
+from bayescal.inference.equations import DeflectionEquations
 from bayescal.inference.identifiability import Identifiability
-from bayescal.inference.parameters import COMPLIANCE_UNIT, ParameterRegistry, is_per_angle_variable, label_angle
+from bayescal.inference.parameters import (
+    ANGLE_DECIMALS,
+    ANGLE_FORMAT,
+    COMPLIANCE_UNIT,
+    GEOMETRY_PARAMETERS,
+    ParameterRegistry,
+    is_per_angle_variable,
+    label_angle,
+)
 from bayescal.inference.lack_of_fit import LackOfFit
 from bayescal.inference.priors import GeometryPrior
 from bayescal.jsonsafe import json_safe
@@ -112,7 +120,7 @@ class ElastostaticDraws:
             raise ValueError(f"it lacks the per-angle compliances '{variable}' of the cell's compensated joint")
         if variable is None and any(is_per_angle_variable(str(name)) for name in posterior.data_vars):
             raise ValueError("it has per-angle compliances, and the cell has no compensator")
-        angles = [f"{v:.3f}" for v in equations.compensated_angles / DEG]
+        angles = [ANGLE_FORMAT.format(v) for v in equations.compensated_angles / DEG]
         saved = [str(v) for v in posterior[dimension].values] if variable is not None else []
         if not set(saved) <= set(angles):
             raise ValueError(f"its q2 angles ({', '.join(saved)} deg) are not the campaign's ({', '.join(angles)} deg)")
@@ -130,7 +138,7 @@ class ElastostaticDraws:
             spring = np.stack([1.0 / compliances[f"k{equations.joint + 1}"], registry["K_c"].to_si(values("K_c")), registry["s0"].to_si(values("s0"))], axis=-1)
         geometry = None
         if "L" in posterior:
-            geometry = np.stack([values(name) * factor for name, factor in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG))], axis=-1)
+            geometry = np.stack([p.to_si(values(p.name)) for p in GEOMETRY_PARAMETERS], axis=-1)
         gravity = values("gravity_scale") if "gravity_scale" in posterior else None
         return cls(compliances=compliances, spring=spring, k2=k2, sigma=values("sigma") * MM, geometry=geometry, gravity=gravity)
 
@@ -154,16 +162,16 @@ class ElastostaticDraws:
             values[variable] = self.k2[..., keep] / URAD_PER_NM
             units[variable] = COMPLIANCE_UNIT
             dims[variable] = [registry.angle_dimension]
-            coords[registry.angle_dimension] = [f"{v:.3f}" for v in equations.compensated_angles[keep] / DEG]
+            coords[registry.angle_dimension] = [ANGLE_FORMAT.format(v) for v in equations.compensated_angles[keep] / DEG]
         values["sigma"] = self.sigma / MM
         units["sigma"] = "mm"
         if self.gravity is not None:
             values["gravity_scale"] = self.gravity
             units["gravity_scale"] = "1"
         if self.geometry is not None:
-            for i, (name, unit, factor) in enumerate((("L", "mm", MM), ("a_x", "mm", MM), ("a_y", "mm", MM), ("phi", "deg", DEG))):
-                values[name] = self.geometry[..., i] / factor
-                units[name] = unit
+            for i, parameter in enumerate(GEOMETRY_PARAMETERS):
+                values[parameter.name] = parameter.to_edge(self.geometry[..., i])
+                units[parameter.name] = parameter.unit
         return posterior_tree(values, units=units, dims=dims, coords=coords)
 
 
@@ -340,7 +348,7 @@ class ElastostaticResults:
         out = {
             "parameters": self.parameters(),
             "weakly_determined": self.weakly_determined(),
-            "k2_per_angle": {f"{angle:.3f} deg": entry for angle, entry in self.per_angle().items()},
+            "k2_per_angle": {f"{ANGLE_FORMAT.format(angle)} deg": entry for angle, entry in self.per_angle().items()},
             "diagnostics": self.diagnostics() | {"geometry": "none: the cell has no compensator" if self.geometry is None else self.geometry.source},
             "identifiability": self.identifiability.to_json(),
         }

@@ -31,7 +31,7 @@ from bayescal.geometry.arcs import known_angle_fit
 from bayescal.registration.sweeps import Sweeps
 from bayescal.units import MM
 
-__all__ = ["AxisFit", "fit_axis", "MAX_REFLECTOR_Z"]
+__all__ = ["AxisFit", "AxisStart", "axis_start", "fit_axis", "MAX_REFLECTOR_Z"]
 
 MAX_REFLECTOR_Z = 6.0
 """Largest rms standardised residual of one reflector taken as noise: far beyond
@@ -127,13 +127,56 @@ def _perpendicular(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e1, np.cross(a, e1)
 
 
-def _start(q: np.ndarray, xyz: np.ndarray, index: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
-    """Axis and a point on it averaged over the reflectors' own known-angle circles."""
-    fits = [known_angle_fit(q[index == k], xyz[index == k]) for k in range(count)]
-    a = np.mean([f.axis for f in fits], axis=0)
-    a = a / np.linalg.norm(a)
+@dataclass(frozen=True)
+class AxisStart:
+    """One joint's sweep set up for the circle model of its axis, and the model's start (SI units).
+
+    Attributes
+    ----------
+    names
+        Reflector names, in the order of their first reading.
+    index
+        ``(n,)`` reflector of each reading (into ``names``).
+    q
+        ``(n,)`` the swept joint's angle at each reading (rad).
+    xyz
+        ``(n, 3)`` readings in the tracker frame (m).
+    frame
+        ``(a0, c0, b1, b2)``: the start's unit axis, its point nearest the tracker origin (m) and an orthonormal
+        pair across it; the model's four axis parameters move the axis and its point along ``b1`` and ``b2``.
+    x0
+        ``(4 + 3 count,)`` the start: the four axis parameters at 0, then each reflector's height along the
+        axis (m), radius (m) and phase at q = 0 (rad, circular mean over its readings).
+    """
+
+    names: list[str]
+    index: np.ndarray
+    q: np.ndarray
+    xyz: np.ndarray
+    frame: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+    x0: np.ndarray
+
+
+def axis_start(sweep: Sweeps, joint: int) -> AxisStart:
+    """The circle model's start for ``joint``'s sweep (0-based): axis and point averaged over the reflectors'
+    own known-angle circles, each reflector's height, radius and phase about that axis."""
+    s = sweep.of(joint)
+    names = list(dict.fromkeys(s.marker))
+    index = np.array([names.index(m) for m in s.marker])
+    q, xyz = s.q[:, joint], s.xyz
+    fits = [known_angle_fit(q[index == k], xyz[index == k]) for k in range(len(names))]
+    a0 = np.mean([f.axis for f in fits], axis=0)
+    a0 = a0 / np.linalg.norm(a0)
     centre = np.mean([f.centre for f in fits], axis=0)
-    return a, centre - (centre @ a) * a
+    c0 = centre - (centre @ a0) * a0
+    b1, b2 = _perpendicular(a0)
+    x0 = [0.0] * 4
+    for k in range(len(names)):
+        d = xyz[index == k] - c0
+        radial = d - np.outer(d @ a0, a0)
+        phase = np.arctan2(radial @ b2, radial @ b1) - q[index == k]
+        x0 += [float(np.mean(d @ a0)), float(np.mean(np.linalg.norm(radial, axis=1))), float(np.angle(np.mean(np.exp(1j * phase))))]
+    return AxisStart(names, index, q, xyz, (a0, c0, b1, b2), np.array(x0))
 
 
 def _unpack(theta: np.ndarray, a0: np.ndarray, c0: np.ndarray, b1: np.ndarray, b2: np.ndarray):
@@ -163,30 +206,18 @@ def fit_axis(sweep: Sweeps, joint: int, noise: TrackerNoise) -> AxisFit:
         A reflector whose rms standardised residual exceeds :data:`MAX_REFLECTOR_Z`:
         it does not share the axis of the others (mislabelled or loose).
     """
-    s = sweep.of(joint)
-    names = list(dict.fromkeys(s.marker))
-    index = np.array([names.index(m) for m in s.marker])
-    q, xyz = s.q[:, joint], s.xyz
+    start = axis_start(sweep, joint)
+    index, q, xyz = start.index, start.q, start.xyz
     sigma = noise.sigma(xyz)
-    a0, c0 = _start(q, xyz, index, len(names))
-    b1, b2 = _perpendicular(a0)
 
     def model(x: np.ndarray) -> np.ndarray:
-        a, c = _unpack(x[:4], a0, c0, b1, b2)
+        a, c = _unpack(x[:4], *start.frame)
         e1, e2 = _perpendicular(a)
         h, r, phi = x[4::3][index], x[5::3][index], x[6::3][index]
         return c + h[:, None] * a + r[:, None] * (np.cos(q + phi)[:, None] * e1 + np.sin(q + phi)[:, None] * e2)
 
-    x0 = [0.0] * 4
-    e1, e2 = _perpendicular(a0)
-    for k in range(len(names)):
-        d = xyz[index == k] - c0
-        h = float(np.mean(d @ a0))
-        radial = d - np.outer(d @ a0, a0)
-        phi = np.arctan2(radial @ e2, radial @ e1) - q[index == k]
-        x0 += [h, float(np.mean(np.linalg.norm(radial, axis=1))), float(np.angle(np.mean(np.exp(1j * phi))))]
-    fit = least_squares(lambda x: ((model(x) - xyz) / sigma[:, None]).ravel(), np.array(x0), method="lm", x_scale="jac")
-    return _result(fit, joint, names, index, xyz, model, s, (a0, c0, b1, b2))
+    fit = least_squares(lambda x: ((model(x) - xyz) / sigma[:, None]).ravel(), start.x0, method="lm", x_scale="jac")
+    return _result(fit, joint, start.names, index, xyz, model, sweep.of(joint), start.frame)
 
 
 def _result(fit, joint, names, index, xyz, model, s: Sweeps, frame) -> AxisFit:

@@ -41,7 +41,7 @@ from scipy.optimize import least_squares
 from scipy.stats import multivariate_normal
 
 from bayescal.cell.tracker import TrackerNoise
-from bayescal.registration.axes import _perpendicular, _start
+from bayescal.registration.axes import axis_start
 from bayescal.registration.sweeps import Sweeps
 from bayescal.units import DEG, MM, UM
 
@@ -136,19 +136,9 @@ class _Data:
 
 def _data(sweep: Sweeps, joint: int, noise: TrackerNoise) -> _Data:
     """The sweep of ``joint`` set up for fitting, started at the circle model's own start."""
-    s = sweep.of(joint)
-    names = list(dict.fromkeys(s.marker))
-    index = np.array([names.index(m) for m in s.marker])
-    q, xyz = s.q[:, joint], s.xyz
-    a0, c0 = _start(q, xyz, index, len(names))
-    b1, b2 = _perpendicular(a0)
-    x0 = [0.0] * 4
-    for k in range(len(names)):
-        d = xyz[index == k] - c0
-        radial = d - np.outer(d @ a0, a0)
-        phase = np.arctan2(radial @ b2, radial @ b1) - q[index == k]
-        x0 += [float(np.mean(d @ a0)), float(np.mean(np.linalg.norm(radial, axis=1))), float(np.angle(np.mean(np.exp(1j * phase))))]
-    return _Data(q, index, xyz, noise.sigma(xyz), len(names), float(np.median(q)), (a0, c0, b1, b2), np.array(x0))
+    start = axis_start(sweep, joint)
+    q_mid = float(np.median(start.q))
+    return _Data(start.q, start.index, start.xyz, noise.sigma(start.xyz), len(start.names), q_mid, start.frame, start.x0)
 
 
 @dataclass(frozen=True)

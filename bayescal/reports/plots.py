@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike
 
 from bayescal.robot.compensator import Compensator, CompensatorGeometry
 from bayescal.geometry.arcs import LEVER_MARKER, GeometryFit, MarkerPoints
+from bayescal.geometry.layout import circular_mean
 from bayescal.units import DEG, MM, UM, URAD_PER_NM
 
 __all__ = ["plot_eta_curves", "plot_arc_fit", "plot_joint2_compliance"]
@@ -91,7 +92,7 @@ def plot_arc_fit(
         _, xyz = points.of(name)
         d = xyz[:, :2] - p0
         beta = np.arctan2(d[:, 1], d[:, 0])
-        centre_beta = np.angle(np.mean(np.exp(1j * beta)))
+        centre_beta = circular_mean(beta)
         span = np.max(np.abs(np.angle(np.exp(1j * (beta - centre_beta))))) + 10 * DEG
         b = centre_beta + np.linspace(-span, span, 100)
         radius = fit.cylinder.radii[name]

@@ -23,7 +23,7 @@ import pandas as pd
 
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
-from bayescal.inference.parameters import label_angle
+from bayescal.inference.parameters import GEOMETRY_PARAMETERS, label_angle
 from bayescal.inference.results import ElastostaticResults
 from bayescal.inference.testpose import TestPosePrediction
 from bayescal.reference import beside_published, read_paper_reference
@@ -43,7 +43,7 @@ __all__ = ["ReviewInputs", "render_review", "HTML_FILE", "MARKDOWN_FILE", "JSON_
 
 ETA_S0_MM = (300.0, 400.0, 500.0, 600.0)
 """Spring free lengths (mm) of the η(q2) curves beside the identified one, spanning the paper's Fig. 3."""
-GEOMETRY_NAMES = ("L", "a_x", "a_y", "phi")
+GEOMETRY_NAMES = tuple(parameter.name for parameter in GEOMETRY_PARAMETERS)
 """The compensator geometry of Table II (and the lever angle phi, which it does not list)."""
 DISPLAY_UNITS = {"urad/(N m)": "μrad/(N·m)"}
 """How the figures write the units the posterior files store in ASCII."""
@@ -417,7 +417,7 @@ def _compensator_section(page: Page, results: ElastostaticResults, cell: Cell) -
     tree = results.tree["posterior"]
     mean = results.geometry.mean
     if "L" in tree:
-        mean = np.array([float(tree[name].mean()) * factor for name, factor in (("L", MM), ("a_x", MM), ("a_y", MM), ("phi", DEG))])
+        mean = np.array([float(tree[p.name].mean()) * p.si_factor for p in GEOMETRY_PARAMETERS])
     geometry = CompensatorGeometry(*mean)
     s0 = float(tree["s0"].mean()) * MM if "s0" in tree else cell.compensator.s0
     values = sorted({*(v * MM for v in ETA_S0_MM), s0})

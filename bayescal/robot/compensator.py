@@ -48,11 +48,22 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["CompensatorGeometry", "Compensator", "stiffness_regressor"]
+__all__ = ["CompensatorGeometry", "Compensator", "MIN_ANGLES", "alpha", "stiffness_regressor"]
+
+MIN_ANGLES = 3
+"""Distinct angles of the compensated joint that eq 34 needs: one per unknown, K_θ^0, K_c and s0·K_c."""
 
 
 def _out(value: np.ndarray) -> np.ndarray | float:
     return float(value) if np.ndim(value) == 0 else value
+
+
+def alpha(phi: ArrayLike, a_x: ArrayLike, a_y: ArrayLike) -> np.ndarray:
+    """Angle α of eq 4 (rad), ``phi - atan2(a_y, a_x)``, for many geometries at once (arguments broadcast).
+
+    :attr:`CompensatorGeometry.alpha` is the same angle of one geometry.
+    """
+    return np.asarray(phi, dtype=float) - np.arctan2(a_y, a_x)
 
 
 def stiffness_regressor(q2: ArrayLike, L: ArrayLike, a_x: ArrayLike, a_y: ArrayLike, phi: ArrayLike) -> np.ndarray:
@@ -76,7 +87,7 @@ def stiffness_regressor(q2: ArrayLike, L: ArrayLike, a_x: ArrayLike, a_y: ArrayL
     """
     q2, L, a_x, a_y, phi = (np.asarray(v, dtype=float) for v in (q2, L, a_x, a_y, phi))
     a = np.hypot(a_x, a_y)
-    gamma = phi - np.arctan2(a_y, a_x) - q2
+    gamma = alpha(phi, a_x, a_y) - q2
     cos, sin = np.cos(gamma), np.sin(gamma)
     s2 = a**2 + L**2 + 2.0 * a * L * cos
     aL = a * L

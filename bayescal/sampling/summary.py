@@ -22,7 +22,7 @@ import xarray as xr
 from bayescal import __version__
 from bayescal.sampling.diagnostics import diagnose
 
-__all__ = ["posterior_tree", "summarize", "diagnostics", "converged", "sample_until_converged", "warn_if_unconverged", "ConvergenceWarning", "parameters_json", "save", "load"]
+__all__ = ["posterior_tree", "summarize", "diagnostics", "converged", "sample_until_converged", "warn_if_unconverged", "ConvergenceWarning", "parameters_json", "save", "load", "read_posterior"]
 
 R_HAT_LIMIT = 1.01
 """Largest rank-normalised split R-hat accepted as converged (Vehtari et al. 2021)."""
@@ -272,6 +272,23 @@ def load(path: str | PathLike[str]) -> xr.DataTree:
     """
     with xr.open_datatree(path, engine="netcdf4") as tree:
         return tree.load()
+
+
+def read_posterior(path: str | PathLike[str], what: str = "a posterior DataTree") -> tuple[xr.DataTree, xr.DataTree]:
+    """A saved tree (:func:`load`) and its ``posterior`` group, for the readers of a user's file.
+
+    Raises
+    ------
+    InputError
+        Naming the file and ``what`` was expected, when it cannot be read or has no posterior group.
+    """
+    from bayescal.errors import InputError
+
+    try:
+        tree = load(path)
+        return tree, tree["posterior"]
+    except (OSError, KeyError, ValueError) as exc:
+        raise InputError(f"cannot read {what} ({type(exc).__name__})", source=str(path)) from None
 
 
 def _elements(values: xr.DataArray):

@@ -32,13 +32,15 @@ import pandas as pd
 from bayescal.cell.config import Cell
 from bayescal.design.optimise import CANDIDATES_PER_ANGLE, PlanDesigner
 from bayescal.errors import InputError
+from bayescal.inference.parameters import ParameterRegistry
+from bayescal.robot.compensator import MIN_ANGLES
 from bayescal.studies.parallel import seeded_map
 from bayescal.units import MM
 
-__all__ = ["TARGETS_PCT", "identification_cost", "q2_angle_study"]
+__all__ = ["FIXED_TARGET_PCT", "identification_cost", "q2_angle_study", "width_targets"]
 
-TARGETS_PCT = {"Table IV": {"K_c": 21.5, "s0": 5.9}, "5 %": {"K_c": 5.0, "s0": 5.0}}
-"""Widths (±3σ in % of the value) to reach: Klimchik et al.'s Table IV, and 5 %."""
+FIXED_TARGET_PCT = 5.0
+"""A width (±3σ in % of the value) of K_c and s0 asked of every cell, published or not."""
 
 NOISE_FRACTIONS = (1.0, 0.1)
 """Tracker noise levels of the study, as fractions of the cell's."""
@@ -97,8 +99,8 @@ def q2_angle_study(
         ``<parameter>_width_3sd_pct`` (NaN for a parameter the plans do not excite).
     """
     angles, per_angle = list(angles), list(per_angle)
-    if min(angles) < 3 and cell.compensator is not None:
-        raise InputError(f"K_c and s0 need at least 3 distinct q2 angles, got {min(angles)}", source="angles")
+    if min(angles) < MIN_ANGLES and cell.compensator is not None:
+        raise InputError(f"K_c and s0 need at least {MIN_ANGLES} distinct q2 angles, got {min(angles)}", source="angles")
     root = np.random.SeedSequence(seed)
     candidate_seed, *design_seeds = root.spawn(1 + len(angles) * len(per_angle))
     designer = PlanDesigner(cell, repeats=repeats, model="exact")
@@ -108,8 +110,32 @@ def q2_angle_study(
     return pd.DataFrame([row for rows in results for row in rows])
 
 
-def identification_cost(table: pd.DataFrame, *, repeats: int = 3, targets: dict | None = None) -> pd.DataFrame:
+def width_targets(cell: Cell) -> dict[str, dict[str, float]]:
+    """The widths of K_c and s0 (±3σ in % of the value) to reach: the cell's published ones, and 5 %.
+
+    The published widths are those of the cell's reference table (Klimchik et al.'s
+    Table IV for the KR-270, :class:`~bayescal.inference.parameters.ParameterRegistry`);
+    a cell that publishes none gets the 5 % target alone.
+    """
+    registry = ParameterRegistry.of_cell(cell)
+    published = {name: registry[name].published for name in ("K_c", "s0") if registry.compensated}
+    targets = {}
+    if published and all(published.values()):
+        targets["Table IV"] = {name: 100.0 * half_width / value for name, (value, half_width) in published.items()}
+    return targets | {f"{FIXED_TARGET_PCT:g} %": {"K_c": FIXED_TARGET_PCT, "s0": FIXED_TARGET_PCT}}
+
+
+def identification_cost(table: pd.DataFrame, *, targets: dict[str, dict[str, float]], repeats: int = 3) -> pd.DataFrame:
     """What would identify K_c and s0 to each target width, from :func:`q2_angle_study`'s table.
+
+    Parameters
+    ----------
+    table
+        :func:`q2_angle_study`'s table.
+    targets
+        Label to the ±3σ widths of K_c and s0 to reach (% of the value), as :func:`width_targets` gives.
+    repeats
+        Measurements of each configuration in the study.
 
     Returns
     -------
@@ -119,7 +145,6 @@ def identification_cost(table: pd.DataFrame, *, repeats: int = 3, targets: dict 
         table (largest K_c and s0 shortfall smallest) with ``repeats_needed`` (widths
         fall as 1/√repeats) and ``noise_fraction_needed`` (widths scale with the noise).
     """
-    targets = TARGETS_PCT if targets is None else targets
     rows = []
     for label, goal in targets.items():
         for fraction, group in table.groupby("noise_fraction", sort=False):

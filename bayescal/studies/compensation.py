@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
+from concurrent.futures import Executor
 
 import numpy as np
 import pandas as pd
@@ -29,6 +30,7 @@ from bayescal.inference.exact import scale_masses
 from bayescal.robot.stiffness import ElasticArm
 from bayescal.sampling.protocol import Sampler
 from bayescal.studies.elastostatic_coverage import LIMIT_MARGIN, Truth, TruthSpread, random_plan
+from bayescal.studies.parallel import seeded_map
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import DEG
 
@@ -155,15 +157,11 @@ def compensation_check(
 
 
 def draw_truth(cell: Cell, spread: TruthSpread | None, rng: np.random.Generator) -> Truth:
-    """The cell's own values (``spread`` None), or a truth drawn unlike them as the elastostatic coverage study draws it."""
+    """The cell's own values (``spread`` None), or a truth drawn unlike them as the elastostatic coverage study
+    draws it (:meth:`~bayescal.studies.elastostatic_coverage.TruthSpread.draw`)."""
     if spread is None:
         return Truth(compliances=cell.compliances, spring=(cell.compensator.K_c, cell.compensator.s0))
-    factor = lambda width, n=None: rng.uniform(1.0 - width, 1.0 + width, n)  # noqa: E731
-    return Truth(
-        compliances=cell.compliances * factor(spread.compliances, cell.robot.nq),
-        spring=(cell.compensator.K_c * factor(spread.K_c), cell.compensator.s0 * factor(spread.s0)),
-        masses=factor(spread.masses),
-    )
+    return spread.draw(cell, rng)
 
 
 def compensation_coverage(
@@ -175,6 +173,7 @@ def compensation_coverage(
     spread: TruthSpread | None = None,
     poses: int = 200,
     sampler: Sampler | None = None,
+    executor: Executor | None = None,
 ) -> pd.DataFrame:
     """:func:`compensation_check` over ``campaigns`` simulated calibrations, each with its own seed.
 
@@ -194,16 +193,24 @@ def compensation_coverage(
         Poses of each campaign's random program.
     sampler
         The identification's sampler (default: the model's).
+    executor
+        Where the campaigns run; default a process pool on all cores (:func:`~bayescal.studies.parallel.seeded_map`).
 
     Returns
     -------
     pandas.DataFrame
         :func:`compensation_check`'s rows with a ``campaign`` column.
     """
-    frames = []
-    for index, rng in enumerate(np.random.default_rng(seed).spawn(campaigns)):
-        truth = draw_truth(cell, spread, rng)
-        campaign_plan = plan if plan is not None else random_plan(cell, 6, 5, rng)
-        frame = compensation_check(cell, truth, campaign_plan, rng, poses=poses, sampler=sampler)
-        frames.append(frame.assign(campaign=index))
+    frames = seeded_map(
+        _campaign, range(campaigns), seed, executor=executor, cell=cell, plan=plan, spread=spread, poses=poses, sampler=sampler
+    )
     return pd.concat(frames, ignore_index=True)
+
+
+def _campaign(
+    index: int, rng: np.random.Generator, cell: Cell, plan: Plan | None, spread: TruthSpread | None, poses: int, sampler
+) -> pd.DataFrame:
+    """One task of :func:`~bayescal.studies.parallel.seeded_map`: campaign ``index`` of :func:`compensation_coverage`."""
+    truth = draw_truth(cell, spread, rng)
+    campaign_plan = plan if plan is not None else random_plan(cell, 6, 5, rng)
+    return compensation_check(cell, truth, campaign_plan, rng, poses=poses, sampler=sampler).assign(campaign=index)

@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 from bayescal.geometry.arcs import LEVER_MARKER, GeometryFit, MarkerLayout, MarkerPoints, concentric_fit
+from bayescal.geometry.layout import cylinder_direction, marker_offset
 from bayescal.units import DEG, MM
 
 __all__ = ["along_arc_residuals", "cylinder_marker_study", "implied_cylinder_noise"]
@@ -49,9 +50,9 @@ def cylinder_marker_study(points: MarkerPoints, closed: GeometryFit) -> pd.DataF
     for name in points.cylinder_markers:
         q2, xyz = points.of(name)
         single = concentric_fit({name: xyz[:, :2]})
-        d = xyz[:, :2] - layout.p0
-        lever = layout.positions(q2)[LEVER_MARKER] - layout.p0
-        relative = np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - np.arctan2(lever[:, 1], lever[:, 0]))))
+        lever = layout.positions(q2)[LEVER_MARKER]
+        direction = cylinder_direction(lever[:, 0], lever[:, 1], layout.p0[0], layout.p0[1])
+        relative = np.angle(np.exp(1j * marker_offset(xyz[:, 0], xyz[:, 1], layout.p0[0], layout.p0[1], direction)))
         drift = float(np.ptp(np.unwrap(relative)))
         others = [residual for other, residual in ordered.items() if other != name and residual.size == ordered[name].size]
         correlation = float(np.corrcoef(ordered[name], np.mean(others, axis=0))[0, 1]) if others else np.nan

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from bayescal.cell.config import Cell
-from bayescal.cell.plan import Plan
+from bayescal.cell.plan import Plan, prismatic_flags
 from bayescal.design.loads import draw_loads
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.exact import scale_masses
@@ -50,6 +50,15 @@ class TruthSpread:
     s0: float = 0.05
     masses: float = 0.15
 
+    def draw(self, cell: Cell, rng: np.random.Generator) -> Truth:
+        """A truth drawn about ``cell``'s values: each joint compliance, K_c, s0 and the link masses
+        times its own uniform factor (in that order of draws)."""
+        factor = lambda width, n=None: rng.uniform(1.0 - width, 1.0 + width, n)  # noqa: E731
+        compliances = cell.compliances * factor(self.compliances, cell.robot.nq)
+        # A robot without a compensator has no spring to draw.
+        spring = None if cell.compensator is None else (cell.compensator.K_c * factor(self.K_c), cell.compensator.s0 * factor(self.s0))
+        return Truth(compliances=compliances, spring=spring, masses=factor(self.masses))
+
 
 def random_plan(cell: Cell, angles: int, per_angle: int, rng: np.random.Generator) -> Plan:
     """A plan of ``angles`` q2 angles spread over joint 2's range with ``per_angle`` random configurations each.
@@ -65,8 +74,7 @@ def random_plan(cell: Cell, angles: int, per_angle: int, rng: np.random.Generato
     q2 = rng.uniform(edges[:-1], edges[1:])
     q = rng.uniform(low, high, (angles * per_angle, robot.nq))
     q[:, cell.plan_joint] = np.repeat(q2, per_angle)
-    prismatic = cell.robot.prismatic.copy() if cell.robot.prismatic.any() else None
-    plan = Plan(q=q, load_kg=None, lines=np.zeros(len(q), dtype=int), source="random plan", prismatic=prismatic)
+    plan = Plan(q=q, load_kg=None, lines=np.zeros(len(q), dtype=int), source="random plan", prismatic=prismatic_flags(robot))
     if cell.loading.hanging_only:
         return plan
     loads = draw_loads(len(q) + 1, cell.loading.force_max, cell.loading.couple_max, rng)[1:]  # the first is straight down
@@ -131,11 +139,7 @@ def elastostatic_coverage(
 
 
 def _one_campaign(index: int, rng: np.random.Generator, *, cell, sampler, spread, size, noise_um) -> list[dict]:
-    factor = lambda width, n=None: rng.uniform(1.0 - width, 1.0 + width, n)  # noqa: E731
-    compliances = cell.compliances * factor(spread.compliances, cell.robot.nq)
-    # A robot without a compensator has no spring to draw.
-    spring = None if cell.compensator is None else (cell.compensator.K_c * factor(spread.K_c), cell.compensator.s0 * factor(spread.s0))
-    truth = Truth(compliances=compliances, spring=spring, masses=factor(spread.masses))
+    truth = spread.draw(cell, rng)
     return [{"campaign": index} | row for row in fit_against_truth(cell, truth, rng, sampler=sampler, size=size, noise_um=noise_um)]
 
 
@@ -209,12 +213,10 @@ def fit_against_truth(
     summary = results.summary()
     not_identifiable = results.identifiability.not_identifiable
     r_hat = results.diagnostics()["r_hat_max"]
-    # hanging masses never turn A1 (k1 stays the config's); loads in any direction do
-    first = 0 if not cell.loading.hanging_only else 1
-    registry = ParameterRegistry.of_cell(cell)
-    values = {f"k{j + 1}": registry[f"k{j + 1}"].to_edge(truth.compliances[j]) for j in range(first, cell.robot.nq)}
-    if truth.spring is not None:
-        values |= {"K_c": registry["K_c"].to_edge(truth.spring[0]), "s0": registry["s0"].to_edge(truth.spring[1])}
+    values = ParameterRegistry.of_cell(cell).edge_values(truth.compliances, truth.spring)
+    if cell.loading.hanging_only:
+        # hanging masses never turn A1 (k1 stays the config's); loads in any direction do
+        del values["k1"]
     values["gravity_scale"] = truth.masses
     out = []
     for name, value in values.items():

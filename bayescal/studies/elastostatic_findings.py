@@ -164,9 +164,7 @@ class ElastostaticFindings:
 
 def _truth(cell: Cell) -> dict[str, float]:
     """The twin's values of the registry's parameters, in their edge units."""
-    registry = ParameterRegistry.of_cell(cell)
-    si = [*cell.compliances, cell.compensator.K_c, cell.compensator.s0]
-    return {p.name: p.to_edge(value) for p, value in zip(registry.parameters, si)}
+    return ParameterRegistry.of_cell(cell).edge_values(cell.compliances, (cell.compensator.K_c, cell.compensator.s0))
 
 
 def _estimates(paper: pd.DataFrame, parameters: dict, truth: dict[str, float], units: dict[str, str]) -> pd.DataFrame:
@@ -316,7 +314,6 @@ def elastostatic_findings(
     truth_block = dataclasses.replace(test_pose, reference=true_deflection).to_json().get("residual_error_mm")
 
     masses = plan.masses(cell.load_mass)
-    noise = np.concatenate([cell.tracker.sigma(campaign.p0), cell.tracker.sigma(campaign.p1)]) / UM
     reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in names}
     compensator = _compensator(results, cell) if results.closed_form.spring is not None else None
     linearisation = linearisation_findings(linearisation_study(cell, plan), unloaded_sag(cell, plan))
@@ -330,7 +327,7 @@ def elastostatic_findings(
         n_equations=results.n_equations,
         n_angles=int(results.compensated_angles.size),
         mass_range_kg=(float(masses.min()), float(masses.max())),
-        noise_range_um=(float(noise.min()), float(noise.max())),
+        noise_range_um=tuple(sd / UM for sd in cell.tracker.sigma_range(campaign.p0, campaign.p1)),
         sampler_name=results.sampler_name,
         diagnostics=results.diagnostics(),
         linear_diagnostics=linear.diagnostics(),

@@ -16,6 +16,7 @@ import pandas as pd
 from bayescal.geometry.arcs import MarkerLayout
 from bayescal.geometry.posterior import GeometryPosteriorModel
 from bayescal.sampling.summary import ConvergenceWarning
+from bayescal.twin.arcs import simulate_markers
 from bayescal.units import DEG, MM
 
 __all__ = ["binomial_se", "coverage_study", "layout_truth"]
@@ -67,7 +68,7 @@ def coverage_study(
     content = {name: np.zeros(3) for name in truth}
     k = np.arange(1, 4)
     for _ in range(n_rep):
-        points = layout.simulate(q2, sigma, rng)
+        points = simulate_markers(layout, q2, rng, sigma=sigma)
         with warnings.catch_warnings():
             # The study runs deliberately short chains: its coverage is the test of them.
             warnings.simplefilter("ignore", ConvergenceWarning)

@@ -11,8 +11,10 @@ what the effect changes.  No model criticism is run and no threshold is set here
 
 from __future__ import annotations
 
+import copy
 import warnings
 from collections.abc import Sequence
+from concurrent.futures import Executor
 
 import numpy as np
 import pandas as pd
@@ -20,13 +22,13 @@ import pandas as pd
 from bayescal.cell.config import Cell
 from bayescal.errors import InputError
 from bayescal.inference.elastostatic import ElastostaticModel
+from bayescal.studies.parallel import seeded_map
 from bayescal.twin.independent import EFFECTS, IndependentGenerator, random_plan
 
 __all__ = ["effect_residuals"]
 
 
-def _campaign(cell: Cell, seed: int, effect: str | None, magnitude: float, noise: bool):
-    rng = np.random.default_rng(seed)
+def _campaign(cell: Cell, rng: np.random.Generator, effect: str | None, magnitude: float, noise: bool):
     plan = random_plan(cell, rng)
     return IndependentGenerator(cell, rng, noise=noise).simulate(plan, 3, effect, magnitude)[0]
 
@@ -49,7 +51,12 @@ _FIT_COLUMNS = ("residual_rms_um", "chi2_per_dof", "r_hat_max", "ess_bulk_min")
 
 
 def effect_residuals(
-    cell: Cell, seeds: Sequence[int], *, magnitude: float = 1.0, effects: Sequence[str | None] | None = None
+    cell: Cell,
+    seeds: Sequence[int],
+    *,
+    magnitude: float = 1.0,
+    effects: Sequence[str | None] | None = None,
+    executor: Executor | None = None,
 ) -> pd.DataFrame:
     """One row per effect and seed: what the effect changes and the fit's residuals, in μm.
 
@@ -63,6 +70,9 @@ def effect_residuals(
         Multiplier of every effect's default size.
     effects
         Effect names (None: no effect); all of :data:`~bayescal.twin.independent.EFFECTS` and None by default.
+    executor
+        Where the campaigns run (:func:`~bayescal.studies.parallel.seeded_map`); default a process pool on all
+        cores.  Seed ``s`` draws the stream of ``np.random.default_rng(s)``.
 
     Returns
     -------
@@ -73,20 +83,27 @@ def effect_residuals(
         ``error``: the message when the fit refuses the campaign (its other columns then NaN).
     """
     effects = [None, *EFFECTS] if effects is None else list(effects)
-    rows = []
-    for effect in effects:
-        for seed in seeds:
-            campaign = _campaign(cell, seed, effect, magnitude, True)
-            exact = _campaign(cell, seed, effect, magnitude, False)
-            bare = _campaign(cell, seed, None, magnitude, False)
-            change = np.sqrt(np.mean((exact.displacement - bare.displacement) ** 2))
-            noise = np.sqrt(np.mean(cell.tracker.sigma(campaign.p0) ** 2 + cell.tracker.sigma(campaign.p1) ** 2))
-            row = {
-                "effect": effect or "none",
-                "cause": EFFECTS[effect].cause if effect else None,
-                "seed": seed,
-                "change_um": change / 1e-6,
-                "noise_um": noise / 1e-6,
-            }
-            rows.append(row | _fit(cell, campaign, seed))
+    items = [(effect, seed) for effect in effects for seed in seeds]
+    streams = [np.random.SeedSequence(seed) for _, seed in items]
+    rows = seeded_map(_row, items, streams, executor=executor, cell=cell, magnitude=magnitude)
     return pd.DataFrame(rows)
+
+
+def _row(item: tuple[str | None, int], rng: np.random.Generator, *, cell: Cell, magnitude: float) -> dict:
+    """One task of :func:`effect_residuals`: the campaign of one effect and seed, without noise and without the effect."""
+    effect, seed = item
+    # The noisy, the noiseless and the effect-free campaigns share the seed's plan and truth: three copies of one stream.
+    campaign, exact, bare = (
+        _campaign(cell, copy.deepcopy(rng), planted, magnitude, noisy)
+        for planted, noisy in ((effect, True), (effect, False), (None, False))
+    )
+    change = np.sqrt(np.mean((exact.displacement - bare.displacement) ** 2))
+    noise = np.sqrt(np.mean(cell.tracker.deflection_variance(campaign.p0, campaign.p1)))
+    row = {
+        "effect": effect or "none",
+        "cause": EFFECTS[effect].cause if effect else None,
+        "seed": seed,
+        "change_um": change / 1e-6,
+        "noise_um": noise / 1e-6,
+    }
+    return row | _fit(cell, campaign, seed)

@@ -15,6 +15,7 @@ import dataclasses
 import math
 import warnings
 from collections.abc import Iterable
+from concurrent.futures import Executor
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,6 +28,7 @@ from bayescal.cell.tracker import TrackerNoise
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.exact import scale_masses
 from bayescal.robot.stiffness import ElasticArm
+from bayescal.studies.parallel import seeded_map
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import UM
 
@@ -84,7 +86,14 @@ def weightless(cell: Cell) -> Cell:
 
 
 def linearisation_misfit(
-    cell: Cell, plan: Plan, noise: float, *, load_scale: float = 1.0, seeds: Iterable[int] = (0,), repeats: int = 3
+    cell: Cell,
+    plan: Plan,
+    noise: float,
+    *,
+    load_scale: float = 1.0,
+    seeds: Iterable[int] = (0,),
+    repeats: int = 3,
+    executor: Executor | None = None,
 ) -> pd.DataFrame:
     """χ²/dof of the linear and the exact model on twin campaigns with a fixed tracker noise.
 
@@ -93,7 +102,9 @@ def linearisation_misfit(
     distance, once per seed.  Both models fit the same campaign in closed form;
     χ² is over the campaign's deflection equations (3 per row, each the
     difference of two readings, so of variance ``2 noise²``) with ``n - p``
-    degrees of freedom for ``p`` per-angle compliances.
+    degrees of freedom for ``p`` per-angle compliances.  The campaigns run on
+    ``executor`` (:func:`~bayescal.studies.parallel.seeded_map`; default a process
+    pool on all cores), seed ``s`` drawing the stream of ``np.random.default_rng(s)``.
 
     Returns
     -------
@@ -104,26 +115,30 @@ def linearisation_misfit(
     tracker = TrackerNoise(cell.tracker.position, U0=noise, U1=0.0, factor=1.0)
     fixed = dataclasses.replace(cell, tracker=tracker)
     scaled = dataclasses.replace(plan, load_kg=plan.masses(cell.load_mass) * load_scale)
-    rows = {}
-    for seed in seeds:
-        campaign = DigitalTwin(fixed).simulate(scaled, repeats, np.random.default_rng(seed))
-        with warnings.catch_warnings():
-            # The study reads χ²; what the plan cannot identify is warned about where the plan is fitted.
-            warnings.simplefilter("ignore")
-            chi2 = {name: ElastostaticModel.from_cell(fixed, model=name).chi2_per_dof(campaign) for name in ("linear", "exact")}
-            _, ident = ElastostaticModel.from_cell(fixed, model="linear").estimate(campaign)
-        n = 3 * len(campaign)
-        rows[seed] = {
-            "chi2_per_dof_linear": chi2["linear"],
-            "chi2_per_dof_exact": chi2["exact"],
-            "n_equations": n,
-            "dof": n - int(ident.identifiable.sum()),
-            "noise_um": noise / UM,
-            "load_scale": load_scale,
-        }
+    seeds = list(seeds)
+    streams = [np.random.SeedSequence(seed) for seed in seeds]
+    runs = seeded_map(_misfit_run, seeds, streams, executor=executor, cell=fixed, plan=scaled, repeats=repeats)
+    rows = {seed: run | {"noise_um": noise / UM, "load_scale": load_scale} for seed, run in zip(seeds, runs)}
     frame = pd.DataFrame.from_dict(rows, orient="index")
     frame.index.name = "seed"
     return frame
+
+
+def _misfit_run(seed: int, rng: np.random.Generator, *, cell: Cell, plan: Plan, repeats: int) -> dict:
+    """One task of :func:`linearisation_misfit`: the campaign of ``seed`` fitted by both models."""
+    campaign = DigitalTwin(cell).simulate(plan, repeats, rng)
+    with warnings.catch_warnings():
+        # The study reads χ²; what the plan cannot identify is warned about where the plan is fitted.
+        warnings.simplefilter("ignore")
+        chi2 = {name: ElastostaticModel.from_cell(cell, model=name).chi2_per_dof(campaign) for name in ("linear", "exact")}
+        _, ident = ElastostaticModel.from_cell(cell, model="linear").estimate(campaign)
+    n = 3 * len(campaign)
+    return {
+        "chi2_per_dof_linear": chi2["linear"],
+        "chi2_per_dof_exact": chi2["exact"],
+        "n_equations": n,
+        "dof": n - int(ident.identifiable.sum()),
+    }
 
 
 def misfit_summary(runs: pd.DataFrame) -> pd.Series:
@@ -176,6 +191,7 @@ def linearisation_study(
     reduced: float = REDUCED,
     seeds: Iterable[int] = LINEARISATION_SEEDS,
     repeats: int = 3,
+    executor: Executor | None = None,
 ) -> pd.DataFrame:
     """The linear model's misfit on the twin and on the twin without weight, at full and at reduced loads and noise.
 
@@ -184,7 +200,7 @@ def linearisation_study(
     ``noise`` (m), then with loads and noise multiplied by ``reduced``.  A misfit
     second order in the deflections drops by ``1/reduced²`` (its excess χ² grows
     as the load squared when the noise grows with the load); one proportional to
-    the load stays.
+    the load stays.  The campaigns run on ``executor`` (:func:`linearisation_misfit`).
 
     Returns
     -------
@@ -196,7 +212,7 @@ def linearisation_study(
     rows = {}
     for twin, case in (("cell", cell), ("weightless", weightless(cell))):
         for scale in (1.0, reduced):
-            runs = linearisation_misfit(case, plan, scale * noise, load_scale=scale, seeds=seeds, repeats=repeats)
+            runs = linearisation_misfit(case, plan, scale * noise, load_scale=scale, seeds=seeds, repeats=repeats, executor=executor)
             rows[(twin, scale)] = pd.concat([misfit_summary(runs), pd.Series({"noise_um": scale * noise / UM}, dtype=object)])
     counts = ["linear_beyond", "exact_beyond", "n_seeds", "n_equations", "dof"]
     frame = pd.DataFrame.from_dict(rows, orient="index").astype(float).astype({name: int for name in counts})

@@ -30,10 +30,7 @@ def _closed_form(model: ElastostaticModel, campaign: Campaign) -> dict[str, floa
     """The closed-form estimates in the paper's units (μrad/(N·m), N/mm, mm)."""
     estimate, _ = model.estimate(campaign)
     registry = ParameterRegistry(len(estimate.compliances), compensated_joint=model.compensated_joint)
-    values = {f"k{j + 1}": registry[f"k{j + 1}"].to_edge(estimate.compliances[j]) for j in range(len(estimate.compliances))}
-    if estimate.spring is not None:
-        values |= {"K_c": registry["K_c"].to_edge(estimate.spring[1]), "s0": registry["s0"].to_edge(estimate.spring[2])}
-    return values
+    return registry.edge_values(estimate.compliances, None if estimate.spring is None else estimate.spring[1:])
 
 
 def assumption_sensitivity(model: ElastostaticModel, campaign: Campaign, posterior: pd.DataFrame) -> pd.DataFrame:

@@ -93,7 +93,6 @@ class TwinFindings:
 def twin_findings(cell: Cell, plan: Plan, *, repeats: int = 3, seed: int = 1) -> TwinFindings:
     """The twin's campaign of ``plan`` with ``seed``, its precision and the detectability of its effects."""
     campaign = DigitalTwin(cell).simulate(plan, repeats, np.random.default_rng(seed))
-    sigma = cell.tracker.sigma(np.vstack([campaign.p0, campaign.p1])) / UM
     deflection = np.linalg.norm(campaign.displacement, axis=1) / MM
     precision = design_precision(cell, plan, repeats)
     n = campaign.n_equations
@@ -115,7 +114,7 @@ def twin_findings(cell: Cell, plan: Plan, *, repeats: int = 3, seed: int = 1) ->
         n_markers=len(cell.markers),
         n_equations=n,
         seed=seed,
-        sigma_range_um=(float(sigma.min()), float(sigma.max())),
+        sigma_range_um=tuple(sd / UM for sd in cell.tracker.sigma_range(campaign.p0, campaign.p1)),
         deflection_range_mm=(float(deflection.min()), float(deflection.max())),
         tracker={"factor": cell.tracker.factor, "U0_um": cell.tracker.U0 / UM, "U1_um_per_m": cell.tracker.U1 / UM},
         balance=balance,

@@ -38,7 +38,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bayescal.geometry.arcs import LEVER_MARKER, MarkerLayout, MarkerPoints
-from bayescal.geometry.layout import cylinder_direction, cylinder_points
+from bayescal.geometry.layout import cylinder_direction, cylinder_points, lever_angle
 from bayescal.reference import published
 from bayescal.units import DEG, MM, N_PER_MM
 
@@ -126,7 +126,7 @@ def simulate_markers(
     if effect == "lever_bending":
         d = lever - layout.p0
         force = SPRING_K * (np.linalg.norm(d, axis=1) - SPRING_S0)
-        angle = layout.phi + layout.sense * q2
+        angle = lever_angle(layout.phi, layout.sense, q2)
         positions[LEVER_MARKER] = lever + (size * force)[:, np.newaxis] * np.column_stack([-np.sin(angle), np.cos(angle)])
     if effect == "tilt":
         rotation = Rotation.from_rotvec(size * np.array([np.cos(TILT_AXIS), np.sin(TILT_AXIS), 0.0]))

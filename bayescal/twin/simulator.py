@@ -21,7 +21,7 @@ from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.twin.effects import EFFECTS, Effect
 from bayescal.errors import InputError
-from bayescal.cell.plan import Plan
+from bayescal.cell.plan import Plan, prismatic_flags
 from bayescal.robot.stiffness import ElasticArm, EquilibriumError, LinearJoints
 
 __all__ = ["DigitalTwin"]
@@ -121,5 +121,5 @@ class DigitalTwin:
             p1=np.vstack(rows["p1"]),
             lines=np.zeros(len(rows["config"]), dtype=int),
             source="simulated",
-            prismatic=self.cell.robot.prismatic.copy() if self.cell.robot.prismatic.any() else None,
+            prismatic=prismatic_flags(self.cell.robot),
         )

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from bayescal.errors import InputError
-from bayescal.cell.plan import read_plan, write_plan
+from bayescal.cell.config import load_cell
+from bayescal.cell.plan import position_columns, prismatic_flags, read_plan, write_plan
 
 
 def test_table_iii(robot, data_dir):
@@ -77,3 +78,17 @@ def test_written_plan_reads_back(tmp_path, robot, data_dir):
     assert path.read_text().startswith("# a provenance note\nq1_deg,")
     np.testing.assert_allclose(again.q, plan.q, atol=0.0005 * np.pi / 180)
     np.testing.assert_array_equal(again.load_kg, plan.load_kg)
+
+
+def test_the_files_joint_columns_follow_the_robots_joints(cell, data_dir):
+    columns, scale = position_columns(3, None)
+    assert columns == ["q1_deg", "q2_deg", "q3_deg"] and np.allclose(scale, np.pi / 180)
+    assert prismatic_flags(cell.robot) is None
+    track = load_cell(data_dir / "robots" / "track_arm6.toml").robot
+    flags = prismatic_flags(track)
+    columns, scale = position_columns(track.nq, flags)
+    # the files name each joint as the robot does, and the unit's SI value is 1 mm or 1 deg
+    assert columns == list(track.position_columns) and columns[0] == "q1_mm"
+    np.testing.assert_allclose(scale, np.where(flags, 1e-3, np.pi / 180))
+    flags[0] = False  # a copy: the robot's own flags stay
+    assert track.prismatic[0]

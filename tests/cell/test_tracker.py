@@ -35,3 +35,11 @@ def test_same_seed_same_readings_and_zero_factor_is_exact():
 def test_rejects_negative_parameters():
     with pytest.raises(ValueError, match="factor"):
         TrackerNoise(factor=-1.0)
+
+
+def test_a_deflection_adds_the_variances_of_its_two_readings():
+    tracker = TrackerNoise(position=np.zeros(3), U0=15e-6, U1=6e-6, factor=1.0)
+    unloaded, loaded = np.array([[1.0, 0.0, 0.0], [0.0, 3.0, 0.0]]), np.array([[2.0, 0.0, 0.0], [0.0, 0.0, 4.0]])
+    # σ(1 m) = 21 μm, σ(2 m) = 27 μm; σ(3 m) = 33 μm, σ(4 m) = 39 μm
+    np.testing.assert_allclose(tracker.deflection_variance(unloaded, loaded), [21e-6**2 + 27e-6**2, 33e-6**2 + 39e-6**2])
+    assert tracker.sigma_range(unloaded, loaded) == pytest.approx((21e-6, 39e-6))

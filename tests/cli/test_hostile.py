@@ -236,7 +236,7 @@ def test_a_calibration_of_a_robot_with_more_joints_is_refused(files, capsys, tmp
     argv = ["report", "--calibration", str(tmp_path / "seven.nc"), "--campaign", str(files / "campaign.csv"),
             "--config", str(files / "cell.toml"), "-o", str(tmp_path / "out")]
     code, lines = _run(capsys, argv)
-    assert code == 2 and len(lines) == 1 and "has the compliance k7 but the robot" in lines[0] and "6 joints" in lines[0]
+    assert code == 2 and len(lines) == 1 and "is of a robot with 7 joints" in lines[0] and "has 6" in lines[0]
 
 
 def test_a_full_disk_keeps_the_old_plan_and_names_the_output(files, capsys, monkeypatch, tmp_path):

@@ -92,3 +92,15 @@ def test_output_is_refused_when_it_is_an_input_a_file_or_has_no_parent(capsys, s
     status, _, err = run(capsys, ["--plan", str(folder / "numbers.json"), "-o", str(folder)])
     assert status == 2 and "would destroy the input" in err
     assert (folder / "numbers.json").read_text() == plan.read_text()
+
+
+def test_a_calibration_of_another_robot_is_refused(capsys, short_calibration, tmp_path):
+    from bayescal.sampling.summary import load, save
+
+    tree = load(short_calibration["calibration"])
+    tree.attrs["robot"] = "another_arm"
+    save(tree, tmp_path / "other.nc")
+    paths = short_calibration | {"calibration": tmp_path / "other.nc"}
+    status, _, err = run(capsys, [*calibration_args(paths), "-o", str(tmp_path / "r")])
+    assert status == 2 and "the calibration is of robot 'another_arm'" in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "r").exists()

@@ -14,6 +14,7 @@ from bayescal.geometry.arcs import (
     read_arc_points,
 )
 from bayescal.reference import read_paper_reference
+from bayescal.twin.arcs import simulate_markers
 from bayescal.units import DEG, MM
 
 Q2 = np.array([-0.01, -30, -60, -90, -120, -145]) * DEG
@@ -173,7 +174,7 @@ def test_layout_reproduces_table1_and_simulates(table1, table1_fit):
     layout = MarkerLayout.from_fit(table1_fit, table1)
     q2, p1 = table1.of("P1")
     assert np.sqrt(np.mean(np.sum((layout.positions(q2)["P1"] - p1) ** 2, axis=1))) < 0.1 * MM
-    simulated = layout.simulate(Q2, 0.0, np.random.default_rng(0))
+    simulated = simulate_markers(layout, Q2, np.random.default_rng(0), sigma=0.0)
     exact = CompensatorGeometryModel().fit(simulated)
     assert exact.geometry.L == pytest.approx(layout.L, rel=1e-12)
     np.testing.assert_allclose(exact.p0, layout.p0, atol=1e-9)

@@ -12,6 +12,7 @@ from bayescal.geometry.posterior import GeometryPosteriorModel, GeometryPriors, 
 from bayescal.reference import read_paper_reference
 from bayescal.studies.arc_fit import TABLE_I_NOISE
 from bayescal.studies.geometry_coverage import coverage_study
+from bayescal.twin.arcs import simulate_markers
 from bayescal.units import DEG, MM
 
 Q2 = np.array([-0.01, -30, -60, -90, -120, -145]) * DEG
@@ -102,7 +103,7 @@ def test_same_seed_same_draws(table1):
 
 def test_rigid_model_recovers_a_simulated_rigid_layout(table1):
     layout = MarkerLayout.from_fit(CompensatorGeometryModel().fit(table1), table1)
-    points = layout.simulate(Q2, TABLE_I_NOISE, np.random.default_rng(11))
+    points = simulate_markers(layout, Q2, np.random.default_rng(11), sigma=TABLE_I_NOISE)
     result = light("rigid").fit(points, rng=3)
     summary = result.summary()
     truth = {"L": layout.L / MM, "a_x": (layout.p2 - layout.p0)[0] / MM, "a_y": (layout.p2 - layout.p0)[1] / MM}

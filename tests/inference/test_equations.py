@@ -7,7 +7,8 @@ import math
 import numpy as np
 
 from bayescal.cell.campaign import Campaign
-from bayescal.inference.equations import ANGLE_DECIMALS, MAX_ANGLES, DeflectionEquations, deflection_equations, group_angles
+from bayescal.inference.equations import MAX_ANGLES, DeflectionEquations, deflection_equations, group_angles
+from bayescal.inference.parameters import ANGLE_DECIMALS
 from bayescal.units import DEG
 
 from tests.conftest import PLANAR_LINKS

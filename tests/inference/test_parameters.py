@@ -63,3 +63,14 @@ def test_edge_and_si_are_inverse_for_arrays(cell):
     values = np.array([0.1, 1.0, 3.3])
     for parameter in registry.parameters:
         np.testing.assert_allclose(parameter.to_edge(parameter.to_si(values)), values)
+
+
+def test_edge_values_name_each_si_value_in_its_edge_unit(cell, data_dir):
+    registry = ParameterRegistry.of_cell(cell)
+    values = registry.edge_values(np.arange(1, 7) * 1e-7, (144e3, 0.458))
+    assert values == pytest.approx({"k1": 0.1, "k2": 0.2, "k3": 0.3, "k4": 0.4, "k5": 0.5, "k6": 0.6, "K_c": 144.0, "s0": 458.0})
+    assert list(registry.edge_values(np.ones(6) * 1e-6)) == ["k1", "k2", "k3", "k4", "k5", "k6"]
+    # a robot without a compensator has no spring to name
+    bare = ParameterRegistry.of_cell(load_cell(data_dir / "robots" / "arm6.toml"))
+    with pytest.raises(KeyError):
+        bare.edge_values(np.ones(6) * 1e-6, (1.0, 1.0))

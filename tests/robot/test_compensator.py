@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from bayescal.robot.compensator import Compensator, CompensatorGeometry
+from bayescal.robot.compensator import Compensator, CompensatorGeometry, alpha
 from bayescal.units import DEG, MM, N_PER_MM
 
 # A KR-270-like compensator: Table II's a_x, a_y and L (Klimchik et al.), phi near Table I's
@@ -129,3 +129,9 @@ def test_geometry_property_drops_the_spring():
     g = KR270.geometry
     assert type(g) is CompensatorGeometry
     assert (g.L, g.a_x, g.a_y, g.phi) == (KR270.L, KR270.a_x, KR270.a_y, KR270.phi)
+
+
+def test_alpha_of_many_geometries_is_each_geometrys_own():
+    geometries = [CompensatorGeometry(0.185, 0.686, 0.120, 1.1), CompensatorGeometry(0.2, -0.5, 0.3, -2.0)]
+    many = alpha(*(np.array([getattr(g, name) for g in geometries]) for name in ("phi", "a_x", "a_y")))
+    np.testing.assert_allclose(many, [g.alpha for g in geometries], rtol=0, atol=1e-15)

@@ -1,7 +1,8 @@
 import numpy as np
 import pytest
 
-from bayescal.sampling.summary import diagnostics, load, parameters_json, posterior_tree, save, summarize
+from bayescal.errors import InputError
+from bayescal.sampling.summary import diagnostics, load, parameters_json, posterior_tree, read_posterior, save, summarize
 from bayescal.sampling.ensemble import EnsembleSampler
 
 
@@ -72,6 +73,22 @@ def test_parameters_json_and_netcdf_round_trip(gaussian_tree, tmp_path):
     assert again.attrs["seed"] == 3
     assert again["posterior"]["b"].attrs["units"] == "deg"
     assert summarize(again).equals(summarize(tree))
+
+
+def test_read_posterior_gives_the_draws_or_names_the_file(gaussian_tree, tmp_path):
+    tree, _, _ = gaussian_tree
+    path = tmp_path / "posterior.nc"
+    save(tree, path)
+    again, posterior = read_posterior(path)
+    np.testing.assert_array_equal(posterior["a"].values, tree["posterior"]["a"].values)
+    assert again.attrs["seed"] == 3
+    text = tmp_path / "posterior.csv"
+    text.write_text("a,b\n1,2\n")
+    with pytest.raises(InputError, match="cannot read a geometry posterior") as error:
+        read_posterior(text, "a geometry posterior")
+    assert error.value.source == str(text)
+    with pytest.raises(InputError, match="cannot read a posterior DataTree"):
+        read_posterior(tmp_path / "absent.nc")
 
 
 def test_every_variable_needs_a_unit():

@@ -9,7 +9,8 @@ import pandas as pd
 import pytest
 
 from bayescal.errors import InputError
-from bayescal.studies.angles import identification_cost, q2_angle_study
+from bayescal.cell.config import load_cell
+from bayescal.studies.angles import identification_cost, q2_angle_study, width_targets
 
 
 def test_study_table_and_noise_scaling(cell):
@@ -44,3 +45,12 @@ def test_identification_cost_reads_the_table():
     assert not cost.loc[1.0, "reached"] and cost.loc[1.0, "angles"] == 5
     assert cost.loc[1.0, "repeats_needed"] == 300 and cost.loc[1.0, "noise_fraction_needed"] == pytest.approx(0.1)
     assert cost.loc[0.1, "reached"] and cost.loc[0.1, "angles"] == 5 and cost.loc[0.1, "repeats_needed"] == 3
+
+
+def test_width_targets_read_the_published_widths(cell, data_dir):
+    targets = width_targets(cell)
+    # Table IV: K_c = 144 ± 31 N/mm, s0 = 458 ± 27 mm (±3σ)
+    assert targets["Table IV"] == pytest.approx({"K_c": 100 * 31 / 144, "s0": 100 * 27 / 458})
+    assert targets["5 %"] == {"K_c": 5.0, "s0": 5.0}
+    # a robot that publishes no results is asked the fixed width alone
+    assert list(width_targets(load_cell(data_dir / "robots" / "arm6_j3.toml"))) == ["5 %"]

@@ -7,7 +7,8 @@ import pytest
 from scipy import stats
 
 from bayescal.sampling.gibbs import GibbsSampler
-from bayescal.studies.elastostatic_coverage import Truth, elastostatic_coverage, fit_against_truth, random_plan
+from bayescal.cell.config import load_cell
+from bayescal.studies.elastostatic_coverage import Truth, TruthSpread, elastostatic_coverage, fit_against_truth, random_plan
 from bayescal.units import MM, N_PER_MM
 
 LEVELS = np.array([1.0, 2.0, 3.0])
@@ -25,6 +26,18 @@ def test_random_plans_spread_q2_over_the_joint_range(cell):
     assert plan.q.shape == (30, 6) and q2.size == 6
     assert np.all((plan.q >= cell.robot.lower) & (plan.q <= cell.robot.upper))
     assert np.ptp(q2) > 0.5 * (cell.robot.upper[1] - cell.robot.lower[1])
+
+
+def test_truths_are_drawn_within_their_spread_of_the_cells_values(cell, data_dir):
+    spread = TruthSpread(compliances=0.1, K_c=0.3, s0=0.05, masses=0.15)
+    truths = [spread.draw(cell, np.random.default_rng(seed)) for seed in range(20)]
+    ratios = np.array([t.compliances / cell.compliances for t in truths])
+    assert np.all(np.abs(ratios - 1) <= 0.1) and np.ptp(ratios) > 0.1
+    assert all(abs(t.spring[0] / cell.compensator.K_c - 1) <= 0.3 and abs(t.spring[1] / cell.compensator.s0 - 1) <= 0.05 for t in truths)
+    assert all(abs(t.masses - 1) <= 0.15 for t in truths) and len({t.masses for t in truths}) == 20
+    # the same generator state gives the same truth; a robot without a compensator gets no spring
+    np.testing.assert_array_equal(spread.draw(cell, np.random.default_rng(3)).compliances, truths[3].compliances)
+    assert spread.draw(load_cell(data_dir / "robots" / "arm6.toml"), np.random.default_rng(0)).spring is None
 
 
 def test_intervals_are_not_grossly_miscalibrated_on_ten_campaigns(cell):
