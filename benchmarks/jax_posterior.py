@@ -95,7 +95,7 @@ def log_density(posterior):
         prior = log_K_c
         if static is not None:
             gravity = z[len(SPRING)]
-            fit = fit + W @ jnp.stack([K_c - static[0], K_c * s0 - static[1], gravity - 1.0])
+            fit = fit + W @ jnp.stack([K_c - static[0], K_c * s0 - static[1], gravity - static[2]])
             prior = prior - 0.5 * ((gravity - 1.0) / block.gravity_sd) ** 2
         if not fixed:
             d = geometry - mean
