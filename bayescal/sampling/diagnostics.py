@@ -139,7 +139,9 @@ def _basic_rhat(chains: np.ndarray) -> float:
     n = chains.shape[1]
     between = n * np.var(chains.mean(axis=1), ddof=1)
     within = np.mean(np.var(chains, axis=1, ddof=1))
-    return float(np.sqrt((between / within + n - 1) / n))
+    # Chains that never moved give inf or NaN: the worst case, reported as such, not a numerical accident to warn of.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return float(np.sqrt((between / within + n - 1) / n))
 
 
 def _autocovariance(chains: np.ndarray) -> np.ndarray:
