@@ -120,6 +120,7 @@ def _one(task: tuple) -> dict:
         "tied_se": before.se,
         "tied": abs(before.delta_elpd) <= DETECTION_Z * before.se,
         "planned_worst_nats": design.planned.worst,
+        "planned_worst_z": min(design.planned.z),
         "delta_elpd": after.delta_elpd,
         "se": after.se,
         "separated": after.delta_elpd > DETECTION_Z * after.se,
