@@ -162,10 +162,9 @@ def _link_compliance(rows: Rows, cell: Cell) -> np.ndarray:
     force = rows.wrench[:, :3]
     for root, tip in _beams(cell, rows):
         start, end = rows.frames[:, root, :3, 3], rows.frames[:, tip, :3, 3]
-        length = np.linalg.norm(end - start, axis=1, keepdims=True)
+        L = np.linalg.norm(end - start, axis=1, keepdims=True)
         moment = rows.wrench[:, 3:] + np.cross(flange_origin - end, force)
-        axial, shear, torsion, bending, coupling = np.moveaxis(_spring(_axis_frame((end - start) / length), end, force, moment, rows.position), -1, 0)
-        L = length
+        axial, shear, torsion, bending, coupling = np.moveaxis(_spring(_axis_frame((end - start) / L), end, force, moment, rows.position), -1, 0)
         blocks += [axial * L, shear * L**3 / 3 + coupling * L**2 / 2 + bending * L, torsion * L]
     return np.stack(blocks, axis=-1) if blocks else np.zeros((len(rows), 3, 0))
 
