@@ -102,7 +102,7 @@ def _one(task: tuple) -> dict:
     from bayescal.design.constraints import load_design_space
     from bayescal.design.discriminate import DiscriminatingDesigner
 
-    config, table3, case, mass_range, seed, candidates_per_angle = task
+    config, table3, case, mass_range, seed, candidates_per_angle, starts = task
     cell, plan = _setup(config, table3, threading.get_ident())
     simulate, tied_plan = _campaigns(case, cell, plan, seed)
     with warnings.catch_warnings():
@@ -112,7 +112,7 @@ def _one(task: tuple) -> dict:
         before = Critique(cell).discriminate(tied, wrong, case.right)
         space = load_design_space(cell, mass_range=mass_range)
         design = DiscriminatingDesigner(cell, BETWEEN, tied, space).optimise(
-            5, 3, np.random.default_rng(seed.spawn(1)[0]), starts=1, candidates_per_angle=candidates_per_angle
+            5, 3, np.random.default_rng(seed.spawn(1)[0]), starts=starts, candidates_per_angle=candidates_per_angle
         )
         after = Critique(cell).discriminate(simulate(design.plan, 1), wrong, case.right)
     return {
@@ -136,6 +136,7 @@ def tie_resolution(
     seed: int = 0,
     mass_range: tuple[float, float] = (50.0, 280.0),
     candidates_per_angle: int = 4,
+    starts: int = 1,
     executor: Executor | None = None,
 ) -> pd.DataFrame:
     """Per case and seed: the tie on the campaign, and the right candidate's lead on the discriminating plan's campaign.
@@ -152,8 +153,9 @@ def tie_resolution(
         Root of the :class:`numpy.random.SeedSequence` of every campaign and plan.
     mass_range
         The masses (kg) the discriminating plan may hang.
-    candidates_per_angle
-        Candidate configurations per q2 angle of the plan's search.
+    candidates_per_angle, starts
+        Candidate configurations per q2 angle of the plan's search, and its random starts
+        (the command's defaults are 8 and 4).
     executor
         Runs the seeds; default a :class:`concurrent.futures.ProcessPoolExecutor`.
 
@@ -166,7 +168,7 @@ def tie_resolution(
     """
     roots = np.random.SeedSequence(seed).spawn(len(cases))
     tasks = [
-        (str(config), str(table3), TIE_CASES[name], tuple(mass_range), s, candidates_per_angle)
+        (str(config), str(table3), TIE_CASES[name], tuple(mass_range), s, candidates_per_angle, starts)
         for name, root in zip(cases, roots)
         for s in root.spawn(n_seeds)
     ]
