@@ -163,8 +163,9 @@ def tie_resolution(
     -------
     pandas.DataFrame
         One row per case and seed: ``case, seed, tied_delta_elpd, tied_se, tied, planned_worst_nats,
-        delta_elpd, se, separated`` (ΔELPD of the right candidate over the wrong one, nats;
-        ``separated`` when it exceeds 2 SE).
+        planned_worst_z, delta_elpd, se, separated`` (ΔELPD of the right candidate over the wrong
+        one, nats; ``planned_worst_z`` the plan's expected ΔELPD in SEs, the worse of the two
+        truths; ``separated`` when it exceeds 2 SE).
     """
     roots = np.random.SeedSequence(seed).spawn(len(cases))
     tasks = [
