@@ -52,9 +52,9 @@ def test_the_plan_separates_a_tied_pair_far_better_than_the_tied_campaign(cell, 
     space = load_design_space(cell, mass_range=(50.0, 280.0))
     design = DiscriminatingDesigner(cell, ("backlash", "nonlinear_stiffness"), tied, space).optimise(5, 3, 0, starts=1, candidates_per_angle=2)
     assert len(design.plan) == 15 and len(np.unique(np.round(design.plan.q[:, 1], 6))) == 5
-    # the plan's held-out comparison is expected clear of 2 SE, and further from it than the tied campaign's
-    assert min(design.planned.z) > max(2.0, min(design.campaign.z) + 1.0), design.to_json()
-    assert design.planned.worst > 2 * design.campaign.worst, design.to_json()
+    assert design.planned.worst > 3 * design.campaign.worst, design.to_json()
+    # and its held-out comparison is expected clear of 2 SE, further from it than the tied campaign's
+    assert min(design.planned.z) > max(2.0, min(design.campaign.z)), design.to_json()
     assert np.all((design.plan.load_kg >= 50.0) & (design.plan.load_kg <= 280.0))
     assert PlanDesigner(cell, space, model="linear").violations(design.plan) == []
     payload = design.to_json()
