@@ -181,7 +181,9 @@ def _discriminate(args: argparse.Namespace, cell) -> CommandOutput:
         f"wrote {args.output}: {len(design.plan)} configurations at q2 = {', '.join(f'{v:g}' for v in payload['q2_deg'])} deg, "
         f"loads {min(payload['load_kg']):g}-{max(payload['load_kg']):g} kg",
         f"expected log-likelihood ratio of the true model over the other (nats; {args.campaign} in brackets): "
-        f"{planned[0]:.1f} ({tied[0]:.1f}) if {a} is true, {planned[1]:.1f} ({tied[1]:.1f}) if {b} is",
+        f"{planned[0]:.1f} ({tied[0]:.1f}) if {a} is true, {planned[1]:.1f} ({tied[1]:.1f}) if {b} is; "
+        f"in standard errors of the held-out comparison {design.planned.z[0]:.1f} ({design.campaign.z[0]:.1f}) "
+        f"and {design.planned.z[1]:.1f} ({design.campaign.z[1]:.1f})",
         # Angles and loads as a person sets them on the robot: to 0.1 deg and 0.1 kg.
         table_texts(table, {}, {column: fixed(1) for column in table.columns}).to_string(),
     ]

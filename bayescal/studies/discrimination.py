@@ -85,7 +85,9 @@ def _campaigns(case: TieCase, cell, table3, seed: np.random.SeedSequence):
     return simulate, random_plan(cell, np.random.default_rng(plan_seed))
 
 
-def _one(case: TieCase, rng: np.random.Generator, *, cell, plan, mass_range: tuple[float, float], candidates_per_angle: int) -> dict:
+def _one(
+    case: TieCase, rng: np.random.Generator, *, cell, plan, mass_range: tuple[float, float], candidates_per_angle: int, starts: int
+) -> dict:
     """One seed (a task of :func:`~bayescal.studies.parallel.seeded_map`): the tied campaign, the designed plan,
     and the comparison on the plan's campaign."""
     from bayescal.critique import Critique
@@ -103,7 +105,7 @@ def _one(case: TieCase, rng: np.random.Generator, *, cell, plan, mass_range: tup
         before = Critique(cell).discriminate(tied, wrong, case.right)
         space = load_design_space(cell, mass_range=mass_range)
         design = DiscriminatingDesigner(cell, BETWEEN, tied, space).optimise(
-            5, 3, np.random.default_rng(seed.spawn(1)[0]), starts=1, candidates_per_angle=candidates_per_angle
+            5, 3, np.random.default_rng(seed.spawn(1)[0]), starts=starts, candidates_per_angle=candidates_per_angle
         )
         after = Critique(cell).discriminate(simulate(design.plan, 1), wrong, case.right)
     return {
@@ -111,6 +113,7 @@ def _one(case: TieCase, rng: np.random.Generator, *, cell, plan, mass_range: tup
         "tied_se": before.se,
         "tied": abs(before.delta_elpd) <= DETECTION_Z * before.se,
         "planned_worst_nats": design.planned.worst,
+        "planned_worst_z": min(design.planned.z),
         "delta_elpd": after.delta_elpd,
         "se": after.se,
         "separated": after.delta_elpd > DETECTION_Z * after.se,
@@ -126,6 +129,7 @@ def tie_resolution(
     seed: int = 0,
     mass_range: tuple[float, float] = (50.0, 280.0),
     candidates_per_angle: int = 4,
+    starts: int = 1,
     executor: Executor | None = None,
 ) -> pd.DataFrame:
     """Per case and seed: the tie on the campaign, and the right candidate's lead on the discriminating plan's campaign.
@@ -142,8 +146,9 @@ def tie_resolution(
         Root of the :class:`numpy.random.SeedSequence` of every campaign and plan.
     mass_range
         The masses (kg) the discriminating plan may hang.
-    candidates_per_angle
-        Candidate configurations per q2 angle of the plan's search.
+    candidates_per_angle, starts
+        Candidate configurations per q2 angle of the plan's search, and its random starts
+        (the command's defaults are 8 and 4).
     executor
         Runs the seeds (:func:`~bayescal.studies.parallel.seeded_map`; default a process pool).
 
@@ -151,8 +156,9 @@ def tie_resolution(
     -------
     pandas.DataFrame
         One row per case and seed: ``case, seed, tied_delta_elpd, tied_se, tied, planned_worst_nats,
-        delta_elpd, se, separated`` (ΔELPD of the right candidate over the wrong one, nats;
-        ``separated`` when it exceeds 2 SE).
+        planned_worst_z, delta_elpd, se, separated`` (ΔELPD of the right candidate over the wrong
+        one, nats; ``planned_worst_z`` the plan's expected ΔELPD in SEs, the worse of the two
+        truths; ``separated`` when it exceeds 2 SE).
     """
     from bayescal.cell.config import load_cell
     from bayescal.cell.plan import read_plan
@@ -163,7 +169,8 @@ def tie_resolution(
     items = [TIE_CASES[name] for name in cases for _ in range(n_seeds)]
     results = seeded_map(
         _one, items, streams, executor=executor,
-        cell=cell, plan=read_plan(table3, cell.robot), mass_range=tuple(mass_range), candidates_per_angle=candidates_per_angle,
+        cell=cell, plan=read_plan(table3, cell.robot), mass_range=tuple(mass_range),
+        candidates_per_angle=candidates_per_angle, starts=starts,
     )
     labels = [(name, k) for name in cases for k in range(n_seeds)]
     return pd.DataFrame.from_records([{"case": name, "seed": k} | record for (name, k), record in zip(labels, results)])

@@ -19,27 +19,41 @@ def _rows(cell, q):
 
 
 @pytest.mark.parametrize("q", POSES)
-def test_link_columns_are_the_cantilevers_the_twin_bends(cell, q):
+def test_link_columns_with_a_cantilevers_compliances_are_the_beams_the_twin_bends(cell, q):
     rows, point, wrench = _rows(cell, q)
     columns = CATALOGUE["link_compliance"].columns(rows, cell)[0]
-    # the twin's sections: upper arm EI, GJ then forearm EI, GJ (docs/twin.md)
-    compliance = 1.0 / np.array([4.5e7, 3.5e7, 1.3e7, 1.0e7])
+    origins = rows.frames[0, :, :3, 3]
+    compliance = []
+    # the twin's sections (docs/twin.md): upper arm then forearm, (EI, GJ, EA)
+    for (root, tip), (EI, GJ, EA) in zip([(1, 2), (3, 4)], [(4.5e7, 3.5e7, 3.3e9), (1.3e7, 1.0e7, 1.9e9)]):
+        length = np.linalg.norm(origins[tip] - origins[root])
+        compliance += [1.0 / EA, 1.0 / EI, 1.0 / GJ]
     rotation, _ = cell.robot.flange_pose(q)
     couple = wrench[3:] - np.cross(rotation @ cell.load_point, wrench[:3])
     twin = LinkCompliance(1.0).displacement(cell.robot, q, point[np.newaxis], wrench[:3], couple, cell.load_point)[0]
-    # the twin also stretches the links (L/EA), which the extension leaves out: a few % of the bending here
-    assert np.linalg.norm(columns @ compliance - twin) < 0.06 * np.linalg.norm(twin)
-    assert np.linalg.norm(columns @ compliance - twin) < 3e-6
+    assert np.linalg.norm(twin) > 1e-6
+    assert columns @ np.array(compliance) == pytest.approx(twin, rel=1e-9, abs=1e-12)
+
+
+def test_a_spring_that_only_shears_translates_the_tool_and_one_that_only_twists_turns_it_about_its_axis(cell):
+    rows, _, _ = _rows(cell, POSES[1])
+    shear, torsion = CATALOGUE["tool_compliance"].columns(rows, cell)[0][:, [1, 2]].T
+    rotation, origin = rows.flange[0, :3, :3], rows.flange[0, :3, 3]
+    force = rows.wrench[0, :3]
+    across = force - (force @ rotation[:, 0]) * rotation[:, 0]
+    assert shear == pytest.approx(across, rel=1e-9)
+    moment_about_axis = rows.wrench[0, 3:] @ rotation[:, 0]
+    assert torsion == pytest.approx(np.cross(moment_about_axis * rotation[:, 0], rows.position[0] - origin), rel=1e-9, abs=1e-15)
 
 
 @pytest.mark.parametrize("q", POSES)
-def test_tool_column_is_the_tilt_of_the_twins_mount(cell, q):
+def test_tool_columns_with_a_bending_compliance_alone_are_the_tilt_of_the_twins_mount(cell, q):
     rows, point, wrench = _rows(cell, q)
-    column = CATALOGUE["tool_compliance"].columns(rows, cell)[0, :, 0]
+    columns = CATALOGUE["tool_compliance"].columns(rows, cell)[0]
     rotation, _ = cell.robot.flange_pose(q)
     couple = wrench[3:] - np.cross(rotation @ cell.load_point, wrench[:3])
     twin = ToolCompliance(0.3).displacement(cell.robot, q, point[np.newaxis], wrench[:3], couple, cell.load_point)[0]
-    assert column * 0.3 * URAD_PER_NM == pytest.approx(twin, rel=1e-9, abs=1e-12)
+    assert columns @ np.array([0.0, 0.0, 0.0, 0.3 * URAD_PER_NM, 0.0]) == pytest.approx(twin, rel=1e-9, abs=1e-12)
 
 
 def test_backlash_columns_jump_only_where_the_load_moves_a_joint_through_its_dead_band(cell):

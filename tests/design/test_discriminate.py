@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bayescal.design.constraints import load_design_space
-from bayescal.design.discriminate import DiscriminatingDesigner, separation
+from bayescal.design.discriminate import DiscriminatingDesigner, expected_z, separation, shares
 from bayescal.design.optimise import PlanDesigner
 from bayescal.errors import InputError
 
@@ -27,6 +27,25 @@ def test_separation_is_zero_for_a_rival_that_spans_the_candidate_and_half_the_re
     assert nats[0] == pytest.approx(0.5 * residual @ residual, rel=1e-6)
 
 
+def test_the_configurations_shares_add_up_to_the_separation():
+    rng = np.random.default_rng(1)
+    per = np.array([Z.T @ Z for Z in rng.normal(size=(6, 8, 4))])
+    blocks = (slice(0, 2), slice(2, 3), slice(3, 4))
+    beta = (np.array([0.7]), np.array([-1.2]))
+    assert 0.5 * shares(per, blocks, *beta).sum(axis=-1) == pytest.approx(separation(per.sum(axis=0), blocks, *beta), rel=1e-9)
+
+
+def test_a_separation_in_one_configuration_is_expected_within_its_own_standard_error_and_the_same_spread_far_clear_of_it():
+    k, total = 15, 60.0
+    spread = np.full(k, total / k)
+    alone = np.zeros(k)
+    alone[0] = total
+    z_spread, z_alone = (expected_z(lam / 2, lam) for lam in (spread, alone))
+    # spread evenly: Λ/2 over sqrt(Λ); in one configuration the SE is about the difference itself
+    assert z_spread == pytest.approx(total / 2 / np.sqrt(total))
+    assert z_alone < 1.0 < 2.0 < z_spread
+
+
 def test_the_plan_separates_a_tied_pair_far_better_than_the_tied_campaign(cell, twin_campaign):
     # an eighth of the twin's default lost motion on Table III, where nonlinear stiffness explains it about as well
     tied = twin_campaign(("backlash=0.002",), seed=0)
@@ -34,6 +53,8 @@ def test_the_plan_separates_a_tied_pair_far_better_than_the_tied_campaign(cell, 
     design = DiscriminatingDesigner(cell, ("backlash", "nonlinear_stiffness"), tied, space).optimise(5, 3, 0, starts=1, candidates_per_angle=2)
     assert len(design.plan) == 15 and len(np.unique(np.round(design.plan.q[:, 1], 6))) == 5
     assert design.planned.worst > 3 * design.campaign.worst, design.to_json()
+    # and its held-out comparison is expected clear of 2 SE, further from it than the tied campaign's
+    assert min(design.planned.z) > max(2.0, min(design.campaign.z)), design.to_json()
     assert np.all((design.plan.load_kg >= 50.0) & (design.plan.load_kg <= 280.0))
     assert PlanDesigner(cell, space, model="linear").violations(design.plan) == []
     payload = design.to_json()

@@ -40,14 +40,14 @@ def test_planted_effects_are_found_first_at_their_tested_magnitudes():
     assert all(fraction >= 0.9 for fraction in found.values()), found
 
 
-def test_the_independent_generator_campaign_without_effect_is_adequate_and_a_beam_is_named():
-    # a fast look at two campaigns (seed 9000); the rates are the slow tests' below
+def test_the_independent_generator_campaign_without_effect_is_adequate_and_a_beam_and_a_mount_are_named():
+    # a fast look at three campaigns (seed 9000); the rates are the slow tests' below
     with ThreadPoolExecutor(1) as executor:
-        table = independent_detection(DATA / "kr270.toml", {"link_beams": 1.0}, n_seeds=1, n_null=1, executor=executor)
-    assert table["effect"].tolist() == ["none", "link_beams"]
+        table = independent_detection(DATA / "kr270.toml", {"link_beams": 1.0, "tool_mount": 1.0}, n_seeds=1, n_null=1, executor=executor)
+    assert table["effect"].tolist() == ["none", "link_beams", "tool_mount"]
     assert table["right"].all(), table.to_string()
     rates = independent_rates(table)
-    assert rates["right"].tolist() == [1.0, 1.0] and rates["wrong_single"].tolist() == [0.0, 0.0]
+    assert rates["right"].tolist() == [1.0, 1.0, 1.0] and rates["wrong_single"].tolist() == [0.0, 0.0, 0.0]
 
 
 @pytest.mark.slow

