@@ -19,7 +19,14 @@ from scipy import stats
 from scipy.optimize import least_squares
 
 from bayescal.geometry.arcs import LEVER_MARKER, MarkerPoints, concentric_fit, known_angle_fit
-from bayescal.geometry.layout import cylinder_direction, cylinder_points, lever_angle, lever_points
+from bayescal.geometry.layout import (
+    circular_mean,
+    cylinder_direction,
+    cylinder_points,
+    lever_angle,
+    lever_points,
+    marker_offset,
+)
 from bayescal.units import DEG, MM, UM
 
 __all__ = ["JACOBIAN_STEP", "JOINT_ITERATIONS", "LayoutFit", "MIN_DOF"]
@@ -283,10 +290,10 @@ def _start(points: MarkerPoints, spec: _Spec) -> tuple[dict[str, float], int]:
     for name in cylinder:
         q2, xyz = points.of(name)
         d_lever = lever.predict(q2) - concentric.centre
-        d = xyz[:, :2] - concentric.centre
-        relative = np.arctan2(d[:, 1], d[:, 0]) - np.arctan2(d_lever[:, 1], d_lever[:, 0])
+        direction = np.arctan2(d_lever[:, 1], d_lever[:, 0])
+        relative = marker_offset(xyz[:, 0], xyz[:, 1], concentric.centre[0], concentric.centre[1], direction)
         theta[f"R[{name}]"] = concentric.radii[name]
-        theta[f"delta[{name}]"] = float(np.angle(np.mean(np.exp(1j * relative))))
+        theta[f"delta[{name}]"] = circular_mean(relative)
     lever_names, rest = spec.names(cylinder)
     return {name: float(theta.get(name, 0.0)) for name in lever_names + rest}, lever.sense
 
