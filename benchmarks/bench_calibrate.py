@@ -24,7 +24,6 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import resource
 import statistics
 from contextlib import nullcontext
 import subprocess
@@ -38,27 +37,10 @@ from unittest import mock
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_campaign_size import loop_offset  # noqa: E402
+from bench_startup import command_times  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 REPEATS = 5
-
-
-def _cpu() -> float:
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
-
-
-def _command(arguments: list[str]) -> tuple[list[float], float]:
-    """Wall seconds of each of ``REPEATS`` runs and their median CPU seconds."""
-    walls, cpus = [], []
-    for _ in range(REPEATS):
-        began, cpu = time.perf_counter(), _cpu()
-        done = subprocess.run(arguments, capture_output=True, text=True, cwd=ROOT)
-        walls.append(time.perf_counter() - began)
-        cpus.append(_cpu() - cpu)
-        if done.returncode != 0:
-            raise SystemExit(f"{' '.join(arguments)} failed: {done.stderr.strip().splitlines()[-1]}")
-    return walls, statistics.median(cpus)
 
 
 def _fits(campaign_csv: Path, geometry_nc: Path) -> None:
@@ -111,7 +93,7 @@ def main() -> None:
                 python, "-m", "bayescal", "calibrate", str(campaign), "--config", "data/kr270.toml", "--geometry", str(geometry), "--json"],
         }
         for name, arguments in cases.items():
-            walls, cpu = _command(arguments)
+            walls, cpu = command_times(arguments)
             print(
                 f"{name:40s} wall median {statistics.median(walls):5.2f} s (runs {min(walls):.2f}-{max(walls):.2f} s)  "
                 f"CPU median {cpu:5.2f} s"

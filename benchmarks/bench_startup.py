@@ -29,8 +29,8 @@ def _cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def _times(arguments: list[str]) -> tuple[float, float]:
-    """Median wall and CPU seconds of ``REPEATS`` runs."""
+def command_times(arguments: list[str]) -> tuple[list[float], float]:
+    """Wall seconds of each of ``REPEATS`` fresh runs of ``arguments`` and their median CPU seconds."""
     walls, cpus = [], []
     for _ in range(REPEATS):
         began, cpu = time.perf_counter(), _cpu()
@@ -39,7 +39,7 @@ def _times(arguments: list[str]) -> tuple[float, float]:
         cpus.append(_cpu() - cpu)
         if done.returncode != 0:
             raise SystemExit(f"{' '.join(arguments)} failed: {done.stderr.strip().splitlines()[-1]}")
-    return statistics.median(walls), statistics.median(cpus)
+    return walls, statistics.median(cpus)
 
 
 def main() -> None:
@@ -62,7 +62,8 @@ def main() -> None:
         }
         baseline = None
         for name, arguments in cases.items():
-            wall, cpu = _times(arguments)
+            walls, cpu = command_times(arguments)
+            wall = statistics.median(walls)
             baseline = baseline or (wall, cpu)
             print(f"{name:46s} wall {wall:6.3f} s ({wall / baseline[0]:5.1f}x)  CPU {cpu:6.3f} s ({cpu / baseline[1]:5.1f}x the bare interpreter)")
 
