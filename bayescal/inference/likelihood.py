@@ -33,6 +33,7 @@ from functools import cached_property
 import numpy as np
 
 from bayescal.inference.equations import DeflectionEquations
+from bayescal.inference.parameters import GEOMETRY_PARAMETERS
 from bayescal.inference.priors import GeometryPrior
 from bayescal.robot.compensator import stiffness_regressor
 from bayescal.sampling.gibbs import ConditionallyLinear
@@ -42,7 +43,6 @@ __all__ = ["CompensatorBlock", "per_angle_posterior", "compensated_posterior", "
 SPRING = ("K_theta2_ref", "log_K_c", "s0")
 """The compensated model's spring coordinates, in order: joint 2's equivalent stiffness at the reference
 angle (N·m/rad), log K_c (log N/m), s0 (m)."""
-GEOMETRY = ("L", "a_x", "a_y", "phi")
 """The compensator geometry's coordinates, in order: m, m, m, rad."""
 
 
@@ -78,7 +78,7 @@ class CompensatorBlock:
 
     @property
     def ndim(self) -> int:
-        return self.n_adapted + (0 if self.geometry.fixed else len(GEOMETRY))
+        return self.n_adapted + (0 if self.geometry.fixed else len(GEOMETRY_PARAMETERS))
 
     @property
     def n_adapted(self) -> int:
