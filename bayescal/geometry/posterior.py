@@ -55,7 +55,6 @@ from bayescal.errors import InputError
 from bayescal.geometry.arcs import CompensatorGeometryModel, GeometryFit, MarkerPoints
 from bayescal.jsonsafe import json_safe
 from bayescal.geometry.density import _Density
-from bayescal.inference.parameters import GEOMETRY_PARAMETERS
 from bayescal.sampling.ensemble import EnsembleSampler
 from bayescal.sampling.independence import IndependenceSampler
 from bayescal.sampling.protocol import Sampler
@@ -317,7 +316,10 @@ class GeometryPosteriorModel:
         tree = posterior.posterior_tree(out, units=units, attrs=attrs, observed=observed, dims=dims, coords=coords)
         mean = draws.reshape(-1, draws.shape[-1]).mean(axis=0)
         residuals = density.residuals_by_marker(mean)
-        geometry = CompensatorGeometry(*(float(np.mean(out[p.name])) * p.si_factor for p in GEOMETRY_PARAMETERS))
+        summary_mean = {name: float(np.mean(out[name])) for name in ("L", "a_x", "a_y", "phi")}
+        geometry = CompensatorGeometry(
+            summary_mean["L"] * MM, summary_mean["a_x"] * MM, summary_mean["a_y"] * MM, summary_mean["phi"] * DEG
+        )
         diagnostics = posterior.diagnostics(tree)
         posterior.warn_if_unconverged(diagnostics, what="the geometry posterior")
         return GeometryPosterior(
