@@ -35,7 +35,7 @@ def _naive_seconds_per_pose(cell, calibration, program) -> float:
         deflections = []
         for s in range(NAIVE_DRAWS):
             compensator = Compensator(*calibration.geometry[s], *calibration.spring[s])
-            arm = ElasticArm.linear(cell.robot, calibration.own[s], compensator=compensator)
+            arm = ElasticArm.linear(cell.robot, calibration.own[s], compensator=compensator, compensated_joint=cell.compensated_joint)
             unloaded = cell.robot.point_position(q + arm.equilibrium(q, np.zeros(6)), tcp)
             deflections.append(cell.robot.point_position(q + arm.equilibrium(q, w), tcp) - unloaded)
         deflections = np.array(deflections)
