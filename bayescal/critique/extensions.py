@@ -41,14 +41,14 @@ catalogue cannot name.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from bayescal.cell.config import Cell
 from bayescal.critique.covariates import COVARIATES, PREDICTED_MARKER, Rows
 
-__all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "OUTLIER_DOF"]
+__all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "BACKLASH_HOLDS", "OUTLIER_DOF"]
 
 BEAM_MIN_LENGTH = 0.5
 """Shortest link (m, between consecutive joint origins) modelled as a beam: shorter links of an
@@ -57,6 +57,13 @@ BACKLASH_PRELOAD = 0.05
 """Torque, as a fraction of the largest load torque on the joint in the rows, over which a joint
 crosses its dead band: a joint preloaded by much less than the loads (a wrist under a light tool)
 does not sit firmly at one end of its lost motion, and ``sign τ`` would overstate its jump."""
+BACKLASH_HOLDS = (0.05, 0.15, 0.3, 0.5)
+"""Friction holds tried for the lost motion with memory, as fractions of the joint's largest load
+torque in the rows: the torque the other way beyond which a joint held in its play crosses it.  How
+hard friction holds a reducer within its play is not known beforehand and differs from joint to
+joint (ESTIMATE: breakaway torques of a few per cent of the rated torque, against load torques of
+tens of per cent of it), so the critique keeps the hold that predicts the held-out configurations
+best, from a negligible one (:data:`BACKLASH_PRELOAD`) to half the largest load torque."""
 OUTLIER_DOF = 4.0
 """Degrees of freedom of the Student-t noise of ``outliers``: 4 is the usual robust choice
 (Lange, Little & Taylor 1989), heavy enough to discount gross errors, near-Gaussian otherwise."""
@@ -72,17 +79,40 @@ class Extension:
     description : str
     columns : callable
         ``columns(rows, cell)`` -> (N, 3, m) regressors of its m new parameters (m may be 0).
+        With a ``grid``, ``columns(rows, cell, setting)``.
     robust : bool
         Whether it replaces the Gaussian noise by Student-t noise.
     physical : bool
         Whether it is a physical term that predicts at other poses (probes are not).
+    grid : tuple of float
+        Values of a setting the columns are not linear in (the lost motion's friction hold),
+        each a variant of the extension (:meth:`variants`); empty: none.
+    setting : float or None
+        The value a variant has.
+    describe : callable or None
+        ``describe(setting, rows)`` -> dict: the setting in physical units.
     """
 
     name: str
     description: str
-    columns: Callable[[Rows, Cell], np.ndarray]
+    columns: Callable[..., np.ndarray]
     robust: bool = False
     physical: bool = True
+    grid: tuple[float, ...] = ()
+    setting: float | None = None
+    describe: Callable[[float, Rows], dict] | None = None
+
+    def variants(self) -> list[Extension]:
+        """The extension at each value of its ``grid`` (itself when it has none)."""
+        return [replace(self, grid=(), setting=value) for value in self.grid] or [self]
+
+    def reading(self, rows: Rows) -> dict:
+        """Its setting in physical units, for the rows it was chosen on."""
+        return {"setting": self.setting} if self.describe is None else self.describe(self.setting, rows)
+
+    def regressors(self, rows: Rows, cell: Cell) -> np.ndarray:
+        """(N, 3, m) the columns of its m parameters, at its setting."""
+        return self.columns(rows, cell) if self.setting is None else self.columns(rows, cell, self.setting)
 
 
 def base_columns(rows: Rows, cell: Cell) -> np.ndarray:
@@ -174,7 +204,7 @@ def _tool_compliance(rows: Rows, cell: Cell) -> np.ndarray:
     return _spring(rows.flange[:, :3, :3], rows.flange[:, :3, 3], rows.wrench[:, :3], rows.wrench[:, 3:], rows.position)
 
 
-def _backlash(rows: Rows, cell: Cell) -> np.ndarray:
+def _backlash(rows: Rows, cell: Cell, hold: float = BACKLASH_PRELOAD) -> np.ndarray:
     """Lost motion per joint in its two first-order forms: without and with memory (2·nq columns).
 
     Without memory the joint sits at the side its torque pushes it to in every
@@ -186,15 +216,29 @@ def _backlash(rows: Rows, cell: Cell) -> np.ndarray:
     always leaves the band the two forms are one column, and the fit keeps one.
     A pose to predict (a test pose, a plan's candidate) is taken as a repeat: with
     memory, a joint whose unloaded torque stays within the band does not move.
+    With memory the band is the friction ``hold`` (a fraction of the joint's
+    largest load torque in the rows), which a gear held in its play must be pushed
+    beyond (:data:`BACKLASH_HOLDS`).
     """
-    width = BACKLASH_PRELOAD * np.abs(rows.load_torque).max(axis=0)
-    width = np.where(width > 0, width, 1.0)
+    scale = np.abs(rows.load_torque).max(axis=0)
+    scale = np.where(scale > 0, scale, 1.0 / BACKLASH_PRELOAD)
+    width = BACKLASH_PRELOAD * scale
     change = np.tanh((rows.static_torque + rows.load_torque) / width) - np.tanh(rows.static_torque / width)
+    held = hold * scale
     # A pose to predict has no order of measurement: with memory it is taken as a repeat, whose joints
     # move only where the unloaded torque leaves the band, and a plan does not count on the others.
-    steady = np.where(np.abs(rows.static_torque) > width, change, 0.0)
-    remembered = np.where((rows.marker == PREDICTED_MARKER)[:, np.newaxis], steady, _remembered_change(rows, width))
+    steady = np.tanh((rows.static_torque + rows.load_torque) / held) - np.tanh(rows.static_torque / held)
+    steady = np.where(np.abs(rows.static_torque) > held, steady, 0.0)
+    remembered = np.where((rows.marker == PREDICTED_MARKER)[:, np.newaxis], steady, _remembered_change(rows, held))
     return np.concatenate([rows.point_jacobian * change[:, np.newaxis, :], rows.point_jacobian * remembered[:, np.newaxis, :]], axis=2)
+
+
+def _hold_reading(hold: float, rows: Rows) -> dict:
+    """The lost motion's friction hold: as a fraction of each joint's largest load torque, and in N·m per joint."""
+    return {
+        "hold_fraction_of_largest_load_torque": hold,
+        "hold_Nm": [round(float(v), 1) for v in hold * np.abs(rows.load_torque).max(axis=0)],
+    }
 
 
 def _remembered_change(rows: Rows, width: np.ndarray) -> np.ndarray:
@@ -255,7 +299,7 @@ CATALOGUE: dict[str, Extension] = {
         Extension("compensator", "joint 2's compliance varies with q2 as a spring compensator makes it (eq 8)", _compensator),
         Extension("link_compliance", "the long links bend and twist under the load", _link_compliance),
         Extension("tool_compliance", "the tool tilts on its mount at the flange", _tool_compliance),
-        Extension("backlash", "lost motion in the joints where the load reverses their torque", _backlash),
+        Extension("backlash", "lost motion in the joints where the load reverses their torque", _backlash, grid=BACKLASH_HOLDS, describe=_hold_reading),
         Extension("nonlinear_stiffness", "joint stiffness that changes with the torque carried", _nonlinear_stiffness),
         Extension("outliers", "heavy-tailed (Student-t) tracker errors", _no_columns, robust=True),
         Extension("drift", "the tracker's frame creeps between the unloaded and the loaded reading", _drift, physical=False),

@@ -18,6 +18,7 @@ cause ``unexplained`` with the covariate it follows.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
@@ -38,7 +39,7 @@ from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit, lack_of
 from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG, MM
 
-__all__ = ["Critique", "CritiqueResults", "Outcome", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED", "passes", "strongest", "check_candidates"]
+__all__ = ["Critique", "CritiqueResults", "Outcome", "fitted_variant", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED", "passes", "strongest", "check_candidates"]
 
 DETECTION_Z = 2.0
 """A cause is named only when its held-out gain exceeds this many standard errors of the difference."""
@@ -63,7 +64,7 @@ class _Model:
         return any(e.robust for e in self.extensions)
 
     def design(self, rows: Rows, cell: Cell) -> np.ndarray:
-        blocks = [base_columns(rows, cell)] + [e.columns(rows, cell) for e in self.extensions]
+        blocks = [base_columns(rows, cell)] + [e.regressors(rows, cell) for e in self.extensions]
         return np.concatenate(blocks, axis=2).reshape(3 * len(rows), -1)
 
     def plus(self, extension: Extension) -> _Model:
@@ -128,7 +129,7 @@ class Critique:
         steps: list[dict[str, Comparison]] = []
         remaining = [CATALOGUE[name] for name in self.catalogue]
         while remaining:
-            trials = {e.name: (e, validate(model.plus(e))) for e in remaining}
+            trials = {e.name: _best_variant(e, model, validate) for e in remaining}
             evidence = {name: compare(current, cv) for name, (_, cv) in trials.items()}
             steps.append(evidence)
             best = strongest(evidence)
@@ -166,6 +167,7 @@ class Critique:
             source=campaign.source,
             lack_of_fit=misfit,
             tied_with={cause: others for cause, others in tied.items() if others},
+            settings={e.name: e.reading(rows) for e in model.extensions if e.setting is not None},
         )
 
     def discriminate(self, campaign: Campaign, a: str, b: str) -> Comparison:
@@ -177,13 +179,7 @@ class Critique:
         """
         check_candidates((a, b), CATALOGUE)
         rows = campaign_rows(self.cell, campaign)
-        y = rows.y.reshape(-1)
-        scale, group, config = np.repeat(rows.noise, 3), np.tile(np.arange(3), len(rows)), np.repeat(rows.config, 3)
-        folds = [
-            cross_validate(y, _Model((CATALOGUE[name],)).design(rows, self.cell), scale, group, config, robust=CATALOGUE[name].robust)
-            for name in (a, b)
-        ]
-        return compare(*folds)
+        return compare(*(fitted_variant(self.cell, rows, CATALOGUE[name])[1] for name in (a, b)))
 
     def _nonlinearity(self, campaign: Campaign) -> np.ndarray | float:
         """The exact model's nonlinearity (m per equation), which calibrate removes before judging the fit; 0 where it cannot.
@@ -236,6 +232,25 @@ class Critique:
         out["classical_error_mm"] = float(np.linalg.norm(difference))
         out["note"] = "classical_error_mm: the error the classical model leaves at the test pose if the extended model is right"
         return out
+
+
+def _best_variant(extension: Extension, model: _Model, validate: Callable[[_Model], CrossValidation]) -> tuple[Extension, CrossValidation]:
+    """The variant of ``extension`` (:meth:`~bayescal.critique.extensions.Extension.variants`) that, added to
+    ``model``, predicts the held-out configurations best, and its cross-validation."""
+    trials = [(variant, validate(model.plus(variant))) for variant in extension.variants()]
+    return max(trials, key=lambda trial: float(np.sum(trial[1].elpd)))
+
+
+def fitted_variant(cell: Cell, rows: Rows, extension: Extension) -> tuple[Extension, CrossValidation]:
+    """The variant of ``extension`` that, added alone to the classical model, best predicts the held-out
+    configurations of ``rows`` (:func:`~bayescal.critique.covariates.campaign_rows`), and its cross-validation."""
+    y = rows.y.reshape(-1)
+    scale, group, config = np.repeat(rows.noise, 3), np.tile(np.arange(3), len(rows)), np.repeat(rows.config, 3)
+
+    def validate(model: _Model) -> CrossValidation:
+        return cross_validate(y, model.design(rows, cell), scale, group, config, robust=model.robust)
+
+    return _best_variant(extension, _Model(()), validate)
 
 
 def _tied(best: str, trials: dict, evidence: dict[str, Comparison]) -> list[str]:
@@ -418,6 +433,7 @@ class CritiqueResults(Outcome):
     source: str = ""
     lack_of_fit: LackOfFit | None = None
     tied_with: dict = field(default_factory=dict)
+    settings: dict = field(default_factory=dict)
     rule: dict = field(default_factory=lambda: {"z": DETECTION_Z, "floor_nats": DETECTION_FLOOR, "decisive_nats": DECISIVE_GAIN})
 
     @property
@@ -454,6 +470,7 @@ class CritiqueResults(Outcome):
         if self.unexplained_covariate is not None:
             payload["unexplained_covariate"] = self.unexplained_covariate
         payload["tied_with"] = {cause: list(others) for cause, others in self.tied_with.items()}
+        payload["settings"] = dict(self.settings)
         payload["lack_of_fit"] = None if self.lack_of_fit is None else self.lack_of_fit.to_json() | {
             "model": "final",
             "level": LACK_OF_FIT_LEVEL,

@@ -61,7 +61,8 @@ from bayescal.cell.config import Cell
 from bayescal.cell.plan import Plan, write_plan
 from bayescal.critique.compare import fit, independent_columns
 from bayescal.critique.covariates import Rows, campaign_rows, pose_rows
-from bayescal.critique.extensions import CATALOGUE, base_columns
+from bayescal.critique.extensions import CATALOGUE, Extension, base_columns
+from bayescal.critique.model import fitted_variant
 from bayescal.design.constraints import DesignSpace, load_design_space
 from bayescal.design.optimise import PlanDesigner
 from bayescal.errors import InputError
@@ -88,8 +89,8 @@ _RIDGE = 1e-9
 under hanging loads, a lost motion no load of the plan reverses) is not fitted."""
 
 
-def _columns(rows: Rows, cell: Cell, name: str) -> np.ndarray:
-    return CATALOGUE[name].columns(rows, cell).reshape(3 * len(rows), -1)
+def _columns(rows: Rows, cell: Cell, extension: Extension) -> np.ndarray:
+    return extension.regressors(rows, cell).reshape(3 * len(rows), -1)
 
 
 @dataclass(frozen=True)
@@ -290,8 +291,8 @@ class DiscriminatingDesigner:
         self.space = load_design_space(cell) if space is None else space
         self.campaign = campaign
 
-    def _design(self, rows: Rows) -> tuple[np.ndarray, tuple[slice, slice, slice]]:
-        blocks = [base_columns(rows, self.cell).reshape(3 * len(rows), -1)] + [_columns(rows, self.cell, n) for n in self.between]
+    def _design(self, rows: Rows, variants: tuple[Extension, Extension]) -> tuple[np.ndarray, tuple[slice, slice, slice]]:
+        blocks = [base_columns(rows, self.cell).reshape(3 * len(rows), -1)] + [_columns(rows, self.cell, e) for e in variants]
         edges = np.cumsum([0] + [b.shape[1] for b in blocks])
         return np.hstack(blocks), tuple(slice(edges[i], edges[i + 1]) for i in range(3))
 
@@ -331,7 +332,9 @@ class DiscriminatingDesigner:
         pool = pose_rows(self.cell, q, wrench, np.tile(markers, (len(configurations) * MASS_LEVELS, 1)), config=option)
         measured = campaign_rows(self.cell, self.campaign)
         # one design for the campaign and the pool, so that columns scaled by their rows (backlash) scale alike
-        Z, blocks = self._design(measured.extend(pool))
+        # each candidate at the setting (a lost motion's friction hold) the tied campaign supports best
+        variants = tuple(fitted_variant(self.cell, measured, CATALOGUE[name])[0] for name in self.between)
+        Z, blocks = self._design(measured.extend(pool), variants)
         n = 3 * len(measured)
         beta = self._magnitudes(measured, Z[:n], blocks)
         _, labels = np.unique(measured.config, return_inverse=True)
