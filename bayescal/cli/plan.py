@@ -35,7 +35,9 @@ def add_parser(subparsers) -> None:
     )
     parser.add_argument("--config", required=True, help="cell TOML file (robot, stiffness, compensator, tool, tracker, test pose)")
     parser.add_argument("--angles", type=whole_number(1), default=5, help="distinct q2 angles (default 5, as Table III)")
-    parser.add_argument("--per-angle", type=whole_number(1), default=3, help="configurations per q2 angle (default 3)")
+    parser.add_argument(
+        "--per-angle", type=whole_number(1), default=None, help="configurations per q2 angle (default 3; 6 with --criterion discriminate)"
+    )
     parser.add_argument("--repeats", type=whole_number(1), default=3, help="measurements of each configuration (default 3)")
     parser.add_argument(
         "--criterion",
@@ -75,6 +77,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
     with options_for(FLAGS):
         if args.criterion == "discriminate" or args.between is not None or args.campaign is not None:
             return _discriminate(args, cell)
+        if args.per_angle is None:
+            args.per_angle = 3
         payload, table = _design_or_evaluate(args, cell)
     lines = _text(payload, table, cell)
     return CommandOutput(payload=payload, text="\n".join(lines))
@@ -158,7 +162,7 @@ def _discriminate(args: argparse.Namespace, cell) -> CommandOutput:
     """Design the plan that separates the --between candidates on the --campaign, write it, and say by how much."""
     from bayescal.cell.campaign import read_campaign
     from bayescal.design.constraints import load_design_space
-    from bayescal.design.discriminate import STARTS, DiscriminatingDesigner
+    from bayescal.design.discriminate import PER_ANGLE, STARTS, DiscriminatingDesigner
     from bayescal.errors import InputError
     from bayescal.reports.numbers import fixed, table_texts
 
@@ -170,6 +174,8 @@ def _discriminate(args: argparse.Namespace, cell) -> CommandOutput:
     campaign = read_campaign(args.campaign, cell=cell)
     space = load_design_space(cell, mass_range=None if args.mass_kg is None else tuple(args.mass_kg))
     starts = STARTS if args.starts is None else args.starts
+    if args.per_angle is None:
+        args.per_angle = PER_ANGLE
     design = DiscriminatingDesigner(cell, between, campaign, space, repeats=args.repeats).optimise(args.angles, args.per_angle, args.seed, starts=starts)
     comments = (_command(args, starts) + f" --between {args.between} --campaign {args.campaign}",)
     write_atomically("--output", args.output, lambda path: design.save(path, comments=comments))

@@ -68,10 +68,15 @@ from bayescal.design.optimise import PlanDesigner
 from bayescal.errors import InputError
 from bayescal.units import DEG
 
-__all__ = ["DISCRIMINATE", "MASS_LEVELS", "Discrimination", "DiscriminatingDesign", "DiscriminatingDesigner", "separation", "shares", "expected_z", "plan_z"]
+__all__ = ["DISCRIMINATE", "PER_ANGLE", "MASS_LEVELS", "Discrimination", "DiscriminatingDesign", "DiscriminatingDesigner", "separation", "shares", "expected_z", "plan_z"]
 
 DISCRIMINATE = "discriminate"
 """The criterion's name on the command line."""
+
+PER_ANGLE = 6
+"""Configurations per q2 angle of a discriminating plan by default: 5 × 6 at 3 repeats, twice Table III's.
+On campaigns where lost motion and a torque-dependent compliance tie, 5 × 3 separated them in 14 and 16 of
+20 twin campaigns, 5 × 6 in 20 and 19 (``bayescal.studies.discrimination``, docs/critique.md)."""
 
 MASS_LEVELS = 4
 """Masses each candidate configuration is offered at, evenly over the design's range: two tell an
@@ -306,7 +311,7 @@ class DiscriminatingDesigner:
     def optimise(
         self,
         angles: int = 5,
-        per_angle: int = 3,
+        per_angle: int = PER_ANGLE,
         rng: np.random.Generator | int | None = None,
         *,
         starts: int = STARTS,
