@@ -24,8 +24,9 @@ parameters where the physics allows:
     Each joint's link moves by a lost motion ``δ_j`` toward the sign of the torque
     it carries: the deflection gains ``δ_j (sign τ_loaded - sign τ_unloaded)``, the
     sign smoothed over :data:`BACKLASH_PRELOAD` of the joint's largest load torque;
-    and the same with memory (a joint whose torque stays within that band keeps the
-    side the previous state left it at, in the order of measurement).
+    and the same with memory (a joint whose torque stays within a friction hold keeps
+    the side the previous state left it at, in the order of measurement), the hold
+    tried at each of :data:`BACKLASH_HOLDS` (:meth:`Extension.variants`).
 ``nonlinear_stiffness``
     Each joint's deflection law gains a term in ``τ|τ|`` (a spring that stiffens
     or softens with torque), the torque being the weight's and the load's.
