@@ -22,13 +22,14 @@ from bayescal.robot.stiffness import ElasticArm
 from bayescal.twin.independent import CAUSES, EFFECTS, IndependentGenerator, random_plan
 from bayescal.twin.independent.noise import RADIAL_RATIO, TrackerReadout
 from bayescal.twin.independent.solver import SpringLinkage
-from bayescal.twin.independent.structure import BeamSection, GearPlay, cantilever_twist
+from bayescal.twin.independent.structure import ApproachPlay, BeamSection, GearPlay, cantilever_twist
 
 CHANGE_UM = {
     "stiff_spring": 6.8,
     "link_beams": 256.5,
     "tool_mount": 25.4,
     "gear_play": 118.7,
+    "approach_play": 101.4,
     "knee_joints": 571.6,
     "los_jumps": 147.9,
     "thermal_drift": 16.1,
@@ -86,7 +87,7 @@ def test_each_effect_changes_the_data_by_its_documented_amount(cell, plan, null,
     assert truth.expected == (truth.cause or "unexplained")
 
 
-@pytest.mark.parametrize("name", ["link_beams", "tool_mount", "knee_joints", "tracker_scale", "random_field"])
+@pytest.mark.parametrize("name", ["link_beams", "tool_mount", "approach_play", "knee_joints", "tracker_scale", "random_field"])
 def test_proportional_effects_double_with_the_magnitude(cell, plan, null, name):
     changes = [np.sqrt(np.mean((_exact(cell, plan, name, m)[0].displacement - null.displacement) ** 2)) for m in (1.0, 2.0)]
     assert changes[1] / changes[0] == pytest.approx(2.0, rel=0.02)
@@ -99,6 +100,52 @@ def test_gear_play_moves_only_when_the_torque_crosses(cell):
     # A torque within the friction band leaves the play where it was; one past it the other way turns it over.
     np.testing.assert_array_equal(play.update(position, np.array([-20.0, 20.0])), position)
     np.testing.assert_allclose(play.update(position, np.array([-500.0, 500.0])), [-1e-4, 1e-4], rtol=1e-9)
+
+
+def test_approach_play_keeps_the_side_it_was_driven_to_below_the_hold():
+    play = ApproachPlay(np.array([2e-4, 4e-4, 6e-4]), np.array([30.0, 30.0, 30.0]), np.zeros(3))
+    np.testing.assert_allclose(play.start(), [-1e-4, -2e-4, -3e-4])
+    # Joint 1 driven up lags on its lower flank, joint 2 driven down on its upper one, joint 3 not moved keeps its side.
+    arrived = play.arrive(np.array([0.0, 0.0, 3e-4]), np.zeros(3), np.array([0.2, -0.1, 0.0]))
+    np.testing.assert_allclose(arrived, [-1e-4, 2e-4, 3e-4])
+    # Torques below the hold, either way, leave every link on its flank.
+    np.testing.assert_array_equal(play.update(arrived, np.array([29.0, -29.0, -29.0])), arrived)
+    # Past the hold the link crosses to the far flank and stays there once the torque falls back.
+    crossed = play.update(arrived, np.array([31.0, -31.0, -31.0]))
+    np.testing.assert_allclose(crossed, [1e-4, -2e-4, -3e-4])
+    np.testing.assert_array_equal(play.update(crossed, np.zeros(3)), crossed)
+
+
+def test_approach_play_depends_on_the_order_of_the_configurations(cell, plan, null):
+    reversed_plan = replace(plan, q=plan.q[::-1], load_kg=plan.load_kg[::-1], lines=plan.lines[::-1])
+    runs = [_exact(cell, p, "approach_play")[0] for p in (plan, reversed_plan)]
+    forward, backward = (c.displacement.reshape(len(plan), -1) for c in runs)
+    changed = np.abs(forward - backward[::-1]).max(axis=1)
+    # The same configurations, approached from other neighbours, take up other sides of the play.
+    assert changed.max() > 1e-6
+    assert np.abs(forward - null.displacement.reshape(len(plan), -1)).max() > 1e-6
+
+
+def test_approach_play_of_size_zero_is_the_effect_free_campaign(cell):
+    rng = np.random.default_rng(9)
+    plan = random_plan(cell, rng)
+    runs = [
+        IndependentGenerator(cell, np.random.default_rng(3), noise=False).simulate(plan, 3, effect, magnitude)[0]
+        for effect, magnitude in ((None, 1.0), ("approach_play", 0.0), ("approach_play", 1.0))
+    ]
+    np.testing.assert_array_equal(runs[1].p1, runs[0].p1)
+    np.testing.assert_array_equal(runs[1].p0, runs[0].p0)
+    assert np.abs(runs[2].displacement - runs[0].displacement).max() > 1e-6
+
+
+def test_approach_play_campaigns_reproduce_exactly(cell, tmp_path):
+    paths = []
+    for index, seed in enumerate((6, 6, 7)):
+        rng = np.random.default_rng(seed)
+        campaign, _ = IndependentGenerator(cell, rng).simulate(random_plan(cell, rng), 3, "approach_play")
+        paths.append(tmp_path / f"{index}.csv")
+        write_campaign(campaign, paths[-1])
+    assert paths[0].read_bytes() == paths[1].read_bytes() != paths[2].read_bytes()
 
 
 def test_cantilever_is_euler_bernoulli_and_reciprocal():

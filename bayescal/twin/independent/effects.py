@@ -22,7 +22,7 @@ from scipy.optimize import minimize_scalar
 from bayescal.cell.config import Cell
 from bayescal.twin.independent.noise import FrameDrift, LineOfSightJumps, ScaleError
 from bayescal.twin.independent.solver import SpringLinkage
-from bayescal.twin.independent.structure import GearPlay, KneeJoints, LinkBeams, RandomField, ToolMount, tube
+from bayescal.twin.independent.structure import ApproachPlay, GearPlay, KneeJoints, LinkBeams, RandomField, ToolMount, tube
 
 __all__ = ["World", "Effect", "EFFECTS", "CAUSES"]
 
@@ -55,7 +55,7 @@ class World:
         (3,) where the load hangs, flange frame, m (written into the campaign).
     markers : dict of str to numpy.ndarray
         Marker positions, flange frame, m.
-    knee, play, beams, tool, field, jumps, drift, scale
+    knee, play, approach, beams, tool, field, jumps, drift, scale
         The planted effects' models, ``None`` when absent.
     load_jitter : float
         Standard deviation (m, per axis) of the load point's shift each time the load is hung.
@@ -70,6 +70,7 @@ class World:
     markers: dict[str, np.ndarray]
     knee: KneeJoints | None = None
     play: GearPlay | None = None
+    approach: ApproachPlay | None = None
     beams: LinkBeams | None = None
     tool: ToolMount | None = None
     field: RandomField | None = None
@@ -169,6 +170,22 @@ def _play(world: World, cell: Cell, size: float, rng) -> World:
     return replace(world, play=GearPlay(play, 0.03 * rated, 0.01 * rated))
 
 
+APPROACH_PLAY = (0.5, 1.5)
+"""Range of the factor (uniform) on each joint's lost motion: ESTIMATE, reducers of one arm differ in size and wear."""
+APPROACH_HOLD = (0.01, 0.06)
+"""Range (uniform) of each joint's friction hold as a fraction of its rated torque: ESTIMATE of a reducer's
+breakaway torque at the output, a few per cent of rated."""
+
+
+def _approach(world: World, cell: Cell, size: float, rng) -> World:
+    rated = _rated_torque(cell)
+    play = size * math.pi / (180.0 * 60.0) * rng.uniform(*APPROACH_PLAY, len(rated))
+    hold = rated * rng.uniform(*APPROACH_HOLD, len(rated))
+    # Home: the middle of each joint's range (of its first turn), where a cell's programs start.
+    home = 0.5 * (np.maximum(cell.robot.lower, -math.pi) + np.minimum(cell.robot.upper, math.pi))
+    return replace(world, approach=ApproachPlay(play, hold, home))
+
+
 def _knee(world: World, cell: Cell, size: float, rng) -> World:
     return replace(world, knee=KneeJoints(world.compliances, size, 0.1 * _rated_torque(cell)))
 
@@ -214,6 +231,10 @@ EFFECTS: dict[str, Effect] = {
         Effect("gear_play", "lost motion of every joint's gears, held by friction until the torque exceeds "
                "3 % of the rated torque the other way",
                "backlash", 1.0, "arcmin of play per joint", _play),
+        Effect("approach_play", "lost motion of every joint on the flank its servo last drove it to (the direction "
+               "of its last move, from a home pose), crossed when the torque exceeds a friction hold drawn "
+               "per joint (1-6 % of rated); each joint's play the size times 0.5-1.5",
+               "backlash", 1.0, "arcmin of play per joint", _approach),
         Effect("knee_joints", "every joint spring softer by this fraction below 10 % of its rated torque",
                "nonlinear_stiffness", 0.5, "fraction of extra compliance", _knee),
         Effect("los_jumps", "3 % of readings re-acquired off along the line of sight, by 0.5 to 1.5 times the size",

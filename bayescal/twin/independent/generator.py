@@ -241,8 +241,13 @@ class IndependentGenerator:
         offsets = TIMELINE["marker"] * np.arange(len(markers))
         base = [] if world.tool is None else [Load(np.array([0.0, 0.0, -world.tool.mass * cell.gravity]), world.tool.centre)]
         play, clock = np.zeros(robot.nq), 0.0
+        if world.approach is not None:
+            play, previous = world.approach.start(), world.approach.home
         states, times, keys, wrenches = [], [], [], []
         for number, (q, mass) in enumerate(zip(plan.q, plan.masses(cell.load_mass))):
+            if world.approach is not None:
+                # The robot moves to each configuration unloaded, from the previous one.
+                play, previous = world.approach.arrive(play, previous, q), q
             force = np.array([0.0, 0.0, -mass * cell.gravity])
             rotation, _ = cell.robot.flange_pose(q)
             wrenches.append(np.concatenate([force, np.cross(rotation @ world.load_point, force)]))
@@ -269,8 +274,9 @@ class IndependentGenerator:
     def _equilibrium(statics: Statics, world: World, q, loads, play):
         """Deflections and play of one state: the play moves first if the torque pushes it across."""
         theta, torque = statics.solve(q, loads, play)
-        if world.play is not None:
-            play = world.play.update(play, torque)
+        lost_motion = world.play if world.play is not None else world.approach
+        if lost_motion is not None:
+            play = lost_motion.update(play, torque)
             theta, _ = statics.solve(q, loads, play)
         return theta, play
 

@@ -23,7 +23,7 @@ import pinocchio as pin
 
 from bayescal.robot.kinematics import Robot
 
-__all__ = ["KneeJoints", "GearPlay", "BeamSection", "LinkBeams", "ToolMount", "RandomField", "tube"]
+__all__ = ["KneeJoints", "GearPlay", "ApproachPlay", "BeamSection", "LinkBeams", "ToolMount", "RandomField", "tube"]
 
 LONG_LINK = 0.5
 """Shortest joint-to-joint distance (m) treated as a bending beam: the KR-270's upper arm
@@ -68,6 +68,53 @@ class GearPlay:
         upper = half - self.play * np.tanh(np.maximum(-(torque + self.hold), 0.0) / self.soft)
         lower = -half + self.play * np.tanh(np.maximum(torque - self.hold, 0.0) / self.soft)
         return np.clip(position, lower, upper)
+
+
+@dataclass(frozen=True)
+class ApproachPlay:
+    """Lost motion whose side is the one each joint's servo last drove it to, a position in ``±play/2`` (rad).
+
+    A servo drives the motor, and the motor drives the link through the gears'
+    play: the driving flank leads, so a joint driven up (its angle increasing)
+    stops with the link lagging on the lower side, ``-play/2``, and one driven down
+    on the upper side, ``+play/2``.  A joint not moved keeps the side it had.  At
+    rest the link stays on that flank until the torque on it (N·m, the sign that
+    increases the angle) exceeds the gear train's friction ``hold`` the other way;
+    it then crosses the play at once to the far flank and stays there until the
+    torque exceeds ``hold`` back.  The side thus depends on the order of the
+    configurations and the joints' direction of travel, not on the torque alone.
+
+    Attributes
+    ----------
+    play : numpy.ndarray
+        (nq,) total lost motion of each joint, rad.
+    hold : numpy.ndarray
+        (nq,) friction torque holding each link on its flank, N·m.
+    home : numpy.ndarray
+        (nq,) the joint angles (rad) the robot leaves for the first configuration;
+        at home every joint was last driven up.
+    """
+
+    play: np.ndarray
+    hold: np.ndarray
+    home: np.ndarray
+
+    def start(self) -> np.ndarray:
+        """(nq,) play position (rad) at home: every joint last driven up, on its lower flank."""
+        return -self.play / 2.0
+
+    def arrive(self, position: np.ndarray, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
+        """(nq,) play position (rad) after the servo drives the joints from ``start`` to ``goal`` (nq,) rad.
+
+        Each joint that moves ends on the flank behind its motion; one that does not keeps ``position``.
+        """
+        direction = np.sign(np.asarray(goal, dtype=float) - np.asarray(start, dtype=float))
+        return np.where(direction == 0.0, position, -direction * self.play / 2.0)
+
+    def update(self, position: np.ndarray, torque: np.ndarray) -> np.ndarray:
+        """(nq,) play position (rad) at rest under the joint torques ``torque`` (nq,) N·m, starting from ``position``."""
+        half = self.play / 2.0
+        return np.where(torque > self.hold, half, np.where(torque < -self.hold, -half, position))
 
 
 @dataclass(frozen=True)
