@@ -18,7 +18,11 @@ data, one row per marker per repeat per configuration::
 * optional ``load_x_mm, load_y_mm, load_z_mm``: the point of the tool, in the
   flange frame, where the load's force acts (a hanging mass); without them the
   cell's tool load point is assumed.  A couple in the wrench beyond the force's
-  moment about the flange origin acts as a dead couple.
+  moment about the flange origin acts as a dead couple;
+* optional ``t0_s, t1_s``: when the unloaded and the loaded reading were taken,
+  in seconds from any origin (a tracker's time stamps); the model criticism
+  then follows a drift of the tracker's frame in time rather than in the order
+  of the rows.
 
 Rows pair up when every row holds both its unloaded and its loaded position,
 no (config, repeat, marker) appears twice, and all rows of a configuration
@@ -57,10 +61,12 @@ __all__ = [
     "WRENCH_COLUMNS",
     "POSITION_COLUMNS",
     "LOAD_POINT_COLUMNS",
+    "TIME_COLUMNS",
 ]
 
 POSITION_COLUMNS = ("x0_mm", "y0_mm", "z0_mm", "x1_mm", "y1_mm", "z1_mm")
 LOAD_POINT_COLUMNS = ("load_x_mm", "load_y_mm", "load_z_mm")
+TIME_COLUMNS = ("t0_s", "t1_s")
 _SAME_CONFIG_TOLERANCE = 1e-6
 """Largest difference (deg, N or N·m) between rows of one configuration still read as equal."""
 _JOINT_COLUMN = re.compile(r"q([0-9]+)_(deg|mm)")
@@ -107,6 +113,7 @@ class Campaign:
     load_point: np.ndarray | None = None
     prismatic: np.ndarray | None = None
     added_variance: np.ndarray | None = None
+    times: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.config)
@@ -119,6 +126,7 @@ class Campaign:
             "p1": (n, 3),
             "lines": (n,),
             "added_variance": (n,) if self.added_variance is not None else (),
+            "times": (n, 2) if self.times is not None else (),
         }
         for name, shape in shapes.items():
             if getattr(self, name) is not None and np.shape(getattr(self, name)) != shape:
@@ -152,6 +160,9 @@ class Campaign:
             frame[name] = values
         if self.load_point is not None:
             for name, values in zip(LOAD_POINT_COLUMNS, self.load_point.T / MM):
+                frame[name] = values
+        if self.times is not None:
+            for name, values in zip(TIME_COLUMNS, self.times.T):
                 frame[name] = values
         return frame
 
@@ -257,7 +268,10 @@ def read_campaign(
     if markers is not None:
         _check_markers(frame, markers, source)
     _check_unique(frame, source)
-    given = _load_point_columns(frame, source)
+    given = _all_or_none(frame, LOAD_POINT_COLUMNS, "the load point", source)
+    timed = _all_or_none(frame, TIME_COLUMNS, "the reading times", source)
+    if timed:
+        _check_times(frame, source)
     shared = joint_columns + list(WRENCH_COLUMNS) + given
     values = frame[shared].to_numpy(dtype=float)
     config = frame["config"].to_numpy(dtype=int)
@@ -281,6 +295,7 @@ def read_campaign(
         source=source,
         load_point=frame[given].to_numpy(dtype=float) * MM if given else None,
         prismatic=prismatic if prismatic.any() else None,
+        times=frame[list(TIME_COLUMNS)].to_numpy(dtype=float) if timed else None,
     )
 
 
@@ -293,9 +308,9 @@ def _read_frame(path: str | PathLike[str], joint_columns: list[str]) -> pd.DataF
     columns |= {name: "number" for name in POSITION_COLUMNS}
     units = {name: name.rsplit("_", 1)[1] for name in joint_columns}
     units |= {name: "N" for name in WRENCH_COLUMNS[:3]} | {name: "N·m" for name in WRENCH_COLUMNS[3:]}
-    units |= {name: "mm" for name in POSITION_COLUMNS + LOAD_POINT_COLUMNS}
+    units |= {name: "mm" for name in POSITION_COLUMNS + LOAD_POINT_COLUMNS} | {name: "s" for name in TIME_COLUMNS}
     try:
-        return read_table(path, columns, optional={name: "number" for name in LOAD_POINT_COLUMNS}, units=units)
+        return read_table(path, columns, optional={name: "number" for name in LOAD_POINT_COLUMNS + TIME_COLUMNS}, units=units)
     except InputError as error:
         if error.column in POSITION_COLUMNS and error.what.startswith("missing value"):
             state = "unloaded" if error.column[1] == "0" else "loaded"
@@ -337,18 +352,31 @@ def _check_unique(frame: pd.DataFrame, source: str) -> None:
         first_seen[key] = int(line)
 
 
-def _load_point_columns(frame: pd.DataFrame, source: str) -> list[str]:
-    """The load-point columns the file gives: all of them or none."""
-    given = [name for name in LOAD_POINT_COLUMNS if name in frame.columns]
-    if given and len(given) < len(LOAD_POINT_COLUMNS):
-        missing = next(name for name in LOAD_POINT_COLUMNS if name not in given)
+def _all_or_none(frame: pd.DataFrame, names: tuple[str, ...], what: str, source: str) -> list[str]:
+    """The columns of ``names`` the file gives: all of them or none."""
+    given = [name for name in names if name in frame.columns]
+    if given and len(given) < len(names):
+        missing = next(name for name in names if name not in given)
         raise InputError(
-            f"the campaign gives {', '.join(given)} but not {missing}: the load point needs all of "
-            f"{', '.join(LOAD_POINT_COLUMNS)}",
+            f"the campaign gives {', '.join(given)} but not {missing}: {what} needs all of {', '.join(names)}",
             source=source,
             column=missing,
         )
     return given
+
+
+def _check_times(frame: pd.DataFrame, source: str) -> None:
+    """Refuse a row whose loaded reading is stamped before its unloaded one."""
+    early = frame["t1_s"].to_numpy(dtype=float) < frame["t0_s"].to_numpy(dtype=float)
+    if early.any():
+        line = int(frame.index[np.flatnonzero(early)[0]])
+        raise InputError(
+            "the loaded reading is stamped before the unloaded one (t1_s < t0_s); each row's t0_s is the time of its "
+            "unloaded reading and t1_s of its loaded one, in seconds",
+            source=source,
+            line=line,
+            column="t1_s",
+        )
 
 
 def _configuration_rows(frame: pd.DataFrame, values: np.ndarray, shared: list[str], config: np.ndarray, source: str) -> np.ndarray:

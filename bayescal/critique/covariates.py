@@ -96,6 +96,9 @@ class Rows:
         the unloaded and loaded positions.
     tracker_distance : numpy.ndarray
         (N,) distance of the marker from the tracker, m.
+    times : numpy.ndarray
+        (N, 2) when the unloaded and the loaded reading were taken, s (the campaign's
+        ``t0_s, t1_s``); NaN where the campaign gives no times, and for poses to predict.
     plan_joint : int
         Index (0-based) of the joint whose angles group the campaign (the cell's :attr:`~bayescal.cell.config.Cell.plan_joint`).
     """
@@ -116,6 +119,7 @@ class Rows:
     marker: np.ndarray
     noise: np.ndarray
     tracker_distance: np.ndarray
+    times: np.ndarray
     plan_joint: int
 
     def __len__(self) -> int:
@@ -147,7 +151,7 @@ def _static_torque(cell: Cell, q: np.ndarray) -> np.ndarray:
     return torque
 
 
-def _build(cell: Cell, q, wrench, point, position, y, config, repeat, marker, noise) -> Rows:
+def _build(cell: Cell, q, wrench, point, position, y, config, repeat, marker, noise, times=None) -> Rows:
     robot = cell.robot
     n, nq = q.shape
     jacobian = np.empty((n, 3, nq))
@@ -190,6 +194,7 @@ def _build(cell: Cell, q, wrench, point, position, y, config, repeat, marker, no
         marker=marker,
         noise=noise,
         tracker_distance=np.linalg.norm(position - cell.tracker.position, axis=1),
+        times=np.full((n, 2), np.nan) if times is None else np.asarray(times, dtype=float),
         plan_joint=cell.plan_joint,
     )
 
@@ -298,6 +303,7 @@ def campaign_rows(cell: Cell, campaign: Campaign) -> Rows:
         np.asarray(campaign.repeat, dtype=int),
         np.asarray(campaign.marker).astype(str),
         sd / sd.mean(),
+        campaign.times,
     )
 
 

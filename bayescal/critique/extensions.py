@@ -275,9 +275,11 @@ def _drift(rows: Rows, cell: Cell) -> np.ndarray:
 
     To first order any slow motion of the tracker (thermal growth of its stand, a
     settling tripod) is a translation ``v`` and a small rotation ``w`` about the
-    tracker, which add ``v + w x (p - tracker)`` to a deflection read at ``p``; each
-    either constant over the campaign or growing with the order of measurement:
-    12 columns, in the deflections' scale.
+    tracker, which add ``v + w x (p - tracker)`` to a deflection read at ``p``.
+    Where the campaign stamps its readings (``t0_s, t1_s``), the motion is a rate
+    times the time between the two readings, the rate either constant or changing
+    linearly over the campaign; otherwise each is constant or grows with the order
+    of measurement.  12 columns, in the deflections' scale.
     """
     lever = rows.position - cell.tracker.position
     # w x lever = -lever x w: the columns of the cross-product matrix of -lever.
@@ -286,8 +288,18 @@ def _drift(rows: Rows, cell: Cell) -> np.ndarray:
     cross[:, 1, 0], cross[:, 1, 2] = -lever[:, 2], lever[:, 0]
     cross[:, 2, 0], cross[:, 2, 1] = lever[:, 1], -lever[:, 0]
     constant = np.concatenate([np.broadcast_to(np.eye(3), cross.shape), cross / np.linalg.norm(lever, axis=1).mean()], axis=2)
-    growth = rows.order / max(int(rows.order.max()), 1)
-    return np.concatenate([constant, constant * growth[:, np.newaxis, np.newaxis]], axis=2) * np.abs(rows.y).mean()
+    if np.all(np.isfinite(rows.times)):
+        interval = rows.times[:, 1] - rows.times[:, 0]
+        middle = rows.times.mean(axis=1)
+        span = max(float(np.ptp(middle)), 1.0)
+        # rate × interval, in units of the mean interval; the rate's change over the campaign's span
+        steady = interval / max(float(interval.mean()), 1e-9)
+        growth = steady * (middle - middle.min()) / span
+        columns = [constant * steady[:, np.newaxis, np.newaxis], constant * growth[:, np.newaxis, np.newaxis]]
+    else:
+        growth = rows.order / max(int(rows.order.max()), 1)
+        columns = [constant, constant * growth[:, np.newaxis, np.newaxis]]
+    return np.concatenate(columns, axis=2) * np.abs(rows.y).mean()
 
 
 def _no_columns(rows: Rows, cell: Cell) -> np.ndarray:

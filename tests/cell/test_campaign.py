@@ -304,3 +304,34 @@ def test_the_load_point_columns_round_trip_and_must_come_together(tmp_path, cell
     pd.read_csv(path, comment="#").drop(columns=["load_z_mm"]).to_csv(partial, index=False)
     with pytest.raises(InputError, match="column 'load_z_mm'.*the load point needs all of load_x_mm, load_y_mm, load_z_mm"):
         read_campaign(partial)
+
+
+def test_the_reading_times_round_trip_must_come_together_and_run_forward(tmp_path, cell, plan):
+    import dataclasses
+
+    import pandas as pd
+
+    from bayescal.twin.simulator import DigitalTwin
+
+    two = dataclasses.replace(plan, q=plan.q[:2], load_kg=plan.load_kg[:2], lines=plan.lines[:2])
+    campaign = DigitalTwin(cell).simulate(two, 1, np.random.default_rng(0))
+    start = 600.0 * np.arange(len(campaign))
+    stamped = dataclasses.replace(campaign, times=np.column_stack([start, start + 480.0]))
+    path = tmp_path / "c.csv"
+    write_campaign(stamped, path)
+    np.testing.assert_allclose(read_campaign(path).times, stamped.times)
+    assert DigitalTwin(cell).simulate(two, 1, np.random.default_rng(0)).times is None
+
+    table = pd.read_csv(path, comment="#")
+    partial = tmp_path / "partial.csv"
+    table.drop(columns=["t1_s"]).to_csv(partial, index=False)
+    with pytest.raises(InputError, match="column 't1_s'.*the reading times needs all of t0_s, t1_s"):
+        read_campaign(partial)
+    backwards = tmp_path / "backwards.csv"
+    table.assign(t1_s=table["t0_s"] - 1.0).to_csv(backwards, index=False)
+    with pytest.raises(InputError, match=r"backwards.csv:2, column 't1_s'.*stamped before the unloaded one"):
+        read_campaign(backwards)
+    blank = tmp_path / "blank.csv"
+    table.assign(t0_s=[None] + list(table["t0_s"][1:])).to_csv(blank, index=False)
+    with pytest.raises(InputError, match="column 't0_s'"):
+        read_campaign(blank)

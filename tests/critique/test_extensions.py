@@ -169,3 +169,31 @@ def test_the_lever_probe_is_each_markers_place_not_its_reading(cell, twin_campai
     columns = PROBES["lever"].columns(rows, cell)
     for name in np.unique(rows.marker):
         assert np.ptp(columns[rows.marker == name], axis=0) == pytest.approx(0.0, abs=1e-12)
+
+
+def _stamped_with_drift(campaign, rate_mm_per_h: float, rng):
+    """The campaign with irregular reading times (2-25 min between the unloaded and the loaded reading) and the
+    tracker's frame drifting at ``rate_mm_per_h`` along a random direction in between."""
+    import dataclasses
+
+    keys = list(dict.fromkeys(zip(campaign.config.tolist(), campaign.repeat.tolist())))
+    clock, stamps = 0.0, {}
+    for key in keys:
+        hang = rng.uniform(120, 1500)
+        stamps[key] = (clock, clock + hang)
+        clock += hang + rng.uniform(120, 600)
+    times = np.array([stamps[key] for key in zip(campaign.config.tolist(), campaign.repeat.tolist())])
+    direction = rng.normal(size=3)
+    velocity = rate_mm_per_h * 1e-3 / 3600.0 * direction / np.linalg.norm(direction)
+    return dataclasses.replace(campaign, p1=campaign.p1 + (times[:, 1] - times[:, 0])[:, None] * velocity, times=times)
+
+
+@pytest.mark.parametrize("seed", [100, 101])
+def test_a_tracker_drifting_in_time_is_named_drift_from_the_reading_times(cell, twin_campaign, seed):
+    from bayescal.critique import Critique
+
+    rng = np.random.default_rng(seed)
+    campaign = twin_campaign(seed=seed)
+    assert Critique(cell).run(_stamped_with_drift(campaign, 0.4, rng)).causes == ["drift"]
+    # the same stamps without a drift: nothing to name
+    assert Critique(cell).run(_stamped_with_drift(campaign, 0.0, np.random.default_rng(seed))).causes == []

@@ -8,8 +8,8 @@ around the cell's values (:data:`SPREADS`) and the tool is the generator's own
 configuration's twin; ``truth="config"`` keeps the cell's values exactly.
 
 Each repeat of a configuration is read unloaded, then loaded, in the order of the
-plan; the readings carry times from :data:`TIMELINE` (the campaign format has no
-time column, so drift in time shows in the order of the rows).
+plan; the readings carry times from :data:`TIMELINE`, written in the campaign's
+``t0_s, t1_s`` columns as a tracker stamps them.
 """
 
 from __future__ import annotations
@@ -224,6 +224,7 @@ class IndependentGenerator:
             lines=np.zeros(len(config), dtype=int),
             source="<independent generator>",
             load_point=np.tile(world.load_point, (len(config), 1)),
+            times=times.reshape(-1, 2),
         )
         truth = Truth(world, effect, magnitude, EFFECTS[effect].cause if effect else None, jumped.reshape(-1, 2))
         return campaign, truth
