@@ -96,6 +96,9 @@ class Rows:
         the unloaded and loaded positions.
     tracker_distance : numpy.ndarray
         (N,) distance of the marker from the tracker, m.
+    commanded : numpy.ndarray
+        (N, nq) the controller's joint angles (rad or m) the arm was driven to; ``q`` is the
+        pose it took under its weight.
     times : numpy.ndarray
         (N, 2) when the unloaded and the loaded reading were taken, s (the campaign's
         ``t0_s, t1_s``); NaN where the campaign gives no times, and for poses to predict.
@@ -119,6 +122,7 @@ class Rows:
     marker: np.ndarray
     noise: np.ndarray
     tracker_distance: np.ndarray
+    commanded: np.ndarray
     times: np.ndarray
     plan_joint: int
 
@@ -151,7 +155,7 @@ def _static_torque(cell: Cell, q: np.ndarray) -> np.ndarray:
     return torque
 
 
-def _build(cell: Cell, q, wrench, point, position, y, config, repeat, marker, noise, times=None) -> Rows:
+def _build(cell: Cell, q, wrench, point, position, y, config, repeat, marker, noise, times=None, commanded=None) -> Rows:
     robot = cell.robot
     n, nq = q.shape
     jacobian = np.empty((n, 3, nq))
@@ -194,6 +198,7 @@ def _build(cell: Cell, q, wrench, point, position, y, config, repeat, marker, no
         marker=marker,
         noise=noise,
         tracker_distance=np.linalg.norm(position - cell.tracker.position, axis=1),
+        commanded=q.copy() if commanded is None else np.asarray(commanded, dtype=float),
         times=np.full((n, 2), np.nan) if times is None else np.asarray(times, dtype=float),
         plan_joint=cell.plan_joint,
     )
@@ -304,6 +309,7 @@ def campaign_rows(cell: Cell, campaign: Campaign) -> Rows:
         np.asarray(campaign.marker).astype(str),
         sd / sd.mean(),
         campaign.times,
+        campaign.q,
     )
 
 

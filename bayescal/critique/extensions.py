@@ -26,7 +26,9 @@ parameters where the physics allows:
     sign smoothed over :data:`BACKLASH_PRELOAD` of the joint's largest load torque;
     and the same with memory (a joint whose torque stays within a friction hold keeps
     the side the previous state left it at, in the order of measurement), the hold
-    tried at each of :data:`BACKLASH_HOLDS` (:meth:`Extension.variants`).
+    tried at each of :data:`BACKLASH_HOLDS`, a joint driven to a new configuration
+    arriving on the side it was left at or on the side its servo drove it to
+    (:data:`BACKLASH_SETTINGS`, :meth:`Extension.variants`).
 ``nonlinear_stiffness``
     Each joint's deflection law gains a term in ``τ|τ|`` (a spring that stiffens
     or softens with torque), the torque being the weight's and the load's.
@@ -49,7 +51,7 @@ import numpy as np
 from bayescal.cell.config import Cell
 from bayescal.critique.covariates import COVARIATES, PREDICTED_MARKER, Rows
 
-__all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "BACKLASH_HOLDS", "OUTLIER_DOF"]
+__all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "BACKLASH_HOLDS", "BACKLASH_SETTINGS", "APPROACH_MOVE", "OUTLIER_DOF"]
 
 BEAM_MIN_LENGTH = 0.5
 """Shortest link (m, between consecutive joint origins) modelled as a beam: shorter links of an
@@ -65,6 +67,14 @@ hard friction holds a reducer within its play is not known beforehand and differ
 joint (ESTIMATE: breakaway torques of a few per cent of the rated torque, against load torques of
 tens of per cent of it), so the critique keeps the hold that predicts the held-out configurations
 best, from a negligible one (:data:`BACKLASH_PRELOAD`) to half the largest load torque."""
+APPROACH_MOVE = 1e-3
+"""Smallest change of a commanded joint angle (rad, or m for a prismatic joint) between configurations
+counted as a move: below it the joint was not driven and keeps its side."""
+BACKLASH_SETTINGS = tuple((hold, approached) for approached in (False, True) for hold in BACKLASH_HOLDS)
+"""The lost motion's variants: each friction hold, with the side on arriving at a configuration kept from
+the previous state, or set by the direction the servo drove the joint (the link lags its motor:
+a joint driven up arrives on the low side of its play).  A controller approaches a pose along its
+own path, so either can be true of a robot; the held-out comparison chooses."""
 OUTLIER_DOF = 4.0
 """Degrees of freedom of the Student-t noise of ``outliers``: 4 is the usual robust choice
 (Lange, Little & Taylor 1989), heavy enough to discount gross errors, near-Gaussian otherwise."""
@@ -85,11 +95,11 @@ class Extension:
         Whether it replaces the Gaussian noise by Student-t noise.
     physical : bool
         Whether it is a physical term that predicts at other poses (probes are not).
-    grid : tuple of float
-        Values of a setting the columns are not linear in (the lost motion's friction hold),
+    grid : tuple
+        Values of a setting the columns are not linear in (the lost motion's friction hold and side on arrival),
         each a variant of the extension (:meth:`variants`); empty: none.
-    setting : float or None
-        The value a variant has.
+    setting : object
+        The value a variant has (None: the extension has no setting).
     describe : callable or None
         ``describe(setting, rows)`` -> dict: the setting in physical units.
     """
@@ -99,9 +109,9 @@ class Extension:
     columns: Callable[..., np.ndarray]
     robust: bool = False
     physical: bool = True
-    grid: tuple[float, ...] = ()
-    setting: float | None = None
-    describe: Callable[[float, Rows], dict] | None = None
+    grid: tuple = ()
+    setting: object = None
+    describe: Callable[[object, Rows], dict] | None = None
 
     def variants(self) -> list[Extension]:
         """The extension at each value of its ``grid`` (itself when it has none)."""
@@ -205,7 +215,7 @@ def _tool_compliance(rows: Rows, cell: Cell) -> np.ndarray:
     return _spring(rows.flange[:, :3, :3], rows.flange[:, :3, 3], rows.wrench[:, :3], rows.wrench[:, 3:], rows.position)
 
 
-def _backlash(rows: Rows, cell: Cell, hold: float = BACKLASH_PRELOAD) -> np.ndarray:
+def _backlash(rows: Rows, cell: Cell, setting: tuple[float, bool] = (BACKLASH_PRELOAD, False)) -> np.ndarray:
     """Lost motion per joint in its two first-order forms: without and with memory (2·nq columns).
 
     Without memory the joint sits at the side its torque pushes it to in every
@@ -217,10 +227,13 @@ def _backlash(rows: Rows, cell: Cell, hold: float = BACKLASH_PRELOAD) -> np.ndar
     always leaves the band the two forms are one column, and the fit keeps one.
     A pose to predict (a test pose, a plan's candidate) is taken as a repeat: with
     memory, a joint whose unloaded torque stays within the band does not move.
-    With memory the band is the friction ``hold`` (a fraction of the joint's
-    largest load torque in the rows), which a gear held in its play must be pushed
-    beyond (:data:`BACKLASH_HOLDS`).
+    With memory the band is the friction hold (a fraction of the joint's largest
+    load torque in the rows), which a gear held in its play must be pushed beyond,
+    and a joint driven to a new configuration arrives either on the side the
+    previous state left it at or on the side its servo drove it to: ``setting`` is
+    ``(hold, approached)`` (:data:`BACKLASH_SETTINGS`).
     """
+    hold, approached = setting
     scale = np.abs(rows.load_torque).max(axis=0)
     scale = np.where(scale > 0, scale, 1.0 / BACKLASH_PRELOAD)
     width = BACKLASH_PRELOAD * scale
@@ -230,31 +243,40 @@ def _backlash(rows: Rows, cell: Cell, hold: float = BACKLASH_PRELOAD) -> np.ndar
     # move only where the unloaded torque leaves the band, and a plan does not count on the others.
     steady = np.tanh((rows.static_torque + rows.load_torque) / held) - np.tanh(rows.static_torque / held)
     steady = np.where(np.abs(rows.static_torque) > held, steady, 0.0)
-    remembered = np.where((rows.marker == PREDICTED_MARKER)[:, np.newaxis], steady, _remembered_change(rows, held))
+    remembered = np.where((rows.marker == PREDICTED_MARKER)[:, np.newaxis], steady, _remembered_change(rows, held, approached))
     return np.concatenate([rows.point_jacobian * change[:, np.newaxis, :], rows.point_jacobian * remembered[:, np.newaxis, :]], axis=2)
 
 
-def _hold_reading(hold: float, rows: Rows) -> dict:
-    """The lost motion's friction hold: as a fraction of each joint's largest load torque, and in N·m per joint."""
+def _hold_reading(setting: tuple[float, bool], rows: Rows) -> dict:
+    """The lost motion's friction hold, as a fraction of each joint's largest load torque and in N·m per joint, and
+    what sets a joint's side on arriving at a configuration."""
+    hold, approached = setting
     return {
+        "arrival_side": "driven" if approached else "kept",
         "hold_fraction_of_largest_load_torque": hold,
         "hold_Nm": [round(float(v), 1) for v in hold * np.abs(rows.load_torque).max(axis=0)],
     }
 
 
-def _remembered_change(rows: Rows, width: np.ndarray) -> np.ndarray:
+def _remembered_change(rows: Rows, width: np.ndarray, approached: bool = False) -> np.ndarray:
     """(N, nq) change of each joint's side (-1 to 1) from the unloaded to the loaded reading, with memory.
 
     A joint's side follows its torque beyond ``width`` (smoothed as the memoryless
     form) and otherwise stays where the previous state left it; the states run
     unloaded, loaded, for each repeat of each configuration in the order of
-    measurement.  The first state's side is taken from its torque alone.
+    measurement.  The first state's side is taken from its torque alone.  With
+    ``approached``, a joint whose commanded angle changed from the previous
+    configuration by more than :data:`APPROACH_MOVE` arrives on the side opposite
+    to its move (its link lagging the motor that drove it).
     """
     order = rows.order
     first = np.unique(order, return_index=True)[1]
     side = np.tanh(rows.static_torque[first[0]] / width)
     loaded_side, unloaded_side = np.empty((first.size, width.size)), np.empty((first.size, width.size))
     for k, i in enumerate(first):
+        if approached and k > 0:
+            move = rows.commanded[i] - rows.commanded[first[k - 1]]
+            side = np.where(np.abs(move) > APPROACH_MOVE, -np.sign(move), side)
         for state, torque in ((unloaded_side, rows.static_torque[i]), (loaded_side, rows.static_torque[i] + rows.load_torque[i])):
             push = np.tanh(torque / width)
             side = np.where(np.abs(torque) > width, push, side)
@@ -312,7 +334,7 @@ CATALOGUE: dict[str, Extension] = {
         Extension("compensator", "joint 2's compliance varies with q2 as a spring compensator makes it (eq 8)", _compensator),
         Extension("link_compliance", "the long links bend and twist under the load", _link_compliance),
         Extension("tool_compliance", "the tool tilts on its mount at the flange", _tool_compliance),
-        Extension("backlash", "lost motion in the joints where the load reverses their torque", _backlash, grid=BACKLASH_HOLDS, describe=_hold_reading),
+        Extension("backlash", "lost motion in the joints where the load reverses their torque", _backlash, grid=BACKLASH_SETTINGS, describe=_hold_reading),
         Extension("nonlinear_stiffness", "joint stiffness that changes with the torque carried", _nonlinear_stiffness),
         Extension("outliers", "heavy-tailed (Student-t) tracker errors", _no_columns, robust=True),
         Extension("drift", "the tracker's frame creeps between the unloaded and the loaded reading", _drift, physical=False),
