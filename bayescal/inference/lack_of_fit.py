@@ -64,6 +64,8 @@ class LackOfFit:
         Upper tail of ``F(dof_lof, dof_pe)`` at the statistic.
     dof : tuple of int
         ``(dof_lof, dof_pe)``.
+    null_mean : float
+        The statistic's mean under the model (``dof_pe / (dof_pe - 2)`` for the plain test).
     factor : float
         ``sqrt(F)``: how many times the scatter of the configuration means about the
         model exceeds what the repeats' own scatter predicts.
@@ -72,6 +74,7 @@ class LackOfFit:
     statistic: float
     p_value: float
     dof: tuple[int, int]
+    null_mean: float = float("nan")
 
     @property
     def factor(self) -> float:
@@ -182,12 +185,12 @@ def lack_of_fit(
         return None
     statistic = (ss_lof / dof_lof) / (ss_pe / dof_pe)
     if groups is None:
-        return LackOfFit(float(statistic), f_survival(dof_lof, dof_pe, statistic), (dof_lof, dof_pe))
+        return LackOfFit(float(statistic), f_survival(dof_lof, dof_pe, statistic), (dof_lof, dof_pe), dof_pe / (dof_pe - 2.0) if dof_pe > 2 else float("inf"))
     matched = _grouped_reference(index, counts, groups, dof_lof)
     if matched is None:
         return None
     factor, dof = matched
-    return LackOfFit(float(statistic), f_survival(dof_lof, dof, statistic / factor), (dof_lof, int(round(dof))))
+    return LackOfFit(float(statistic), f_survival(dof_lof, dof, statistic / factor), (dof_lof, int(round(dof))), factor * dof / (dof - 2.0))
 
 
 def _grouped_reference(index: np.ndarray, counts: np.ndarray, groups: np.ndarray, dof_lof: int) -> tuple[float, float] | None:

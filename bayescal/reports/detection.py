@@ -125,7 +125,7 @@ def _power_section(findings: DetectionFindings) -> list[str]:
         "",
         "The repeats' F test of the calibration's model alone (the critique with an empty catalogue, "
         "`bayescal.studies.detection.independent_lack_of_fit`), on the campaigns of the side-by-side table's seeds with "
-        "each effect at multiples of its default. The row `none` is the test's size; "mean F" is set against F's mean "
+        "each effect at multiples of its default. The row `none` is the test's size; \"mean F\" is set against the statistic's mean "
         "under the model. `INDEPENDENT_EFFECTS` holds the magnitude at which each effect is tested against the issue's "
         "thresholds: the smallest multiple in {1, 1.5, 2, 3} at which the test rejects at 5 % in at least 95 % of the "
         f"campaigns, the default where none does; {findings.seconds.get('lack_of_fit', 0.0):.0f} s.",

@@ -300,6 +300,7 @@ def _lack_of_fit_one(case: tuple, rng: np.random.Generator, cell) -> dict:
         "p_value": np.nan if test is None else test.p_value,
         "dof_lof": dof[0],
         "dof_pe": dof[1],
+        "null_mean": np.nan if test is None else test.null_mean,
     }
 
 
@@ -337,8 +338,9 @@ def independent_lack_of_fit(
     Returns
     -------
     pandas.DataFrame
-        ``effect, multiple, seed, statistic, p_value, dof_lof, dof_pe`` (effect ``none``, multiple 0,
-        for the campaigns without an effect; NaN where the campaign has no repeats).
+        ``effect, multiple, seed, statistic, p_value, dof_lof, dof_pe, null_mean`` (effect ``none``,
+        multiple 0, for the campaigns without an effect; ``null_mean`` the statistic's mean under the
+        model; NaN where the campaign has no repeats).
     """
     from bayescal.cell.config import load_cell
     from bayescal.studies.parallel import seeded_map
@@ -352,8 +354,8 @@ def independent_lack_of_fit(
 def lack_of_fit_power(table: pd.DataFrame) -> pd.DataFrame:
     """Per effect and multiple (``none`` first): campaigns, the fractions with ``p < 0.05`` and ``p < 0.01``, and the mean F.
 
-    On ``none`` the fractions are the test's size; ``expected_statistic`` is the mean of F under the
-    model, ``dof_pe / (dof_pe - 2)`` averaged over the campaigns.
+    On ``none`` the fractions are the test's size; ``expected_statistic`` is the statistic's mean under
+    the model averaged over the campaigns.
     """
     rows = []
     for (effect, multiple), group in table.groupby(["effect", "multiple"], sort=False):
@@ -365,7 +367,7 @@ def lack_of_fit_power(table: pd.DataFrame) -> pd.DataFrame:
                 "at_5": float(np.mean(group["p_value"] < 0.05)),
                 "at_1": float(np.mean(group["p_value"] < 0.01)),
                 "mean_statistic": float(group["statistic"].mean()),
-                "expected_statistic": float(np.mean(group["dof_pe"] / (group["dof_pe"] - 2))),
+                "expected_statistic": float(group["null_mean"].mean()),
             }
         )
     return pd.DataFrame.from_records(rows)
