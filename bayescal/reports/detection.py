@@ -96,7 +96,9 @@ def _side_by_side(findings: DetectionFindings) -> list[str]:
         f"campaign k of each case is seeded {INDEPENDENT_FIRST_SEED} + k; {findings.seconds.get('independent', 0.0):.0f} s. "
         "\"right\": the planted family named first, or in a tie with the first, or `unexplained` for an effect outside the "
         "catalogue, or `adequate` without an effect; \"wrong alone\": a wrong first cause tied with nothing; \"lack of fit\": "
-        f"the repeats' F test rejecting the calibration's model at {LACK_OF_FIT_SIZE_LEVEL:g} (its size on the `none` row, its power on the others). The issue asks "
+        f"the repeats' F test rejecting the calibration's model at {LACK_OF_FIT_SIZE_LEVEL:g} (its size on the `none` row, its power on the others). "
+        "An effect is planted at its default, or at the multiple of it (× m) that `INDEPENDENT_EFFECTS` sets so that its lack of fit "
+        "is significant (next section), and then also at its default. The issue asks "
         "for misfit ≥ 95 %, right ≥ 90 %, wrong alone ≤ 5 % and, without an effect, adequate ≥ 95 %.",
         "",
         "| family | twin: named first at its default | twin: misfit | independent effect | campaigns | misfit | right | wrong alone | lack of fit |",
@@ -109,8 +111,9 @@ def _side_by_side(findings: DetectionFindings) -> list[str]:
             at_default = at_default[np.isclose(at_default["magnitude"], TWIN_EFFECTS[family].default)]
         first = f"{100 * at_default['found_first'].iloc[0]:.0f} %" if len(at_default) and family != "none" else "—"
         misfit = f"{100 * at_default['misfit'].iloc[0]:.0f} %" if len(at_default) else "—"
+        multiple = "" if row.effect == "none" or row.magnitude == 1.0 else f" × {row.magnitude:g}"
         lines.append(
-            f"| {family} | {first} | {misfit} | `{row.effect}` | {row.n} | {100 * row.misfit:.0f} % | {100 * row.right:.0f} % "
+            f"| {family} | {first} | {misfit} | `{row.effect}`{multiple} | {row.n} | {100 * row.misfit:.0f} % | {100 * row.right:.0f} % "
             f"| {100 * row.wrong_single:.0f} % | {100 * row.lack_of_fit:.0f} % |"
         )
     return lines + [""]

@@ -51,12 +51,23 @@ INDEPENDENT_EFFECTS: dict[str, float] = {
     "gear_play": 1.0,
     "knee_joints": 1.0,
     "los_jumps": 1.0,
-    "thermal_drift": 1.0,
+    "thermal_drift": 3.0,
     "random_field": 1.0,
 }
-"""The independent generator's effects measured, at their default magnitudes, where their lack of fit is
-significant (docs/critique.md).  Left out: ``stiff_spring`` (3.8 μm at its default), ``load_rehang``
-(11 μm) and ``tracker_scale`` (no deflection campaign can see a scale error)."""
+"""The independent generator's effects and the multiple of each one's default at which the critique is held to
+the issue's thresholds, which apply to "each effect at a magnitude whose lack of fit is significant".
+
+One rule for all, fixed before the power was measured: the smallest multiple in {1, 1.5, 2, 3} at which the
+calibration model's lack-of-fit test rejects at 5 % in at least 95 % of 40 campaigns (seeds 9000-9039,
+:func:`independent_lack_of_fit`); the default where none does.  Measured (docs/critique.md): ``link_beams``,
+``knee_joints`` and ``random_field`` 100 % at their defaults, ``tool_mount`` 97.5 %; ``thermal_drift`` 62.5 %
+at its default, 82.5 % at 1.5, 90 % at 2 and 100 % at 3, hence 3 (its cycle differs between repeats and inflates
+the pure error, its steady part is partly taken up by the compliances); ``gear_play`` (10-15 %) and ``los_jumps``
+(2.5 %) at no multiple tried (their repeats disagree, which inflates the pure error): they stay at their defaults,
+where the issue's condition does not hold and the critique is held to the thresholds all the same.  The rule
+chooses the test condition only; no rule or threshold of the critique was set on this generator.  Left out:
+``stiff_spring`` (3.8 μm at its default), ``load_rehang`` (11 μm) and ``tracker_scale`` (no deflection campaign
+can see a scale error)."""
 
 INDEPENDENT_FIRST_SEED = 9000
 """Seed of the first campaign of each case: campaign ``k`` is seeded ``INDEPENDENT_FIRST_SEED + k``
@@ -259,13 +270,14 @@ def independent_detection(
 
 
 def independent_rates(table: pd.DataFrame) -> pd.DataFrame:
-    """Per effect (``none`` first): campaigns, and the fractions misfit, right, wrong single cause, and the calibration
-    model's lack of fit at :data:`LACK_OF_FIT_SIZE_LEVEL` (its size on ``none``, its power on the effects)."""
+    """Per effect and magnitude (``none`` first): campaigns, and the fractions misfit, right, wrong single cause, and the
+    calibration model's lack of fit at :data:`LACK_OF_FIT_SIZE_LEVEL` (its size on ``none``, its power on the effects)."""
     rows = []
-    for effect, group in table.groupby("effect", sort=False):
+    for (effect, magnitude), group in table.groupby(["effect", "magnitude"], sort=False):
         rows.append(
             {
                 "effect": effect,
+                "magnitude": float(magnitude),
                 "expected": group["expected"].iloc[0],
                 "n": len(group),
                 "misfit": float(np.mean(group["verdict"] == "misfit")),
@@ -456,6 +468,11 @@ def detection_findings(
         seconds["geometry"], angles = time.perf_counter() - began, angles.size
     began = time.perf_counter()
     independent = independent_detection(config, independent_effects, n_seeds=n_independent, n_null=n_independent, executor=executor)
+    # effects tested above their defaults are also reported at them
+    raised = {name: 1.0 for name, multiple in independent_effects.items() if multiple != 1.0}
+    if raised:
+        at_default = independent_detection(config, raised, n_seeds=n_independent, n_null=0, executor=executor)
+        independent = pd.concat([independent, at_default], ignore_index=True)
     seconds["independent"] = time.perf_counter() - began
     began = time.perf_counter()
     power = independent_lack_of_fit(
