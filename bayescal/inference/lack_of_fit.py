@@ -165,7 +165,8 @@ def lack_of_fit(
     Returns
     -------
     LackOfFit or None
-        None when no cell is repeated or the cells do not outnumber the parameters.
+        None when no cell is repeated or the cells do not outnumber the parameters, or, with
+        ``groups``, when a group has 4 pure-error degrees of freedom or fewer (no variance to match).
 
     Raises
     ------
