@@ -2,7 +2,8 @@
 
 :func:`render_report` renders the findings of
 :func:`~bayescal.studies.detection.detection_findings` (the twin's detection
-power, the independent generator's campaigns side by side with it, and, given
+power, the independent generator's campaigns side by side with it, the lack-of-fit
+test's size and power against magnitude on that generator, and, given
 marker points, the geometry critique's); it computes nothing.
 ``bayescal report --paper-reports reports --only detection`` (``make reports``)
 computes the findings (:func:`bayescal.studies.paper_reports.paper_findings`) and

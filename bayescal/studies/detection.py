@@ -15,8 +15,11 @@ number of workers.
 independent generator (:mod:`bayescal.twin.independent`: its own equilibrium,
 truths drawn unlike the cell, effects in forms of its own), whose rules were
 never set on it; :func:`independent_rates` sums them up against the issue's
-thresholds, with the lack-of-fit test's size and power.  :func:`detection_findings`
-gathers everything ``reports/detection.md`` renders.
+thresholds, with the lack-of-fit test's size and power.  :func:`independent_lack_of_fit`
+fits only the calibration's model to the same campaigns at several multiples of each
+effect's default, and :func:`lack_of_fit_power` tabulates the test's size and power
+against magnitude.  :func:`detection_findings` gathers everything
+``reports/detection.md`` renders.
 """
 
 from __future__ import annotations
