@@ -35,7 +35,7 @@ from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_colu
 from bayescal.errors import InputError
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.equations import check_campaign
-from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit, lack_of_fit, replicate_cells
+from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit, group_scales, lack_of_fit, replicate_cells
 from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG, MM
 
@@ -299,17 +299,12 @@ def _lack_of_fit(X: np.ndarray, y: np.ndarray, scale: np.ndarray, rows: Rows, tr
     y = np.einsum("nij,nj->ni", frames, y.reshape(n, 3)).reshape(-1)
     X = np.einsum("nij,njp->nip", frames, X.reshape(n, 3, -1)).reshape(3 * n, -1)
     cells = replicate_cells(rows.config, rows.marker)
-    _, index, counts = np.unique(cells, return_inverse=True, return_counts=True)
-    relative = y / scale
-    deviation = relative - (np.bincount(index, weights=relative) / counts)[index]
     direction = np.tile(np.arange(3), n)
-    dof = np.bincount(direction, weights=(counts[index] - 1) / counts[index], minlength=3)
-    if np.all(dof > 0):
-        variance = np.bincount(direction, weights=deviation**2, minlength=3) / dof
-        scale = scale * np.sqrt(variance[direction] / variance.mean())
+    scale = group_scales(y, scale, cells, direction)
     columns = independent_columns(X)
     beta = np.linalg.lstsq(X[:, columns] / scale[:, None], y / scale, rcond=None)[0]
-    return lack_of_fit(y - X[:, columns] @ beta, scale, cells, columns.size)
+    # the weights rest on each direction's own pure error, which the test's reference distribution must know
+    return lack_of_fit(y - X[:, columns] @ beta, scale, cells, columns.size, groups=direction)
 
 
 def _residual_table(rows: Rows, y: np.ndarray, base: CrossValidation, final: CrossValidation) -> pd.DataFrame:

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LackOfFit", "LACK_OF_FIT_LEVEL", "lack_of_fit", "replicate_cells"]
+__all__ = ["LackOfFit", "LACK_OF_FIT_LEVEL", "lack_of_fit", "group_scales", "replicate_cells"]
 
 LACK_OF_FIT_LEVEL = 0.01
 """p-value below which a lack of fit is reported (``calibrate`` warns, ``critique`` calls a misfit).
@@ -64,6 +64,8 @@ class LackOfFit:
         Upper tail of ``F(dof_lof, dof_pe)`` at the statistic.
     dof : tuple of int
         ``(dof_lof, dof_pe)``.
+    null_mean : float
+        The statistic's mean under the model (``dof_pe / (dof_pe - 2)`` for the plain test).
     factor : float
         ``sqrt(F)``: how many times the scatter of the configuration means about the
         model exceeds what the repeats' own scatter predicts.
@@ -72,6 +74,7 @@ class LackOfFit:
     statistic: float
     p_value: float
     dof: tuple[int, int]
+    null_mean: float = float("nan")
 
     @property
     def factor(self) -> float:
@@ -105,7 +108,40 @@ def replicate_cells(config: np.ndarray, marker: np.ndarray) -> np.ndarray:
     return (3 * rows.reshape(-1)[:, None] + np.arange(3)).reshape(-1)
 
 
-def lack_of_fit(residual: np.ndarray, scale: np.ndarray, cells: np.ndarray, n_parameters: int) -> LackOfFit | None:
+def group_scales(values: np.ndarray, scale: np.ndarray, cells: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """``scale`` times each group's own pure-error sd relative to the groups' mean: weights from the repeats alone.
+
+    Parameters
+    ----------
+    values
+        ``(n,)`` the observations (or any residuals: only their deviations from the cell means enter).
+    scale
+        ``(n,)`` the noise model's sd of each equation, up to a common factor.
+    cells
+        ``(n,)`` cell labels (:func:`replicate_cells`); every cell lies within one group.
+    groups
+        ``(n,)`` labels of the groups whose variance is estimated apart (e.g. the directions of a reading).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,)`` the rescaled sd; ``scale`` unchanged when a group has no repeats.  A
+        :func:`lack_of_fit` on residuals weighted so must be told the same ``groups``.
+    """
+    relative = np.asarray(values, dtype=float) / scale
+    _, index, counts = np.unique(cells, return_inverse=True, return_counts=True)
+    _, group = np.unique(groups, return_inverse=True)
+    deviation = relative - (np.bincount(index, weights=relative) / counts)[index]
+    dof = np.bincount(group, weights=(counts[index] - 1) / counts[index])
+    if np.any(dof <= 0):
+        return np.asarray(scale, dtype=float)
+    variance = np.bincount(group, weights=deviation**2) / dof
+    return scale * np.sqrt(variance[group] / variance.mean())
+
+
+def lack_of_fit(
+    residual: np.ndarray, scale: np.ndarray, cells: np.ndarray, n_parameters: int, groups: np.ndarray | None = None
+) -> LackOfFit | None:
     """The lack-of-fit F test of residuals about a fitted model, or None without repeats.
 
     Parameters
@@ -118,11 +154,19 @@ def lack_of_fit(residual: np.ndarray, scale: np.ndarray, cells: np.ndarray, n_pa
         ``(n,)`` cell labels (:func:`replicate_cells`): equations of one cell are repeats.
     n_parameters
         Free coefficients of the fit the residuals come from.
+    groups
+        ``(n,)`` when ``scale`` comes from :func:`group_scales`, its groups.  Each group's weight
+        then rests on its own pure error, the statistic is a sum of one ratio per group, and its
+        mean is ``b/(b-2)`` for ``b`` a group's pure-error degrees of freedom rather than the
+        pooled ``dof_pe``'s: the p-value is taken from ``c·F(dof_lof, ν)`` matched to the
+        statistic's mean and variance, and ``dof`` reports ``(dof_lof, ν)``.  Referred to
+        ``F(dof_lof, dof_pe)`` instead, the test is liberal (``docs/critique.md``).
 
     Returns
     -------
     LackOfFit or None
-        None when no cell is repeated or the cells do not outnumber the parameters.
+        None when no cell is repeated or the cells do not outnumber the parameters, or, with
+        ``groups``, when a group has 4 pure-error degrees of freedom or fewer (no variance to match).
 
     Raises
     ------
@@ -141,7 +185,35 @@ def lack_of_fit(residual: np.ndarray, scale: np.ndarray, cells: np.ndarray, n_pa
     if dof_pe < 1 or dof_lof < 1 or ss_pe <= 0:
         return None
     statistic = (ss_lof / dof_lof) / (ss_pe / dof_pe)
-    return LackOfFit(float(statistic), f_survival(dof_lof, dof_pe, statistic), (dof_lof, dof_pe))
+    if groups is None:
+        return LackOfFit(float(statistic), f_survival(dof_lof, dof_pe, statistic), (dof_lof, dof_pe), dof_pe / (dof_pe - 2.0) if dof_pe > 2 else float("inf"))
+    matched = _grouped_reference(index, counts, groups, dof_lof)
+    if matched is None:
+        return None
+    factor, dof = matched
+    return LackOfFit(float(statistic), f_survival(dof_lof, dof, statistic / factor), (dof_lof, int(round(dof))), factor * dof / (dof - 2.0))
+
+
+def _grouped_reference(index: np.ndarray, counts: np.ndarray, groups: np.ndarray, dof_lof: int) -> tuple[float, float] | None:
+    """``(c, ν)``: ``c·F(dof_lof, ν)`` with the mean and variance of a statistic weighted by :func:`group_scales`.
+
+    The statistic is ``Σ_g X_g / dof_lof``, ``X_g = χ²(a_g) / (χ²(b_g) / b_g)`` independent, ``b_g`` the
+    group's pure-error dof and ``a_g`` its share of ``dof_lof`` (in proportion to its cells).
+    """
+    _, group = np.unique(groups, return_inverse=True)
+    cells = np.bincount(group, weights=1.0 / counts[index])
+    a = dof_lof * cells / cells.sum()
+    b = np.bincount(group, weights=(counts[index] - 1.0) / counts[index])
+    if np.any(b <= 4):
+        return None
+    mean = float(np.sum(a * b / (b - 2.0))) / dof_lof
+    second = (a**2 + 2.0 * a) * b**2 / ((b - 2.0) * (b - 4.0)) - (a * b / (b - 2.0)) ** 2
+    cv2 = float(np.sum(second)) / dof_lof**2 / mean**2
+    # an F(d1, ν) has cv² = 2 (d1 + ν - 2) / (d1 (ν - 4)): solved for ν
+    if dof_lof * cv2 <= 2.0:
+        return None
+    dof = (2.0 * dof_lof - 4.0 + 4.0 * dof_lof * cv2) / (dof_lof * cv2 - 2.0)
+    return mean * (dof - 2.0) / dof, dof
 
 
 def f_survival(d1: float, d2: float, f: float) -> float:

@@ -2,7 +2,8 @@
 
 :func:`render_report` renders the findings of
 :func:`~bayescal.studies.detection.detection_findings` (the twin's detection
-power, the independent generator's campaigns side by side with it, and, given
+power, the independent generator's campaigns side by side with it, the lack-of-fit
+test's size and power against magnitude on that generator, and, given
 marker points, the geometry critique's); it computes nothing.
 ``bayescal report --paper-reports reports --only detection`` (``make reports``)
 computes the findings (:func:`bayescal.studies.paper_reports.paper_findings`) and
@@ -21,6 +22,7 @@ from bayescal.studies.detection import (
     LACK_OF_FIT_SIZE_LEVEL,
     DetectionFindings,
     independent_rates,
+    lack_of_fit_power,
     markdown_table,
     power_threshold,
 )
@@ -95,7 +97,9 @@ def _side_by_side(findings: DetectionFindings) -> list[str]:
         f"campaign k of each case is seeded {INDEPENDENT_FIRST_SEED} + k; {findings.seconds.get('independent', 0.0):.0f} s. "
         "\"right\": the planted family named first, or in a tie with the first, or `unexplained` for an effect outside the "
         "catalogue, or `adequate` without an effect; \"wrong alone\": a wrong first cause tied with nothing; \"lack of fit\": "
-        f"the repeats' F test rejecting the calibration's model at {LACK_OF_FIT_SIZE_LEVEL:g} (its size on the `none` row, its power on the others). The issue asks "
+        f"the repeats' F test rejecting the calibration's model at {LACK_OF_FIT_SIZE_LEVEL:g} (its size on the `none` row, its power on the others). "
+        "An effect is planted at its default, or at the multiple of it (× m) that `INDEPENDENT_EFFECTS` sets so that its lack of fit "
+        "is significant (next section), and then also at its default. The issue asks "
         "for misfit ≥ 95 %, right ≥ 90 %, wrong alone ≤ 5 % and, without an effect, adequate ≥ 95 %.",
         "",
         "| family | twin: named first at its default | twin: misfit | independent effect | campaigns | misfit | right | wrong alone | lack of fit |",
@@ -108,10 +112,46 @@ def _side_by_side(findings: DetectionFindings) -> list[str]:
             at_default = at_default[np.isclose(at_default["magnitude"], TWIN_EFFECTS[family].default)]
         first = f"{100 * at_default['found_first'].iloc[0]:.0f} %" if len(at_default) and family != "none" else "—"
         misfit = f"{100 * at_default['misfit'].iloc[0]:.0f} %" if len(at_default) else "—"
+        multiple = "" if row.effect == "none" or row.magnitude == 1.0 else f" × {row.magnitude:g}"
         lines.append(
-            f"| {family} | {first} | {misfit} | `{row.effect}` | {row.n} | {100 * row.misfit:.0f} % | {100 * row.right:.0f} % "
+            f"| {family} | {first} | {misfit} | `{row.effect}`{multiple} | {row.n} | {100 * row.misfit:.0f} % | {100 * row.right:.0f} % "
             f"| {100 * row.wrong_single:.0f} % | {100 * row.lack_of_fit:.0f} % |"
         )
+    return lines + [""]
+
+
+def _power_section(findings: DetectionFindings) -> list[str]:
+    """The calibration model's lack-of-fit test on the independent generator: its size and its power by magnitude."""
+    power = lack_of_fit_power(findings.lack_of_fit)
+    null = power[power["effect"] == "none"]
+    lines = [
+        "## The lack-of-fit test's size and power on the independent generator",
+        "",
+        "The repeats' F test of the calibration's model alone (the critique with an empty catalogue, "
+        "`bayescal.studies.detection.independent_lack_of_fit`), on the campaigns of the side-by-side table's seeds with "
+        "each effect at multiples of its default. The row `none` is the test's size; \"mean F\" is set against the statistic's mean "
+        "under the model. `INDEPENDENT_EFFECTS` holds the magnitude at which each effect is tested against the issue's "
+        "thresholds: the smallest multiple in {1, 1.5, 2, 3} at which the test rejects at 5 % in at least 95 % of the "
+        f"campaigns, the default where none does; {findings.seconds.get('lack_of_fit', 0.0):.0f} s.",
+        "",
+        "| effect | multiple of default | campaigns | p < 5 % | p < 1 % | mean F (under the model) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for row in power.itertuples():
+        multiple = "—" if row.effect == "none" else f"{row.multiple:g}"
+        lines.append(
+            f"| {row.effect} | {multiple} | {row.n} | {100 * row.at_5:.1f} % | {100 * row.at_1:.1f} % "
+            f"| {row.mean_statistic:.3f} ({row.expected_statistic:.3f}) |"
+        )
+    if len(null):
+        row = null.iloc[0]
+        # one binomial sd of the rejection count at a true 5 %
+        sd = np.sqrt(row.n * LACK_OF_FIT_SIZE_LEVEL * (1 - LACK_OF_FIT_SIZE_LEVEL))
+        lines += [
+            "",
+            f"Size: {round(row.at_5 * row.n)} of {row.n} campaigns without an effect rejected at 5 % "
+            f"(a true 5 % gives {row.n * LACK_OF_FIT_SIZE_LEVEL:g} ± {sd:.1f}).",
+        ]
     return lines + [""]
 
 
@@ -129,6 +169,8 @@ def render_report(findings: DetectionFindings) -> str:
         "",
     ]
     lines += _side_by_side(findings)
+    if findings.lack_of_fit is not None:
+        lines += _power_section(findings)
     lines += _section(f"All effects on `{Path(findings.plan).name}`", findings.plan, findings.twin, findings.seconds["twin"], settings["n_seeds"], settings["repeats"])
     for name, (path, table) in findings.other_plans.items():
         lines += _section(f"`{name}` on `{Path(path).name}`", path, table, findings.seconds[name], settings["n_seeds"], settings["repeats"])

@@ -15,8 +15,11 @@ number of workers.
 independent generator (:mod:`bayescal.twin.independent`: its own equilibrium,
 truths drawn unlike the cell, effects in forms of its own), whose rules were
 never set on it; :func:`independent_rates` sums them up against the issue's
-thresholds, with the lack-of-fit test's size and power.  :func:`detection_findings`
-gathers everything ``reports/detection.md`` renders.
+thresholds, with the lack-of-fit test's size and power.  :func:`independent_lack_of_fit`
+fits only the calibration's model to the same campaigns at several multiples of each
+effect's default, and :func:`lack_of_fit_power` tabulates the test's size and power
+against magnitude.  :func:`detection_findings` gathers everything
+``reports/detection.md`` renders.
 """
 
 from __future__ import annotations
@@ -38,6 +41,9 @@ __all__ = [
     "INDEPENDENT_FIRST_SEED",
     "independent_detection",
     "independent_rates",
+    "POWER_MULTIPLES",
+    "independent_lack_of_fit",
+    "lack_of_fit_power",
     "DetectionFindings",
     "detection_findings",
 ]
@@ -48,12 +54,23 @@ INDEPENDENT_EFFECTS: dict[str, float] = {
     "gear_play": 1.0,
     "knee_joints": 1.0,
     "los_jumps": 1.0,
-    "thermal_drift": 1.0,
+    "thermal_drift": 3.0,
     "random_field": 1.0,
 }
-"""The independent generator's effects measured, at their default magnitudes, where their lack of fit is
-significant (docs/critique.md).  Left out: ``stiff_spring`` (3.8 μm at its default), ``load_rehang``
-(11 μm) and ``tracker_scale`` (no deflection campaign can see a scale error)."""
+"""The independent generator's effects and the multiple of each one's default at which the critique is held to
+the issue's thresholds, which apply to "each effect at a magnitude whose lack of fit is significant".
+
+One rule for all, fixed before the power was measured: the smallest multiple in {1, 1.5, 2, 3} at which the
+calibration model's lack-of-fit test rejects at 5 % in at least 95 % of 40 campaigns (seeds 9000-9039,
+:func:`independent_lack_of_fit`); the default where none does.  Measured (docs/critique.md): ``link_beams``,
+``knee_joints`` and ``random_field`` 100 % at their defaults, ``tool_mount`` 97.5 %; ``thermal_drift`` 62.5 %
+at its default, 82.5 % at 1.5, 90 % at 2 and 100 % at 3, hence 3 (its cycle differs between repeats and inflates
+the pure error, its steady part is partly taken up by the compliances); ``gear_play`` (10-15 %) and ``los_jumps``
+(2.5 %) at no multiple tried (their repeats disagree, which inflates the pure error): they stay at their defaults,
+where the issue's condition does not hold and the critique is held to the thresholds all the same.  The rule
+chooses the test condition only; no rule or threshold of the critique was set on this generator.  Left out:
+``stiff_spring`` (3.8 μm at its default), ``load_rehang`` (11 μm) and ``tracker_scale`` (no deflection campaign
+can see a scale error)."""
 
 INDEPENDENT_FIRST_SEED = 9000
 """Seed of the first campaign of each case: campaign ``k`` is seeded ``INDEPENDENT_FIRST_SEED + k``
@@ -167,13 +184,19 @@ def markdown_table(table: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
+def _independent_campaign(effect: str | None, magnitude: float, rng: np.random.Generator, cell):
+    """One campaign of the independent generator and its truth: a random plan, 3 repeats, ``effect`` at ``magnitude``."""
+    from bayescal.twin.independent import IndependentGenerator, random_plan
+
+    return IndependentGenerator(cell, rng).simulate(random_plan(cell, rng), 3, effect, magnitude)
+
+
 def _independent_one(case: tuple, rng: np.random.Generator, cell) -> dict:
     """The critique of one campaign of the independent generator (a task of :func:`~bayescal.studies.parallel.seeded_map`)."""
     from bayescal.critique import Critique
-    from bayescal.twin.independent import IndependentGenerator, random_plan
 
     effect, magnitude, seed = case
-    campaign, truth = IndependentGenerator(cell, rng).simulate(random_plan(cell, rng), 3, effect, magnitude)
+    campaign, truth = _independent_campaign(effect, magnitude, rng, cell)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         result = Critique(cell).run(campaign)
@@ -250,19 +273,116 @@ def independent_detection(
 
 
 def independent_rates(table: pd.DataFrame) -> pd.DataFrame:
-    """Per effect (``none`` first): campaigns, and the fractions misfit, right, wrong single cause, and the calibration
-    model's lack of fit at :data:`LACK_OF_FIT_SIZE_LEVEL` (its size on ``none``, its power on the effects)."""
+    """Per effect and magnitude (``none`` first): campaigns, and the fractions misfit, right, wrong single cause, and the
+    calibration model's lack of fit at :data:`LACK_OF_FIT_SIZE_LEVEL` (its size on ``none``, its power on the effects)."""
     rows = []
-    for effect, group in table.groupby("effect", sort=False):
+    for (effect, magnitude), group in table.groupby(["effect", "magnitude"], sort=False):
         rows.append(
             {
                 "effect": effect,
+                "magnitude": float(magnitude),
                 "expected": group["expected"].iloc[0],
                 "n": len(group),
                 "misfit": float(np.mean(group["verdict"] == "misfit")),
                 "right": float(np.mean(group["right"])),
                 "wrong_single": float(np.mean(group["wrong_single"])),
                 "lack_of_fit": float(np.mean(group["classical_lof_p"] < LACK_OF_FIT_SIZE_LEVEL)),
+            }
+        )
+    return pd.DataFrame.from_records(rows)
+
+
+POWER_MULTIPLES: tuple[float, ...] = (0.5, 1.0, 1.5, 2.0, 3.0)
+"""Multiples of each effect's default at which :func:`independent_lack_of_fit` measures the test's power."""
+
+
+def _lack_of_fit_one(case: tuple, rng: np.random.Generator, cell) -> dict:
+    """The calibration model's lack-of-fit test on one campaign of the independent generator (a task of
+    :func:`~bayescal.studies.parallel.seeded_map`): the campaign :func:`_independent_one` critiques for the same seed."""
+    from bayescal.critique import Critique
+
+    effect, magnitude, seed = case
+    campaign, _ = _independent_campaign(effect, magnitude, rng, cell)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        test = Critique(cell, catalogue=(), probes=()).run(campaign).lack_of_fit
+    dof = (np.nan, np.nan) if test is None else test.dof
+    return {
+        "effect": effect or "none",
+        "multiple": magnitude,
+        "seed": seed,
+        "statistic": np.nan if test is None else test.statistic,
+        "p_value": np.nan if test is None else test.p_value,
+        "dof_lof": dof[0],
+        "dof_pe": dof[1],
+        "null_mean": np.nan if test is None else test.null_mean,
+    }
+
+
+def independent_lack_of_fit(
+    config: str | PathLike[str],
+    effects: Sequence[str] = tuple(INDEPENDENT_EFFECTS),
+    multiples: Sequence[float] = POWER_MULTIPLES,
+    *,
+    n_seeds: int = 40,
+    n_null: int = 40,
+    first_seed: int = INDEPENDENT_FIRST_SEED,
+    executor: Executor | None = None,
+) -> pd.DataFrame:
+    """The calibration model's lack-of-fit test on campaigns of the independent generator, one row per campaign.
+
+    The campaigns are those of :func:`independent_detection` (campaign ``k`` of each case seeded
+    ``first_seed + k``), but only the calibration's model is fitted (the critique with an empty
+    catalogue), so that the test's power can be traced over many magnitudes cheaply.
+
+    Parameters
+    ----------
+    config
+        The cell TOML around which the generator draws its truths.
+    effects
+        The generator's effects to plant.
+    multiples
+        Magnitudes of each effect, as multiples of its default.
+    n_seeds, n_null
+        Campaigns per effect and multiple, and without any effect (its size).
+    first_seed
+        Seed of the first campaign of each case.
+    executor
+        Runs the campaigns; default a :class:`concurrent.futures.ProcessPoolExecutor`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``effect, multiple, seed, statistic, p_value, dof_lof, dof_pe, null_mean`` (effect ``none``,
+        multiple 0, for the campaigns without an effect; ``null_mean`` the statistic's mean under the
+        model; NaN where the campaign has no repeats).
+    """
+    from bayescal.cell.config import load_cell
+    from bayescal.studies.parallel import seeded_map
+
+    cases = [(None, 0.0, n_null)] + [(name, float(m), n_seeds) for name in effects for m in multiples]
+    tasks = [(name, multiple, first_seed + k) for name, multiple, n in cases for k in range(n) if n]
+    streams = [np.random.SeedSequence(seed) for _, _, seed in tasks]
+    return pd.DataFrame.from_records(seeded_map(_lack_of_fit_one, tasks, streams, executor=executor, cell=load_cell(config)))
+
+
+def lack_of_fit_power(table: pd.DataFrame) -> pd.DataFrame:
+    """Per effect and multiple (``none`` first): campaigns, the fractions with ``p < 0.05`` and ``p < 0.01``, and the mean F.
+
+    On ``none`` the fractions are the test's size; ``expected_statistic`` is the statistic's mean under
+    the model averaged over the campaigns.
+    """
+    rows = []
+    for (effect, multiple), group in table.groupby(["effect", "multiple"], sort=False):
+        rows.append(
+            {
+                "effect": effect,
+                "multiple": float(multiple),
+                "n": len(group),
+                "at_5": float(np.mean(group["p_value"] < 0.05)),
+                "at_1": float(np.mean(group["p_value"] < 0.01)),
+                "mean_statistic": float(group["statistic"].mean()),
+                "expected_statistic": float(group["null_mean"].mean()),
             }
         )
     return pd.DataFrame.from_records(rows)
@@ -284,6 +404,8 @@ class DetectionFindings:
         :func:`independent_detection`'s campaigns.
     geometry : pandas.DataFrame or None
         The geometry critique's detection table, with ``geometry_points`` and ``geometry_angles``.
+    lack_of_fit : pandas.DataFrame or None
+        :func:`independent_lack_of_fit`'s campaigns: the test's size and its power by magnitude.
     seconds : dict
         Wall time of each part.
     settings : dict
@@ -298,6 +420,7 @@ class DetectionFindings:
     geometry: pd.DataFrame | None = None
     geometry_points: str | None = None
     geometry_angles: int = 0
+    lack_of_fit: pd.DataFrame | None = None
     seconds: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
 
@@ -311,6 +434,7 @@ def detection_findings(
     geometry_points: str | None = None,
     geometry_magnitudes: Mapping[str, Sequence[float]] | None = None,
     independent_effects: Mapping[str, float] = INDEPENDENT_EFFECTS,
+    power_multiples: Sequence[float] = POWER_MULTIPLES,
     n_seeds: int = 20,
     n_null: int = 40,
     n_independent: int = 40,
@@ -318,7 +442,8 @@ def detection_findings(
     seed: int = 0,
     executor: Executor | None = None,
 ) -> DetectionFindings:
-    """Run every study of ``reports/detection.md`` (twin, other plans, geometry, independent generator)."""
+    """Run every study of ``reports/detection.md`` (twin, other plans, geometry, independent generator and the
+    lack-of-fit test's power on it at ``power_multiples`` of each effect's default)."""
     import time
 
     seconds: dict[str, float] = {}
@@ -346,6 +471,18 @@ def detection_findings(
         seconds["geometry"], angles = time.perf_counter() - began, angles.size
     began = time.perf_counter()
     independent = independent_detection(config, independent_effects, n_seeds=n_independent, n_null=n_independent, executor=executor)
+    # effects tested above their defaults are also reported at them
+    raised = {name: 1.0 for name, multiple in independent_effects.items() if multiple != 1.0}
+    if raised:
+        at_default = independent_detection(config, raised, n_seeds=n_independent, n_null=0, executor=executor)
+        independent = pd.concat([independent, at_default], ignore_index=True)
     seconds["independent"] = time.perf_counter() - began
+    began = time.perf_counter()
+    power = independent_lack_of_fit(
+        config, tuple(independent_effects), power_multiples, n_seeds=n_independent, n_null=n_independent, executor=executor
+    )
+    seconds["lack_of_fit"] = time.perf_counter() - began
     settings = {"n_seeds": n_seeds, "n_null": n_null, "n_independent": n_independent, "repeats": repeats, "seed": seed}
-    return DetectionFindings(str(config), str(plan), twin, others, independent, geometry, geometry_points, angles, seconds, settings)
+    return DetectionFindings(
+        str(config), str(plan), twin, others, independent, geometry, geometry_points, angles, power, seconds, settings
+    )

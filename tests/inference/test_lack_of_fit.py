@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, f_survival, lack_of_fit, replicate_cells
+from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, f_survival, group_scales, lack_of_fit, replicate_cells
 
 
 def _regression(rng, n_levels=12, repeats=3, curvature=0.0, scale=None):
@@ -28,6 +28,39 @@ def test_size_holds_with_a_noise_level_that_varies_as_the_scale_says():
     scale = lambda x: 0.2 + np.abs(x)  # noqa: E731
     p = np.array([lack_of_fit(*_regression(rng, scale=scale), n_parameters=2).p_value for _ in range(2000)])
     assert abs(np.mean(p < 0.05) - 0.05) < 0.015
+
+
+def _three_directions(rng, n_levels=12, repeats=3, sd=(1.0, 0.35, 0.35)):
+    """A straight line in three coordinates of unequal noise, weighted by each coordinate's own pure error."""
+    x = np.repeat(np.linspace(-1.0, 1.0, n_levels), repeats)
+    direction = np.tile(np.arange(3), x.size)
+    cells = 3 * np.repeat(np.repeat(np.arange(n_levels), repeats), 3) + direction
+    X = np.zeros((3 * x.size, 6))
+    for d in range(3):
+        X[direction == d, 2 * d] = 1.0
+        X[direction == d, 2 * d + 1] = x
+    y = X @ np.arange(1.0, 7.0) + np.asarray(sd)[direction] * rng.normal(size=direction.size)
+    scale = group_scales(y, np.ones_like(y), cells, direction)
+    beta = np.linalg.lstsq(X / scale[:, None], y / scale, rcond=None)[0]
+    return y - X @ beta, scale, cells, direction
+
+
+def test_size_is_nominal_with_weights_from_each_direction_s_own_pure_error():
+    rng = np.random.default_rng(6)
+    draws = [_three_directions(rng) for _ in range(2000)]
+    grouped = np.array([lack_of_fit(r, s, c, 6, groups=g).p_value for r, s, c, g in draws])
+    pooled = np.array([lack_of_fit(r, s, c, 6).p_value for r, s, c, _ in draws])
+    assert abs(np.mean(grouped < 0.05) - 0.05) < 0.015
+    assert abs(np.mean(grouped < 0.01) - 0.01) < 0.007
+    # referred to F(dof_lof, dof_pe) the weights' own error makes the test liberal
+    assert np.mean(pooled < 0.05) > np.mean(grouped < 0.05)
+
+
+def test_group_scales_keep_equal_weights_for_equal_pure_errors():
+    cells = np.repeat(np.arange(4), 2)
+    values = np.array([0.0, 1.0, 0.0, 1.0, 5.0, 6.0, 2.0, 3.0])
+    groups = np.array([0, 0, 1, 1, 0, 0, 1, 1])
+    assert np.allclose(group_scales(values, np.ones(8), cells, groups), 1.0)
 
 
 def test_an_omitted_curvature_is_found():

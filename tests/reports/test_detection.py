@@ -34,6 +34,28 @@ def test_the_report_renders_power_thresholds_false_alarms_and_both_generators_si
     assert "| backlash | 100 % | 100 % | `gear_play` | 2 | 100 % | 50 % | 50 % | 100 % |" in text
 
 
+def test_the_lack_of_fit_section_renders_size_and_power_by_multiple():
+    power = pd.DataFrame(
+        {"effect": ["none", "none", "thermal_drift", "thermal_drift"], "multiple": [0.0, 0.0, 1.0, 1.0],
+         "seed": [9000, 9001, 9000, 9001], "statistic": [1.0, 1.2, 1.5, 1.1], "p_value": [0.5, 0.03, 0.001, 0.2],
+         "dof_lof": [260] * 4, "dof_pe": [540] * 4, "null_mean": [1.01] * 4}
+    )
+    raised = pd.DataFrame(
+        {"effect": ["thermal_drift", "thermal_drift"], "magnitude": [3.0, 1.0], "seed": [9000, 9000], "expected": ["drift", "drift"],
+         "verdict": ["misfit", "adequate"], "causes": ["drift", ""], "tied_with": ["", ""], "right": [True, False],
+         "wrong_single": [False, False], "lof_p": [0.001, 0.3], "classical_lof_p": [0.001, 0.3]}
+    )
+    independent = pd.concat([_findings().independent, raised], ignore_index=True)
+    text = render_report(
+        _findings(lack_of_fit=power, independent=independent, seconds={"twin": 1.0, "independent": 2.0, "lack_of_fit": 3.0})
+    )
+    assert "| drift | — | — | `thermal_drift` × 3 | 1 | 100 % | 100 % | 0 % | 100 % |" in text
+    assert "| drift | — | — | `thermal_drift` | 1 | 0 % | 0 % | 0 % | 0 % |" in text
+    assert "| none | — | 2 | 50.0 % | 0.0 % | 1.100 (1.010) |" in text
+    assert "| thermal_drift | 1 | 2 | 50.0 % | 50.0 % | 1.300 (1.010) |" in text
+    assert "Size: 1 of 2 campaigns without an effect rejected at 5 % (a true 5 % gives 0.1 ± 0.3)." in text
+
+
 def test_the_geometry_section_renders_the_geometry_critique_at_the_points_angles():
     table = pd.DataFrame(
         {"effect": ["none", "joint_scale"], "magnitude": [0.0, 0.004], "unit": ["", ""], "campaigns": [1, 1],

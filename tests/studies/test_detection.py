@@ -8,7 +8,9 @@ from bayescal.studies.detection import (
     INDEPENDENT_EFFECTS,
     detection_power,
     independent_detection,
+    independent_lack_of_fit,
     independent_rates,
+    lack_of_fit_power,
     markdown_table,
     power_threshold,
 )
@@ -50,11 +52,24 @@ def test_the_independent_generator_campaign_without_effect_is_adequate_and_a_bea
     assert rates["right"].tolist() == [1.0, 1.0, 1.0] and rates["wrong_single"].tolist() == [0.0, 0.0, 0.0]
 
 
+def test_the_lack_of_fit_power_study_tests_the_campaigns_the_critique_sees():
+    # one campaign per case (seed 9000): the same campaign as independent_detection's, only the calibration's model fitted
+    with ThreadPoolExecutor(1) as executor:
+        power = independent_lack_of_fit(DATA / "kr270.toml", ["thermal_drift"], [3.0], n_seeds=1, n_null=1, executor=executor)
+        critique = independent_detection(DATA / "kr270.toml", {"thermal_drift": 3.0}, n_seeds=1, n_null=1, executor=executor)
+    assert power["effect"].tolist() == ["none", "thermal_drift"] and power["multiple"].tolist() == [0.0, 3.0]
+    assert power["p_value"].tolist() == pytest.approx(critique["classical_lof_p"].tolist(), rel=1e-12)
+    summary = lack_of_fit_power(power)
+    assert summary["n"].tolist() == [1, 1] and summary.loc[1, "at_5"] == 1.0
+    assert (summary["expected_statistic"] > 1.0).all()
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("effect", ["none", *INDEPENDENT_EFFECTS])
 def test_on_40_campaigns_of_the_independent_generator_the_issue_thresholds_hold(effect):
-    # misfit >= 95 %, right >= 90 %, a wrong single cause <= 5 %; without an effect adequate >= 95 % and the
-    # lack-of-fit test's size at 5 % within binomial error of 5 % (at most 4 of 40: 5 % + 2 sd)
+    # misfit >= 95 %, right >= 90 %, a wrong single cause <= 5 %, each effect at the magnitude INDEPENDENT_EFFECTS
+    # sets; without an effect adequate >= 95 % and the lack-of-fit test's size at 5 % within binomial error of 5 %
+    # (at most 4 of 40: 5 % + 2 sd)
     effects = {} if effect == "none" else {effect: INDEPENDENT_EFFECTS[effect]}
     table = independent_detection(DATA / "kr270.toml", effects, n_seeds=40, n_null=40 if effect == "none" else 0)
     rates = independent_rates(table).set_index("effect").loc[effect]
