@@ -52,6 +52,7 @@ INDEPENDENT_EFFECTS: dict[str, float] = {
     "link_beams": 1.0,
     "tool_mount": 1.0,
     "gear_play": 1.0,
+    "approach_play": 1.0,
     "knee_joints": 1.0,
     "los_jumps": 1.0,
     "thermal_drift": 3.0,
