@@ -138,16 +138,6 @@ def test_approach_play_of_size_zero_is_the_effect_free_campaign(cell):
     assert np.abs(runs[2].displacement - runs[0].displacement).max() > 1e-6
 
 
-def test_approach_play_campaigns_reproduce_exactly(cell, tmp_path):
-    paths = []
-    for index, seed in enumerate((6, 6, 7)):
-        rng = np.random.default_rng(seed)
-        campaign, _ = IndependentGenerator(cell, rng).simulate(random_plan(cell, rng), 3, "approach_play")
-        paths.append(tmp_path / f"{index}.csv")
-        write_campaign(campaign, paths[-1])
-    assert paths[0].read_bytes() == paths[1].read_bytes() != paths[2].read_bytes()
-
-
 def test_cantilever_is_euler_bernoulli_and_reciprocal():
     section = BeamSection(EA=3e9, EI=2e7, GJ=3e7)
     ell = 1.2
@@ -172,11 +162,12 @@ def test_anisotropic_noise_keeps_the_cells_scale(cell):
     assert radial.std() / transverse == pytest.approx(RADIAL_RATIO, rel=0.03)
 
 
-def test_seeds_reproduce_exactly(cell, tmp_path):
+@pytest.mark.parametrize(("effect", "repeats", "seeds"), [("thermal_drift", 2, (4, 4, 5)), ("approach_play", 3, (6, 6, 7))])
+def test_seeds_reproduce_exactly(cell, tmp_path, effect, repeats, seeds):
     paths = []
-    for index, seed in enumerate((4, 4, 5)):
+    for index, seed in enumerate(seeds):
         rng = np.random.default_rng(seed)
-        campaign, _ = IndependentGenerator(cell, rng).simulate(random_plan(cell, rng), 2, "thermal_drift")
+        campaign, _ = IndependentGenerator(cell, rng).simulate(random_plan(cell, rng), repeats, effect)
         paths.append(tmp_path / f"{index}.csv")
         write_campaign(campaign, paths[-1])
     assert paths[0].read_bytes() == paths[1].read_bytes() != paths[2].read_bytes()
