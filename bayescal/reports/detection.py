@@ -99,8 +99,8 @@ def _side_by_side(findings: DetectionFindings) -> list[str]:
         "catalogue, or `adequate` without an effect; \"wrong alone\": a wrong first cause tied with nothing; \"lack of fit\": "
         f"the repeats' F test rejecting the calibration's model at {LACK_OF_FIT_SIZE_LEVEL:g} (its size on the `none` row, its power on the others). "
         "An effect is planted at its default, or at the multiple of it (× m) that `INDEPENDENT_EFFECTS` sets so that its lack of fit "
-        "is significant (next section), and then also at its default. The issue asks "
-        "for misfit ≥ 95 %, right ≥ 90 %, wrong alone ≤ 5 % and, without an effect, adequate ≥ 95 %.",
+        "is significant (next section), and then also at its default. The targets are "
+        "misfit ≥ 95 %, right ≥ 90 %, wrong alone ≤ 5 % and, without an effect, adequate ≥ 95 %.",
         "",
         "| family | twin: named first at its default | twin: misfit | independent effect | campaigns | misfit | right | wrong alone | lack of fit |",
         "|---|---|---|---|---|---|---|---|---|",
@@ -130,7 +130,7 @@ def _power_section(findings: DetectionFindings) -> list[str]:
         "The repeats' F test of the calibration's model alone (the critique with an empty catalogue, "
         "`bayescal.studies.detection.independent_lack_of_fit`), on the campaigns of the side-by-side table's seeds with "
         "each effect at multiples of its default. The row `none` is the test's size; \"mean F\" is set against the statistic's mean "
-        "under the model. `INDEPENDENT_EFFECTS` holds the magnitude at which each effect is tested against the issue's "
+        "under the model. `INDEPENDENT_EFFECTS` holds the magnitude at which each effect is tested against the targets "
         "thresholds: the smallest multiple in {1, 1.5, 2, 3} at which the test rejects at 5 % in at least 95 % of the "
         f"campaigns, the default where none does; {findings.seconds.get('lack_of_fit', 0.0):.0f} s.",
         "",

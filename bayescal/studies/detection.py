@@ -14,8 +14,8 @@ number of workers.
 :func:`independent_detection` runs the same critique on campaigns of the
 independent generator (:mod:`bayescal.twin.independent`: its own equilibrium,
 truths drawn unlike the cell, effects in forms of its own), whose rules were
-never set on it; :func:`independent_rates` sums them up against the issue's
-thresholds, with the lack-of-fit test's size and power.  :func:`independent_lack_of_fit`
+never set on it; :func:`independent_rates` sums them up against the detection
+targets, with the lack-of-fit test's size and power.  :func:`independent_lack_of_fit`
 fits only the calibration's model to the same campaigns at several multiples of each
 effect's default, and :func:`lack_of_fit_power` tabulates the test's size and power
 against magnitude.  :func:`detection_findings` gathers everything
@@ -59,7 +59,7 @@ INDEPENDENT_EFFECTS: dict[str, float] = {
     "random_field": 1.0,
 }
 """The independent generator's effects and the multiple of each one's default at which the critique is held to
-the issue's thresholds, which apply to "each effect at a magnitude whose lack of fit is significant".
+the detection targets, which apply to "each effect at a magnitude whose lack of fit is significant".
 
 One rule for all, fixed before the power was measured: the smallest multiple in {1, 1.5, 2, 3} at which the
 calibration model's lack-of-fit test rejects at 5 % in at least 95 % of 40 campaigns (seeds 9000-9039,
@@ -68,7 +68,7 @@ calibration model's lack-of-fit test rejects at 5 % in at least 95 % of 40 campa
 at its default, 82.5 % at 1.5, 90 % at 2 and 100 % at 3, hence 3 (its cycle differs between repeats and inflates
 the pure error, its steady part is partly taken up by the compliances); ``gear_play`` (10-15 %) and ``los_jumps``
 (2.5 %) at no multiple tried (their repeats disagree, which inflates the pure error): they stay at their defaults,
-where the issue's condition does not hold and the critique is held to the thresholds all the same.  The rule
+where that condition does not hold and the critique is held to the thresholds all the same.  The rule
 chooses the test condition only; no rule or threshold of the critique was set on this generator.  Left out:
 ``stiff_spring`` (3.8 μm at its default), ``load_rehang`` (11 μm) and ``tracker_scale`` (no deflection campaign
 can see a scale error)."""

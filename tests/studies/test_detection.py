@@ -66,7 +66,7 @@ def test_the_lack_of_fit_power_study_tests_the_campaigns_the_critique_sees():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("effect", ["none", *INDEPENDENT_EFFECTS])
-def test_on_40_campaigns_of_the_independent_generator_the_issue_thresholds_hold(effect):
+def test_on_40_campaigns_of_the_independent_generator_the_detection_targets_hold(effect):
     # misfit >= 95 %, right >= 90 %, a wrong single cause <= 5 %, each effect at the magnitude INDEPENDENT_EFFECTS
     # sets; without an effect adequate >= 95 % and the lack-of-fit test's size at 5 % within binomial error of 5 %
     # (at most 4 of 40: 5 % + 2 sd)
