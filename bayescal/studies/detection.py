@@ -66,10 +66,13 @@ calibration model's lack-of-fit test rejects at 5 % in at least 95 % of 40 campa
 :func:`independent_lack_of_fit`); the default where none does.  Measured (docs/critique.md): ``link_beams``,
 ``knee_joints`` and ``random_field`` 100 % at their defaults, ``tool_mount`` 97.5 %; ``thermal_drift`` 62.5 %
 at its default, 82.5 % at 1.5, 90 % at 2 and 100 % at 3, hence 3 (its cycle differs between repeats and inflates
-the pure error, its steady part is partly taken up by the compliances); ``gear_play`` (10-15 %) and ``los_jumps``
-(2.5 %) at no multiple tried (their repeats disagree, which inflates the pure error): they stay at their defaults,
-where that condition does not hold and the critique is held to the thresholds all the same.  The rule
-chooses the test condition only; no rule or threshold of the critique was set on this generator.  Left out:
+the pure error, its steady part is partly taken up by the compliances); ``gear_play`` (10-15 %), ``approach_play``
+(25-37.5 %) and ``los_jumps`` (2.5 %) at no multiple tried (their repeats disagree, which inflates the pure
+error): they stay at their defaults, where that condition does not hold and the critique is held to the
+thresholds all the same.  The rule chooses the test condition only; no rule or threshold of the critique was
+set on this generator, but the lost-motion family's settings (friction hold, side on arrival) were added after
+diagnosing ``gear_play`` and ``approach_play``, whose rates therefore no longer measure them out of sample
+(docs/critique.md).  Left out:
 ``stiff_spring`` (3.8 μm at its default), ``load_rehang`` (11 μm) and ``tracker_scale`` (no deflection campaign
 can see a scale error)."""
 
