@@ -34,33 +34,15 @@ import numpy as np
 from scipy import linalg, special, stats
 
 from bayescal.critique.extensions import OUTLIER_DOF
+from bayescal.inference.identifiability import independent_columns
 
-__all__ = ["Fit", "CrossValidation", "Comparison", "fit", "cross_validate", "compare", "compare_elpd", "independent_columns", "COLLINEAR_TOLERANCE"]
+__all__ = ["Fit", "CrossValidation", "Comparison", "fit", "cross_validate", "compare", "compare_elpd"]
 
-COLLINEAR_TOLERANCE = 1e-3
-"""A column whose part not explained by the columns before it is below this fraction of its
-norm adds nothing the data can resolve (its coefficient would be a ratio of noise to 1e-3)."""
 AXIS_ITERATIONS = 3
 """Reweightings for the axis noise levels (their ratios settle to 1e-3 within three on twin campaigns)."""
 EM_ITERATIONS = 200
 EM_TOLERANCE = 1e-4
 """EM of the Student-t noise stops when no coefficient moves by more than this fraction of its sd."""
-
-
-def independent_columns(X: np.ndarray) -> np.ndarray:
-    """Indices of the columns of ``X`` kept in order, each dropped if it is (nearly) a combination of those kept before."""
-    kept: list[int] = []
-    basis = np.zeros((X.shape[0], 0))
-    for j in range(X.shape[1]):
-        column = X[:, j]
-        norm = np.linalg.norm(column)
-        if norm == 0:
-            continue
-        rest = column - basis @ (basis.T @ column)
-        if np.linalg.norm(rest) > COLLINEAR_TOLERANCE * norm:
-            kept.append(j)
-            basis = np.column_stack([basis, rest / np.linalg.norm(rest)])
-    return np.array(kept, dtype=int)
 
 
 @dataclass(frozen=True)

@@ -29,13 +29,14 @@ import pandas as pd
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.critique.checks import residual_summary
-from bayescal.critique.compare import Comparison, CrossValidation, compare, cross_validate, fit, independent_columns
+from bayescal.critique.compare import Comparison, CrossValidation, compare, cross_validate, fit
 from bayescal.critique.covariates import COVARIATES, Rows, campaign_rows, pose_rows
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
 from bayescal.errors import InputError
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.equations import check_campaign
-from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit, group_scales, lack_of_fit, replicate_cells
+from bayescal.inference.identifiability import independent_columns
+from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit, least_squares_lack_of_fit, line_of_sight, replicate_cells
 from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG, MM
 
@@ -142,8 +143,12 @@ class Critique:
             remaining = [e for e in remaining if e.name != best]
         probes = {name: compare(current, validate(model.plus(PROBES[name]))) for name in self.probes}
         covariate = strongest(probes, decisive=False)
-        misfit = _lack_of_fit(
-            self._calibration_design(model, rows, campaign.q), y - self._nonlinearity(campaign), scale, rows, self.cell.tracker.position
+        misfit = least_squares_lack_of_fit(
+            self._calibration_design(model, rows, campaign.q),
+            y - self._nonlinearity(campaign),
+            scale,
+            replicate_cells(rows.config, rows.marker),
+            line_of_sight(rows.position, self.cell.tracker.position),
         )
         # The repeats' pure error sees a misfit of any shape, also one no candidate matches; a robust
         # model's outliers inflate both sides of the test, so it does not overrule a named outlier model.
@@ -266,45 +271,6 @@ def _tied(best: str, trials: dict, evidence: dict[str, Comparison]) -> list[str]
         if lead.delta_elpd <= DETECTION_Z * lead.se:
             tied.append(name)
     return tied
-
-
-def _line_of_sight(position: np.ndarray, tracker: np.ndarray) -> np.ndarray:
-    """(N, 3, 3) per row the unit vectors along the tracker's line of sight, across it horizontally, and across it upward."""
-    radial = position - tracker
-    radial = radial / np.linalg.norm(radial, axis=1, keepdims=True)
-    across = np.cross(radial, np.array([0.0, 0.0, 1.0]))
-    # a line of sight straight up or down has no horizontal normal: any normal serves
-    across = np.where(np.linalg.norm(across, axis=1, keepdims=True) > 1e-6, across, np.cross(radial, np.array([1.0, 0.0, 0.0])))
-    across = across / np.linalg.norm(across, axis=1, keepdims=True)
-    return np.stack([radial, across, np.cross(across, radial)], axis=1)
-
-
-def _lack_of_fit(X: np.ndarray, y: np.ndarray, scale: np.ndarray, rows: Rows, tracker: np.ndarray) -> LackOfFit | None:
-    """The lack-of-fit test of a model's weighted least-squares fit against the repeats' scatter, along the line of sight.
-
-    A laser tracker reads distances better than angles: its noise is an ellipsoid
-    about the line of sight (the distance meter's error a third of the angles' at
-    a few metres), which the cell's distance law, one sd per point, does not
-    describe.  In base axes the coordinates of a reading are then correlated and
-    unequal, and the F statistic spreads wider than its distribution (measured on
-    the independent generator's campaign seeded 9002, without an effect: F = 1.29,
-    p = 0.008 with its anisotropic noise, called a misfit; F = 1.17, p = 0.07 with
-    isotropic noise of the same mean; F = 1.19, p = 0.049 weighted as below).
-    The equations are therefore turned into each reading's line-of-sight frame and
-    each direction weighted by its own variance, estimated from the repeats' scatter
-    alone: no model enters the weights, and an isotropic tracker keeps equal ones.
-    """
-    n = len(rows)
-    frames = _line_of_sight(rows.position, tracker)
-    y = np.einsum("nij,nj->ni", frames, y.reshape(n, 3)).reshape(-1)
-    X = np.einsum("nij,njp->nip", frames, X.reshape(n, 3, -1)).reshape(3 * n, -1)
-    cells = replicate_cells(rows.config, rows.marker)
-    direction = np.tile(np.arange(3), n)
-    scale = group_scales(y, scale, cells, direction)
-    columns = independent_columns(X)
-    beta = np.linalg.lstsq(X[:, columns] / scale[:, None], y / scale, rcond=None)[0]
-    # the weights rest on each direction's own pure error, which the test's reference distribution must know
-    return lack_of_fit(y - X[:, columns] @ beta, scale, cells, columns.size, groups=direction)
 
 
 def _residual_table(rows: Rows, y: np.ndarray, base: CrossValidation, final: CrossValidation) -> pd.DataFrame:

@@ -59,13 +59,14 @@ import pandas as pd
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.cell.plan import Plan, write_plan
-from bayescal.critique.compare import fit, independent_columns
+from bayescal.critique.compare import fit
 from bayescal.critique.covariates import Rows, campaign_rows, pose_rows
 from bayescal.critique.extensions import CATALOGUE, Extension, base_columns
 from bayescal.critique.model import fitted_variant
 from bayescal.design.constraints import DesignSpace, load_design_space
 from bayescal.design.optimise import PlanDesigner
 from bayescal.errors import InputError
+from bayescal.inference.identifiability import independent_columns
 from bayescal.units import DEG
 
 __all__ = ["DISCRIMINATE", "PER_ANGLE", "MASS_LEVELS", "Discrimination", "DiscriminatingDesign", "DiscriminatingDesigner", "separation", "shares", "expected_z", "plan_z"]

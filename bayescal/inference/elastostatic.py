@@ -45,7 +45,7 @@ from bayescal.errors import InputError, NotIdentifiableWarning
 from bayescal.inference.closedform import ClosedForm, check_regression, closed_form
 from bayescal.inference.equations import HANGING_ONLY_REASON, DeflectionEquations, check_campaign, check_load_point, deflection_equations
 from bayescal.inference.exact import SETTLED_SD, UNCONVERGED_SD, ExactCorrection, moved_point
-from bayescal.inference.fit_checks import check_determined, check_scale, practical_identifiability, residual_chi2, residual_lack_of_fit
+from bayescal.inference.fit_checks import calibration_lack_of_fit, check_determined, check_scale, practical_identifiability, residual_chi2
 from bayescal.inference.identifiability import Identifiability, analyse, grouped, label_angle
 from bayescal.inference.posterior import posterior_density, sample_posterior, sampler_coordinates
 from bayescal.inference.priors import GeometryPrior, config_geometry
@@ -299,7 +299,7 @@ class ElastostaticModel:
                     UserWarning,
                     stacklevel=2,
                 )
-            misfit = residual_lack_of_fit(self.tracker, campaign, residual, n_free)
+            misfit = calibration_lack_of_fit(self.tracker, campaign, equations, prepared.offset)
             if misfit is not None and misfit.significant():
                 warnings.warn(
                     f"{campaign.source}: the model misses the repeated configurations: {misfit.describe()}; "
@@ -413,7 +413,7 @@ class ElastostaticModel:
         chi2 = residual_chi2(self.tracker, campaign, residual, posterior.ndim - posterior.n_groups)
         practical = practical_identifiability(summary, equations, ident, cf, self.geometry, self.nominal_spring)
         sampler = str(tree.attrs.get("sampler", "not recorded"))
-        misfit = residual_lack_of_fit(self.tracker, campaign, residual, posterior.ndim - posterior.n_groups)
+        misfit = calibration_lack_of_fit(self.tracker, campaign, equations, offset)
         return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, sampler, misfit)
 
     def _results(self, campaign, prepared, tree, draws, residual, chi2, summary, practical, sampler_name, misfit) -> ElastostaticResults:

@@ -52,6 +52,8 @@ __all__ = [
     "ILL_CONDITIONED",
     "CONTRACTION_LIMIT",
     "PRACTICAL_RULE",
+    "independent_columns",
+    "COLLINEAR_TOLERANCE",
 ]
 
 RANK_TOLERANCE = 1e-8
@@ -68,6 +70,9 @@ PRACTICAL_RULE = (
 )
 """The practical-identifiability rule in one line (the CLI's ``identifiability.rule``)."""
 _SPRING_CLAUSE = "; s0 whenever K_c is not identifiable (eq 34)"
+COLLINEAR_TOLERANCE = 1e-3
+"""A column whose part not explained by the columns before it is below this fraction of its
+norm adds nothing the data can resolve (its coefficient would be a ratio of noise to 1e-3)."""
 
 
 @dataclass(frozen=True)
@@ -324,3 +329,19 @@ def grouped(reasons: Mapping[str, str]) -> list[tuple[list[str], str]]:
     for name, reason in reasons.items():
         groups.setdefault(reason, []).append(name)
     return [(names, reason) for reason, names in groups.items()]
+
+
+def independent_columns(X: np.ndarray) -> np.ndarray:
+    """Indices of the columns of ``X`` kept in order, each dropped if it is (nearly) a combination of those kept before."""
+    kept: list[int] = []
+    basis = np.zeros((X.shape[0], 0))
+    for j in range(X.shape[1]):
+        column = X[:, j]
+        norm = np.linalg.norm(column)
+        if norm == 0:
+            continue
+        rest = column - basis @ (basis.T @ column)
+        if np.linalg.norm(rest) > COLLINEAR_TOLERANCE * norm:
+            kept.append(j)
+            basis = np.column_stack([basis, rest / np.linalg.norm(rest)])
+    return np.array(kept, dtype=int)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from bayescal.critique.compare import compare, cross_validate, fit, independent_columns
+from bayescal.critique.compare import compare, cross_validate, fit
 
 
 def _linear_data(rng, n_configs=12, per_config=9, levels=(1.0, 2.0, 0.5)):
@@ -12,13 +12,6 @@ def _linear_data(rng, n_configs=12, per_config=9, levels=(1.0, 2.0, 0.5)):
     y = X @ np.array([1.0, -2.0, 0.5]) + rng.normal(size=len(X)) * scale * np.array(levels)[group]
     config = np.repeat(np.arange(n_configs), per_config)
     return y, X, scale, group, config
-
-
-def test_independent_columns_drops_combinations_of_earlier_columns():
-    rng = np.random.default_rng(0)
-    X = rng.normal(size=(30, 3))
-    X = np.column_stack([X, np.zeros(30), X[:, 0] - 2 * X[:, 2], rng.normal(size=30)])
-    assert independent_columns(X).tolist() == [0, 1, 2, 5]
 
 
 def test_gaussian_predictive_density_is_the_multivariate_t():

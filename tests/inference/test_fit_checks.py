@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from bayescal.cell.campaign import read_campaign
 from bayescal.errors import InputError
 from bayescal.inference.closedform import ClosedForm
-from bayescal.inference.equations import deflection_noise
-from bayescal.inference.fit_checks import IMPLAUSIBLE_RATIO, check_scale, residual_chi2, residual_lack_of_fit
+from bayescal.inference.equations import deflection_equations, deflection_noise
+from bayescal.inference.fit_checks import IMPLAUSIBLE_RATIO, check_scale, calibration_lack_of_fit, residual_chi2
 from bayescal.twin.simulator import DigitalTwin
 
 
@@ -46,14 +48,23 @@ def test_chi2_per_dof_measures_the_residuals_against_the_trackers_noise(cell, ca
 
 
 def test_the_lack_of_fit_test_needs_repeats_and_finds_a_misfit_of_the_configuration_means(cell, plan):
-    single = DigitalTwin(cell).simulate(plan, 1, np.random.default_rng(1))
-    assert residual_lack_of_fit(cell.tracker, single, np.zeros(3 * len(single)), 10) is None
-    repeated = DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(2))
+    def equations_of(campaign, rng):
+        """The campaign's equations with observations the linear model makes exactly, plus the tracker's noise."""
+        equations = deflection_equations(cell.robot, campaign, tracker=cell.tracker, joint=cell.compensated_joint)[0]
+        sd = np.repeat(deflection_noise(cell.tracker, campaign), 3)
+        return replace(equations, y=equations.design @ cell.compliances + sd * rng.standard_normal(sd.size)), sd
+
     rng = np.random.default_rng(3)
-    sd = np.repeat(deflection_noise(cell.tracker, repeated), 3)
-    noise = sd * rng.standard_normal(sd.size)
-    assert not residual_lack_of_fit(cell.tracker, repeated, noise, 10).significant()
+    single = DigitalTwin(cell).simulate(plan, 1, np.random.default_rng(1))
+    assert calibration_lack_of_fit(cell.tracker, single, equations_of(single, rng)[0]) is None
+    repeated = DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(2))
+    equations, sd = equations_of(repeated, rng)
+    fitted = calibration_lack_of_fit(cell.tracker, repeated, equations)
+    assert not fitted.significant()
+    # The calibration model is fitted, not taken at the config's compliances: scaled, they fit as well.
+    scaled = calibration_lack_of_fit(cell.tracker, repeated, replace(equations, y=equations.y + 0.3 * equations.design @ cell.compliances))
+    assert scaled.statistic == pytest.approx(fitted.statistic, rel=1e-4)
     # The same offset in every repeat of a configuration and marker: the repeats agree, the model does not.
     cells = np.unique(np.column_stack([repeated.config, repeated.marker]).astype(str), axis=0, return_inverse=True)[1].reshape(-1)
     offset = rng.standard_normal((cells.max() + 1, 3))[cells].reshape(-1) * 3 * sd
-    assert residual_lack_of_fit(cell.tracker, repeated, noise + offset, 10).significant()
+    assert calibration_lack_of_fit(cell.tracker, repeated, equations, -offset).significant()

@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bayescal.inference.identifiability import analyse, angle_label, label_angle, practical_reasons
+from bayescal.inference.identifiability import analyse, angle_label, independent_columns, label_angle, practical_reasons
 
 DEG = np.pi / 180
 
@@ -145,3 +145,10 @@ def test_a_tall_confounded_design_is_analysed_without_its_full_left_basis():
     result = analyse(design, [(0, None), (1, None), (2, None), (3, None)], np.zeros(0), np.ones((10, 4)), np.zeros(10, int))
     assert list(result.identifiable) == [True, False, False, False]
     assert "k3, k4" in result.reasons["k2"]
+
+
+def test_independent_columns_drops_combinations_of_earlier_columns():
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(30, 3))
+    X = np.column_stack([X, np.zeros(30), X[:, 0] - 2 * X[:, 2], rng.normal(size=30)])
+    assert independent_columns(X).tolist() == [0, 1, 2, 5]
