@@ -27,8 +27,9 @@ parameters where the physics allows:
     and the same with memory (a joint whose torque stays within a friction hold keeps
     the side the previous state left it at, in the order of measurement), the hold
     tried at each of :data:`BACKLASH_HOLDS`, a joint driven to a new configuration
-    arriving on the side it was left at or on the side its servo drove it to
-    (:data:`BACKLASH_SETTINGS`, :meth:`Extension.variants`).
+    arriving on the side it was left at or on the side its servo drove it to, the
+    compensated joint's unloaded torque taken as the cell's or a tenth of its largest
+    load torque either side of it (:data:`BACKLASH_SETTINGS`, :meth:`Extension.variants`).
 ``nonlinear_stiffness``
     Each joint's deflection law gains a term in ``τ|τ|`` (a spring that stiffens
     or softens with torque), the torque being the weight's and the load's.
@@ -51,7 +52,7 @@ import numpy as np
 from bayescal.cell.config import Cell
 from bayescal.critique.covariates import COVARIATES, PREDICTED_MARKER, Rows
 
-__all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "BACKLASH_HOLDS", "BACKLASH_SETTINGS", "APPROACH_MOVE", "OUTLIER_DOF"]
+__all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "BACKLASH_HOLDS", "BACKLASH_SHIFTS", "BACKLASH_SETTINGS", "APPROACH_MOVE", "OUTLIER_DOF"]
 
 BEAM_MIN_LENGTH = 0.5
 """Shortest link (m, between consecutive joint origins) modelled as a beam: shorter links of an
@@ -70,11 +71,20 @@ best, from a negligible one (:data:`BACKLASH_PRELOAD`) to half the largest load 
 APPROACH_MOVE = 1e-3
 """Smallest change of a commanded joint angle (rad, or m for a prismatic joint) between configurations
 counted as a move: below it the joint was not driven and keeps its side."""
-BACKLASH_SETTINGS = tuple((hold, approached) for approached in (False, True) for hold in BACKLASH_HOLDS)
+BACKLASH_SHIFTS = (0.0, -0.1, 0.1)
+"""Errors tried in the compensated joint's unloaded torque, as fractions of its largest load torque in the
+rows.  That torque is the small difference of the arm's weight and the compensator's pull, taken from the
+cell's spring and link masses: a spring 15 % off the cell's moved it by up to 460 N·m on the independent
+generator (``docs/critique.md``), against a largest load torque of several thousand N·m, and near the
+balance it decides the side of the joint's play.  ESTIMATE: a tenth either way covers that."""
+BACKLASH_SETTINGS = tuple(
+    (hold, approached, shift) for shift in BACKLASH_SHIFTS for approached in (False, True) for hold in BACKLASH_HOLDS
+)
 """The lost motion's variants: each friction hold, with the side on arriving at a configuration kept from
 the previous state, or set by the direction the servo drove the joint (the link lags its motor:
-a joint driven up arrives on the low side of its play).  A controller approaches a pose along its
-own path, so either can be true of a robot; the held-out comparison chooses."""
+a joint driven up arrives on the low side of its play), at each error of the compensated joint's
+unloaded torque.  A controller approaches a pose along its own path, so either side can be true of a
+robot; the held-out comparison chooses."""
 OUTLIER_DOF = 4.0
 """Degrees of freedom of the Student-t noise of ``outliers``: 4 is the usual robust choice
 (Lange, Little & Taylor 1989), heavy enough to discount gross errors, near-Gaussian otherwise."""
@@ -96,7 +106,7 @@ class Extension:
     physical : bool
         Whether it is a physical term that predicts at other poses (probes are not).
     grid : tuple
-        Values of a setting the columns are not linear in (the lost motion's friction hold and side on arrival),
+        Values of a setting the columns are not linear in (the lost motion's friction hold, side on arrival and the compensated joint's unloaded torque),
         each a variant of the extension (:meth:`variants`); empty: none.
     setting : object
         The value a variant has (None: the extension has no setting).
@@ -215,7 +225,7 @@ def _tool_compliance(rows: Rows, cell: Cell) -> np.ndarray:
     return _spring(rows.flange[:, :3, :3], rows.flange[:, :3, 3], rows.wrench[:, :3], rows.wrench[:, 3:], rows.position)
 
 
-def _backlash(rows: Rows, cell: Cell, setting: tuple[float, bool] = (BACKLASH_PRELOAD, False)) -> np.ndarray:
+def _backlash(rows: Rows, cell: Cell, setting: tuple[float, bool, float] = (BACKLASH_PRELOAD, False, 0.0)) -> np.ndarray:
     """Lost motion per joint in its two first-order forms: without and with memory (2·nq columns).
 
     Without memory the joint sits at the side its torque pushes it to in every
@@ -231,38 +241,51 @@ def _backlash(rows: Rows, cell: Cell, setting: tuple[float, bool] = (BACKLASH_PR
     load torque in the rows), which a gear held in its play must be pushed beyond,
     and a joint driven to a new configuration arrives either on the side the
     previous state left it at or on the side its servo drove it to: ``setting`` is
-    ``(hold, approached)`` (:data:`BACKLASH_SETTINGS`).
+    ``(hold, approached, shift)`` (:data:`BACKLASH_SETTINGS`), ``shift`` the error of the
+    compensated joint's unloaded torque (:data:`BACKLASH_SHIFTS`).
     """
-    hold, approached = setting
+    hold, approached, shift = setting
     scale = np.abs(rows.load_torque).max(axis=0)
     scale = np.where(scale > 0, scale, 1.0 / BACKLASH_PRELOAD)
+    static = _shifted_static_torque(rows, cell, shift * scale)
     width = BACKLASH_PRELOAD * scale
-    change = np.tanh((rows.static_torque + rows.load_torque) / width) - np.tanh(rows.static_torque / width)
+    change = np.tanh((static + rows.load_torque) / width) - np.tanh(static / width)
     held = hold * scale
     # A pose to predict has no order of measurement: with memory it is taken as a repeat, whose joints
     # move only where the unloaded torque leaves the band, and a plan does not count on the others.
-    steady = np.tanh((rows.static_torque + rows.load_torque) / held) - np.tanh(rows.static_torque / held)
-    steady = np.where(np.abs(rows.static_torque) > held, steady, 0.0)
-    remembered = np.where((rows.marker == PREDICTED_MARKER)[:, np.newaxis], steady, _remembered_change(rows, held, approached))
+    steady = np.tanh((static + rows.load_torque) / held) - np.tanh(static / held)
+    steady = np.where(np.abs(static) > held, steady, 0.0)
+    remembered = np.where((rows.marker == PREDICTED_MARKER)[:, np.newaxis], steady, _remembered_change(rows, static, held, approached))
     return np.concatenate([rows.point_jacobian * change[:, np.newaxis, :], rows.point_jacobian * remembered[:, np.newaxis, :]], axis=2)
+
+
+def _shifted_static_torque(rows: Rows, cell: Cell, shift: np.ndarray) -> np.ndarray:
+    """(N, nq) the joints' unloaded torques (N·m), the compensated joint's moved by its entry of ``shift`` (nq,)."""
+    static = rows.static_torque.copy()
+    if cell.compensated_joint is not None:
+        static[:, cell.compensated_joint] += shift[cell.compensated_joint]
+    return static
 
 
 def _hold_reading(setting: tuple[float, bool], rows: Rows) -> dict:
     """The lost motion's friction hold, as a fraction of each joint's largest load torque and in N·m per joint, and
     what sets a joint's side on arriving at a configuration."""
-    hold, approached = setting
+    hold, approached, shift = setting
+    largest = np.abs(rows.load_torque).max(axis=0)
     return {
         "arrival_side": "driven" if approached else "kept",
         "hold_fraction_of_largest_load_torque": hold,
-        "hold_Nm": [round(float(v), 1) for v in hold * np.abs(rows.load_torque).max(axis=0)],
+        "hold_Nm": [round(float(v), 1) for v in hold * largest],
+        "compensated_joint_torque_shift_fraction": shift,
+        "compensated_joint_torque_shift_Nm": [round(float(v), 1) for v in shift * largest],
     }
 
 
-def _remembered_change(rows: Rows, width: np.ndarray, approached: bool = False) -> np.ndarray:
+def _remembered_change(rows: Rows, static: np.ndarray, width: np.ndarray, approached: bool = False) -> np.ndarray:
     """(N, nq) change of each joint's side (-1 to 1) from the unloaded to the loaded reading, with memory.
 
-    A joint's side follows its torque beyond ``width`` (smoothed as the memoryless
-    form) and otherwise stays where the previous state left it; the states run
+    A joint's side follows its torque beyond ``width`` (``static`` (N, nq) unloaded,
+    plus the load's when loaded; smoothed as the memoryless form) and otherwise stays where the previous state left it; the states run
     unloaded, loaded, for each repeat of each configuration in the order of
     measurement.  The first state's side is taken from its torque alone.  With
     ``approached``, a joint whose commanded angle changed from the previous
@@ -271,13 +294,13 @@ def _remembered_change(rows: Rows, width: np.ndarray, approached: bool = False) 
     """
     order = rows.order
     first = np.unique(order, return_index=True)[1]
-    side = np.tanh(rows.static_torque[first[0]] / width)
+    side = np.tanh(static[first[0]] / width)
     loaded_side, unloaded_side = np.empty((first.size, width.size)), np.empty((first.size, width.size))
     for k, i in enumerate(first):
         if approached and k > 0:
             move = rows.commanded[i] - rows.commanded[first[k - 1]]
             side = np.where(np.abs(move) > APPROACH_MOVE, -np.sign(move), side)
-        for state, torque in ((unloaded_side, rows.static_torque[i]), (loaded_side, rows.static_torque[i] + rows.load_torque[i])):
+        for state, torque in ((unloaded_side, static[i]), (loaded_side, static[i] + rows.load_torque[i])):
             push = np.tanh(torque / width)
             side = np.where(np.abs(torque) > width, push, side)
             state[k] = side

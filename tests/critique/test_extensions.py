@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from bayescal.critique.covariates import pose_rows
-from bayescal.critique.extensions import BACKLASH_PRELOAD, CATALOGUE, PROBES, base_columns
+from bayescal.critique.extensions import BACKLASH_HOLDS, BACKLASH_PRELOAD, BACKLASH_SHIFTS, CATALOGUE, PROBES, base_columns
 from bayescal.twin.effects import LinkCompliance, ToolCompliance
 from bayescal.units import DEG, URAD_PER_NM
 
@@ -91,6 +91,29 @@ def test_lost_motion_with_memory_shows_only_when_the_load_pushes_a_joint_to_the_
     remembered = np.linalg.norm(columns[:, :, nq + free], axis=1) / np.linalg.norm(rows.point_jacobian[0][:, free], axis=0)
     assert memoryless == pytest.approx(1.0) and remembered[0] == pytest.approx(1.0)
     assert remembered[1] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_the_compensated_joint_takes_its_side_from_its_unloaded_torque_as_shifted(cell):
+    rows, _, _ = _rows(cell, POSES[0])
+    j, load = cell.compensated_joint, rows.load_torque[0, cell.compensated_joint]
+    # unloaded, the joint rests just beyond its dead band on the side opposite to the load, as near the compensator's balance
+    static = rows.static_torque.copy()
+    static[0, j] = -0.08 * load
+    rows = replace(rows, static_torque=static)
+    variants = {v.setting[2]: v for v in CATALOGUE["backlash"].variants() if v.setting[:2] == (BACKLASH_HOLDS[0], False)}
+    assert set(variants) == set(BACKLASH_SHIFTS)
+
+    def jump(shift):
+        columns = variants[shift].regressors(rows, cell)[0][:, : cell.robot.nq]
+        return np.linalg.norm(columns, axis=0) / np.linalg.norm(rows.point_jacobian[0], axis=0)
+
+    toward, away = (max(BACKLASH_SHIFTS), min(BACKLASH_SHIFTS)) if load > 0 else (min(BACKLASH_SHIFTS), max(BACKLASH_SHIFTS))
+    # an error toward the load puts the joint inside its band, and the load takes up less of the play
+    assert jump(toward)[j] < 0.5 * jump(0.0)[j] and jump(away)[j] >= jump(0.0)[j]
+    others = np.arange(cell.robot.nq) != j
+    assert jump(toward)[others] == pytest.approx(jump(0.0)[others]) and jump(away)[others] == pytest.approx(jump(0.0)[others])
+    reading = variants[toward].reading(rows)
+    assert reading["compensated_joint_torque_shift_Nm"][j] == pytest.approx(toward * abs(load), abs=0.1)
 
 
 def test_every_extension_and_probe_gives_three_equations_per_row(cell):
