@@ -130,8 +130,8 @@ def _power_section(findings: DetectionFindings) -> list[str]:
         "The repeats' F test of the calibration's model alone (the critique with an empty catalogue, "
         "`bayescal.studies.detection.independent_lack_of_fit`), on the campaigns of the side-by-side table's seeds with "
         "each effect at multiples of its default. The row `none` is the test's size; \"mean F\" is set against the statistic's mean "
-        "under the model. `INDEPENDENT_EFFECTS` holds the magnitude at which each effect is tested against the targets "
-        "thresholds: the smallest multiple in {1, 1.5, 2, 3} at which the test rejects at 5 % in at least 95 % of the "
+        "under the model. `INDEPENDENT_EFFECTS` holds the magnitude at which each effect is tested against the detection "
+        "targets: the smallest multiple in {1, 1.5, 2, 3} at which the test rejects at 5 % in at least 95 % of the "
         f"campaigns, the default where none does; {findings.seconds.get('lack_of_fit', 0.0):.0f} s.",
         "",
         "| effect | multiple of default | campaigns | p < 5 % | p < 1 % | mean F (under the model) |",
