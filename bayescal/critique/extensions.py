@@ -75,8 +75,9 @@ BACKLASH_SHIFTS = (0.0, -0.1, 0.1)
 """Errors tried in the compensated joint's unloaded torque, as fractions of its largest load torque in the
 rows.  That torque is the small difference of the arm's weight and the compensator's pull, taken from the
 cell's spring and link masses: a spring 15 % off the cell's moved it by up to 460 N·m on the independent
-generator (``docs/critique.md``), against a largest load torque of several thousand N·m, and near the
-balance it decides the side of the joint's play.  ESTIMATE: a tenth either way covers that."""
+generator (``docs/critique.md``), against a largest load torque of 6,300-6,700 N·m on joint 2 in Table III's
+twin campaign and the generator's campaigns seeded 9000-9002, and near the balance it decides the side of the
+joint's play.  ESTIMATE: a tenth either way (630-670 N·m there) covers that."""
 BACKLASH_SETTINGS = tuple(
     (hold, approached, shift) for shift in BACKLASH_SHIFTS for approached in (False, True) for hold in BACKLASH_HOLDS
 )
@@ -247,7 +248,9 @@ def _backlash(rows: Rows, cell: Cell, setting: tuple[float, bool, float] = (BACK
     hold, approached, shift = setting
     scale = np.abs(rows.load_torque).max(axis=0)
     scale = np.where(scale > 0, scale, 1.0 / BACKLASH_PRELOAD)
-    static = _shifted_static_torque(rows, cell, shift * scale)
+    static = rows.static_torque.copy()
+    if cell.compensated_joint is not None:
+        static[:, cell.compensated_joint] += shift * scale[cell.compensated_joint]
     width = BACKLASH_PRELOAD * scale
     change = np.tanh((static + rows.load_torque) / width) - np.tanh(static / width)
     held = hold * scale
@@ -259,17 +262,11 @@ def _backlash(rows: Rows, cell: Cell, setting: tuple[float, bool, float] = (BACK
     return np.concatenate([rows.point_jacobian * change[:, np.newaxis, :], rows.point_jacobian * remembered[:, np.newaxis, :]], axis=2)
 
 
-def _shifted_static_torque(rows: Rows, cell: Cell, shift: np.ndarray) -> np.ndarray:
-    """(N, nq) the joints' unloaded torques (N·m), the compensated joint's moved by its entry of ``shift`` (nq,)."""
-    static = rows.static_torque.copy()
-    if cell.compensated_joint is not None:
-        static[:, cell.compensated_joint] += shift[cell.compensated_joint]
-    return static
-
-
-def _hold_reading(setting: tuple[float, bool], rows: Rows) -> dict:
-    """The lost motion's friction hold, as a fraction of each joint's largest load torque and in N·m per joint, and
-    what sets a joint's side on arriving at a configuration."""
+def _hold_reading(setting: tuple[float, bool, float], rows: Rows) -> dict:
+    """The lost motion's friction hold, as a fraction of each joint's largest load torque and in N·m per joint,
+    what sets a joint's side on arriving at a configuration, and the error tried in the compensated joint's
+    unloaded torque: the fraction, and what it comes to in N·m on each joint, of which only the compensated
+    joint's entry is applied (the reading does not know which joint that is)."""
     hold, approached, shift = setting
     largest = np.abs(rows.load_torque).max(axis=0)
     return {
@@ -285,9 +282,9 @@ def _remembered_change(rows: Rows, static: np.ndarray, width: np.ndarray, approa
     """(N, nq) change of each joint's side (-1 to 1) from the unloaded to the loaded reading, with memory.
 
     A joint's side follows its torque beyond ``width`` (``static`` (N, nq) unloaded,
-    plus the load's when loaded; smoothed as the memoryless form) and otherwise stays where the previous state left it; the states run
-    unloaded, loaded, for each repeat of each configuration in the order of
-    measurement.  The first state's side is taken from its torque alone.  With
+    plus the load's when loaded; smoothed as the memoryless form) and otherwise
+    stays where the previous state left it; the states run unloaded, loaded, for
+    each repeat of each configuration in the order of measurement.  The first state's side is taken from its torque alone.  With
     ``approached``, a joint whose commanded angle changed from the previous
     configuration by more than :data:`APPROACH_MOVE` arrives on the side opposite
     to its move (its link lagging the motor that drove it).

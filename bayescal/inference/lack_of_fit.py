@@ -232,6 +232,8 @@ def least_squares_lack_of_fit(
     LackOfFit or None
         As :func:`lack_of_fit`, with the independent columns of ``X`` as its parameters.
     """
+    if np.unique(cells).size == cells.size:
+        return None  # no repeats, no pure error: nothing to fit
     n = y.size // 3
     if frames is not None:
         y = np.einsum("nij,nj->ni", frames, y.reshape(n, 3)).reshape(-1)
