@@ -22,7 +22,7 @@ from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.robot.stiffness import ElasticArm, EquilibriumError
 
-__all__ = ["Rows", "PREDICTED_MARKER", "campaign_rows", "pose_rows", "measured_pose", "predicted_pose", "wrench_at_pose", "COVARIATES"]
+__all__ = ["Rows", "PREDICTED_MARKER", "REVERSED_MARKER", "campaign_rows", "pose_rows", "measured_pose", "predicted_pose", "wrench_at_pose", "COVARIATES"]
 
 POSE_MIN_MARKERS = 3
 """Markers needed to fix the tool's pose (position and orientation)."""
@@ -44,6 +44,9 @@ markers are not where the cell file puts them and the commanded pose is used."""
 
 PREDICTED_MARKER = "test"
 """The marker name of rows built for a prediction (:func:`pose_rows`): poses not measured in sequence."""
+REVERSED_MARKER = "test after reversal"
+"""The marker name of rows built for a plan's first loading of a configuration measured right after a load that
+took the plan joint to the other side of its play (:mod:`bayescal.design.discriminate` orders its plans so)."""
 
 COVARIATES = {
     "q2": "the joint-2 angle",

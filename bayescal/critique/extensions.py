@@ -50,7 +50,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from bayescal.cell.config import Cell
-from bayescal.critique.covariates import COVARIATES, PREDICTED_MARKER, Rows
+from bayescal.critique.covariates import COVARIATES, PREDICTED_MARKER, REVERSED_MARKER, Rows
 
 __all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "BACKLASH_HOLDS", "BACKLASH_SHIFTS", "BACKLASH_SETTINGS", "APPROACH_MOVE", "OUTLIER_DOF"]
 
@@ -237,7 +237,10 @@ def _backlash(rows: Rows, cell: Cell, setting: tuple[float, bool, float] = (BACK
     that pushes it the other way shows the lost motion.  Where a joint's torque
     always leaves the band the two forms are one column, and the fit keeps one.
     A pose to predict (a test pose, a plan's candidate) is taken as a repeat: with
-    memory, a joint whose unloaded torque stays within the band does not move.
+    memory, a joint whose unloaded torque stays within the band does not move.  A
+    plan's candidate at its first loading after a load that took the plan joint to
+    the other side (rows marked :data:`~bayescal.critique.covariates.REVERSED_MARKER`)
+    has that joint start from the far side.
     With memory the band is the friction hold (a fraction of the joint's largest
     load torque in the rows), which a gear held in its play must be pushed beyond,
     and a joint driven to a new configuration arrives either on the side the
@@ -258,7 +261,18 @@ def _backlash(rows: Rows, cell: Cell, setting: tuple[float, bool, float] = (BACK
     # move only where the unloaded torque leaves the band, and a plan does not count on the others.
     steady = np.tanh((static + rows.load_torque) / held) - np.tanh(static / held)
     steady = np.where(np.abs(static) > held, steady, 0.0)
-    remembered = np.where((rows.marker == PREDICTED_MARKER)[:, np.newaxis], steady, _remembered_change(rows, static, held, approached))
+    # A plan's first loading after a load that took the plan joint the other way: unloaded, that joint stays
+    # on the far side unless its own torque leaves the band, and loaded it crosses where the load's does.
+    joint = rows.plan_joint
+    loaded = static[:, joint] + rows.load_torque[:, joint]
+    unloaded_side = np.where(np.abs(static[:, joint]) > held[joint], np.tanh(static[:, joint] / held[joint]), -np.sign(loaded))
+    reversed_ = steady.copy()
+    reversed_[:, joint] = np.where(np.abs(loaded) > held[joint], np.tanh(loaded / held[joint]), unloaded_side) - unloaded_side
+    predicted = (rows.marker == PREDICTED_MARKER)[:, np.newaxis]
+    after_reversal = (rows.marker == REVERSED_MARKER)[:, np.newaxis]
+    remembered = np.where(
+        predicted, steady, np.where(after_reversal, reversed_, _remembered_change(rows, static, held, approached))
+    )
     return np.concatenate([rows.point_jacobian * change[:, np.newaxis, :], rows.point_jacobian * remembered[:, np.newaxis, :]], axis=2)
 
 

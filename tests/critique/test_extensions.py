@@ -3,7 +3,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from bayescal.critique.covariates import pose_rows
+from bayescal.critique.covariates import REVERSED_MARKER, pose_rows
 from bayescal.critique.extensions import BACKLASH_HOLDS, BACKLASH_PRELOAD, BACKLASH_SHIFTS, CATALOGUE, PROBES, base_columns
 from bayescal.twin.effects import LinkCompliance, ToolCompliance
 from bayescal.units import DEG, URAD_PER_NM
@@ -114,6 +114,27 @@ def test_the_compensated_joint_takes_its_side_from_its_unloaded_torque_as_shifte
     assert jump(toward)[others] == pytest.approx(jump(0.0)[others]) and jump(away)[others] == pytest.approx(jump(0.0)[others])
     reading = variants[toward].reading(rows)
     assert reading["compensated_joint_torque_shift_Nm"][j] == pytest.approx(toward * abs(load), abs=0.1)
+
+
+def test_a_first_loading_after_a_reversal_crosses_the_plan_joints_whole_play(cell):
+    rows, _, _ = _rows(cell, POSES[0])
+    j = rows.plan_joint
+    # unloaded, the plan joint rests inside its band: measured as a repeat the load does not move it
+    static = rows.static_torque.copy()
+    static[0, j] = 0.0
+    steady = replace(rows, static_torque=static)
+    after = replace(steady, marker=np.array([REVERSED_MARKER]))
+    variant = next(v for v in CATALOGUE["backlash"].variants() if v.setting == (BACKLASH_HOLDS[0], False, 0.0))
+    nq = cell.robot.nq
+
+    def jump(r):
+        columns = variant.regressors(r, cell)[0][:, nq:]
+        return np.linalg.norm(columns, axis=0) / np.linalg.norm(r.point_jacobian[0], axis=0)
+
+    # after a load that took it the other way, it crosses the whole play, from one side to the other
+    assert jump(steady)[j] == pytest.approx(0.0, abs=1e-12) and jump(after)[j] == pytest.approx(2.0, rel=1e-6)
+    others = np.arange(nq) != j
+    assert jump(after)[others] == pytest.approx(jump(steady)[others])
 
 
 def test_every_extension_and_probe_gives_three_equations_per_row(cell):

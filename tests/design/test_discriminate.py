@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bayescal.design.constraints import load_design_space
-from bayescal.design.discriminate import DiscriminatingDesigner, expected_z, separation, shares
+from bayescal.design.discriminate import DiscriminatingDesigner, _Exchange, expected_z, separation, shares
 from bayescal.design.optimise import PlanDesigner
 from bayescal.errors import InputError
 
@@ -59,6 +59,16 @@ def test_the_plan_separates_a_tied_pair_far_better_than_the_tied_campaign(cell, 
     assert PlanDesigner(cell, space, model="linear").violations(design.plan) == []
     payload = design.to_json()
     assert payload["between"] == ["backlash", "nonlinear_stiffness"] and payload["planned"]["worst_nats"] == pytest.approx(design.planned.worst, abs=1e-3)
+
+
+def test_a_groups_slots_alternate_the_plan_joints_side_from_positive_and_take_either_where_one_side_runs_out():
+    group = np.array([0, 0, 0, 0, 1, 1])
+    side = np.array([-1.0, 1.0, -1.0, 1.0, 1.0, 1.0])
+    search = _Exchange(np.zeros((6, 1, 1)), group, side, np.array([0.0, 1.0]), 0.0, (), (), np.random.default_rng(0))
+    assert list(search._slot_pool(0, 0, [])) == [1, 3] and list(search._slot_pool(0, 1, [])) == [0, 2]
+    assert list(search._slot_pool(0, 2, [1])) == [3]
+    # a group whose loads all take the joint one way fills the other side's slots from it
+    assert list(search._slot_pool(1, 1, [4])) == [5]
 
 
 @pytest.mark.parametrize("between", [("backlash", "backlash"), ("backlash", "outliers"), ("backlash",)])
