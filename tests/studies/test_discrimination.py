@@ -23,8 +23,9 @@ def test_the_plan_of_a_tied_twin_campaign_puts_the_planted_lost_motion_ahead():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("case", list(TIE_CASES))
-def test_the_discriminating_plan_separates_the_pair_in_at_least_80_percent_of_20_seeds(case):
-    table = tie_resolution(DATA / "kr270.toml", DATA / "table3_plan.csv", [case], n_seeds=20, seed=1)
+def test_the_discriminating_plan_separates_the_pair_in_at_least_80_percent_of_30_seeds(case):
+    table = tie_resolution(DATA / "kr270.toml", DATA / "table3_plan.csv", [case], n_seeds=30, seed=1)
     tied = table[table["tied"]]
     # the requirement is about campaigns that tie; a case whose campaigns rarely do would not test it
+    # (the independent lost motion with memory ties in 18 of 30 seeds within TIE_DRAWS campaigns)
     assert len(tied) >= 15 and tied["separated"].astype(bool).mean() >= 0.8, table.to_string()
