@@ -190,6 +190,7 @@ def _discriminate(args: argparse.Namespace, cell) -> CommandOutput:
         f"{planned[0]:.1f} ({tied[0]:.1f}) if {a} is true, {planned[1]:.1f} ({tied[1]:.1f}) if {b} is; "
         f"in standard errors of the held-out comparison {design.planned.z[0]:.1f} ({design.campaign.z[0]:.1f}) "
         f"and {design.planned.z[1]:.1f} ({design.campaign.z[1]:.1f})",
+        design.order,
         # Angles and loads as a person sets them on the robot: to 0.1 deg and 0.1 kg.
         table_texts(table, {}, {column: fixed(1) for column in table.columns}).to_string(),
     ]

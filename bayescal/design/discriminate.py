@@ -240,6 +240,8 @@ class DiscriminatingDesign:
     repeats : int
     starts : list of float
         The worse separation (nats) reached from each random start.
+    plan_joint : int
+        Index (0-based) of the joint whose load each configuration reverses, in the plan's order.
     seed : int or None
     """
 
@@ -249,7 +251,16 @@ class DiscriminatingDesign:
     magnitudes: dict
     repeats: int
     starts: list
+    plan_joint: int
     seed: int | None = None
+
+    @property
+    def order(self) -> str:
+        """How the plan must be measured for its separation to hold."""
+        return (
+            f"measure the configurations in the order written, each one's repeats in a row: each load takes joint "
+            f"{self.plan_joint + 1} to the other side of its play from the previous one's, where the configurations allow"
+        )
 
     def summary(self) -> pd.DataFrame:
         """One row per configuration: joint angles (deg) and load (kg)."""
@@ -274,6 +285,7 @@ class DiscriminatingDesign:
             "q2_deg": sorted({round(float(v), 3) for v in self.plan.q[:, 1] / DEG}),
             "load_kg": [round(float(m), 1) for m in self.plan.load_kg],
             "seed": self.seed,
+            "order": self.order,
         } | self.diagnostics()
 
     def save(self, path: str | PathLike[str], *, comments: tuple[str, ...] = ()) -> None:
@@ -282,7 +294,7 @@ class DiscriminatingDesign:
             f"plan to tell {a} from {b}: {self.planned.worst:.1f} nats and {min(self.planned.z):.1f} SE expected at worst, "
             f"the tied campaign {self.campaign.worst:.1f} nats and {min(self.campaign.z):.1f} SE"
         )
-        write_plan(self.plan, path, comments=(note,) + tuple(comments))
+        write_plan(self.plan, path, comments=(note, self.order) + tuple(comments))
 
 
 class DiscriminatingDesigner:
@@ -388,6 +400,7 @@ class DiscriminatingDesigner:
             magnitudes={name: b.tolist() for name, b in zip(between, beta)},
             repeats=self.repeats,
             starts=reached,
+            plan_joint=pool.plan_joint,
             seed=seed,
         )
 

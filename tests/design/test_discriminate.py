@@ -59,6 +59,8 @@ def test_the_plan_separates_a_tied_pair_far_better_than_the_tied_campaign(cell, 
     assert PlanDesigner(cell, space, model="linear").violations(design.plan) == []
     payload = design.to_json()
     assert payload["between"] == ["backlash", "nonlinear_stiffness"] and payload["planned"]["worst_nats"] == pytest.approx(design.planned.worst, abs=1e-3)
+    # the separation counts on the order of measurement, which the plan's user must keep
+    assert "order written" in payload["order"] and "joint 2" in payload["order"]
 
 
 def test_a_groups_slots_alternate_the_plan_joints_side_from_positive_and_take_either_where_one_side_runs_out():
