@@ -163,7 +163,8 @@ def tie_resolution(
     n_seeds
         Seeds per case.
     seed
-        Root of the :class:`numpy.random.SeedSequence` of every campaign and plan.
+        Root of the :class:`numpy.random.SeedSequence` of every campaign and plan; a case's
+        seeds are the same whichever other cases are run with it.
     mass_range
         The masses (kg) the discriminating plan may hang.
     angles, per_angle
@@ -187,8 +188,12 @@ def tie_resolution(
     from bayescal.cell.plan import read_plan
 
     cell = load_cell(config)
-    roots = np.random.SeedSequence(seed).spawn(len(cases))
-    streams = [s for root in roots for s in root.spawn(n_seeds)]
+    unknown = [name for name in cases if name not in TIE_CASES]
+    if unknown:
+        raise ValueError(f"unknown tie cases {unknown}; expected names of TIE_CASES: {', '.join(TIE_CASES)}")
+    # each case's seeds hang off its place in TIE_CASES, so that a case gets the same campaigns alone or with others
+    roots = np.random.SeedSequence(seed).spawn(len(TIE_CASES))
+    streams = [s for name in cases for s in roots[list(TIE_CASES).index(name)].spawn(n_seeds)]
     items = [TIE_CASES[name] for name in cases for _ in range(n_seeds)]
     results = seeded_map(
         _one, items, streams, executor=executor,

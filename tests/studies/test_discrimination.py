@@ -29,3 +29,20 @@ def test_the_discriminating_plan_separates_the_pair_in_at_least_80_percent_of_30
     # the requirement is about campaigns that tie; a case whose campaigns rarely do would not test it
     # (the independent lost motion with memory ties in 18 of 30 seeds within TIE_DRAWS campaigns)
     assert len(tied) >= 15 and tied["separated"].astype(bool).mean() >= 0.8, table.to_string()
+
+
+def test_a_case_gets_the_same_campaigns_alone_or_with_other_cases(monkeypatch):
+    import bayescal.studies.discrimination as study
+
+    seen = {}
+
+    def record(task, items, streams, **shared):
+        seen[len(items)] = {case.effect: stream.generate_state(2).tolist() for case, stream in zip(items, streams)}
+        return [{} for _ in items]
+
+    monkeypatch.setattr(study, "seeded_map", record)
+    tie_resolution(DATA / "kr270.toml", DATA / "table3_plan.csv", ["independent torque-dependent"], n_seeds=1)
+    tie_resolution(DATA / "kr270.toml", DATA / "table3_plan.csv", ["twin lost motion", "independent torque-dependent"], n_seeds=1)
+    assert seen[1]["knee_joints"] == seen[2]["knee_joints"]
+    with pytest.raises(ValueError, match="unknown tie cases"):
+        tie_resolution(DATA / "kr270.toml", DATA / "table3_plan.csv", ["knee"], n_seeds=1)
