@@ -147,7 +147,7 @@ def tie_resolution(
     seed: int = 0,
     mass_range: tuple[float, float] = (50.0, 280.0),
     angles: int = 5,
-    per_angle: int = 6,
+    per_angle: int | None = None,
     candidates_per_angle: int = 4,
     starts: int = 1,
     executor: Executor | None = None,
@@ -168,7 +168,8 @@ def tie_resolution(
     mass_range
         The masses (kg) the discriminating plan may hang.
     angles, per_angle
-        The discriminating plan's q2 angles and configurations per angle (each measured 3 times).
+        The discriminating plan's q2 angles and configurations per angle (each measured 3 times;
+        default the command's, :data:`~bayescal.design.discriminate.PER_ANGLE`).
     candidates_per_angle, starts
         Candidate configurations per q2 angle of the plan's search, and its random starts
         (the command's defaults are 8 and 4).
@@ -186,8 +187,10 @@ def tie_resolution(
     """
     from bayescal.cell.config import load_cell
     from bayescal.cell.plan import read_plan
+    from bayescal.design.discriminate import PER_ANGLE
 
     cell = load_cell(config)
+    per_angle = PER_ANGLE if per_angle is None else per_angle
     unknown = [name for name in cases if name not in TIE_CASES]
     if unknown:
         raise ValueError(f"unknown tie cases {unknown}; expected names of TIE_CASES: {', '.join(TIE_CASES)}")
