@@ -36,7 +36,7 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--config", required=True, help="cell TOML file (robot, stiffness, compensator, tool, tracker, test pose)")
     parser.add_argument("--angles", type=whole_number(1), default=5, help="distinct q2 angles (default 5, as Table III)")
     parser.add_argument(
-        "--per-angle", type=whole_number(1), default=None, help="configurations per q2 angle (default 3; with --criterion discriminate, the discriminating plan's own, PER_ANGLE in bayescal.design.discriminate)"
+        "--per-angle", type=whole_number(1), default=None, help="configurations per q2 angle (default 3; with --criterion discriminate, bayescal.design.discriminate.PER_ANGLE)"
     )
     parser.add_argument("--repeats", type=whole_number(1), default=3, help="measurements of each configuration (default 3)")
     parser.add_argument(

@@ -189,14 +189,14 @@ def tie_resolution(
     from bayescal.cell.plan import read_plan
     from bayescal.design.discriminate import PER_ANGLE
 
-    cell = load_cell(config)
-    per_angle = PER_ANGLE if per_angle is None else per_angle
     unknown = [name for name in cases if name not in TIE_CASES]
     if unknown:
         raise ValueError(f"unknown tie cases {unknown}; expected names of TIE_CASES: {', '.join(TIE_CASES)}")
+    cell = load_cell(config)
+    per_angle = PER_ANGLE if per_angle is None else per_angle
     # each case's seeds hang off its place in TIE_CASES, so that a case gets the same campaigns alone or with others
-    roots = np.random.SeedSequence(seed).spawn(len(TIE_CASES))
-    streams = [s for name in cases for s in roots[list(TIE_CASES).index(name)].spawn(n_seeds)]
+    roots = dict(zip(TIE_CASES, np.random.SeedSequence(seed).spawn(len(TIE_CASES))))
+    streams = [s for name in cases for s in roots[name].spawn(n_seeds)]
     items = [TIE_CASES[name] for name in cases for _ in range(n_seeds)]
     results = seeded_map(
         _one, items, streams, executor=executor,
