@@ -25,7 +25,8 @@ from bayescal.errors import InputError
 __all__ = ["CellFileReader", "SCHEMA", "read_cell_file"]
 
 SCHEMA: dict[str, frozenset[str] | None] = {
-    "robot": frozenset({"urdf", "flange", "payload_kg", "joints", "locked_deg", "locked_mm", "reference_csv"}),
+    "robot": frozenset({"urdf", "flange", "payload_kg", "joints", "locked_deg", "locked_mm", "reference_csv", "coupled"}),
+    "robot.coupled": None,
     "joints": frozenset({"k_urad_per_Nm", "k_um_per_N"}),
     "compensator": frozenset({"joint", "L_mm", "a_x_mm", "a_y_mm", "phi_deg", "K_c_N_per_mm", "s0_mm"}),
     "tool": frozenset({"load_point_mm", "markers_mm", "tcp_mm"}),
@@ -34,6 +35,15 @@ SCHEMA: dict[str, frozenset[str] | None] = {
     "load": frozenset({"mass_kg", "gravity_m_per_s2", "directions", "force_max_N", "couple_max_Nm"}),
     "test_pose": frozenset({"q_deg", "q_mm", "wrench_N_Nm", "point_mm"}),
     "design": frozenset({"mass_kg", "acceptance_deg", "floor_z_mm", "hanging_clearance_mm"}),
+    # A cell of measured points (``bayescal kinematics``): markers on named links, the base in the tracker frame.
+    "markers": None,
+    "base": frozenset({"position_mm", "rpy_deg", "gravity_m_per_s2"}),
+    "frames": frozenset({"free"}),
+    "priors": frozenset({
+        "base_sd_mm", "base_sd_deg", "frame_sd_mm", "frame_sd_deg", "marker_sd_mm", "offset_sd_deg", "length_sd_mm",
+        "twist_sd_deg", "joint_compliance_sd_urad_per_Nm", "transversal_compliance_sd_urad_per_Nm", "mass_sd_fraction",
+        "com_sd_mm",
+    }),
 }
 """The tables of a cell file and their keys (``None``: any key, e.g. marker names).
 
