@@ -7,9 +7,10 @@ repository ``dlr-alr/dlr-elastic-calibration``.  Each column is the transform
 Rx(α) Tx(r) Rz(θ + q) Tz(d) from its predecessor (modified, Craig, DH); the arms
 and the head hang off torso frame 3.  What the table does not give is flagged:
 
-* the shoulders' mounts on the torso (not in the table): a first guess 0.25 m to
-  each side along torso frame 3's z axis, turned 30° about it, from a frames-only
-  fit to the data set (``docs/kinematics.md``); the calibration identifies them;
+* the shoulders' mounts on torso frame 3 (not in the table): the result of a
+  frames-only fit to the data set started from mounts 0.25 m to each side along
+  torso frame 3's z axis (``docs/kinematics.md``), rounded; the calibration
+  identifies them again as free frames;
 * every mass (the authors' come from CAD and are not published): ESTIMATES of the
   right order for arms of this size, each body's centre of mass halfway to the
   next joint; the calibration identifies masses and compliances together.
@@ -31,9 +32,8 @@ LEFT = [(0, 0, 0, 180), (0, 0, 0, 90), (-0.4, -90, 0, -90), (0, 0, 0, 90), (-0.3
 HEAD = [(0, 0, 0, 0), (0, 0, 0, -90)]
 """(d m, θ deg, r m, α deg) of each joint, as the data set's table lists them."""
 
-SHOULDER_OFFSET = 0.25
-SHOULDER_TURN = 30.0
-"""The shoulders' mount guess: m along torso frame 3's z axis (right +, left −), deg about it (right +, left −)."""
+MOUNTS = {"right": ((0.023, 0.084, -0.259), (180.0, 28.9, 180.0)), "left": ((0.021, 0.084, 0.248), (0.0, 30.0, 0.0))}
+"""Each shoulder's mount on torso frame 3: xyz (m) and URDF roll-pitch-yaw (deg), from the frames-only fit."""
 
 TORSO_KG = (8.0, 8.0, 8.0, 20.0)
 ARM_KG = (2.5, 2.5, 2.5, 2.5, 2.0, 1.5, 2.5)
@@ -48,6 +48,11 @@ LIMIT = 3.2
 def _rx(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
     return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def _ry(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
 
 
 def _rz(a: float) -> np.ndarray:
@@ -111,10 +116,11 @@ def justin_urdf() -> str:
     parts = ['<?xml version="1.0"?>', "<!-- Written by examples/justin_urdf.py: sources and estimates are named there. -->",
              '<robot name="agile_justin_upper_body">', _link("base")]
     parts += _chain("torso", "base", TORSO, TORSO_KG, (0.0, 0.0, 0.0))
-    for side, rows, sign in (("right", RIGHT, 1.0), ("left", LEFT, -1.0)):
+    for side, rows in (("right", RIGHT), ("left", LEFT)):
         mount = f"{side}_shoulder"
-        turn = _rz(math.radians(sign * SHOULDER_TURN))
-        parts += [_link(mount), _joint(f"{mount}_mount", "torso4", mount, (0.0, 0.0, sign * SHOULDER_OFFSET), turn, revolute=False)]
+        xyz, (roll, pitch, yaw) = MOUNTS[side]
+        turn = _rz(math.radians(yaw)) @ _ry(math.radians(pitch)) @ _rx(math.radians(roll))
+        parts += [_link(mount), _joint(f"{mount}_mount", "torso4", mount, xyz, turn, revolute=False)]
         parts += _chain(side, mount, rows, ARM_KG, HAND_COM)
     parts += _chain("head", "torso4", HEAD, HEAD_KG, (0.0, 0.0, 0.1))
     parts.append("</robot>")

@@ -26,7 +26,7 @@ from bayescal.output import forget_written, written_paths
 
 __all__ = ["main"]
 
-COMMANDS = ("geometry", "simulate", "calibrate", "plan", "study", "critique", "report", "compensate", "axes")
+COMMANDS = ("geometry", "simulate", "calibrate", "plan", "study", "critique", "report", "compensate", "axes", "kinematics", "predict")
 
 
 class _Parser(argparse.ArgumentParser):

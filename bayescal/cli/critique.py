@@ -10,7 +10,7 @@ import textwrap
 
 from bayescal.output import guard_outputs, write_folder
 
-from ._command import CommandOutput, add_common_options
+from ._command import CommandOutput, add_common_options, whole_number
 from ._registered import add_registration_option, read_arcs_in_paper_frame, read_campaign_in_base, registration_lines
 
 __all__ = ["add_parser", "run"]
@@ -28,7 +28,8 @@ def add_parser(subparsers) -> None:
             "model on tracker arcs instead (tilt, pivot_motion, cylinder_slip, joint_scale, closed_loop; held-out joint angles)."
         ),
     )
-    parser.add_argument("campaign", nargs="?", help="campaign CSV (bayescal simulate writes one); not with --geometry")
+    parser.add_argument("campaign", nargs="?", help="campaign CSV (bayescal simulate writes one), or a positions file of a cell of "
+                        "measured points (then the model ladder of `bayescal kinematics`, scored held out); not with --geometry")
     parser.add_argument(
         "--config", help="cell TOML file: robot URDF, compensator, tool markers, tracker, test pose; not with --geometry"
     )
@@ -37,6 +38,8 @@ def add_parser(subparsers) -> None:
         metavar="POINTS.csv",
         help="criticise the compensator-geometry model on tracker points (q2_deg, marker, x_mm, y_mm) instead of a campaign",
     )
+    parser.add_argument("--folds", type=whole_number(2, "folds of the cross-validation"), default=10,
+                        help="on a positions file (a cell with [markers]): folds of the cross-validation by configuration (default 10)")
     parser.add_argument("--figures", metavar="DIR", help="write the figures into this folder: held-out residuals and LOO-PIT (with --geometry: held-out residuals per marker)")
     add_registration_option(parser, "the campaign's positions (or the --geometry points, with z_mm)")
     add_common_options(parser)
@@ -54,6 +57,10 @@ def run(args: argparse.Namespace) -> CommandOutput:
         return _run_geometry(args)
     if args.campaign is None or args.config is None:
         raise InputError("expected a campaign CSV and --config CELL.toml, or --geometry POINTS.csv")
+    from bayescal.kinematics.cell import is_points_cell
+
+    if is_points_cell(args.config):
+        return _run_ladder(args)
 
     from bayescal.cell.config import load_cell
     from bayescal.critique import Critique
@@ -75,6 +82,22 @@ def run(args: argparse.Namespace) -> CommandOutput:
         payload["registration"] = {"source": args.registration} | transfer.to_json()
     text = "\n".join([_text(results, figures), *registration_lines(transfer, args.registration)])
     return CommandOutput(payload=payload, text=text)
+
+
+def _run_ladder(args: argparse.Namespace) -> CommandOutput:
+    """The model ladder on a positions file of a cell of measured points (`bayescal kinematics`)."""
+    from bayescal.errors import InputError
+    from bayescal.kinematics import load_points_cell, read_positions
+    from bayescal.kinematics.ladder import ModelLadder
+
+    if args.figures is not None or args.registration is not None:
+        raise InputError("on a positions file the critique takes --config, --folds and --json only", source="--figures" if args.figures else "--registration")
+    cell = load_points_cell(args.config)
+    positions = read_positions(args.campaign, cell)
+    if len(positions) < args.folds:
+        raise InputError(f"{len(positions)} configurations cannot be split into {args.folds} folds", source="--folds")
+    findings = ModelLadder(cell, folds=args.folds, seed=args.seed).run(positions)
+    return CommandOutput(payload=findings.to_json() | {"seed": args.seed}, text=findings.text())
 
 
 def _run_geometry(args: argparse.Namespace) -> CommandOutput:

@@ -13,6 +13,13 @@ joint's axis, κx and κy, the transversal compliance, across it).  ``M_j`` is l
 in the bodies' masses and first moments, which are parameters too: the data fix
 the products of compliances and masses, the priors the rest.
 
+The Jacobian is exact in the compliances and masses; in the kinematic parameters it
+leaves out how a correction changes the deflection itself (and the base's tilt the
+direction of gravity): terms of the order of the deflection over the arm's length
+(up to a few per cent of a column on Justin).  The search evaluates the objective exactly, so every step
+it takes lowers it; where it stops, the exact gradient differs from zero by terms
+of that order.
+
 The ladder's rungs add parameter groups in the order of Tenhumberg and Bäuml's
 table: ``frames`` (the base, the free frames, the markers), ``offsets`` (θ),
 ``geometry`` (d, r, α: the rest of each joint's 6-D placement correction, in the

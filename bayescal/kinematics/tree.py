@@ -95,6 +95,7 @@ class BatchedTree:
         ``(nj, 3)`` each body's centre of mass in its joint frame (m).
     supports : tuple of tuple of int
         Each joint's path from the root, itself last, the universe left out.
+    source : str or None
     """
 
     def __init__(self, model: pin.Model, *, source: str | None = None) -> None:
@@ -110,6 +111,7 @@ class BatchedTree:
                     source=source,
                 )
         self.model = model
+        self.source = source
         self.nj = int(model.njoints)
         self.parents = tuple(int(p) for p in model.parents)
         self.names = tuple(str(n) for n in model.names)
