@@ -10,8 +10,6 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers) -> None:
-    from bayescal.kinematics.model import RUNGS
-
     parser = subparsers.add_parser(
         "kinematics",
         help="identify a robot's kinematics and self-weight compliance from measured marker positions",
@@ -24,16 +22,20 @@ def add_parser(subparsers) -> None:
     )
     parser.add_argument("positions", metavar="POSITIONS.csv", help="q1_deg..qn_deg (the cell's commanded joints), marker, x_mm, y_mm, z_mm")
     parser.add_argument("--config", required=True, metavar="CELL.toml", help="cell of measured points: URDF, joints, markers, base, priors")
-    parser.add_argument("--model", choices=RUNGS, default="full", help="the rung of the ladder to fit (default full)")
+    # Checked in run: the rungs' module imports Pinocchio, which the parser of every command would then pay for.
+    parser.add_argument("--model", default="full", help="the rung of the ladder to fit (docs/kinematics.md lists them; default full)")
     parser.add_argument("-o", "--output", metavar="CALIBRATION.nc", help="write the posterior (NetCDF) for `bayescal predict`")
     add_common_options(parser)
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> CommandOutput:
-    from bayescal.kinematics import KinematicCalibration, load_points_cell, read_positions
+    from bayescal.errors import InputError
+    from bayescal.kinematics import RUNGS, KinematicCalibration, load_points_cell, read_positions
     from bayescal.output import guard_outputs, write_atomically
 
+    if args.model not in RUNGS:
+        raise InputError(f"expected one of {', '.join(RUNGS)}, got '{args.model}'", source="--model")
     inputs = {"the positions": args.positions, "the config": args.config}
     guard_outputs(inputs, files={"-o": args.output})
     cell = load_points_cell(args.config)

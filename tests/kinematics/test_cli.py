@@ -64,3 +64,8 @@ def test_bad_positions_one_line_exit_2_nothing_written(case, tmp_path, small_cam
 def test_output_onto_the_cells_urdf_is_refused(tmp_path, small_campaign, capsys):
     assert main(["kinematics", str(small_campaign), "--config", str(JUSTIN_CELL), "-o", str(JUSTIN_CELL.parent / "justin.urdf")]) == 2
     assert "URDF" in capsys.readouterr().err
+
+
+def test_unknown_rung_is_named(small_campaign, capsys):
+    assert main(["kinematics", str(small_campaign), "--config", str(JUSTIN_CELL), "--model", "elastic"]) == 2
+    assert "--model: expected one of frames, offsets, geometry, joint-elastic, full" in capsys.readouterr().err
