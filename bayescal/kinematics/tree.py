@@ -121,10 +121,12 @@ class BatchedTree:
         self.mass = np.array([model.inertias[j].mass for j in range(self.nj)])
         self.com = np.array([np.array(model.inertias[j].lever) for j in range(self.nj)])
         self.supports = tuple(tuple(int(i) for i in model.supports[j] if i > 0) for j in range(self.nj))
+        # Read on every prediction of every elastic joint: computed once here.
+        self._subtrees = tuple(tuple(k for k in range(1, self.nj) if j in self.supports[k]) for j in range(self.nj))
 
     def subtree(self, joint: int) -> tuple[int, ...]:
         """The joints whose bodies ``joint`` carries, itself included."""
-        return tuple(j for j in range(1, self.nj) if joint in self.supports[j])
+        return self._subtrees[joint]
 
     def frames(self, q: np.ndarray, corrections: dict[int, pin.SE3] | None = None) -> TreeFrames:
         """The joint frames of ``N`` configurations.
