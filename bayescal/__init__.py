@@ -25,8 +25,8 @@ _ENTRY_POINTS = {
     "DigitalTwin": "twin.simulator",
     "read_campaign": "cell.campaign",
     "ElastostaticModel": "inference.elastostatic",
-    "predict_test_pose": "inference.testpose",
-    "predict_cell_test_pose": "inference.testpose",
+    "predict_test_pose": "compensation.testpose",
+    "predict_cell_test_pose": "compensation.testpose",
     "PlanDesigner": "design.optimise",
 }
 

@@ -7,12 +7,16 @@ once before any work, then :func:`write_atomically` or :func:`write_folder`):
   other outputs, by resolved path and by inode, so that no relative path,
   symlink or hard link lets a command write over what it reads or one output
   silently replace another;
+- every reader of a file calls :func:`record_read` when it opens it, and a file
+  a cell points to (its URDF, its reference table) is recorded when the cell is
+  read, so the guard and the writers also refuse an output onto a file the
+  command line does not name;
 - a file is written to a temporary file beside its target and renamed in, so a
   full disk or an interrupt leaves the old file whole, and the error names the
   option and the file;
 - a folder of files (a report, figures) is written into a staging folder, then
   renamed in whole when the folder is new, or its files renamed in together
-  when it exists, with Ctrl-C held back during those renames;
+  when it exists, with Ctrl-C (and SIGTERM, SIGHUP) held back during those renames;
 - :func:`written_paths` says what a run has written, so that an interrupt can
   say what was kept.
 """
@@ -31,7 +35,10 @@ from pathlib import Path
 
 from bayescal.errors import InputError
 
-__all__ = ["check_output", "check_folder", "guard_outputs", "write_atomically", "write_folder", "written_paths", "forget_written"]
+__all__ = [
+    "check_output", "check_folder", "guard_outputs", "write_atomically", "write_folder", "written_paths", "forget_written",
+    "record_read", "read_paths", "forget_reads",
+]
 
 PathText = str | PathLike[str]
 
@@ -47,6 +54,45 @@ def written_paths() -> list[str]:
 def forget_written() -> None:
     """Start a new run's record of written outputs."""
     _written.clear()
+
+
+_read: dict[str, str | None] = {}
+"""Files read by this process since :func:`forget_reads`, by resolved path, with what each is (``None``: not said).
+
+A record of the process, like :data:`_written`, rather than an argument: a table is
+opened several calls below the command (a study reads its cell, the cell its URDF and
+reference table), and a register passed down every reader's signature is one a new
+reader can forget to pass on.  The CLI starts each run's record afresh."""
+
+
+def record_read(path: PathText, what: str | None = None) -> None:
+    """Record that this run reads ``path``: from now on no output may be written over it.
+
+    Every reader calls it when it opens a file (or, for a file a cell points to,
+    when the cell names it), so an output onto any input is refused whether or not
+    the command line names that input.
+
+    Parameters
+    ----------
+    path
+        The file read.
+    what
+        What the file is, for the refusal, e.g. ``"the reference table the cell cell.toml points to"``;
+        a later record of the same file keeps the first description given.
+    """
+    key = os.path.realpath(path)
+    if _read.get(key) is None:
+        _read[key] = what
+
+
+def read_paths() -> list[str]:
+    """The files (resolved paths) read since the last :func:`forget_reads`, in the order first read."""
+    return list(_read)
+
+
+def forget_reads() -> None:
+    """Start a new run's record of the files it reads."""
+    _read.clear()
 
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -74,9 +120,10 @@ def check_output(option: str, path: PathText | None, inputs: Mapping[str, PathTe
     Raises
     ------
     InputError
-        When the output resolves to an input file (also through a symlink, a
-        relative path or a hard link), is a directory, lies in a folder that
-        does not exist or cannot be written, or is a read-only file.
+        When the output resolves to an input file or to a file this run has read
+        (:func:`record_read`), also through a symlink, a relative path or a hard
+        link; is a directory; lies in a folder that does not exist or cannot be
+        written; or is a read-only file.
     """
     if path is None:
         return
@@ -91,6 +138,7 @@ def check_output(option: str, path: PathText | None, inputs: Mapping[str, PathTe
                 "choose another output file",
                 source=option,
             )
+    _refuse_reads(option, path)
     if target.is_dir():
         raise InputError(f"{path} is a directory; expected the name of a file to write", source=option)
     folder = Path(os.path.realpath(target)).parent
@@ -100,6 +148,20 @@ def check_output(option: str, path: PathText | None, inputs: Mapping[str, PathTe
         raise InputError(f"cannot create files in the output folder {folder} (permission denied)", source=option)
     if target.exists() and not os.access(target, os.W_OK):
         raise InputError(f"{path} is read-only; make it writable or choose another output file", source=option)
+
+
+def _refuse_reads(option: str, path: PathText) -> None:
+    """Refuse an output that is a file this run has read (:func:`record_read`), under any name."""
+    target = Path(path)
+    # A copy: a reader on another thread (a study's workers) may record a file meanwhile.
+    for source, what in list(_read.items()):
+        if _same_file(target, Path(source)):
+            alias = "" if os.path.realpath(target) == source else f" ({source})"
+            raise InputError(
+                f"{path} is {what or 'a file this command reads'}{alias}: writing there would destroy the input; "
+                "choose another output file",
+                source=option,
+            )
 
 
 def check_folder(option: str, path: PathText | None, names: Sequence[str], inputs: Mapping[str, PathText | None]) -> None:
@@ -157,8 +219,9 @@ def guard_outputs(
     Raises
     ------
     InputError
-        Naming the option, when an output is an input under any name, cannot be
-        written, or is the same file as another output.
+        Naming the option, when an output is an input or a file this run has read
+        (:func:`record_read`) under any name, cannot be written, or is the same file
+        as another output.
     """
     files = {option: path for option, path in (files or {}).items() if path is not None}
     folders = {option: entry for option, entry in (folders or {}).items() if entry[0] is not None}
@@ -186,20 +249,31 @@ def _mode_for(target: Path, default: int = 0o666) -> int:
     return default & ~umask
 
 
+HELD_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
+"""The signals that end a run (Ctrl-C, a scheduler's or ``timeout``'s SIGTERM, a closed terminal's SIGHUP):
+held back while outputs are renamed into place."""
+
+
 @contextmanager
 def _interrupts_held() -> Iterator[None]:
-    """Hold back Ctrl-C while outputs are renamed into place; deliver it once they all are."""
+    """Hold back :data:`HELD_SIGNALS` while outputs are renamed into place; deliver the first once they all are.
+
+    The signal is raised again under the handler that was in force, so it ends the
+    run as it would have (``KeyboardInterrupt`` for Ctrl-C, the CLI's handler or the
+    default termination for SIGTERM).
+    """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     received: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda number, frame: received.append(number))
+    previous = {number: signal.signal(number, lambda number, frame: received.append(number)) for number in HELD_SIGNALS}
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for number, handler in previous.items():
+            signal.signal(number, handler)
     if received:
-        raise KeyboardInterrupt
+        signal.raise_signal(received[0])
 
 
 def _failure(option: str, path: PathText, error: OSError) -> InputError:
@@ -217,8 +291,11 @@ def write_atomically(option: str, path: PathText, write: Callable[[Path], None])
     Raises
     ------
     InputError
-        When the file cannot be written (disk full, permission), naming ``option`` and ``path``.
+        When ``path`` is a file this run has read (:func:`record_read`: refused before
+        anything is written), or when the file cannot be written (disk full,
+        permission), naming ``option`` and ``path``.
     """
+    _refuse_reads(option, path)
     target = Path(os.path.realpath(path))
     mode = _mode_for(target)
     try:
@@ -260,9 +337,11 @@ def write_folder(option: str, path: PathText, write: Callable[[Path], object]) -
     Raises
     ------
     InputError
-        When the files cannot be written (disk full, permission), naming ``option`` and ``path``;
+        When the folder or one of the files is a file this run has read (:func:`record_read`),
+        or the files cannot be written (disk full, permission), naming ``option`` and ``path``;
         the folder is then as it was.
     """
+    _refuse_reads(option, path)
     folder = Path(path)
     exists = folder.is_dir()
     home = folder if exists else Path(os.path.realpath(folder)).parent
@@ -273,6 +352,8 @@ def write_folder(option: str, path: PathText, write: Callable[[Path], object]) -
     try:
         write(staging)
         names = sorted(entry.name for entry in staging.iterdir())
+        for name in names:
+            _refuse_reads(option, folder / name)
         for name in names:
             with (staging / name).open("rb+") as stream:
                 os.fsync(stream.fileno())

@@ -4,7 +4,8 @@ offending cell, and the Markdown tables of its reports.
 The files are plain comma-separated tables with a header row.  Lines that start
 with ``#`` carry provenance notes and are skipped, as are blank lines.  The
 returned frame is indexed by the 1-based line number in the file, so any later
-check can name the line a bad value came from.
+check can name the line a bad value came from.  Every file opened is recorded
+(:func:`bayescal.output.record_read`), so no output of the run can replace it.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from typing import Literal
 import pandas as pd
 
 from bayescal.errors import InputError
+from bayescal.output import record_read
 
 __all__ = ["read_table", "read_header", "markdown_table", "ColumnKind", "is_plain_number"]
 
@@ -44,6 +46,7 @@ def read_header(path: str | PathLike[str]) -> tuple[int, list[str]] | None:
     then says why.  Readers use it to decide which columns to ask for (a
     campaign's joint columns) before reading the table.
     """
+    record_read(path)
     try:
         with Path(path).open(encoding="utf-8-sig", newline="") as handle:
             for number, line in enumerate(handle, start=1):
@@ -140,6 +143,7 @@ def _numbered_lines(file: Path, source: str) -> list[tuple[int, str]]:
         raise InputError("is a folder; expected a CSV file", source=source)
     if not file.is_file():
         raise InputError("file not found", source=source)
+    record_read(file)
     try:
         text = file.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:

@@ -9,7 +9,9 @@ import signal
 import pytest
 
 from bayescal.errors import InputError
-from bayescal.output import _interrupts_held, forget_written, guard_outputs, write_atomically, write_folder, written_paths
+from bayescal.output import (
+    _interrupts_held, check_output, forget_reads, forget_written, guard_outputs, read_paths, write_atomically, write_folder, written_paths,
+)
 
 
 @pytest.fixture
@@ -103,3 +105,77 @@ def test_ctrl_c_is_held_back_until_the_renames_are_done():
             os.kill(os.getpid(), signal.SIGINT)
             done.append("renamed")
     assert done == ["renamed"] and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_sigterm_is_held_back_too_then_given_to_the_handler_in_force():
+    received = []
+    previous = signal.signal(signal.SIGTERM, lambda number, frame: received.append(number))
+    try:
+        with _interrupts_held():
+            os.kill(os.getpid(), signal.SIGTERM)
+            held = list(received)
+        assert held == [] and received == [signal.SIGTERM]
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def test_a_file_a_reader_opened_is_refused_by_the_guard_and_by_every_writer(tmp_path):
+    from bayescal.tables import read_table
+
+    table = tmp_path / "table.csv"
+    table.write_text("a\n1\n")
+    os.link(table, tmp_path / "hard.csv")
+    forget_reads()
+    try:
+        # No one names the table to the guard: its reader records it.
+        read_table(table, {"a": "number"})
+        assert read_paths() == [os.path.realpath(table)]
+        refusal = "is a file this command reads: writing there would destroy the input"
+        with pytest.raises(InputError, match=f"^-o: {table} {refusal}"):
+            check_output("-o", table, {})
+        hard_link = f"^-o: {tmp_path / 'hard.csv'} is a file this command reads \\({table}\\): writing there would destroy"
+        with pytest.raises(InputError, match=hard_link):
+            write_atomically("-o", tmp_path / "hard.csv", lambda path: path.write_text("b\n2\n"))
+        with pytest.raises(InputError, match=f"^--figures: {table} {refusal}"):
+            write_folder("--figures", tmp_path, lambda staging: (staging / "table.csv").write_text("png"))
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["hard.csv", "table.csv"] and table.read_text() == "a\n1\n"
+    finally:
+        forget_reads()
+    check_output("-o", table, {})
+
+
+READING_CALLS = frozenset({
+    "read_text", "read_bytes", "read_csv", "read_json", "read_excel", "open_dataset", "open_datatree", "load_dataset",
+    "load_datatree", "buildModelFromUrdf", "buildModelFromXML", "loadtxt", "genfromtxt",
+})
+"""Calls that read a file given its name, besides ``open`` for reading, ``ElementTree.parse`` and ``np.load``."""
+
+
+def _reads_a_file(call) -> bool:
+    import ast
+
+    function = call.func
+    name = function.attr if isinstance(function, ast.Attribute) else getattr(function, "id", None)
+    owner = getattr(function.value, "id", None) if isinstance(function, ast.Attribute) else None
+    if name == "open" and owner != "os":
+        # open(path, mode) or path.open(mode): a mode with w, a, x or + writes.
+        modes = call.args[1 if isinstance(function, ast.Name) else 0:][:1] + [k.value for k in call.keywords if k.arg == "mode"]
+        return not any(isinstance(mode, ast.Constant) and set(str(mode.value)) & set("wax+") for mode in modes)
+    return name in READING_CALLS or (name == "parse" and owner == "ElementTree") or (name == "load" and owner in ("np", "pickle"))
+
+
+def test_every_function_that_opens_a_file_for_reading_records_it():
+    import ast
+    from pathlib import Path
+
+    package = Path(__file__).resolve().parents[1] / "bayescal"
+    silent = []
+    for path in sorted(package.rglob("*.py")):
+        for function in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not isinstance(function, ast.FunctionDef | ast.AsyncFunctionDef):
+                continue
+            calls = [node for node in ast.walk(function) if isinstance(node, ast.Call)]
+            recorded = any(getattr(call.func, "id", None) == "record_read" for call in calls)
+            if not recorded and any(_reads_a_file(call) for call in calls):
+                silent.append(f"{path.relative_to(package.parent)}:{function.lineno} {function.name}")
+    assert not silent, "reads a file without bayescal.output.record_read: " + ", ".join(silent)

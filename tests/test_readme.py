@@ -35,19 +35,40 @@ def demo(tmp_path_factory):
     run("simulate", ["simulate", "--plan", str(data / "table3_plan.csv"), "--config", str(data / "kr270.toml"),
                      "--repeats", "3", "--seed", "1", "-o", str(campaign)])
     argv = ["calibrate", str(campaign), "--config", str(data / "kr270.toml"), "--geometry", str(geometry)]
-    run("calibrate", argv + ["--json"])
+    run("calibrate", argv + ["--json", "--posterior", str(folder / "calibration.nc")])
     run("calibrate_text", argv)
+    # The README's one-pose program: the test pose and its wrench, the moment taken about the tool point.
+    (folder / "program.csv").write_text(
+        "q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,fx_N,fy_N,fz_N,mx_Nm,my_Nm,mz_Nm\n0.0,-50.0,80.0,0.0,-30.0,0.0,-1000.0,500.0,-600.0,0.0,0.0,0.0\n"
+    )
+    run("compensate", ["compensate", str(folder / "program.csv"), "--calibration", str(folder / "calibration.nc"),
+                       "--config", str(data / "kr270.toml"), "-o", str(folder / "compensated.csv")])
+    outputs["compensated"] = (folder / "compensated.csv").read_text()
     return {name: (json.loads(text) if name in ("geometry", "calibrate") else text) for name, text in outputs.items()}
 
 
 def test_the_demos_error_left_at_the_test_pose_is_the_one_the_readme_quotes(demo):
-    quoted = re.search(r"test pose after compensation is ([\d.]+) μm rms \(99\.73 % of draws below ([\d.]+) μm\)", README)
+    quoted = re.search(
+        r"test pose after compensation, everything counted, is ([\d.]+) mm rms \(99\.73 % of draws\s+below ([\d.]+) mm\).*?"
+        r"from the identified parameters alone\s+it is ([\d.]+) μm rms \(99\.73 % below ([\d.]+) μm\)",
+        README,
+        re.S,
+    )
     assert quoted, "the README no longer quotes the demo's error left at the test pose"
     error = demo["calibrate"]["test_pose"]["residual_error_mm"]
-    assert f"{error['rms'] * 1000:.1f}" == quoted.group(1)
-    assert f"{error['q99.73'] * 1000:.1f}" == quoted.group(2)
-    # and the calibrate text prints the same, in μm
-    assert f"rms {quoted.group(1)} μm" in demo["calibrate_text"] and f"99.73% {quoted.group(2)} μm" in demo["calibrate_text"]
+    assert f"{error['rms']:.3f}" == quoted.group(1) and f"{error['q99.73']:.3f}" == quoted.group(2)
+    identified = error["identified_only"]
+    assert f"{identified['rms'] * 1000:.1f}" == quoted.group(3) and f"{identified['q99.73'] * 1000:.1f}" == quoted.group(4)
+    # calibrate's text prints the same, and so does compensate on the README's one-pose program, with the same targets
+    text = demo["calibrate_text"]
+    assert f"99.73% {quoted.group(2)} mm" in text and f"99.73% {quoted.group(4)} μm" in text
+    header, row = demo["compensated"].splitlines()
+    written = dict(zip(header.split(","), row.split(",")))
+    assert f"{float(written['error_q9973_mm']):.3f}" == quoted.group(2)
+    assert f"{float(written['error_q9973_identified_mm']) * 1000:.0f}" == f"{float(quoted.group(4)):.0f}"
+    targets = demo["calibrate"]["test_pose"]["joints"]
+    for j in range(1, 7):
+        assert written[f"q{j}_cmd_deg"] == f"{round(targets[f'q{j}']['compensated_deg'], 4) + 0.0:.4f}"
 
 
 def test_the_geometry_the_readme_quotes_is_the_demos(demo):

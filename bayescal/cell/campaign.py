@@ -44,11 +44,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from bayescal.cell.campaign_checks import check_angles, check_deflection, check_wrench
+from bayescal.cell.campaign_checks import check_deflection, check_wrench
+from bayescal.cell.joint_tables import JointLayout, check_tool_points, read_joint_table
 from bayescal.cell.loading import WRENCH_COLUMNS
 from bayescal.cell.plan import position_columns
 from bayescal.errors import InputError
-from bayescal.tables import read_header, read_table
+from bayescal.tables import read_header
 from bayescal.units import MM
 
 if TYPE_CHECKING:
@@ -193,30 +194,12 @@ def write_campaign(campaign: Campaign, path: str | PathLike[str], *, comments: S
     Path(path).write_text(out.getvalue(), encoding="utf-8")
 
 
-def _joint_layout(path: Path, cell: Cell | None) -> np.ndarray:
-    """(nq,) which joint columns to read are prismatic: the robot's, or the consecutive ``q<j>_deg``/``q<j>_mm`` of the header."""
+def _joint_layout(path: Path, cell: Cell | None) -> JointLayout:
+    """The joint columns to read: the robot's, or without a cell the consecutive ``q<j>_deg``/``q<j>_mm`` of the header."""
+    if cell is not None:
+        return JointLayout.of(cell.robot)
     header = read_header(path)
-    names = [] if header is None else header[1]
-    if cell is None:
-        prismatic: list[bool] = []
-        while f"q{len(prismatic) + 1}_deg" in names or f"q{len(prismatic) + 1}_mm" in names:
-            prismatic.append(f"q{len(prismatic) + 1}_mm" in names)
-        return np.array(prismatic or [False], dtype=bool)
-    expected = list(cell.robot.position_columns)
-    present = sorted({name for name in names if _JOINT_COLUMN.fullmatch(name)}, key=lambda name: int(_JOINT_COLUMN.fullmatch(name)[1]))
-    # A repeated column is read_table's to report; here only which joints are there matters.
-    if header is not None and present and present != expected:
-        extra = [name for name in present if name not in expected]
-        missing = [name for name in expected if name not in present]
-        problem = f"has no column {missing[0]}" if missing else f"has a column {extra[0]}"
-        raise InputError(
-            f"the campaign {problem} but the robot ({cell.robot.source}) has {cell.robot.nq} joints: "
-            f"expected the columns {expected[0]}..{expected[-1]}, found {', '.join(present)}",
-            source=str(path),
-            line=header[0],
-            column=(missing or extra)[0],
-        )
-    return cell.robot.prismatic.copy()
+    return JointLayout.from_header([] if header is None else header[1])
 
 
 def read_campaign(
@@ -235,10 +218,11 @@ def read_campaign(
     markers
         The marker names the tool carries; when given, any other name is an error.
     cell
-        The cell the campaign was measured in; when given, the file must have
-        one joint column per joint of its robot, every configuration must lie
-        within the joint limits, and the wrench must be one the arm can carry
-        (see :func:`~bayescal.cell.campaign_checks.check_wrench`).
+        The cell the campaign was measured in; when given, the joint columns are
+        checked as every joint-angle table's (:mod:`bayescal.cell.joint_tables`: one
+        column per joint of its robot, within the joint limits, not in radians), a
+        load point must lie within the robot's reach of the flange, and the wrench
+        must be one the arm can carry (see :func:`~bayescal.cell.campaign_checks.check_wrench`).
     to_base
         Maps ``(N, 3)`` positions as read (m) into the base frame, before the
         checks that compare them with the wrench; None: the file is in the base
@@ -258,13 +242,14 @@ def read_campaign(
         configuration that disagree on the joint angles or the wrench, an
         unknown marker, or loaded positions all equal to the unloaded ones;
         with ``cell``, also joint columns that do not match the robot, angles
-        outside its limits or in radians, and implausible wrenches.
+        outside its limits or in radians, a load point beyond the robot's reach,
+        and implausible wrenches.
     """
     source = str(path)
-    prismatic = _joint_layout(Path(path), cell)
-    n_joints = prismatic.size
-    joint_columns, joint_scale = position_columns(n_joints, prismatic)
-    frame = _read_frame(path, joint_columns)
+    layout = _joint_layout(Path(path), cell)
+    joint_columns, n_joints = list(layout.columns), len(layout.columns)
+    prismatic = ~layout.revolute
+    frame, q = _read_frame(path, layout)
     if markers is not None:
         _check_markers(frame, markers, source)
     _check_unique(frame, source)
@@ -277,8 +262,9 @@ def read_campaign(
     config = frame["config"].to_numpy(dtype=int)
     firsts = _configuration_rows(frame, values, shared, config, source)
     if cell is not None:
-        check_angles(cell, values[firsts, :n_joints] * joint_scale, frame.index[firsts], source)
         check_wrench(cell, values[firsts, n_joints : n_joints + len(WRENCH_COLUMNS)], frame.index[firsts], source)
+        if given:
+            check_tool_points(cell.robot, values[firsts, -3:] * MM, frame.index[firsts], LOAD_POINT_COLUMNS, source)
 
     positions = _positions(frame, to_base, source)
     if cell is not None:
@@ -287,7 +273,7 @@ def read_campaign(
         config=config,
         repeat=frame["repeat"].to_numpy(dtype=int),
         marker=frame["marker"].to_numpy(dtype=str),
-        q=frame[joint_columns].to_numpy(dtype=float) * joint_scale,
+        q=q,
         wrench=frame[list(WRENCH_COLUMNS)].to_numpy(dtype=float),
         p0=positions[:, :3],
         p1=positions[:, 3:],
@@ -299,18 +285,17 @@ def read_campaign(
     )
 
 
-def _read_frame(path: str | PathLike[str], joint_columns: list[str]) -> pd.DataFrame:
-    """The campaign's rows, indexed by line, with its columns checked for type and unit."""
+def _read_frame(path: str | PathLike[str], layout: JointLayout) -> tuple[pd.DataFrame, np.ndarray]:
+    """The campaign's rows, indexed by line, with its columns checked for type and unit, and its ``(N, nq)`` joints (SI)."""
     columns: dict[str, str] = {"config": "integer", "repeat": "integer"}
-    columns |= {name: "number" for name in joint_columns}
     columns |= {name: "number" for name in WRENCH_COLUMNS}
     columns["marker"] = "text"
     columns |= {name: "number" for name in POSITION_COLUMNS}
-    units = {name: name.rsplit("_", 1)[1] for name in joint_columns}
-    units |= {name: "N" for name in WRENCH_COLUMNS[:3]} | {name: "N·m" for name in WRENCH_COLUMNS[3:]}
+    units = {name: "N" for name in WRENCH_COLUMNS[:3]} | {name: "N·m" for name in WRENCH_COLUMNS[3:]}
     units |= {name: "mm" for name in POSITION_COLUMNS + LOAD_POINT_COLUMNS} | {name: "s" for name in TIME_COLUMNS}
     try:
-        return read_table(path, columns, optional={name: "number" for name in LOAD_POINT_COLUMNS + TIME_COLUMNS}, units=units)
+        optional = {name: "number" for name in LOAD_POINT_COLUMNS + TIME_COLUMNS}
+        return read_joint_table(path, layout, columns, what="campaign", optional=optional, units=units)
     except InputError as error:
         if error.column in POSITION_COLUMNS and error.what.startswith("missing value"):
             state = "unloaded" if error.column[1] == "0" else "loaded"

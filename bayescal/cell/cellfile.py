@@ -21,13 +21,14 @@ from typing import Any
 import numpy as np
 
 from bayescal.errors import InputError
+from bayescal.output import record_read
 
 __all__ = ["CellFileReader", "SCHEMA", "read_cell_file"]
 
 SCHEMA: dict[str, frozenset[str] | None] = {
     "robot": frozenset({"urdf", "flange", "payload_kg", "joints", "locked_deg", "locked_mm", "reference_csv", "coupled"}),
     "robot.coupled": None,
-    "joints": frozenset({"k_urad_per_Nm", "k_um_per_N"}),
+    "joints": frozenset({"k_urad_per_Nm", "k_um_per_N", "k_log_sd"}),
     "compensator": frozenset({"joint", "L_mm", "a_x_mm", "a_y_mm", "phi_deg", "K_c_N_per_mm", "s0_mm"}),
     "tool": frozenset({"load_point_mm", "markers_mm", "tcp_mm"}),
     "tool.markers_mm": None,
@@ -66,6 +67,7 @@ def read_cell_file(path: str | PathLike[str]) -> CellFileReader:
         raise InputError("is a folder; expected a cell TOML file", source=source)
     if not file.is_file():
         raise InputError("cell file not found", source=source)
+    record_read(file, "the cell file")
     try:
         raw = file.read_bytes()
     except OSError as exc:

@@ -19,32 +19,25 @@ from bayescal.cell.cellfile import CellFileReader, read_cell_file
 from bayescal.cell.joints import DEFAULT_COMPENSATED_JOINT, per_joint, read_compensator, reference_file
 from bayescal.robot.compensator import Compensator
 from bayescal.errors import InputError
+from bayescal.output import record_read
 from bayescal.robot.kinematics import Robot
 from bayescal.cell.loading import DIRECTIONS, MAX_LOAD_ARM, Loading
+from bayescal.cell.plausible import MIN_LOAD_FRACTION, OVERLOAD_FACTOR, couple_limit_violation, force_limit_violation, mass_range_violation
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.units import DEG, MM, UM, UM_PER_N, URAD_PER_NM
 
-__all__ = ["Cell", "DesignLimits", "load_cell", "OVERLOAD_FACTOR", "MIN_LOAD_FRACTION"]
+__all__ = ["Cell", "DesignLimits", "load_cell", "OVERLOAD_FACTOR", "MIN_LOAD_FRACTION", "DEFAULT_COMPLIANCE_LOG_SD"]
 
-OVERLOAD_FACTOR = 2.0
-"""Largest plausible static load on the arm, as a multiple of the weight of its capacity.
+DEFAULT_COMPLIANCE_LOG_SD = 0.5
+"""Prior sd of the log of a joint compliance a campaign cannot identify, when the cell gives none
+(``[joints] k_log_sd``).  An ASSUMPTION, not a measurement: the cell's value may be off by a factor
+``exp(±3 × 0.5)``, 0.22 to 4.5, at ±3σ, which spans the spread of the KR-270's identified compliances
+about their mean within each group of joints (Klimchik et al., Table IV: k2 0.302, k3 0.406; k4..k6
+2.4-3.3 μrad/(N·m)); the KR-270's k1 is itself an estimate (``data/kr270.toml``)."""
 
-The capacity is the larger of the rated payload (``robot.payload_kg``; the KR-270's
-is 270 kg) and the cell's calibration load (``load.mass_kg``): Klimchik et al. hung
-250-280 kg on the KR-270, 1.04 times its rating.  Twice the capacity leaves room for
-a heavier calibration load or a tool's own weight, while a wrench written in a wrong
-unit (N·mm or mN as N·m or N: a factor 1000) lies far beyond it.
-"""
-
-MIN_LOAD_FRACTION = 0.01
-"""Smallest plausible largest load force of a campaign, as a fraction of the capacity's weight.
-
-``bayescal simulate`` on the Table III plan (250-280 kg) deflects the markers by at
-most 9.1 mm, with tracker noise of 32-44 μm per coordinate; 1 % of such a load
-moves them by at most about 90 μm, two or three times the noise: not a calibration
-load.  A campaign whose largest force is below it is far more likely a wrench
-written in kN (1000 times smaller) than one measured so.
-"""
+MAX_COMPLIANCE_LOG_SD = 3.0
+"""Largest accepted ``k_log_sd``: a factor exp(9), about 8000, at ±3σ, beyond which the cell's value says nothing;
+a relative sd in percent (50 for 0.5) lies far above it."""
 
 @dataclass(frozen=True)
 class DesignLimits:
@@ -106,6 +99,12 @@ class Cell:
         The ``[design]`` table: what campaigns of this cell may load and where they must keep clear.
     loading : Loading
         What the end-effector can apply (``[load] directions``, ``force_max_N``, ``couple_max_Nm``).
+    compliance_log_sd : float
+        Standard deviation of the log of a joint compliance the campaign cannot identify
+        (``[joints] k_log_sd``, default :data:`DEFAULT_COMPLIANCE_LOG_SD`): the prior its
+        draws come from wherever an error is predicted (calibrate, plan, compensate, the review).
+    compliance_log_sd_source : str
+        Where :attr:`compliance_log_sd` comes from: the cell file's key or the default.
     reference : pathlib.Path or None
         Published results of this robot to set beside ours (``robot.reference_csv``, the
         format of ``data/paper_reference.csv``); ``None``: no comparison is shown.
@@ -132,6 +131,8 @@ class Cell:
     loading: Loading = Loading()
     compensator_joint: int = DEFAULT_COMPENSATED_JOINT
     reference: Path | None = None
+    compliance_log_sd: float = DEFAULT_COMPLIANCE_LOG_SD
+    compliance_log_sd_source: str = "default"
 
     @property
     def tool_point(self) -> np.ndarray:
@@ -174,12 +175,13 @@ class Cell:
         return np.concatenate([force, np.cross(rotation @ self.load_point, force) + couple])
 
 
-def _check_urdf_xml(urdf: Path) -> None:
+def _check_urdf_xml(urdf: Path, cell_file: Path) -> None:
     """Reject a URDF that is not XML with a ``<robot>`` root before the URDF parser prints its own lines to stderr."""
     if urdf.is_dir():
         raise InputError("is a folder; expected a URDF file", source=urdf)
     if not urdf.is_file():
         return  # Robot.from_urdf names the missing file
+    record_read(urdf, f"the URDF the cell {cell_file} points to")
     try:
         root = ElementTree.parse(urdf).getroot()
     except ElementTree.ParseError as exc:
@@ -201,8 +203,6 @@ def _design_limits(reader: CellFileReader) -> DesignLimits:
     mass_range = None
     if "mass_kg" in table:
         low, high = reader.vector("design", "mass_kg", 2, unit="kg [low, high]")
-        if not 0 < low <= high:
-            reader.fail(f"expected masses 0 < low <= high in kg, got {low:g} to {high:g} (a campaign without load deflects nothing)", "design", "mass_kg")
         mass_range = (float(low), float(high))
     acceptance = optional("acceptance_deg", "deg", 1.0)
     if acceptance is not None and not 0 < acceptance <= 90:
@@ -242,7 +242,7 @@ def _read_robot(reader: CellFileReader, file: Path) -> Robot:
         if not ok:
             reader.fail(f"expected a table of joint names and positions in {unit}, e.g. {{ finger = 0 }}, got {values!r}", "robot", key)
         locked |= {str(name): (float(value) * scale, kind) for name, value in values.items()}
-    _check_urdf_xml(urdf)
+    _check_urdf_xml(urdf, file)
     try:
         robot = Robot.from_urdf(urdf, flange=flange, joints=joints, locked=locked)
     except InputError as error:
@@ -273,6 +273,14 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     if np.any(compliances <= 0):
         reader.fail("expected positive joint compliances in μrad/(N·m) (revolute) and μm/N (prismatic)", "joints")
     compensator, compensator_joint = read_compensator(reader, robot)
+    log_sd = reader.number("joints", "k_log_sd", unit="log units", positive=True, default=DEFAULT_COMPLIANCE_LOG_SD)
+    if log_sd > MAX_COMPLIANCE_LOG_SD:
+        reader.fail(
+            f"expected a log-sd of at most {MAX_COMPLIANCE_LOG_SD:g} (a factor exp(3 × {MAX_COMPLIANCE_LOG_SD:g}) at ±3σ), "
+            f"got {log_sd:g}: is it a relative sd in % or a compliance?",
+            "joints",
+            "k_log_sd",
+        )
 
     load_point, markers = _read_tool(reader)
     tracker = _read_tracker(reader)
@@ -306,6 +314,8 @@ def load_cell(path: str | PathLike[str]) -> Cell:
         tcp=reader.vector("tool", "tcp_mm", 3, unit="mm") * MM if "tcp_mm" in reader.table("tool") else None,
         compensator_joint=compensator_joint,
         reference=reference_file(reader, file),
+        compliance_log_sd=log_sd,
+        compliance_log_sd_source=f"{source} [joints] k_log_sd" if "k_log_sd" in reader.table("joints") else "default",
     )
     force = float(np.linalg.norm(test_wrench[:3]))
     if force > cell.max_force:
@@ -315,7 +325,26 @@ def load_cell(path: str | PathLike[str]) -> Cell:
             "test_pose",
             "wrench_N_Nm",
         )
+    _check_loads(reader, cell)
     return cell
+
+
+def _check_loads(reader: CellFileReader, cell: Cell) -> None:
+    """Hold the cell's loads to the rules the options are held to (:mod:`bayescal.cell.plausible`), naming the key."""
+    capacity_kg = cell.capacity_weight / cell.gravity
+    checks = []
+    if cell.payload_kg is not None:
+        # The capacity counts the calibration load itself, so that load is held to the rated payload's bounds.
+        checks.append(("load", "mass_kg", mass_range_violation(cell.load_mass, cell.load_mass, cell.payload_kg)))
+    if cell.design.mass_range is not None:
+        checks.append(("design", "mass_kg", mass_range_violation(*cell.design.mass_range, capacity_kg)))
+    if cell.loading.force_max is not None:
+        checks.append(("load", "force_max_N", force_limit_violation(cell.loading.force_max, capacity_kg, cell.gravity)))
+    force = cell.loading.force_max or 0.0
+    checks.append(("load", "couple_max_Nm", couple_limit_violation(cell.loading.couple_max, force, capacity_kg, cell.gravity)))
+    for table, key, reason in checks:
+        if reason is not None:
+            reader.fail(reason, table, key)
 
 
 def _read_tool(reader: CellFileReader) -> tuple[np.ndarray, dict[str, np.ndarray]]:

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from bayescal.cell.cellfile import CellFileReader
+from bayescal.output import record_read
 from bayescal.robot.compensator import Compensator
 from bayescal.robot.kinematics import Robot
 from bayescal.units import DEG, MM, N_PER_MM
@@ -36,7 +37,11 @@ def reference_file(reader: CellFileReader, file: Path) -> Path | None:
     if "reference_csv" not in reader.table("robot"):
         return None
     path = file.parent / reader.text("robot", "reference_csv")
-    return path if path.is_file() else None
+    if not path.is_file():
+        return None
+    # Read later (beside the results), but the cell's own: no output of a run on this cell may replace it.
+    record_read(path, f"the reference table the cell {file} points to")
+    return path
 
 
 def per_joint(reader: CellFileReader, robot: Robot, table: str, keys: tuple[str, str], scales: tuple[float, float]) -> np.ndarray:

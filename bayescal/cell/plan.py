@@ -11,7 +11,6 @@ numbered 1, 2, … in file order; lines starting with ``#`` are provenance notes
 
 from __future__ import annotations
 
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from os import PathLike
@@ -19,10 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
+from bayescal.cell.joint_tables import JointLayout, read_joint_table
 from bayescal.cell.loading import Loading
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
-from bayescal.tables import read_header, read_table
+from bayescal.tables import read_header
 from bayescal.units import DEG, MM
 
 __all__ = ["FORCE_COLUMNS", "COUPLE_COLUMNS", "Plan", "position_columns", "prismatic_flags", "read_plan", "write_plan"]
@@ -128,33 +128,21 @@ def read_plan(
     InputError
         Naming the line and column of a missing column, a joint column the robot
         does not have, a value that is not a number, a joint angle outside its
-        limits, a load that is not positive or above ``max_load_kg``, force or
+        limits or written in radians (the checks of every joint-angle table,
+        :mod:`bayescal.cell.joint_tables`), a load that is not positive or above ``max_load_kg``, force or
         couple columns given in part or a force given with ``load_kg``, or a load
         the end-effector cannot apply.
     """
     source = str(path)
-    joints = list(robot.position_columns)
-    header = read_header(path)
-    extra = [name for name in (header[1] if header else []) if re.fullmatch(r"q[0-9]+_(deg|mm)", name) and name not in joints]
-    if extra:
-        raise InputError(
-            f"the plan has a column {extra[0]} but the robot ({robot.source}) has {robot.nq} joints: "
-            f"expected the columns {joints[0]}..{joints[-1]}",
-            source=source,
-            line=header[0],
-            column=extra[0],
-        )
-    _check_load_columns(header, source)
-    frame = read_table(
+    _check_load_columns(read_header(path), source)
+    frame, q = read_joint_table(
         path,
-        {name: "number" for name in joints},
+        JointLayout.of(robot),
+        {},
+        what="plan",
         optional={"load_kg": "number"} | {name: "number" for name in FORCE_COLUMNS + COUPLE_COLUMNS},
-        units={name: unit for name, unit in zip(joints, robot.position_units)} | {"load_kg": "kg"}
-        | dict.fromkeys(FORCE_COLUMNS, "N") | dict.fromkeys(COUPLE_COLUMNS, "N·m"),
+        units={"load_kg": "kg"} | dict.fromkeys(FORCE_COLUMNS, "N") | dict.fromkeys(COUPLE_COLUMNS, "N·m"),
     )
-    q = frame[joints].to_numpy(dtype=float) * robot.position_scale
-    for line, row in zip(frame.index, q):
-        robot.check_limits(row, source=source, line=int(line))
     load = None
     if "load_kg" in frame:
         bad = frame.index[frame["load_kg"] <= 0]

@@ -6,7 +6,9 @@ default.  ``run(args)`` returns a :class:`~bayescal.cli._command.CommandOutput`;
 this module prints it as JSON (``--json``) or as text, and turns an
 :class:`~bayescal.errors.InputError` into a one-line message and exit status 2.
 A bad option value is reported by the parser the same way: one line, status 2.
-Ctrl-C ends any command with one line saying what was written, and status 130.
+Ctrl-C, SIGTERM (a scheduler's, ``timeout``'s) and SIGHUP (a closed terminal) end any
+command the same way: one line saying what was written, the temporary files removed,
+and status 128 + the signal's number (130, 143, 129).
 Output files and folders go through :mod:`bayescal.output`'s guard and atomic writers.
 """
 
@@ -16,13 +18,16 @@ import argparse
 import importlib
 import json
 import os
+import signal
 import sys
+import threading
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 
 from bayescal.errors import InputError
 
-from bayescal.output import forget_written, written_paths
+from bayescal.output import forget_reads, forget_written, written_paths
 
 __all__ = ["main"]
 
@@ -47,32 +52,70 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-INTERRUPTED = 130
-"""Exit status after Ctrl-C: 128 + SIGINT, as the shells report it."""
+INTERRUPTED = 128 + signal.SIGINT
+"""Exit status after Ctrl-C: 128 + SIGINT (130), as the shells report it; SIGTERM gives 143, SIGHUP 129."""
+
+ENDING_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))
+"""Signals that end a run like Ctrl-C.  Python's default for them ends the process at once,
+with no ``finally`` run: a writer's temporary file would be left beside its output."""
+
+
+class _Ended(KeyboardInterrupt):
+    """SIGTERM or SIGHUP raised where the run is, so that every writer cleans up as for Ctrl-C."""
+
+    def __init__(self, number: int) -> None:
+        super().__init__(signal.Signals(number).name)
+        self.number = number
+
+
+def _end(number: int, frame: object) -> None:
+    raise _Ended(number)
+
+
+@contextmanager
+def _signals_end_the_run() -> Iterator[None]:
+    """Turn :data:`ENDING_SIGNALS` into :class:`_Ended` for the run, then restore the handlers in force.
+
+    A signal the caller ignores stays ignored: ``nohup bayescal ...`` must outlive its terminal.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {number: signal.signal(number, _end) for number in ENDING_SIGNALS if signal.getsignal(number) is not signal.SIG_IGN}
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line and return the exit status (0 success, 2 bad input, 130 interrupted)."""
+    """Run the command line and return the exit status (0 success, 2 bad input, 128 + the signal when interrupted)."""
     # One BLAS thread unless the user asks for more, set before a command first imports numpy: every matrix
     # here is a few rows wide, and on a shared machine BLAS threads spin instead of helping (calibrate on the
     # Table III twin campaign: 3.5 s of CPU with one thread, 5.2 s with the default two, same process load).
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     forget_written()
+    forget_reads()
     command = "bayescal"
-    try:
-        parser = build_parser()
+    with _signals_end_the_run():
         try:
-            args = parser.parse_args(argv)
-        except SystemExit as exit:
-            # A bad option value (status 2) or --help (status 0): the message is printed already.
-            return exit.code if isinstance(exit.code, int) else 0
-        command = f"bayescal {args.command}"
-        return _run(args)
-    except KeyboardInterrupt:
-        # The writers rename whole files into place, so what was written is complete.
-        kept = written_paths()
-        print(f"{command}: interrupted; {'kept ' + ', '.join(kept) if kept else 'nothing written'}", file=sys.stderr)
-        return INTERRUPTED
+            parser = build_parser()
+            try:
+                args = parser.parse_args(argv)
+            except SystemExit as exit:
+                # A bad option value (status 2) or --help (status 0): the message is printed already.
+                return exit.code if isinstance(exit.code, int) else 0
+            command = f"bayescal {args.command}"
+            return _run(args)
+        except KeyboardInterrupt as interrupt:
+            # The writers rename whole files into place and remove their temporary files, so what was written is complete.
+            kept = written_paths()
+            try:
+                print(f"{command}: interrupted; {'kept ' + ', '.join(kept) if kept else 'nothing written'}", file=sys.stderr)
+            except OSError:
+                pass  # the closed terminal of a SIGHUP takes no more lines; the status still says why
+            return 128 + interrupt.number if isinstance(interrupt, _Ended) else INTERRUPTED
 
 
 def _run(args: argparse.Namespace) -> int:

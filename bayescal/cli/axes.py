@@ -31,6 +31,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         help="also criticise each joint's circle model on held-out angles (angle scale, cyclic transmission error, "
         "axis wobble, tracker range offset); kept in the registration file",
     )
+    parser.add_argument("--exclude-joint", type=int, action="append", default=[], metavar="J",
+                        help="leave joint J's sweep out (1-based; repeat for more)")
+    parser.add_argument("--exclude-marker", action="append", default=[], metavar="NAME",
+                        help="leave the reflector NAME out of every sweep (repeat for more)")
     add_common_options(parser)
     parser.set_defaults(run=run)
 
@@ -44,14 +48,21 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
     from bayescal.registration import read_sweeps, register
     from bayescal.registration.critique import critique_sweeps
+    from bayescal.registration.register import exclude
 
-    guard_outputs({"the sweeps": args.sweeps, "the config": args.config}, {"-o": args.output})
+    from ._command import options_for
+
     cell = load_cell(args.config)
-    sweeps = read_sweeps(args.sweeps)
-    registration = register(sweeps, cell, rng=args.seed)
+    # Guarded once the cell is read: the files it points to (URDF, reference table) are then among the inputs.
+    guard_outputs({"the sweeps": args.sweeps, "the config": args.config}, {"-o": args.output})
+    sweeps = read_sweeps(args.sweeps, cell.robot)
+    with options_for({"joints": "--exclude-joint", "markers": "--exclude-marker"}):
+        registration = register(sweeps, cell, rng=args.seed, exclude_joints=[j - 1 for j in args.exclude_joint],
+                                exclude_markers=args.exclude_marker)
     payload, text = registration.to_json(), _registration_text(registration)
     if args.critique:
-        critique = critique_sweeps(sweeps, replace(cell.tracker, position=np.zeros(3)))
+        fitted = exclude(sweeps, [j - 1 for j in args.exclude_joint] + list(registration.left_out), args.exclude_marker)
+        critique = critique_sweeps(fitted, replace(cell.tracker, position=np.zeros(3)))
         payload["critique"] = critique.to_json()
         text += "\n\n" + _critique_text(critique)
     if args.output:
@@ -61,21 +72,44 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
 
 def _registration_text(registration) -> str:
-    """A readable table of the axes and frames of a :class:`~bayescal.registration.register.Registration`."""
+    """A readable table of the axes and frames of a :class:`~bayescal.registration.register.Registration`,
+    what was left out or is missing, and a warning for each joint whose arcs scatter beyond the tracker's law."""
     lines = [f"Joint axes in the tracker frame from {registration.source}", "",
-             f"{'joint':>5}{'direction':>30}{'sd mrad':>9}{'point mm':>30}{'sd mm':>8}{'rms mm':>8}"]
+             f"{'joint':>5} {'direction':>32} {'sd mrad':>9} {'point mm':>32} {'sd mm':>9} {'rms mm':>8} "
+             f"{'χ²/dof':>8} {'excess':>7}"]
     for j, fit in registration.axes.items():
-        direction = " ".join(f"{v:9.6f}" for v in fit.direction)
-        point = " ".join(f"{v / MM:9.2f}" for v in fit.point)
-        lines.append(f"{j + 1:>5}{direction:>30}{fit.direction_sd * 1e3:9.4f}{point:>30}"
-                     f"{fit.point_sd / MM:8.4f}{fit.residual_rms / MM:8.4f}")
+        direction = " ".join(f"{v:10.6f}" for v in fit.direction)
+        point = " ".join(f"{v / MM:10.2f}" for v in fit.point)
+        lines.append(f"{j + 1:>5} {direction:>32} {fit.direction_sd * 1e3:9.4g} {point:>32} {fit.point_sd / MM:9.4g} "
+                     f"{fit.residual_rms / MM:8.4f} {fit.chi2_per_dof:8.3g} {fit.excess:7.3g}")
+    lines.append("(χ²/dof against the tracker's law; excess: the noise learned from the arcs over that law, "
+                 "by which the sds are widened)")
+    excluded = registration.excluded
+    if excluded["joints"] or excluded["markers"]:
+        left = [f"the sweep{'s' if len(excluded['joints']) > 1 else ''} of joint{'s' if len(excluded['joints']) > 1 else ''} "
+                f"{', '.join(map(str, excluded['joints']))}"] if excluded["joints"] else []
+        left += [f"reflector{'s' if len(excluded['markers']) > 1 else ''} {', '.join(excluded['markers'])}"] if excluded["markers"] else []
+        lines.append(f"left out as asked: {' and '.join(left)}")
+    beyond = {j: fit for j, fit in registration.axes.items() if fit.beyond_tracker}
+    if beyond:
+        scatters = [fit.scatter for fit in beyond.values()]
+        size = f"{min(scatters):.2g}" if len(beyond) == 1 else f"{min(scatters):.2g}-{max(scatters):.2g}"
+        lines.append(f"warning: the arcs of joint{'s' if len(beyond) > 1 else ''} {', '.join(str(j + 1) for j in beyond)} "
+                     f"scatter {size} times the tracker's law, beyond its chance (χ²/dof above): the cell adds error its "
+                     "tracker's datasheet does not (the reflectors' seating, the joint's wobble and transmission error, air); "
+                     "the noise is learned from the arcs and the sds above are widened by the excess, and so are the frames' "
+                     "built from them; --critique says whether an effect of the joint explains it")
+    for j, why in registration.left_out.items():
+        lines.append(f"joint {j + 1}: no axis: the sweep {why}")
+    if registration.missing:
+        lines.append(registration.missing)
     for name, frame in registration.frames.items():
         data = frame.to_json()
         lines += ["", f"{name} frame in the tracker frame (p_tracker = R p + t):"]
         lines += [" ".join(f"{v:10.6f}" for v in row) for row in frame.rotation]
         lines.append("t [mm] " + " ".join(f"{v:10.3f}" for v in data["translation_mm"])
-                     + "   sd [mm] " + " ".join(f"{v:.4f}" for v in data["translation_sd_mm"]))
-        lines.append("rotation sd [mrad] " + " ".join(f"{v:.4f}" for v in data["rotation_sd_mrad"]))
+                     + "   sd [mm] " + " ".join(f"{v:.4g}" for v in data["translation_sd_mm"]))
+        lines.append("rotation sd [mrad] " + " ".join(f"{v:.4g}" for v in data["rotation_sd_mrad"]))
         lines.append(f"not fixed by the sweeps: {frame.from_nominal}")
     return "\n".join(lines)
 

@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.inference.priors import posterior_geometry
     from bayescal.errors import InputError
     from bayescal.robot.stiffness import EquilibriumError
-    from bayescal.inference.testpose import predict_cell_test_pose
+    from bayescal.compensation.testpose import predict_cell_test_pose
 
     inputs = {"the campaign": args.campaign, "the config": args.config, "the --geometry posterior": args.geometry,
               "the --registration file": args.registration}
@@ -163,7 +163,8 @@ def _closing_lines(results, test_pose, reasons) -> list[str]:
     """Diagnostics, the test pose (errors in μm, deflections in mm) and what to do next."""
     from bayescal.inference.equations import HANGING_ONLY_REASON
     from bayescal.reports.next_steps import calibration_next_steps
-    from bayescal.reports.numbers import deflection_mm, error_um
+    from bayescal.reports.numbers import error_um
+    from bayescal.reports.test_pose import test_pose_lines
     from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, converged
 
     d = results.diagnostics()
@@ -179,19 +180,8 @@ def _closing_lines(results, test_pose, reasons) -> list[str]:
     block = test_pose.to_json()
     q9973 = None
     if block.get("available", True):
-        error = block["residual_error_mm"]
-        norm = block["deflection_norm_mm"]
-        q9973 = error["q99.73"]
-        lines.append(
-            f"test pose: deflection {deflection_mm(norm['mean'], 3 * norm['sd'])} (±3σ); error left after compensation "
-            f"rms {error_um(error['rms'])}, 95% {error_um(error['q95'])}, 99.73% {error_um(error['q99.73'])} "
-            f"(ρ0 from covariance {error_um(error['rho0_from_covariance'])})"
-        )
-        for name, entry in block["assumed"].items():
-            lines.append(
-                f"  {name} is taken from the config ({entry['value']:.4g} {entry['unit']}) because the campaign cannot "
-                "identify it; its uncertainty is not in these numbers"
-            )
+        q9973 = block["residual_error_mm"]["q99.73"]
+        lines += test_pose_lines(block)
     else:
         lines.append(f"test pose: not predicted: {block['reason']}")
     limited = [name for name, reason in reasons.items() if reason.endswith(HANGING_ONLY_REASON)]

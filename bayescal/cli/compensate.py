@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._command import CommandOutput, add_common_options, check_output, write_atomically
+from ._command import CommandOutput, add_common_options, check_output, whole_number, write_atomically
 
 __all__ = ["add_parser", "run"]
 
@@ -33,14 +33,18 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--config", required=True, metavar="CELL.toml", help="the cell file of the calibration")
     parser.add_argument("-o", "--output", required=True, metavar="COMPENSATED.csv", help="compensated program to write")
     parser.add_argument("--tolerance-mm", type=_millimetres, help="flag poses whose 99.73 %% error exceeds this length (mm)")
+    parser.add_argument(
+        "--decimals",
+        type=whole_number(1, "decimals of the written targets"),
+        help="fixed decimals of the compensated targets (deg or mm) and lengths (mm) written, as the controller takes them "
+        "(default: as many as KUKA KRL and ABB RAPID take, docs/compensation.md)",
+    )
     add_common_options(parser)
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> CommandOutput:
-    import json
-
-    import numpy as np
+    from functools import partial
 
     from bayescal.cell.config import load_cell
     from bayescal.compensation import compensate_program, load_calibration, read_program
@@ -51,9 +55,9 @@ def run(args: argparse.Namespace) -> CommandOutput:
     cell = load_cell(args.config)
     check_output("-o", args.output, inputs | {"the robot URDF": cell.robot.source})
     program = read_program(args.program, cell)
-    calibration = load_calibration(args.calibration, cell, np.random.default_rng(args.seed))
+    calibration = load_calibration(args.calibration, cell)
     tolerance = None if args.tolerance_mm is None else args.tolerance_mm * MM
     results = compensate_program(program, calibration, cell, tolerance=tolerance)
-    write_atomically("-o", args.output, results.save)
-    payload = results.to_json()
-    return CommandOutput(payload=payload, text=json.dumps(payload["summary"], indent=2) + f"\nwrote {args.output}")
+    decimals = {} if args.decimals is None else {"decimals": args.decimals}
+    write_atomically("-o", args.output, partial(results.save, **decimals))
+    return CommandOutput(payload=results.to_json(), text=results.text() + f"\nwrote {args.output}")

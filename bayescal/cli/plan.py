@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from bayescal.output import guard_outputs, write_atomically
+from bayescal.output import guard_outputs, record_read, write_atomically
 
 from ._command import CommandOutput, add_common_options, options_for, whole_number
 
@@ -18,7 +18,7 @@ SECONDS = {"exact": 20, "linear": 3}
 """Time of a default design (5 × 3 configurations, 3 starts), s: the search's CPU time in one process on this
 project's machine (19.2 s exact, 3.0 s linear; the search runs on one thread, so an idle core's wall time).  Said
 before a design starts, since the command prints nothing else until it ends when stderr is not a terminal."""
-FLAGS = {"angles": "--angles", "repeats": "--repeats", "model": "--model", "criterion": "--criterion", "mass_range": "--mass-kg", "between": "--between"}
+FLAGS = {"angles": "--angles", "per_angle": "--per-angle", "repeats": "--repeats", "model": "--model", "criterion": "--criterion", "mass_range": "--mass-kg", "between": "--between"}
 """The library's argument names and this command's options."""
 
 
@@ -97,10 +97,22 @@ def _text(payload: dict, table, cell) -> list[str]:
         loads = f", forces of {payload['force_max_N']:.0f} N in directions of the design" if "force_max_N" in payload else ""
         angles = ", ".join(f"{v:.1f}" for v in payload["q2_deg"])
         lines.append(f"wrote {payload['output']}: {payload['configurations']} configurations at q2 = {angles} deg{loads}")
-    lines.append(
-        "predicted rms error left at the test pose after compensation (ρ0, eq 38): "
-        + ("not predictable" if criterion is None else f"{criterion * 1000:.2f} μm")
-    )
+    from bayescal.reports.numbers import error_length
+
+    if criterion is None:
+        lines.append("predicted rms error left at the test pose after compensation (ρ0, eq 38): not predictable")
+    else:
+        lines.append(
+            "predicted rms error left at the test pose after compensation (ρ0, eq 38, linearised at the design), "
+            f"everything counted: {error_length(criterion)}"
+        )
+        if payload["criterion_prior_share_of_mean_square"] > 0:
+            lines += textwrap.wrap(
+                f"from the plan's data alone {error_length(payload['criterion_identified_only'])}; the rest "
+                f"({payload['criterion_prior_share_of_mean_square']:.0%} of the mean square) from "
+                f"{payload['criterion_includes'].split('the prior of ', 1)[1]}, its prior in the cell ([joints] k_log_sd)",
+                width=100, initial_indent="  ", subsequent_indent="  ",
+            )
     published = "table_iv_pct" in table
     lines += ["", f"{'parameter':<10}{'unit':<12}{'value':>8}{'±3σ':>13}{'width':>9}" + (f"{'Table IV':>10}" if published else "")]
     for name, row in table.iterrows():
@@ -209,23 +221,15 @@ def _command(args: argparse.Namespace, starts: int) -> str:
 
 
 def _check_masses(mass_kg: list[float] | None, cell) -> None:
-    """Refuse a --mass-kg range that is not finite and positive, or that simulate would refuse as too heavy."""
-    import math
-
+    """Refuse a --mass-kg range by the rule the cell's ``[design] mass_kg`` is held to (:mod:`bayescal.cell.plausible`)."""
+    from bayescal.cell.plausible import mass_range_violation
     from bayescal.errors import InputError
 
     if mass_kg is None:
         return
-    low, high = mass_kg
-    if not all(math.isfinite(value) for value in mass_kg) or not 0 < low <= high:
-        raise InputError(f"expected a mass range 0 < LOW <= HIGH in kg, got {low:g} {high:g}", source="--mass-kg")
-    heaviest = cell.max_force / cell.gravity
-    if high > heaviest:
-        raise InputError(
-            f"a load of {high:g} kg is more than the {heaviest:.0f} kg the arm of {cell.source} can plausibly carry "
-            "(the limit simulate applies to a plan's load_kg)",
-            source="--mass-kg",
-        )
+    reason = mass_range_violation(*mass_kg, cell.capacity_weight / cell.gravity)
+    if reason is not None:
+        raise InputError(reason, source="--mass-kg")
 
 
 def _read_evaluated_plan(path: str, cell):
@@ -238,6 +242,7 @@ def _read_evaluated_plan(path: str, cell):
     from bayescal.errors import InputError
     from bayescal.robot.compensator import MIN_ANGLES
 
+    record_read(path, "the --evaluate plan")
     try:
         header = pd.read_csv(path, comment="#", nrows=0).columns
     except (OSError, ValueError, UnicodeDecodeError):

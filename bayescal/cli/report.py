@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from bayescal.output import guard_outputs, write_folder
+from bayescal.output import guard_outputs, record_read, write_folder
 
 from ._command import CommandOutput, add_common_options
 from ._registered import read_campaign_in_base
@@ -136,7 +136,7 @@ def _read_inputs(args: argparse.Namespace):
         sources["registration"] = args.registration
         review.registration = _read_json(args.registration, "--registration")
         for name in review.registration["frames"]:
-            read_frame(args.registration, name)
+            read_frame(args.registration, name, cell)
     if args.calibration:
         from bayescal.compensation.calibration import check_calibration_robot
         from bayescal.studies.review import calibration_findings
@@ -195,6 +195,7 @@ def _load_tree(path: str, option: str, needs: tuple[str, ...], foreign: str):
 def _read_json(path: str, option: str) -> dict:
     from bayescal.errors import InputError
 
+    record_read(path, f"the {option} file")
     try:
         with open(path, encoding="utf-8") as stream:
             data = json.load(stream)
@@ -221,6 +222,7 @@ def _read_csv(path: str, option: str):
 
     from bayescal.errors import InputError
 
+    record_read(path, f"the {option} table")
     try:
         frame = pd.read_csv(path, comment="#")
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:

@@ -4,17 +4,24 @@
 compensation needs, draw by draw, each joint's own compliance, the spring
 (``K_c``, ``s0``), the compensator geometry and the scale of the link masses,
 without the campaign.  A joint compliance the campaign could not identify (k1
-under hanging loads) is not in the posterior: it is drawn from a log-normal
-prior about the cell's value (:data:`UNIDENTIFIED_LOG_SD`), so that its
-uncertainty reaches the predicted error instead of a fixed guess.  ``K_c`` and
-``s0`` are always sampled; when flagged not identifiable their draws are
-essentially their prior's.
+under hanging loads) is not in the posterior: its draws come from its prior,
+log-normal with the cell's value as median and the cell's ``[joints] k_log_sd``
+(:attr:`~bayescal.cell.config.Cell.compliance_log_sd`), so that its uncertainty
+reaches every predicted error instead of a fixed guess.  Those draws are the
+prior's quantiles, not random numbers, so that every command (calibrate,
+compensate, the review) spreads the same draws and prints the same numbers.
+``K_c`` and ``s0`` are always sampled; when flagged not identifiable their
+draws are essentially their prior's.
+
+The correction applies the **median** of the draws of each parameter (for a
+parameter drawn from its prior, the cell's value), the estimate a user expects;
+the error bounds carry the spread about it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from os import PathLike
 
 import numpy as np
@@ -25,7 +32,7 @@ from bayescal.inference.parameters import GEOMETRY_PARAMETERS, ParameterRegistry
 from bayescal.robot.compensator import Compensator, stiffness_regressor
 from bayescal.units import DEG
 
-__all__ = ["Calibration", "check_calibration_robot", "load_calibration", "UNIDENTIFIED_LOG_SD", "GRID_STEP", "MAX_DRAWS"]
+__all__ = ["Calibration", "check_calibration_robot", "load_calibration", "calibration_from_tree", "prior_draws", "GRID_STEP", "MAX_DRAWS"]
 
 MAX_DRAWS = 2000
 """Posterior draws kept (evenly thinned): the cost of the spread is linear in them, and 2000 draws
@@ -34,12 +41,19 @@ leave about 5 beyond the 99.73 % quantile."""
 GRID_STEP = 0.25 * DEG
 """Knot spacing (rad) of the compensated joint's equivalent compliance when a program has many distinct angles."""
 
-UNIDENTIFIED_LOG_SD = 0.5
-"""Standard deviation of the log of a joint compliance the campaign did not identify.
 
-An assumption, not a measurement: the cell's value may be off by a factor
-``exp(±3 × 0.5)``, 0.22 to 4.5, at ±3σ (the KR-270's k1 is itself an estimate,
-``data/kr270.toml``)."""
+def prior_draws(median: float, log_sd: float, size: int, joint: int) -> np.ndarray:
+    """``(size,)`` draws of a log-normal prior: its quantiles at ``(i + ½)/size``, in an order fixed by ``joint``.
+
+    Quantiles rather than random numbers: the draws' median is ``median`` exactly, their spread is the
+    prior's without sampling noise, and every command that reads a calibration gets the same draws.  The
+    order (a permutation seeded by the 0-based joint index) pairs them with the posterior draws of the
+    other parameters independently of any draw order.
+    """
+    from scipy.special import ndtri
+
+    z = ndtri((np.arange(size) + 0.5) / size)
+    return median * np.exp(log_sd * np.random.default_rng(joint).permutation(z))
 
 
 @dataclass(frozen=True)
@@ -62,6 +76,9 @@ class Calibration:
         Parameters the campaign did not identify, whose draws are (mostly) their prior's.
     source : str
         The posterior file.
+    priors : dict
+        For each compliance drawn from its log-normal prior: ``{"median", "unit"}`` (the cell's value in
+        the registry's edge unit), ``"log_sd"`` and its ``"source"`` (the cell file's key or the default).
     """
 
     own: np.ndarray
@@ -71,17 +88,23 @@ class Calibration:
     compensated_joint: int | None
     unidentified: tuple[str, ...]
     source: str = ""
+    priors: dict = field(default_factory=dict)
 
     @property
     def n_draws(self) -> int:
         return self.own.shape[0]
 
-    def mean_compensator(self) -> Compensator | None:
-        """The compensator at the posterior mean of its geometry and spring."""
+    @property
+    def applied_own(self) -> np.ndarray:
+        """``(n,)`` the joint compliances the correction applies: the draws' median (rad/(N·m))."""
+        return np.median(self.own, axis=0)
+
+    def median_compensator(self) -> Compensator | None:
+        """The compensator at the median of its geometry and spring draws (what the correction applies)."""
         if self.spring is None:
             return None
-        L, a_x, a_y, phi = self.geometry.mean(axis=0)
-        K_c, s0 = self.spring.mean(axis=0)
+        L, a_x, a_y, phi = np.median(self.geometry, axis=0)
+        K_c, s0 = np.median(self.spring, axis=0)
         return Compensator(L, a_x, a_y, phi, K_c, s0)
 
     def compliances(
@@ -94,8 +117,9 @@ class Calibration:
         q_compensated
             ``(P,)`` angles of the compensated joint the program visits, rad (ignored without a compensator).
         fixed
-            Parameter names (``k1``.., ``K_c``, ``s0``) held at their posterior mean: how much
-            of the error they account for is the difference with the full spread.
+            Parameter names (``k1``.., ``K_c``, ``s0``) held at their median, the value the
+            correction applies: how much of the error they account for is the difference with
+            the full spread.
 
         Returns
         -------
@@ -107,13 +131,13 @@ class Calibration:
         own = self.own.copy()
         for j in range(own.shape[1]):
             if f"k{j + 1}" in fixed:
-                own[:, j] = own[:, j].mean()
+                own[:, j] = np.median(own[:, j])
         if self.spring is None:
             return own, None
         spring = self.spring.copy()
         for i, name in enumerate(("K_c", "s0")):
             if name in fixed:
-                spring[:, i] = spring[:, i].mean()
+                spring[:, i] = np.median(spring[:, i])
         return own, self._equivalent(np.asarray(q_compensated, dtype=float), own[:, self.compensated_joint], spring)
 
     def _equivalent(self, q: np.ndarray, own: np.ndarray, spring: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
@@ -142,7 +166,7 @@ class Calibration:
         return at
 
 
-def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Generator) -> Calibration:
+def load_calibration(path: str | PathLike[str], cell: Cell) -> Calibration:
     """Read the posterior ``bayescal calibrate --posterior`` wrote, for ``cell``'s robot.
 
     Parameters
@@ -150,9 +174,8 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
     path
         The NetCDF posterior.
     cell
-        The cell it must belong to: same joint count and, when the file records it, same robot.
-    rng
-        Draws the prior of the joint compliances the calibration did not identify.
+        The cell it must belong to: same joint count and, when the file records it, same robot;
+        its priors give the draws of the joint compliances the calibration did not identify.
 
     Raises
     ------
@@ -162,8 +185,16 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
     """
     from bayescal.sampling.summary import read_posterior
 
-    source = str(path)
-    tree, posterior = read_posterior(path)
+    tree, _ = read_posterior(path)
+    return calibration_from_tree(tree, cell, str(path))
+
+
+def calibration_from_tree(tree, cell: Cell, source: str = "the calibration") -> Calibration:
+    """The :class:`Calibration` of a posterior DataTree: a saved one or :attr:`ElastostaticResults.tree` in memory.
+
+    Both give the same draws, so that ``calibrate`` and ``compensate`` print the same numbers.
+    """
+    posterior = tree["posterior"]
     # A robot without a compensator has no per-angle compliances: any joint compliance tells the kind.
     if "sigma" not in posterior or not any(name[:1] == "k" and name[1:].isdigit() for name in posterior.data_vars):
         raise InputError("not an elastostatic posterior (no joint compliance k<j> or no 'sigma'): expected `bayescal calibrate --posterior`", source=source)
@@ -181,13 +212,20 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
     registry = ParameterRegistry.of_cell(cell)
     own = np.empty((size, n))
     unidentified = {name for name in str(tree.attrs.get("not_identifiable", "")).split(",") if name}
+    priors = {}
     for j in range(n):
         name = f"k{j + 1}"
         if name in posterior:
             own[:, j] = registry[name].to_si(values(name))
         else:
-            own[:, j] = cell.compliances[j] * np.exp(UNIDENTIFIED_LOG_SD * rng.standard_normal(size))
+            own[:, j] = prior_draws(cell.compliances[j], cell.compliance_log_sd, size, j)
             unidentified.add(name)
+            priors[name] = {
+                "median": float(registry[name].to_edge(cell.compliances[j])),
+                "unit": registry[name].unit,
+                "log_sd": cell.compliance_log_sd,
+                "source": cell.compliance_log_sd_source,
+            }
     spring = geometry = None
     if joint is not None:
         if "K_c" not in posterior:
@@ -217,6 +255,7 @@ def load_calibration(path: str | PathLike[str], cell: Cell, rng: np.random.Gener
         compensated_joint=joint,
         unidentified=tuple(name for name in names if name in unidentified),
         source=source,
+        priors=priors,
     )
 
 

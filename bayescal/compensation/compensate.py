@@ -14,8 +14,9 @@ on the arm's weight alone; :func:`compensate_poses` gives both steps, and the
 tests check the loaded equilibrium at ``q_c`` (the full solve of
 :class:`~bayescal.robot.stiffness.ElasticArm`) lands on ``λ``.
 
-The error left at a pose is what a posterior draw would deflect the tool more
-than the mean (:mod:`bayescal.compensation.spread`); its rms is eq 38.
+The correction applies the draws' median of each parameter; the error left at
+a pose is what a draw would deflect the tool more than that
+(:mod:`bayescal.compensation.budget`); its rms is eq 38.
 """
 
 from __future__ import annotations
@@ -26,79 +27,16 @@ from bayescal.cell.config import Cell
 from bayescal.compensation.calibration import Calibration
 from bayescal.compensation.program import Program
 from bayescal.compensation.results import CompensationResults
-from bayescal.compensation.spread import deflection_draws, designs, error_quantiles, mean_square
+from bayescal.compensation.budget import error_budget
+from bayescal.compensation.spread import designs
 from bayescal.inference.exact import scale_masses
 from bayescal.robot.compensator import Compensator
 from bayescal.robot.kinematics import Robot
 
-__all__ = ["compensate_program", "compensate_poses", "predicted_errors", "unloaded_links"]
-
-CHUNK = 256
-"""Poses whose draws are spread at once: ``S × CHUNK × n`` compliances in memory."""
+__all__ = ["compensate_program", "compensate_poses", "unloaded_links"]
 
 EQUILIBRIUM_TOL = 1e-10
 """Newton tolerance of the equilibria, rad: 1e-10 rad moves a tool 3 m out by 0.3 nm."""
-
-
-def predicted_errors(calibration: Calibration, design: np.ndarray, q_compensated: np.ndarray) -> dict[str, np.ndarray]:
-    """Error left at each pose after compensation with the posterior mean, over the draws (m).
-
-    Parameters
-    ----------
-    calibration
-        The posterior draws.
-    design
-        ``(P, 3, n)`` eq-31 matrices of the poses.
-    q_compensated
-        ``(P,)`` angle of the compensated joint at each pose, rad.
-
-    Returns
-    -------
-    dict
-        ``rms``, ``q95``, ``q9973`` ``(P,)`` (m); ``mean_compliances`` ``(P, n)``, the compliances the
-        compensation applies; ``unidentified_share`` ``(P,)``, the fraction of the mean-square error
-        that the parameters the campaign did not identify account for.
-    """
-    out: dict[str, list] = {"rms": [], "q95": [], "q9973": [], "mean_compliances": [], "unidentified_share": []}
-    joint = calibration.compensated_joint
-    full = _Spread(calibration.compliances(q_compensated), joint)
-    held = _Spread(calibration.compliances(q_compensated, fixed=calibration.unidentified), joint) if calibration.unidentified else None
-    for start in range(0, design.shape[0], CHUNK):
-        part = slice(start, start + CHUNK)
-        spread, mean = full(design[part], q_compensated[part])
-        stats = error_quantiles(np.sqrt(np.einsum("pis,pis->ps", spread, spread)))
-        share = np.zeros(len(mean))
-        if held is not None:
-            rest, total = held.mean_square(design[part], q_compensated[part]), stats["rms"] ** 2
-            share = np.clip(1.0 - np.divide(rest, total, out=np.ones_like(total), where=total > 0), 0.0, 1.0)
-        for name, value in (*stats.items(), ("mean_compliances", mean), ("unidentified_share", share)):
-            out[name].append(value)
-    return {name: np.concatenate(values) for name, values in out.items()}
-
-
-class _Spread:
-    """The draws' deflections about their mean at a chunk of poses: ``(p, 3, S)`` and the ``(p, n)`` mean compliances."""
-
-    def __init__(self, compliances, joint: int | None) -> None:
-        self.own, self.equivalent = compliances
-        self.centred = self.own - self.own.mean(axis=0)
-        self.joint = joint
-
-    def _varying(self, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-        mean = np.repeat(self.own.mean(axis=0)[None, :], len(angles), axis=0)
-        if self.equivalent is None:
-            return mean, None
-        varying = self.equivalent(angles)
-        mean[:, self.joint] = varying.mean(axis=1)
-        return mean, varying - mean[:, self.joint, None]
-
-    def __call__(self, design: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        mean, varying = self._varying(angles)
-        return deflection_draws(design, self.centred, varying, self.joint), mean
-
-    def mean_square(self, design: np.ndarray, angles: np.ndarray) -> np.ndarray:
-        """``(p,)`` mean-square deflection about the mean (m²), from the draws' covariance."""
-        return mean_square(design, self.centred, self._varying(angles)[1], self.joint)
 
 
 def unloaded_links(
@@ -171,7 +109,7 @@ def compensate_poses(
 
 
 def compensate_program(
-    program: Program, calibration: Calibration, cell: Cell, *, tolerance: float | None = None
+    program: Program, calibration: Calibration, cell: Cell, *, tolerance: float | None = None, keep_spread: bool = False
 ) -> CompensationResults:
     """Compensated joint targets and the error left at every pose of ``program``.
 
@@ -185,6 +123,8 @@ def compensate_program(
         The cell (robot and compensated joint).
     tolerance
         Error (m) a pose's 99.73 % bound may reach before it is flagged; None: no such flag.
+    keep_spread
+        Keep each draw's deflection about the applied one in the budget (``(P, 3, S)``: for a few poses).
     """
     robot = scale_masses(cell.robot, calibration.gravity_scale) if calibration.gravity_scale != 1.0 else cell.robot
     joint = cell.compensated_joint
@@ -192,23 +132,22 @@ def compensate_program(
     wrench = program.flange_wrench(rotations)
     design = designs(robot, program.q, program.tcp, wrench)
     q_comp = program.q[:, joint] if joint is not None else np.zeros(len(program))
-    errors = predicted_errors(calibration, design, q_comp)
-    compensator = calibration.mean_compensator()
-    mean = errors["mean_compliances"]
-    own = np.repeat(calibration.own.mean(axis=0)[None, :], len(program), axis=0)
+    budget = error_budget(calibration, design, q_comp, keep_spread=keep_spread)
+    compensator = calibration.median_compensator()
+    applied = budget.applied
+    own = np.repeat(calibration.applied_own[None, :], len(program), axis=0)
     if joint is not None:
-        # The compensation applies the draws' mean equivalent compliance (the mean of eq 8's draws).
-        own[:, joint] = compensator.own_compliance(q_comp, mean[:, joint])
-    deflection = np.linalg.norm(np.einsum("pin,pn->pi", design, mean), axis=1)
+        # The compensated joint's own compliance that, with the median compensator, gives the median
+        # of the equivalent compliance's draws at the pose (eq 8).
+        own[:, joint] = compensator.own_compliance(q_comp, applied[:, joint])
+    deflection = np.einsum("pin,pn->pi", design, applied)
     commands, _, failed = compensate_poses(robot, program.q, wrench, own, compensator, joint)
     return CompensationResults(
         program=program,
         robot=cell.robot,
         commands=commands,
-        deflection=deflection,
-        errors={name: errors[name] for name in ("rms", "q95", "q9973")},
-        unidentified_share=errors["unidentified_share"],
-        unidentified=calibration.unidentified,
+        deflection_xyz=deflection,
+        budget=budget,
         failed=failed,
         tolerance=tolerance,
         n_draws=calibration.n_draws,

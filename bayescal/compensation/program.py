@@ -4,7 +4,8 @@ Columns: ``q1_deg .. qn_deg`` (the programmed joints), ``fx_N, fy_N, fz_N,
 mx_Nm, my_Nm, mz_Nm`` (the process wrench on the tool, base axes, its moment
 taken about the tool point) and optionally ``tcp_x_mm, tcp_y_mm, tcp_z_mm``
 (the tool point in the flange frame; the cell's ``[tool] tcp_mm`` otherwise).
-Other columns are carried to the compensated file unchanged.
+Other columns are carried to the compensated file unchanged; a column the
+compensated file writes (:func:`compensated_columns`) is refused.
 """
 
 from __future__ import annotations
@@ -19,11 +20,13 @@ import pandas as pd
 from bayescal.cell.campaign_checks import check_wrench
 from bayescal.cell.loading import WRENCH_COLUMNS
 from bayescal.cell.config import Cell
+from bayescal.cell.joint_tables import JointLayout, check_tool_points, read_joint_table
 from bayescal.errors import InputError
-from bayescal.tables import read_table
+from bayescal.output import record_read
+from bayescal.robot.kinematics import Robot
 from bayescal.units import MM
 
-__all__ = ["Program", "read_program", "WRENCH_COLUMNS", "TCP_COLUMNS"]
+__all__ = ["Program", "read_program", "compensated_columns", "WRENCH_COLUMNS", "TCP_COLUMNS"]
 
 TCP_COLUMNS = ("tcp_x_mm", "tcp_y_mm", "tcp_z_mm")
 
@@ -67,37 +70,58 @@ class Program:
         return np.column_stack([force, self.wrench[:, 3:] + np.cross(arm, force)])
 
 
+def compensated_columns(robot: Robot) -> tuple[str, ...]:
+    """The columns the compensated file adds to the program's (:meth:`CompensationResults.table
+    <bayescal.compensation.results.CompensationResults.table>`): a program may not carry them, or the
+    compensated file would overwrite their values."""
+    commands = tuple(f"q{j + 1}_cmd_{unit}" for j, unit in enumerate(robot.position_units))
+    errors = ("deflection_mm", "error_rms_mm", "error_q95_mm", "error_q9973_mm", "error_q9973_identified_mm")
+    return commands + errors + ("unidentified_share", "flag")
+
+
 def read_program(path: str | PathLike[str], cell: Cell) -> Program:
     """Read and check a program for ``cell``'s robot.
+
+    The joint columns are checked as every joint-angle table's
+    (:func:`~bayescal.cell.joint_tables.read_joint_table`): the robot's, within its
+    limits, not in radians, and no column named as one the compensated file writes.
 
     Raises
     ------
     InputError
-        A missing column, a bad number, joints outside the robot's limits, or a force
-        beyond what the robot can carry (naming the line and the column).
+        A missing column or one the robot does not have, a column the compensated file
+        writes, a bad number, joints outside the robot's limits or written in radians, a
+        tool point beyond the robot's reach, or a force beyond what the robot can carry
+        (naming the line and the column).
     """
-    # A prismatic joint (a linear track) is programmed in mm, a revolute one in deg.
-    joints = list(cell.robot.position_columns)
-    columns = dict.fromkeys([*joints, *WRENCH_COLUMNS], "number")
-    units = dict(zip(joints, cell.robot.position_units)) | {name: name.rsplit("_", 1)[1] for name in WRENCH_COLUMNS}
-    frame = read_table(path, columns, optional=dict.fromkeys(TCP_COLUMNS, "number"), units=units | dict.fromkeys(TCP_COLUMNS, "mm"))
+    wrench_units = {name: name.rsplit("_", 1)[1] for name in WRENCH_COLUMNS}
+    frame, q = read_joint_table(
+        path,
+        JointLayout.of(cell.robot),
+        dict.fromkeys(WRENCH_COLUMNS, "number"),
+        what="program",
+        optional=dict.fromkeys(TCP_COLUMNS, "number"),
+        units=wrench_units | dict.fromkeys(TCP_COLUMNS, "mm"),
+        reserved=compensated_columns(cell.robot),
+        reserved_why="the compensated file writes (its values would be overwritten)",
+    )
     source = frame.attrs["source"]
     full = _all_columns(source, frame.index)
-    q = frame[joints].to_numpy(dtype=float) * cell.robot.position_scale
-    for row, line in zip(q, frame.index):
-        cell.robot.check_limits(row, source=source, line=int(line))
     wrench = frame[list(WRENCH_COLUMNS)].to_numpy(dtype=float)
     present = [name for name in TCP_COLUMNS if name in frame]
     if present and len(present) < 3:
         missing = next(name for name in TCP_COLUMNS if name not in frame)
         raise InputError(f"missing column '{missing}': a per-row tool point needs tcp_x_mm, tcp_y_mm and tcp_z_mm", source=source)
     tcp = frame[list(TCP_COLUMNS)].to_numpy(dtype=float) * MM if present else np.tile(cell.tool_point, (len(frame), 1))
+    if present:
+        check_tool_points(cell.robot, tcp, frame.index.to_numpy(dtype=int), TCP_COLUMNS, source)
     check_wrench(cell, wrench, frame.index.to_numpy(dtype=int), source, what="process", about="the tool point", smallest=False)
     return Program(q=q, wrench=wrench, tcp=tcp, table=full, source=source)
 
 
 def _all_columns(source: str, lines: pd.Index) -> pd.DataFrame:
     """Every column of the file as text, indexed by line: what the compensated file carries over."""
+    record_read(source, "the program")
     with open(source, encoding="utf-8-sig", newline="") as handle:
         numbered = [(i, line) for i, line in enumerate(handle.read().splitlines(), start=1) if line.strip() and not line.lstrip().startswith("#")]
     rows = list(csv.reader([line for _, line in numbered], skipinitialspace=True))

@@ -9,17 +9,21 @@ from os import PathLike
 import numpy as np
 import pandas as pd
 
+from bayescal.compensation.budget import ErrorBudget
 from bayescal.compensation.program import Program
 from bayescal.jsonsafe import json_safe
 from bayescal.robot.kinematics import Robot
 from bayescal.units import MM
 
-__all__ = ["CompensationResults", "FLAG_OK"]
+__all__ = ["CompensationResults", "FLAG_OK", "DECIMALS"]
 
 FLAG_OK = "ok"
 """The ``flag`` of a pose with nothing to report."""
 
 WORST = 10
+DECIMALS = 4
+"""Decimals of the compensated targets (deg or mm) and the lengths (mm) in the written program: what KUKA
+KRL and ABB RAPID take for axis values (a ten-thousandth of a degree moves a tool 3 m out by 5 μm)."""
 """Poses listed in :meth:`CompensationResults.to_json`'s ``worst_poses``."""
 
 
@@ -33,15 +37,12 @@ class CompensationResults:
     robot : Robot
     commands : numpy.ndarray
         ``(P, n)`` compensated joint targets, rad (NaN where no equilibrium was found).
-    deflection : numpy.ndarray
-        ``(P,)`` the tool point's deflection under the wrench at the programmed joints,
-        posterior mean, linear map of eq 31 (m): the error without compensation.
-    errors : dict
-        ``rms``, ``q95``, ``q9973``: ``(P,)`` error left after compensation over the draws (m).
-    unidentified_share : numpy.ndarray
-        ``(P,)`` fraction of the mean-square error due to the parameters the campaign did not identify.
-    unidentified : tuple of str
-        Those parameters.
+    deflection_xyz : numpy.ndarray
+        ``(P, 3)`` the tool point's deflection under the wrench at the programmed joints with the
+        applied (median) compliances, linear map of eq 31 (m, base axes): the error without compensation,
+        which the correction removes.
+    budget : ErrorBudget
+        The error left after compensation at each pose over the draws, and the unidentified parameters' part.
     failed : numpy.ndarray
         ``(P,)`` True where the equilibrium under the wrench was not found.
     tolerance : float or None
@@ -53,14 +54,32 @@ class CompensationResults:
     program: Program
     robot: Robot
     commands: np.ndarray
-    deflection: np.ndarray
-    errors: dict[str, np.ndarray]
-    unidentified_share: np.ndarray
-    unidentified: tuple[str, ...]
+    deflection_xyz: np.ndarray
+    budget: ErrorBudget
     failed: np.ndarray
     tolerance: float | None = None
     n_draws: int = 0
     _flags: list[str] | None = field(default=None, repr=False)
+
+    @property
+    def deflection(self) -> np.ndarray:
+        """``(P,)`` length of :attr:`deflection_xyz` (m)."""
+        return np.linalg.norm(self.deflection_xyz, axis=1)
+
+    @property
+    def errors(self) -> dict[str, np.ndarray]:
+        """``rms``, ``q95``, ``q9973``: ``(P,)`` error left after compensation over every parameter's draws (m)."""
+        return self.budget.total
+
+    @property
+    def unidentified(self) -> tuple[str, ...]:
+        """The parameters the calibration did not identify, drawn from their prior."""
+        return self.budget.unidentified
+
+    @property
+    def unidentified_share(self) -> np.ndarray:
+        """``(P,)`` fraction of the mean-square error due to :attr:`unidentified`."""
+        return self.budget.unidentified_share
 
     @property
     def flags(self) -> list[str]:
@@ -100,13 +119,23 @@ class CompensationResults:
         out["error_rms_mm"] = self.errors["rms"] / MM
         out["error_q95_mm"] = self.errors["q95"] / MM
         out["error_q9973_mm"] = self.errors["q9973"] / MM
+        out["error_q9973_identified_mm"] = self.budget.identified["q9973"] / MM
         out["unidentified_share"] = self.unidentified_share
         out["flag"] = self.flags
         return out
 
-    def save(self, path: str | PathLike[str]) -> None:
-        """Write :meth:`table` as CSV (joint targets to 1e-6 deg, lengths to 1e-6 mm)."""
-        self.table().to_csv(path, index=False, float_format="%.9g")
+    def save(self, path: str | PathLike[str], decimals: int = DECIMALS) -> None:
+        """Write :meth:`table` as CSV: the input's columns as written, the new numbers with ``decimals``
+        fixed decimals (a controller reads ``-0.0000``, not ``-7.9e-19``), the share with 3."""
+        from bayescal.reports.numbers import fixed
+
+        table = self.table()
+        added = [name for name in table.columns if name not in self.program.table.columns and name != "flag"]
+        for name in added:
+            write = fixed(3 if name == "unidentified_share" else decimals)
+            # A pose without equilibrium keeps its NaN targets written as such, not as a number.
+            table[name] = [write(value) if math.isfinite(value) else "nan" for value in table[name]]
+        table.to_csv(path, index=False)
 
     def summary(self) -> pd.DataFrame:
         """Program-level statistics over the poses, columns ``median`` and ``max``: the deflection without
@@ -135,6 +164,32 @@ class CompensationResults:
             "largest_joint_correction_mm": {f"q{j + 1}": float(c) for j, c in enumerate(largest) if self.robot.prismatic[j]},
             "equilibrium_failures": int(self.failed.sum()),
         }
+
+    def text(self) -> str:
+        """A reader's summary: the poses, the worst 99.73 % bound and what dominates it, the flags."""
+        from bayescal.reports.numbers import error_length
+
+        summary = self._summary_json()
+        lines = [f"{self.program.source or 'program'}: {summary['poses']} poses compensated over {self.n_draws} draws"]
+        if len(self.program) and np.isfinite(self.errors["q9973"]).any():
+            worst = int(np.nanargmax(self.errors["q9973"]))
+            share = self.unidentified_share[worst]
+            cause = (
+                f"{share:.0%} of its mean square from {', '.join(self.unidentified)}, which the calibration did not identify "
+                f"(from the identified parameters alone: {error_length(self.budget.identified['q9973'][worst] / MM)})"
+                if self.unidentified and share >= 0.5
+                else "mostly from the identified parameters' uncertainty"
+            )
+            lines += [
+                f"deflection removed: median {error_length(summary['deflection_mm']['median'])}, largest {error_length(summary['deflection_mm']['max'])}",
+                f"error left (99.73 %, everything counted): median {error_length(summary['error_q9973_mm']['median'])}, "
+                f"worst {error_length(self.errors['q9973'][worst] / MM)} at line {int(self.program.lines[worst])}: {cause}",
+            ]
+        lines.append(
+            f"flagged: {summary['flagged']} ({summary['outside_joint_limits']} outside the joint limits, {summary['no_equilibrium']} without "
+            "equilibrium" + ("" if self.tolerance is None else f", tolerance {self.tolerance / MM:g} mm") + ")"
+        )
+        return "\n".join(lines)
 
     def to_json(self) -> dict:
         """Summary, diagnostics and the :data:`WORST` poses by their 99.73 % error."""

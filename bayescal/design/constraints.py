@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bayescal.cell.config import Cell
+from bayescal.cell.plausible import mass_range_violation
 from bayescal.errors import InputError
 from bayescal.design.criteria import solve_equilibrium
 from bayescal.robot.kinematics import Workspace
@@ -96,13 +97,9 @@ class DesignSpace:
     source: str = "<defaults>"
 
     def __post_init__(self) -> None:
-        low, high = self.mass_range
-        if not (math.isfinite(low) and math.isfinite(high) and 0 < low <= high):
-            raise InputError(
-                f"expected a mass range 0 < low <= high in kg, got {low:g} to {high:g} (a campaign without load deflects nothing)",
-                source=self.source,
-                column="mass_kg",
-            )
+        reason = mass_range_violation(*self.mass_range)
+        if reason is not None:
+            raise InputError(reason, source=self.source, column="mass_kg")
 
 
 def load_design_space(cell: Cell, *, mass_range: tuple[float, float] | None = None) -> DesignSpace:

@@ -26,10 +26,19 @@ Three criteria, all to be minimised:
 * ``d-optimal``: ``-log det`` of the information matrix, as general-purpose
   calibration toolboxes use it.
 
-Parameters no configuration of the plan excites (``k1`` under hanging loads,
-which exert no torque about the vertical A1 axis) are held at their nominal
-value: they are left out of the covariance, reported with NaN widths, and
-their uncertainty is not in ``ρ0`` (as in :func:`bayescal.inference.testpose.predict_cell_test_pose`).
+A joint compliance no configuration of the plan excites (``k1`` under hanging
+loads, which exert no torque about the vertical A1 axis) keeps its prior, the
+cell's ``[joints] k_log_sd`` log-normal about the cell's value, as it does in
+the identification: the compensation applies that value, and the error it
+leaves enters ``ρ0`` as it enters every predicted error of the package
+(:mod:`bayescal.compensation.budget`).  Such a compliance has no information
+from the data, so its share adds to ``ρ0²`` apart: ``|G0_j|² m²``, ``m²`` the
+mean square of ``k/k_cell - 1`` under its prior (:func:`prior_mean_square`),
+exact for a linear model.  So a hanging plan and a free-direction plan are
+scored by one number a user can compare; the data's part alone is
+``rho0_identified``.  Its width stays NaN (the eq-37 precision has none), and
+``K_c`` and ``s0`` (flat priors) are held at their nominal value when the plan
+cannot excite them.
 """
 
 from __future__ import annotations
@@ -61,6 +70,7 @@ __all__ = [
     "nominal_parameters",
     "parameter_names",
     "predict",
+    "prior_mean_square",
     "solve_equilibrium",
     "test_deflection",
     "test_pose_design",
@@ -91,6 +101,18 @@ def nominal_parameters(cell: Cell) -> np.ndarray:
     if cell.compensator is not None:
         values += [cell.compensator.K_c, cell.compensator.s0]
     return np.array(values, dtype=float)
+
+
+def prior_mean_square(log_sd: float) -> float:
+    """``E[(k/k_cell - 1)²]`` when ``log(k/k_cell)`` is normal with sd ``log_sd``: the mean-square relative
+    error the cell's value (the prior's median, which the correction applies) leaves.  ``0.383`` for 0.5."""
+    return math.exp(2.0 * log_sd**2) - 2.0 * math.exp(0.5 * log_sd**2) + 1.0
+
+
+def _prior_term(cell: Cell, G0: np.ndarray, excited: np.ndarray) -> float:
+    """``Σ |G0_j|² m²`` (m²) over the joint compliances not ``excited``: their priors' share of ``ρ0²``."""
+    held = ~excited[: cell.robot.nq]
+    return float(np.sum(G0[:, : cell.robot.nq][:, held] ** 2)) * prior_mean_square(cell.compliance_log_sd)
 
 
 def compliance_chain(cell: Cell, q2: float) -> tuple[np.ndarray, np.ndarray]:
@@ -275,8 +297,11 @@ class PlanPrediction:
         (p, p) covariance of the relative parameters; NaN rows and columns where not
         excited, or everywhere when the plan cannot separate the excited ones.
     rho0 : float
-        rms positioning error left at the test pose after compensation (eq 39), m; inf when the
-        plan cannot predict it.
+        rms positioning error left at the test pose after compensation (eq 39), m, the priors of the
+        compliances the plan does not excite included; inf when the plan cannot predict it.
+    rho0_identified : float
+        The same with every compliance the plan does not excite held at its applied value: the part
+        the plan's data set, m.
     log_det : float
         log det of the excited block of the information matrix (relative parameters); -inf when singular.
     registry : ParameterRegistry
@@ -291,6 +316,14 @@ class PlanPrediction:
     rho0: float
     log_det: float
     registry: ParameterRegistry
+    rho0_identified: float = math.nan
+
+    @property
+    def prior_share(self) -> float:
+        """Fraction of ``ρ0²`` from the priors of the compliances the plan does not excite."""
+        if not math.isfinite(self.rho0) or self.rho0 == 0:
+            return math.nan
+        return max(0.0, 1.0 - (self.rho0_identified / self.rho0) ** 2)
 
     @property
     def relative_sd(self) -> np.ndarray:
@@ -316,9 +349,14 @@ class PlanPrediction:
     def to_json(self) -> dict:
         """``criterion`` (ρ0 in mm, null when not predictable) and each parameter's ±3σ width."""
         table = self.summary()
+        not_excited = [name for name, excited in zip(self.names, self.excited) if not excited and name.startswith("k")]
         return {
             "criterion": json_safe(self.rho0 / MM),
             "criterion_unit": "mm rms at the test pose after compensation",
+            "criterion_includes": "the identified parameters' uncertainty and the prior of "
+            + (", ".join(not_excited) + ", which the plan does not excite" if not_excited else "no unexcited compliance (every one excited)"),
+            "criterion_identified_only": json_safe(self.rho0_identified / MM),
+            "criterion_prior_share_of_mean_square": json_safe(self.prior_share),
             "log_det_information": json_safe(self.log_det),
             "parameters": {
                 name: {
@@ -348,6 +386,7 @@ def predict(cell: Cell, information: np.ndarray, *, test_design: np.ndarray | No
     """
     names = parameter_names(cell)
     p = len(names)
+    G0 = test_pose_design(cell) if test_design is None else test_design
     diagonal = np.diag(information)
     excited = diagonal > UNEXCITED * max(diagonal.max(), 1e-300)
     block = information[np.ix_(excited, excited)]
@@ -355,12 +394,14 @@ def predict(cell: Cell, information: np.ndarray, *, test_design: np.ndarray | No
     scale = 1.0 / np.sqrt(np.diag(block))
     values, vectors = np.linalg.eigh(block * np.outer(scale, scale))
     covariance = np.full((p, p), np.nan)
-    rho0, log_det = math.inf, -math.inf
+    rho0 = rho0_identified = math.inf
+    log_det = -math.inf
     if values.size and values[0] > SINGULAR * values[-1]:
         inverse = (vectors / values) @ vectors.T * np.outer(scale, scale)
         covariance[np.ix_(excited, excited)] = inverse
-        G0 = test_pose_design(cell) if test_design is None else test_design
-        rho0 = math.sqrt(max(float(np.trace(G0[:, excited] @ inverse @ G0[:, excited].T)), 0.0))
+        squared = max(float(np.trace(G0[:, excited] @ inverse @ G0[:, excited].T)), 0.0)
+        rho0_identified = math.sqrt(squared)
+        rho0 = math.sqrt(squared + _prior_term(cell, G0, excited))
         log_det = float(np.sum(np.log(values)) - 2.0 * np.sum(np.log(scale)))
     return PlanPrediction(
         names=names,
@@ -370,6 +411,7 @@ def predict(cell: Cell, information: np.ndarray, *, test_design: np.ndarray | No
         rho0=rho0,
         log_det=log_det,
         registry=ParameterRegistry.of_cell(cell),
+        rho0_identified=rho0_identified,
     )
 
 
@@ -429,6 +471,6 @@ def criterion_values(cell: Cell, information: np.ndarray, criterion: str, *, tes
         if cell.compensator is None:
             raise ValueError("the compensator criterion needs a cell with a compensator")
         return np.where(usable, inverse[:, -2, -2] + inverse[:, -1, -1], np.inf)
-    G0 = (test_pose_design(cell) if test_design is None else test_design)[:, excited]
-    squared = np.einsum("ij,njk,ik->n", G0, inverse, G0)
-    return np.where(usable, np.sqrt(np.maximum(squared, 0.0)), np.inf)
+    G0 = test_pose_design(cell) if test_design is None else test_design
+    squared = np.einsum("ij,njk,ik->n", G0[:, excited], inverse, G0[:, excited])
+    return np.where(usable, np.sqrt(np.maximum(squared, 0.0) + _prior_term(cell, G0, excited)), np.inf)

@@ -355,8 +355,14 @@ class DiscriminatingDesigner:
         seed = rng if isinstance(rng, int) else None
         rng = np.random.default_rng(rng)
         designer = PlanDesigner(self.cell, self.space, repeats=self.repeats, model="linear")
-        if angles < 1 or per_angle < 1 or angles > designer.max_angles():
-            raise InputError(f"expected 1 to {designer.max_angles()} angles and at least 1 configuration per angle, got {angles} and {per_angle}", source="angles")
+        if angles < 1 or angles > designer.max_angles():
+            raise InputError(f"expected 1 to {designer.max_angles()} angles, got {angles}", source="angles")
+        if not 1 <= per_angle <= candidates_per_angle * MASS_LEVELS:
+            raise InputError(
+                f"expected 1 to {candidates_per_angle * MASS_LEVELS} configurations per q2 angle (the {candidates_per_angle} candidates "
+                f"the design draws at each, at {MASS_LEVELS} masses), got {per_angle}",
+                source="per_angle",
+            )
         grid, configurations, index, _, _ = designer.candidates(rng, per_angle=candidates_per_angle)
         masses = np.linspace(*self.space.mass_range, MASS_LEVELS)
         markers = np.array(list(self.cell.markers.values()))
@@ -485,7 +491,11 @@ class _Exchange:
     def run(self, angles: int, per_angle: int) -> tuple[list[int], float]:
         usable = [g for g in range(len(self.grid)) if np.count_nonzero(self.group == g) >= per_angle]
         if len(usable) < angles:
-            raise InputError(f"only {len(usable)} q2 angles have {per_angle} feasible configurations, {angles} requested", source="angles")
+            # No angle with that many: the configurations per angle are at fault, not the number of angles.
+            raise InputError(
+                f"only {len(usable)} q2 angles have {per_angle} feasible configurations, {angles} requested",
+                source="angles" if usable else "per_angle",
+            )
         for _ in range(1000):
             chosen_angles = list(self.rng.choice(usable, size=angles, replace=False))
             if self._separated(chosen_angles):

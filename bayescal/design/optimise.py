@@ -184,15 +184,26 @@ class PlanDesigner:
         low, high = self.q2_range
         return int(math.floor((high - low) / self.space.min_separation + 1e-9)) + 1
 
-    def check_request(self, angles: int, per_angle: int, criterion: str) -> None:
-        """Raise the :class:`InputError` :meth:`optimise` would for a request no plan can meet, before any work."""
+    def check_request(self, angles: int, per_angle: int, criterion: str, *, candidates_per_angle: int = CANDIDATES_PER_ANGLE) -> None:
+        """Raise the :class:`InputError` :meth:`optimise` would for a request no plan can meet, before any work.
+
+        ``candidates_per_angle`` is the number of candidates the design will draw at each q2 angle: no plan takes more.
+        """
         self._check_request(angles, per_angle, criterion)
+        if per_angle > candidates_per_angle:
+            raise InputError(
+                f"expected at most {candidates_per_angle} configurations per q2 angle (the candidates the design draws at each), "
+                f"got {per_angle}",
+                source="per_angle",
+            )
 
     def _check_request(self, angles: int, per_angle: int, criterion: str, *, scored: bool = True) -> None:
         if criterion not in CRITERIA:
             raise InputError(f"unknown criterion '{criterion}'; expected one of {', '.join(CRITERIA)}", source="criterion")
-        if angles < 1 or per_angle < 1:
-            raise InputError(f"expected at least 1 angle and 1 configuration per angle, got {angles} and {per_angle}", source="angles")
+        if angles < 1:
+            raise InputError(f"expected at least 1 angle, got {angles}", source="angles")
+        if per_angle < 1:
+            raise InputError(f"expected at least 1 configuration per angle, got {per_angle}", source="per_angle")
         if angles > self.max_angles():
             low, high = (math.degrees(v) for v in self.q2_range)
             raise InputError(
@@ -331,7 +342,10 @@ class PlanDesigner:
             For a request no plan can meet: an unknown criterion, more angles than the
             joint range allows, too few angles for the compensator, no feasible configuration.
         """
-        self._check_request(angles, per_angle, criterion)
+        if candidates is None:
+            self.check_request(angles, per_angle, criterion, candidates_per_angle=candidates_per_angle)
+        else:
+            self._check_request(angles, per_angle, criterion)
         seed = rng if isinstance(rng, int) else None
         rng = np.random.default_rng(rng)
         if candidates is None:
@@ -340,7 +354,11 @@ class PlanDesigner:
         available = [np.flatnonzero(index == g) for g in range(len(grid))]
         usable = np.array([len(c) >= per_angle for c in available])
         if np.count_nonzero(usable) < angles:
-            raise InputError(f"only {np.count_nonzero(usable)} q2 angles have {per_angle} feasible configurations, {angles} requested", source="angles")
+            # No angle with that many: the configurations per angle are at fault, not the number of angles.
+            raise InputError(
+                f"only {np.count_nonzero(usable)} q2 angles have {per_angle} feasible configurations, {angles} requested",
+                source="angles" if usable.any() else "per_angle",
+            )
         bar = Progress(starts, f"plan: {criterion}", progress)
         best, scores = None, []
         for _ in range(starts):

@@ -102,7 +102,12 @@ class PlanDesign:
     def save(self, path: str | PathLike[str], *, comments: tuple[str, ...] = ()) -> None:
         """Write the plan in the format of ``data/table3_plan.csv``."""
         rho0 = self.prediction.rho0
-        note = f"predicted rms error at the test pose after compensation {rho0 / MM:.5f} mm" if math.isfinite(rho0) else ""
+        note = (
+            f"predicted rms error at the test pose after compensation {rho0 / MM:.5f} mm, everything counted "
+            f"({self.prediction.rho0_identified / MM:.5f} mm from the plan's data alone)"
+            if math.isfinite(rho0)
+            else ""
+        )
         write_plan(self.plan, path, comments=(f"plan optimised for the {self.criterion} criterion, {self.repeats} repeats; {note}",) + tuple(comments))
 
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from bayescal.cell.campaign import Campaign
+from bayescal.cell.campaign_checks import check_force_columns
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
@@ -277,7 +278,7 @@ def _relative_noise(tracker: TrackerNoise, campaign: Campaign) -> np.ndarray:
 
 
 def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray, *, hanging_only: bool = False) -> None:
-    """Reject deflections or marker positions no robot could produce; warn when all loads are parallel.
+    """Reject deflections, marker positions or forces no robot could produce; warn when all loads are parallel.
 
     ``hanging_only``: the cell's end-effector can only hang masses, so vertical loads are all it
     can apply: k1's reason records it (:data:`HANGING_ONLY_REASON`) and ``bayescal plan`` says it once.
@@ -285,8 +286,11 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray, *, hang
     Raises
     ------
     InputError
-        A deflection above :data:`MAX_DEFLECTION` or a marker farther than
-        :data:`MAX_MARKER_DISTANCE` from the flange (positions in the wrong unit).
+        A deflection above :data:`MAX_DEFLECTION`; a marker farther than
+        :data:`MAX_MARKER_DISTANCE` from the flange (naming the slip whose undoing puts
+        the markers on the tool, if one does: metres, two axes swapped); a marker label
+        off its point of the tool; markers moving across their forces with two force
+        columns swapped (:func:`~bayescal.cell.campaign_checks.check_force_columns`).
     """
     _reject_largest(
         campaign,
@@ -302,10 +306,11 @@ def check_campaign(robot: Robot, campaign: Campaign, points: np.ndarray, *, hang
         MAX_MARKER_DISTANCE,
         "0_mm",
         lambda marker, size: f"marker '{marker}' is {size:.3g} m from the flange, farther than any tool "
-        f"({MAX_MARKER_DISTANCE:g} m): are x0_mm..z0_mm in metres instead of mm?",
+        f"({MAX_MARKER_DISTANCE:g} m): {_position_slip(robot, campaign)}",
         columns=campaign.p0,
     )
     _check_markers(campaign, points)
+    check_force_columns(campaign.wrench, campaign.displacement, campaign.lines, campaign.source)
     forces = campaign.wrench[:, :3]
     loaded = forces[np.linalg.norm(forces, axis=1) > 0]
     if loaded.shape[0]:
@@ -375,6 +380,43 @@ def _reject_largest(campaign: Campaign, vectors: np.ndarray, limit: float, suffi
             line=int(campaign.lines[worst]) or None,
             column="xyz"[int(np.argmax(np.abs(values[worst])))] + suffix,
         )
+
+
+_POSITION_SLIPS = (
+    ("read in mm", "are x0_mm..z1_mm in metres instead of mm?", lambda p: p / MM),
+    ("with x and y exchanged", "are x and y swapped (x0_mm with y0_mm, x1_mm with y1_mm), a mirrored frame?", lambda p: p[:, [1, 0, 2]]),
+    ("with x and z exchanged", "are x and z swapped (x0_mm with z0_mm, x1_mm with z1_mm), a mirrored frame?", lambda p: p[:, [2, 1, 0]]),
+    ("with y and z exchanged", "are y and z swapped (y0_mm with z0_mm, y1_mm with z1_mm), a mirrored frame?", lambda p: p[:, [0, 2, 1]]),
+)
+"""The slips a campaign's positions may have suffered: how each is undone, and the question that names it."""
+
+
+def _position_slip(robot: Robot, campaign: Campaign) -> str:
+    """The question naming the slip whose undoing puts every marker on one point of the tool, or what else to check.
+
+    A slip is named only when the data support it: undone, every marker lies within
+    :data:`MAX_MARKER_DISTANCE` of the flange and on one point of the tool in every
+    row, to :data:`MARKER_TOLERANCE` once each configuration's sag is turned out
+    (:func:`_unsagged`).  A campaign in metres or with two axes swapped puts its
+    markers metres apart from row to row; undone, they agree to the sag's mm.
+    """
+    chain = BatchedChain.of(robot)
+    labels = np.asarray(campaign.marker).astype(str)
+    for reading, question, undo in _POSITION_SLIPS:
+        fixed = undo(campaign.p0)
+        points = np.empty_like(fixed)
+        for start in range(0, len(campaign), CHUNK):
+            rows = slice(start, start + CHUNK)
+            points[rows] = chain.poses(campaign.q[rows]).in_flange(fixed[rows])
+        if np.linalg.norm(points, axis=1).max() > MAX_MARKER_DISTANCE:
+            continue
+        aligned = _unsagged(campaign, points)
+        scatter = max(float(np.linalg.norm(aligned[labels == label] - np.median(aligned[labels == label], axis=0), axis=1).max())
+                      for label in np.unique(labels))
+        if scatter <= MARKER_TOLERANCE:
+            return f"{reading}, every marker sits on one point of the tool (to {scatter / MM:.1f} mm): {question}"
+    return ("neither a unit slip nor an exchange of two axes puts the markers on one point of the tool: are x0_mm..z1_mm "
+            "in the robot's base frame?")
 
 
 def _unsagged(campaign: Campaign, points: np.ndarray) -> np.ndarray:

@@ -27,6 +27,7 @@ from bayescal.cell.cellfile import CellFileReader, read_cell_file
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError
 from bayescal.kinematics.tree import BatchedTree
+from bayescal.output import record_read
 from bayescal.units import DEG, MM, URAD_PER_NM
 
 __all__ = ["Marker", "PointsCell", "Priors", "is_points_cell", "load_points_cell"]
@@ -160,6 +161,7 @@ def load_points_cell(path: str | PathLike[str]) -> PointsCell:
     urdf = file.parent / reader.text("robot", "urdf")
     if not urdf.is_file():
         reader.fail(f"URDF file not found: {urdf}", "robot", "urdf")
+    record_read(urdf, f"the URDF the cell {source} points to")
     try:
         model = pin.buildModelFromUrdf(str(urdf))
     except (RuntimeError, ValueError) as exc:

@@ -10,23 +10,20 @@ the positions.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from os import PathLike
 
 import numpy as np
 
+from bayescal.cell.joint_tables import JointLayout, read_joint_table
 from bayescal.errors import InputError
 from bayescal.kinematics.cell import PointsCell
-from bayescal.tables import read_header, read_table
+from bayescal.tables import ColumnKind
 from bayescal.units import DEG, MM
 
 __all__ = ["Positions", "read_positions", "POSITION_COLUMNS"]
 
 POSITION_COLUMNS = ("x_mm", "y_mm", "z_mm")
-
-LARGEST_RADIAN_FILE = 3.2
-"""A file whose every joint angle lies within ±3.2 is taken for radians (π rad is 3.14): a real campaign in deg spans tens of deg."""
 
 SMALLEST_SPREAD_MM = 10.0
 """Positions spread over less than 10 mm are taken for metres: a robot's campaign spreads its markers over hundreds of mm."""
@@ -70,36 +67,23 @@ def read_positions(path: str | PathLike[str], cell: PointsCell, *, measured: boo
     ------
     InputError
         Naming the file, line and column: joint columns that do not match the cell's
-        commanded joints (count or unit), an unknown marker, a configuration missing
-        a marker or naming one twice, angles that look like radians, positions that
-        look like metres.
+        commanded joints (count or unit) or angles that look like radians (the checks of
+        every joint-angle table, :mod:`bayescal.cell.joint_tables`), an unknown marker, a
+        configuration missing a marker or naming one twice, positions that look like metres.
     """
     source = str(path)
-    header = read_header(path)
     expected = cell.joint_columns
-    if header is not None:
-        line, names = header
-        joint_columns = [name for name in names if re.fullmatch(r"q\d+_\w+", name)]
-        radians = [name for name in joint_columns if name.endswith("_rad")]
-        if radians:
-            raise InputError(f"joint angles are expected in deg (columns {expected[0]}..{expected[-1]}), got '{radians[0]}'",
-                             source=source, line=line, column=radians[0])
-        if joint_columns and len(joint_columns) != len(expected):
-            raise InputError(
-                f"the cell commands {len(expected)} joints ({expected[0]}..{expected[-1]}, [robot] joints of {cell.source}); "
-                f"the file has {len(joint_columns)} joint columns", source=source, line=line)
-    columns = {name: "number" for name in expected} | {"marker": "text"}
+    layout = JointLayout(tuple(expected), np.full(len(expected), DEG), f"the cell ({cell.source}, [robot] joints)", verb="commands")
+    columns: dict[str, ColumnKind] = {"marker": "text"}
     if measured:
         columns |= {name: "number" for name in POSITION_COLUMNS}
-    frame = read_table(path, columns, units={name: "deg" for name in expected} | {name: "mm" for name in POSITION_COLUMNS})
+    what = "positions file" if measured else "configurations file"
+    frame, q = read_joint_table(path, layout, columns, what=what, units={name: "mm" for name in POSITION_COLUMNS})
     known = cell.marker_names
     for line, name in frame["marker"].items():
         if name not in known:
             raise InputError(f"unknown marker '{name}'; the cell's markers are {', '.join(known)}", source=source, line=line, column="marker")
     angles = frame[list(expected)].to_numpy()
-    if np.abs(angles).max() <= LARGEST_RADIAN_FILE and np.ptp(angles) > 0:
-        raise InputError(f"every joint angle lies within ±{LARGEST_RADIAN_FILE}: radians? write the angles in deg",
-                         source=source, column=expected[0])
     groups: dict[tuple, dict[str, int]] = {}
     for row, (line, name) in enumerate(frame["marker"].items()):
         key = tuple(angles[row])
@@ -115,7 +99,7 @@ def read_positions(path: str | PathLike[str], cell: PointsCell, *, measured: boo
             raise InputError(f"the configuration of this line has no row for marker '{missing[0]}' (each configuration needs one "
                              f"row per marker: {', '.join(known)})", source=source, line=first, column="marker")
     order = [[seen[name] for name in known] for seen in groups.values()]
-    joints = np.array([angles[rows[0]] for rows in order]) * DEG
+    joints = np.array([q[rows[0]] for rows in order])
     lines = np.array([[frame.index[r] for r in rows] for rows in order])
     xyz = None
     if measured:

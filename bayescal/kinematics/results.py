@@ -20,6 +20,7 @@ from bayescal.errors import InputError
 from bayescal.kinematics.cell import PointsCell
 from bayescal.kinematics.model import PointModel
 from bayescal.kinematics.positions import Positions
+from bayescal.output import record_read
 
 __all__ = ["KinematicResults", "load_kinematic_calibration", "IDENTIFIED_RATIO"]
 
@@ -170,6 +171,7 @@ def load_kinematic_calibration(path: str | PathLike[str], cell: PointsCell) -> K
     import xarray as xr
 
     source = str(path)
+    record_read(path, "the kinematic calibration")
     try:
         with xr.open_dataset(path, engine="netcdf4") as opened:
             dataset = opened.load()

@@ -23,10 +23,14 @@ all angles but one and predicts the readings at the angle left out, with the
 fit's parameter uncertainty added to the noise (a Gaussian predictive).  A
 candidate is *named* when its gain in expected log predictive density over the
 circle model, summed over the held-out angles, exceeds :data:`SWEEP_Z` standard
-errors and :data:`SWEEP_FLOOR` nats (Vehtari, Gelman & Gabry 2017 for the
-standard error ``sqrt(K var(d))``); the thresholds are set on the digital twin's
-clean sweeps and measured on the independent generator's
-(``docs/registration.md``).
+errors and :data:`SWEEP_FLOOR` nats, or the campaign critique's decisive gain
+(:data:`~bayescal.critique.model.DECISIVE_GAIN` nats) whatever its standard error
+(Vehtari, Gelman & Gabry 2017 for the standard error ``sqrt(K var(d))``, which
+fails when the gain sits in one or two of a few angles); the thresholds are set
+on the digital twin's clean sweeps and measured on the independent generator's
+(``docs/registration.md``).  Each model's noise is learned, as the
+registration's: the tracker's law times its own excess ``max(1, χ²/dof)^½`` on the
+angles it was fitted to.
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ from scipy.optimize import least_squares
 from scipy.stats import multivariate_normal
 
 from bayescal.cell.tracker import TrackerNoise
+from bayescal.critique.model import DECISIVE_GAIN
 from bayescal.registration.axes import axis_start
 from bayescal.registration.sweeps import Sweeps
 from bayescal.units import DEG, MM, UM
@@ -125,11 +130,17 @@ class _Data:
                              jac=lambda x: _jacobian(lambda X: self._whitened(X, candidate, keep), x)[1])
 
     def held_out_density(self, fit, candidate, held: np.ndarray) -> tuple[float, float]:
-        """Log predictive density of the readings ``held`` and their sum of squared residuals (m²)."""
-        cov_x = np.linalg.pinv(fit.jac.T @ fit.jac)
+        """Log predictive density of the readings ``held`` and their sum of squared residuals (m²).
+
+        The noise is the model's own learned excess over the tracker's law on the angles it was fitted to,
+        ``max(1, χ²/dof)``, as the registration's (:mod:`bayescal.registration.axes`): a candidate that explains
+        part of the scatter predicts with less of it.
+        """
+        excess2 = max(1.0, float(np.sum(fit.fun**2)) / max(fit.fun.size - fit.x.size, 1))
+        cov_x = excess2 * np.linalg.pinv(fit.jac.T @ fit.jac)
         predicted, J = _jacobian(
             lambda X: _predict(X, candidate, self.q[held], self.index[held], self.count, self.q_mid, self.frame), fit.x)
-        cov = np.diag(np.repeat(self.sigma[held] ** 2, 3)) + J @ cov_x @ J.T
+        cov = excess2 * np.diag(np.repeat(self.sigma[held] ** 2, 3)) + J @ cov_x @ J.T
         observed = self.xyz[held].ravel()
         return float(multivariate_normal.logpdf(observed, predicted, cov)), float(np.sum((observed - predicted) ** 2))
 
@@ -227,7 +238,8 @@ def critique_joint(sweep: Sweeps, joint: int, noise: TrackerNoise) -> JointCriti
         gain, se = float(d.sum()), float(np.sqrt(d.size * d.var(ddof=1)))
         value, sd = _estimate(candidate, full[candidate], data.count, data.q)
         rows[candidate] = {
-            "delta_elpd": gain, "se": se, "named": bool(gain > SWEEP_Z * se and gain > SWEEP_FLOOR),
+            "delta_elpd": gain, "se": se,
+            "named": bool((gain > SWEEP_Z * se and gain > SWEEP_FLOOR) or gain > DECISIVE_GAIN),
             "estimate": value, "estimate_sd": sd, "unit": UNITS[candidate],
             "rms_circle_mm": float(np.sqrt(scores[None][:, 1].sum() / (3 * n)) / MM),
             "rms_candidate_mm": float(np.sqrt(scores[candidate][:, 1].sum() / (3 * n)) / MM),
@@ -251,8 +263,8 @@ class SweepCritique:
         return pd.concat({j + 1: c.evidence for j, c in self.joints.items()}, names=["joint", "candidate"])
 
     def diagnostics(self) -> dict:
-        """The verdict and the naming rule (ΔELPD over its SE, and its floor in nats)."""
-        return {"verdict": self.verdict, "rule": {"z": SWEEP_Z, "floor_nats": SWEEP_FLOOR}}
+        """The verdict and the naming rule (ΔELPD over its SE and its floor in nats, or the decisive gain in nats)."""
+        return {"verdict": self.verdict, "rule": {"z": SWEEP_Z, "floor_nats": SWEEP_FLOOR, "decisive_nats": DECISIVE_GAIN}}
 
     def to_json(self) -> dict:
         return self.diagnostics() | {"joints": {str(j + 1): c.to_json() for j, c in self.joints.items()},

@@ -31,7 +31,7 @@ from bayescal.registration.axes import AxisFit
 from bayescal.robot.kinematics import Robot
 from bayescal.units import MM
 
-__all__ = ["Frame", "common_perpendicular", "paper_frame", "base_frame", "frames_with_uncertainty", "urdf_axes"]
+__all__ = ["Frame", "common_perpendicular", "paper_frame", "base_frame", "draw_axis", "frames_with_uncertainty", "urdf_axes"]
 
 _PARALLEL = 1e-3
 """Smallest sine of the angle between axes 1 and 2 for which their common perpendicular is defined."""
@@ -146,7 +146,7 @@ def base_frame(a1, c1, a2, c2, nominal: list[tuple[np.ndarray, np.ndarray]]) -> 
     return R, F1 - R @ f1
 
 
-def _draw_axis(fit: AxisFit, rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
+def draw_axis(fit: AxisFit, rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
     """``n`` draws of (direction, nearest point) from the fit's Gaussian, renormalised onto the line model."""
     x = rng.multivariate_normal(np.concatenate([fit.direction, fit.point]), fit.cov, size=n, method="eigh")
     a = x[:, :3] / np.linalg.norm(x[:, :3], axis=1, keepdims=True)
@@ -158,7 +158,7 @@ def frames_with_uncertainty(first: AxisFit, second: AxisFit, nominal, rng: np.ra
     """The paper and base frames from the axes of joints 1 and 2, with covariances from ``draws`` draws of the axes."""
     a1, c1, a2, c2 = first.direction, first.point, second.direction, second.point
     estimates = {"paper": paper_frame(a1, c1, a2, c2), "base": base_frame(a1, c1, a2, c2, nominal)}
-    d1, d2 = _draw_axis(first, rng, draws), _draw_axis(second, rng, draws)
+    d1, d2 = draw_axis(first, rng, draws), draw_axis(second, rng, draws)
     notes = {
         "paper": "fixed whole by axes 1 and 2",
         "base": "height of the base origin along axis 1 and the joint-1 zero (the turn about axis 1) from the URDF's "

@@ -7,7 +7,9 @@ from os import PathLike
 
 import numpy as np
 
+from bayescal.cell.joint_tables import JointLayout, read_joint_table
 from bayescal.errors import InputError
+from bayescal.robot.kinematics import Robot
 from bayescal.tables import read_table
 from bayescal.units import DEG, MM
 
@@ -69,7 +71,7 @@ class Sweeps:
         return Sweeps(self.joint[keep], self.q[keep], self.marker[keep], self.xyz[keep], self.line[keep], self.source)
 
 
-def read_sweeps(path: str | PathLike[str]) -> Sweeps:
+def read_sweeps(path: str | PathLike[str], robot: Robot | None = None) -> Sweeps:
     """Read a sweep file.
 
     Parameters
@@ -78,6 +80,12 @@ def read_sweeps(path: str | PathLike[str]) -> Sweeps:
         CSV file with columns ``joint`` (1-based index of the joint that
         moves), ``q1_deg … qm_deg``, ``marker``, ``x_mm, y_mm, z_mm`` (tracker
         frame); one row per reflector reading; ``#`` lines are comments.
+    robot
+        The robot swept; when given, the joint columns are checked as every
+        joint-angle table's (:func:`~bayescal.cell.joint_tables.read_joint_table`:
+        the robot's joints, within its limits).  Their unit is judged by the
+        reflectors' circles (:data:`MAX_RADIUS`), not by their span: a sweep
+        may move one joint a few degrees about an all-zero home pose.
 
     Returns
     -------
@@ -88,22 +96,25 @@ def read_sweeps(path: str | PathLike[str]) -> Sweeps:
     ------
     InputError
         One line naming the file, line and column: a missing column or bad
-        value, a joint index outside ``1 … m``, a sweep in which another joint
-        than the named one moves, a reflector swept through fewer than
-        :data:`MIN_ANGLES` angles.
+        value, joint columns other than the robot's, a joint outside its limits,
+        a joint index outside ``1 … m``, a sweep in which another joint than the
+        named one moves, a reflector swept through fewer than :data:`MIN_ANGLES`
+        angles.
     """
     source = str(path)
-    q_columns = {f"q{k}_deg": "number" for k in range(1, MAX_JOINTS + 1)}
-    frame = read_table(
-        path,
-        {"joint": "integer", "marker": "text", "x_mm": "number", "y_mm": "number", "z_mm": "number"},
-        optional=q_columns,
-        units={"x_mm": "mm", "y_mm": "mm", "z_mm": "mm", **{c: "deg" for c in q_columns}},
-    )
-    present = [c for c in q_columns if c in frame]
-    expected = [f"q{k}_deg" for k in range(1, len(present) + 1)]
-    if not present or present != expected:
-        raise InputError(f"expected joint-angle columns q1_deg … qm_deg without gaps, got {present or 'none'}", source=source, line=1)
+    columns = {"joint": "integer", "marker": "text", "x_mm": "number", "y_mm": "number", "z_mm": "number"}
+    position_units = {"x_mm": "mm", "y_mm": "mm", "z_mm": "mm"}
+    if robot is not None:
+        frame, q = read_joint_table(path, JointLayout.of(robot), columns, what="sweep file", units=position_units, span_in_degrees=False)
+        present = list(robot.position_columns)
+    else:
+        q_columns = {f"q{k}_deg": "number" for k in range(1, MAX_JOINTS + 1)}
+        frame = read_table(path, columns, optional=q_columns, units=position_units | {c: "deg" for c in q_columns})
+        present = [c for c in q_columns if c in frame]
+        expected = [f"q{k}_deg" for k in range(1, len(present) + 1)]
+        if not present or present != expected:
+            raise InputError(f"expected joint-angle columns q1_deg … qm_deg without gaps, got {present or 'none'}", source=source, line=1)
+        q = frame[present].to_numpy() * DEG
     lines = frame.index.to_numpy()
     joint = frame["joint"].to_numpy(dtype=int)
     bad = np.flatnonzero((joint < 1) | (joint > len(present)))
@@ -111,8 +122,7 @@ def read_sweeps(path: str | PathLike[str]) -> Sweeps:
         raise InputError(
             f"expected a joint index 1 … {len(present)}, got {joint[bad[0]]}", source=source, line=int(lines[bad[0]]), column="joint"
         )
-    sweeps = Sweeps(joint - 1, frame[present].to_numpy() * DEG, frame["marker"].to_numpy(dtype=str),
-                    frame[["x_mm", "y_mm", "z_mm"]].to_numpy() * MM, lines, source)
+    sweeps = Sweeps(joint - 1, q, frame["marker"].to_numpy(dtype=str), frame[["x_mm", "y_mm", "z_mm"]].to_numpy() * MM, lines, source)
     spread = float(np.linalg.norm(np.ptp(sweeps.xyz, axis=0)))
     if spread < MIN_SPREAD:
         raise InputError(f"all readings lie within {spread / MM:.3g} mm of each other, less than any swept tool "

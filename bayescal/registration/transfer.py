@@ -192,10 +192,10 @@ def read_registered_campaign(path: str | PathLike[str], cell: Cell, registration
     Raises
     ------
     InputError
-        From :func:`~bayescal.registration.read_frame` (no base frame) or
+        From :func:`~bayescal.registration.read_frame` (no base frame, or a registration not of the cell's robot) or
         :func:`~bayescal.cell.campaign.read_campaign`.
     """
-    frame = read_frame(registration, "base")
+    frame = read_frame(registration, "base", cell)
     return _transfer(read_campaign(path, cell=cell, to_base=frame.from_tracker), frame, cell)
 
 

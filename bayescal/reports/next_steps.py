@@ -8,6 +8,8 @@ cannot tell), then whether the test pose's error left is small enough to use.
 
 from __future__ import annotations
 
+from bayescal.reports.numbers import error_length
+
 from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL
 
 __all__ = ["calibration_next_steps", "critique_next_steps"]
@@ -47,16 +49,17 @@ def calibration_next_steps(
     others = [name for name in not_identifiable if name not in cell_limited]
     if others:
         steps.append(
-            f"{', '.join(others)} cannot be told from this campaign and keep the config's values; `bayescal plan` "
-            "(its predicted ±3σ) says whether a plan of this cell would measure them, and which to re-measure."
+            f"{', '.join(others)} cannot be told from this campaign: the error bounds carry their uncertainty "
+            "(the test pose's lines above say how much); `bayescal plan` (its predicted ±3σ) says whether a plan of this cell would "
+            "measure them, and which to re-measure."
         )
     if limited:
-        steps.append(f"{', '.join(limited)} keep{'s' if len(limited) == 1 else ''} the config's value: no campaign of this cell can identify "
-                     f"{'it' if len(limited) == 1 else 'them'} (see the reason above).")
+        steps.append(f"{', '.join(limited)} keep{'s' if len(limited) == 1 else ''} the config's value, {'its' if len(limited) == 1 else 'their'} "
+                     f"prior in the error bounds: no campaign of this cell can identify {'it' if len(limited) == 1 else 'them'} (see the reason above).")
     if error_q9973_mm is not None:
         steps.append(
-            f"The result is usable for compensation (`bayescal compensate`) if an error of {error_q9973_mm * 1000:.0f} μm "
-            "(99.73 % at the test pose) is within your tolerance."
+            f"The result is usable for compensation (`bayescal compensate`) if an error of {error_length(error_q9973_mm)} "
+            "(99.73 % at the test pose, everything counted) is within your tolerance."
         )
     return "Next: " + " ".join(steps) if steps else "Next: the fit is consistent with the repeats; the result can be used."
 

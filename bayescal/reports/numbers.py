@@ -81,6 +81,11 @@ def error_um(value_mm: float, uncertainty_mm: float | None = None) -> str:
     return with_uncertainty(value, uncertainty_mm * MM / UM, "μm")
 
 
+def error_length(value_mm: float) -> str:
+    """An error left after compensation, given in mm: in μm (to 0.1 μm) below 1 mm, in mm (to 1 μm) from 1 mm."""
+    return error_um(value_mm) if abs(value_mm) < 1.0 else f"{value_mm:.3f} mm"
+
+
 def deflection_mm(value_mm: float, uncertainty_mm: float | None = None) -> str:
     """A deflection, given in mm, shown in mm (to 1 μm or to its uncertainty)."""
     if uncertainty_mm is None:

@@ -25,10 +25,11 @@ from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.inference.parameters import GEOMETRY_PARAMETERS, label_angle
 from bayescal.inference.results import ElastostaticResults
-from bayescal.inference.testpose import TestPosePrediction
+from bayescal.compensation.testpose import TestPosePrediction
 from bayescal.reference import beside_published, read_paper_reference
 from bayescal.reports.compensation import compensation_section
-from bayescal.reports.numbers import fixed, table_texts
+from bayescal.reports.numbers import error_length, fixed, table_texts
+from bayescal.reports.test_pose import unidentified_sentence
 from bayescal.reports.page import HTML_FILE, JSON_FILE, MARKDOWN_FILE, Page
 from bayescal.reports.review_data import data_section, residual_section
 from bayescal.reports.review_files import critique_section, plan_section, registration_section
@@ -183,10 +184,12 @@ def _overview(page: Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
             lines.append(f"Fit against the tracker's noise model: χ²/dof = {report['chi2_per_dof']:.3f} (1 when the model describes the data).")
     if inputs.test_pose is not None and inputs.test_pose.available:
         error = inputs.test_pose.to_json()["residual_error_mm"]
-        page.record("test_pose_error_mm", {"rms": error["rms"], "q99.73": error["q99.73"]})
+        page.record("test_pose_error_mm", {"rms": error["rms"], "q99.73": error["q99.73"], "identified_only_q99.73": error["identified_only"]["q99.73"]})
         lines.append(
-            f"Positioning error left at the test pose after compensation: rms {error['rms'] / (UM / MM):.1f} μm, "
-            f"99.73 % of draws below {error['q99.73'] / (UM / MM):.1f} μm."
+            f"Positioning error left at the test pose after compensation, everything counted: rms {error_length(error['rms'])}, "
+            f"99.73 % of draws below {error_length(error['q99.73'])}"
+            + (f"; from the identified parameters alone {error_length(error['identified_only']['q99.73'])} (99.73 %), the rest from "
+               f"{', '.join(error['unidentified'])}, which the campaign does not identify." if error["unidentified"] else ".")
         )
     if inputs.critique is not None and "verdict" in inputs.critique:
         lines.append(f"Critique: {inputs.critique['verdict']}.")
@@ -457,22 +460,28 @@ def _test_pose_section(page: Page, prediction: TestPosePrediction, cell: Cell | 
         page.paragraph(
             f"Test pose q = ({', '.join(f'{v / DEG:g}' for v in cell.test_q)}) deg, wrench f = "
             f"({', '.join(f'{v:g}' for v in cell.test_wrench[:3])}) N, m = ({', '.join(f'{v:g}' for v in cell.test_wrench[3:])}) N·m. "
-            "The compensation applies the posterior-mean deflection; what is left is the spread of the draws about it."
+            "The compensation applies the draws' median of each parameter (the cell's value for what the campaign "
+            "does not identify); what is left is the spread of the draws about it, as `bayescal compensate` gives it."
         )
     numbers = prediction.to_json()
     frame = pd.DataFrame.from_dict(numbers["deflection_mm"], orient="index")
     frame.loc["|δ|"] = numbers["deflection_norm_mm"]
     frame = pd.DataFrame({"mean [mm]": frame["mean"], "±3σ [mm]": 3 * frame["sd"]}, index=pd.Index(frame.index, name="deflection"))
     page.table("deflection_mm", frame, shown=table_texts(frame, {"mean [mm]": "±3σ [mm]", "±3σ [mm]": "±3σ [mm]"}))
-    words = {"rms": "rms over the draws", "q95": "95 % of draws below", "q99.73": "99.73 % of draws below",
-             "rho0_from_covariance": "ρ0 from the covariance (eq 38)"}
-    error = pd.DataFrame({"value [μm]": {key: value * MM / UM for key, value in numbers["residual_error_mm"].items()}})
-    error.index.name = "error left after compensation"
-    page.table("residual_error_um", error, shown=table_texts(error, {}, {"value [μm]": fixed(1)}), row_words=lambda key: words.get(key, key))
-    if numbers["assumed"]:
-        page.items([f"{name} held at the cell's {value['value']:.4g} {_unit(value['unit'])}: {value['note']}" for name, value in numbers["assumed"].items()])
-        page.record("assumed", numbers["assumed"])
     error_mm = numbers["residual_error_mm"]
+    words = {"rms": "rms over the draws", "q95": "95 % of draws below", "q99.73": "99.73 % of draws below"}
+    error = pd.DataFrame(
+        {
+            "everything counted [μm]": {key: error_mm[key] * MM / UM for key in words},
+            "identified parameters only [μm]": {key: error_mm["identified_only"][key] * MM / UM for key in words},
+        }
+    )
+    error.index.name = "error left after compensation"
+    page.table("residual_error_um", error, shown=table_texts(error, {}, dict.fromkeys(error.columns, fixed(1))), row_words=lambda key: words.get(key, key))
+    if error_mm["unidentified"]:
+        page.paragraph(unidentified_sentence(error_mm))
+        page.record("unidentified", {"names": error_mm["unidentified"], "priors": error_mm["priors"]})
+    page.record("compensated_joints", numbers["joints"])
     to_um = MM / UM
     page.figure(
         "test_pose_error",

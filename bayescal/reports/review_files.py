@@ -22,7 +22,7 @@ from bayescal.reports.terms import label
 
 __all__ = ["plan_section", "critique_section", "registration_section"]
 
-PLAN_SHOWN = ("criterion", "criterion_unit", "parameters", "optimised_for", "search_model", "model", "configurations", "repeats",
+PLAN_SHOWN = ("criterion", "criterion_unit", "criterion_includes", "criterion_identified_only", "criterion_prior_share_of_mean_square", "parameters", "optimised_for", "search_model", "model", "configurations", "repeats",
               "q2_deg", "load_kg", "linear_model")
 """Keys of the plan's JSON the plan section shows in words; any other is shown as it comes."""
 CRITIQUE_SHOWN = ("verdict", "causes", "evidence", "gain", "covariates", "lack_of_fit", "rule", "n_configurations",
@@ -46,9 +46,18 @@ def plan_section(page: Page, plan: Mapping, source: str) -> None:
             if "optimised_for" in plan
             else "Scored"
         )
+        identified = plan.get("criterion_identified_only")
+        share = plan.get("criterion_prior_share_of_mean_square")
         page.paragraph(
-            f"{designed}: predicted ρ0 = {_criterion_text(criterion, unit)} (the exact model linearised)"
+            f"{designed}: predicted ρ0 = {_criterion_text(criterion, unit)} (linearised at the design, the exact model; "
+            "everything counted)"
             + (f"; the linear model of eq 31 predicts {_criterion_text(linear, unit)}" if finite_number(linear) else "")
+            + (
+                f". From the plan's data alone {_criterion_text(identified, unit)}; the rest ({share:.0%} of the mean square) "
+                f"from {str(plan.get('criterion_includes', '')).split('the prior of ', 1)[-1]}"
+                if finite_number(identified) and finite_number(share) and share > 0
+                else ""
+            )
             + ".",
             css="verdict",
         )
@@ -248,6 +257,10 @@ def registration_section(page: Page, registration: Mapping, source: str) -> None
         frame, shown = _axes_table(axes)
         page.table("axes", frame, shown=shown, caption="Joint axes in the tracker frame: unit direction and the point nearest the tracker's origin")
     frames = {str(name): entry for name, entry in registration.get("frames", {}).items() if isinstance(entry, Mapping)}
+    for joint, why in (registration.get("left_out") or {}).items():
+        page.paragraph(f"joint {joint}: no axis: the sweep {why}.")
+    if registration.get("missing"):
+        page.paragraph(f"{registration['missing']}.")
     for name, entry in frames.items():
         if entry.get("from_nominal"):
             page.paragraph(f"{name} frame: {entry['from_nominal']}.")

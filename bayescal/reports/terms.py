@@ -4,7 +4,7 @@
 paragraph, a list or a table's header, the page gives it a hover title, and
 the page ends with the terms it used (``docs/glossary.md`` says the same at
 length).  :data:`LABELS` turns the keys of the JSON files a report is given
-(``rho0_from_covariance``, ``delta_elpd``…) into the words a person reads;
+(``delta_elpd``…) into the words a person reads;
 the JSON written beside the page keeps the keys.
 """
 
@@ -27,7 +27,12 @@ TERMS = {
     "the columns repeat each other (above 10⁴: ill-conditioned).",
     "not identifiable": "The campaign cannot tell this parameter: structurally (no load excites it) or from these data (its "
     "interval reaches 0 or its posterior is mostly the prior); it keeps the cell's value.",
-    "ρ0": "Root-mean-square positioning error left at the test pose after compensating with the posterior mean (eq 38).",
+    "ρ0": "A plan's predicted root-mean-square error left at the test pose after compensation (eq 38), linearised at the "
+    "design: the plan's covariance carried to the test pose, plus the prior of each compliance the plan does not excite.",
+    "everything counted": "The error left over the calibration's draws with every parameter's uncertainty in it: the "
+    "posterior's, and the cell's prior ([joints] k_log_sd) for a compliance the campaign cannot identify.",
+    "identified parameters only": "The same error with the parameters the campaign cannot identify held at the value the "
+    "correction applies: the part a better campaign of the same kind could reduce.",
     "99.73 %": "Quantile over the posterior draws: 99.73 % of the draws leave a smaller error (the 3σ level of a normal).",
     "lack of fit": "The scatter of the configuration means about the model against the scatter of the repeats (F test); "
     "a p-value below 0.01 says the model misses an effect.",
@@ -44,7 +49,6 @@ TERMS = {
 """Term → one-line explanation; the page marks each term with a hover title and lists those it used."""
 
 LABELS = {
-    "rho0_from_covariance": "ρ0 from the covariance (eq 38)",
     "rms": "rms over the draws",
     "q95": "95 % of draws below",
     "q99.73": "99.73 % of draws below",

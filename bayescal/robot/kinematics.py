@@ -23,6 +23,7 @@ import numpy as np
 import pinocchio as pin
 
 from bayescal.errors import InputError
+from bayescal.output import record_read
 from bayescal.robot.chain import joint_kind, reduce_to_chain
 from bayescal.units import DEG, MM
 
@@ -107,6 +108,7 @@ class Robot:
         file = Path(path)
         if not file.is_file():
             raise InputError("URDF file not found", source=str(path))
+        record_read(file, "the robot's URDF")
         try:
             model = pin.buildModelFromUrdf(str(file))
         except (RuntimeError, ValueError) as exc:

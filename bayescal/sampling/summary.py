@@ -20,6 +20,7 @@ import pandas as pd
 import xarray as xr
 
 from bayescal import __version__
+from bayescal.output import record_read
 from bayescal.sampling.diagnostics import diagnose
 
 __all__ = ["posterior_tree", "summarize", "diagnostics", "converged", "sample_until_converged", "warn_if_unconverged", "ConvergenceWarning", "parameters_json", "save", "load", "read_posterior"]
@@ -270,6 +271,7 @@ def load(path: str | PathLike[str]) -> xr.DataTree:
     An open file would stay shared by every tree read from the same path: the
     first of them to be garbage-collected closes it under the others.
     """
+    record_read(path, "a posterior")
     with xr.open_datatree(path, engine="netcdf4") as tree:
         return tree.load()
 

@@ -101,9 +101,12 @@ def q2_angle_study(
     angles, per_angle = list(angles), list(per_angle)
     if min(angles) < MIN_ANGLES and cell.compensator is not None:
         raise InputError(f"K_c and s0 need at least {MIN_ANGLES} distinct q2 angles, got {min(angles)}", source="angles")
+    designer = PlanDesigner(cell, repeats=repeats, model="exact")
+    # Before the seeds (one per plan: the million of --max-per-angle 100000 took 5 s of CPU) and the candidates
+    # (most of a minute): the largest plan refused here is refused by every design.
+    designer.check_request(max(angles), max(per_angle), criterion, candidates_per_angle=candidates_per_angle)
     root = np.random.SeedSequence(seed)
     candidate_seed, *design_seeds = root.spawn(1 + len(angles) * len(per_angle))
-    designer = PlanDesigner(cell, repeats=repeats, model="exact")
     candidates = designer.candidates(np.random.default_rng(candidate_seed), per_angle=candidates_per_angle)
     pairs = [(a, c) for a in angles for c in per_angle]
     results = seeded_map(_design, pairs, design_seeds, executor=executor, designer=designer, candidates=candidates, criterion=criterion)

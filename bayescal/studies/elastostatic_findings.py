@@ -31,7 +31,7 @@ from bayescal.inference.elastostatic import EXTENSIONS, ElastostaticModel
 from bayescal.inference.identifiability import grouped
 from bayescal.inference.parameters import ParameterRegistry, label_angle
 from bayescal.inference.results import ElastostaticResults
-from bayescal.inference.testpose import predict_cell_test_pose
+from bayescal.compensation.testpose import predict_cell_test_pose
 from bayescal.reference import beside_published, width_3sd_pct
 from bayescal.studies.balance import spring_balance
 from bayescal.studies.elastostatic_coverage import Truth, fit_against_truth
@@ -124,7 +124,7 @@ class ElastostaticFindings:
     """Every number and verdict of the elastostatic report; see :func:`elastostatic_findings`.
 
     Tables are indexed by parameter name in edge units (μrad/(N·m), N/mm, mm);
-    the test-pose blocks are :meth:`~bayescal.inference.testpose.TestPosePrediction.to_json`.
+    the test-pose blocks are :meth:`~bayescal.compensation.testpose.TestPosePrediction.to_json`.
     """
 
     config: str
@@ -311,7 +311,7 @@ def elastostatic_findings(
 
     test_pose = predict_cell_test_pose(results, cell)
     true_deflection = test_deflection(cell)
-    truth_block = dataclasses.replace(test_pose, reference=true_deflection).to_json().get("residual_error_mm")
+    truth_block = test_pose.against(true_deflection) if test_pose.available else None
 
     masses = plan.masses(cell.load_mass)
     reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in names}

@@ -79,8 +79,9 @@ class LoadDirectionFindings:
     Attributes
     ----------
     scores : pandas.DataFrame
-        Indexed by plan: ``predicted_rho0_um`` (eq 39, exact linearisation; k1's uncertainty
-        left out where the plan holds it), ``mean_error_um`` and ``mean_error_se_um`` (length of
+        Indexed by plan: ``predicted_rho0_um`` (eq 39, exact linearisation, with k1's prior where the
+        plan holds it: :mod:`bayescal.design.criteria`), ``predicted_rho0_identified_um`` (the plan's data
+        alone: k1 held at the cell's value), ``mean_error_um`` and ``mean_error_se_um`` (length of
         the error left at the test pose over the campaigns), ``rms_error_um``,
         ``difference_to_hanging_um`` and ``difference_se_um`` (mean error minus the hanging plan's,
         paired over the same campaigns), ``k1_excited``, ``k1_identifiable`` (the identification's
@@ -180,6 +181,7 @@ def load_direction_study(
         covered = np.abs(result["parameter_errors"][:, 0]) <= 3.0 * sd_k1 if linearised.excited[0] else np.full(campaigns, np.nan)
         rows[name] = {
             "predicted_rho0_um": prediction.rho0 / UM,
+            "predicted_rho0_identified_um": prediction.rho0_identified / UM,
             "mean_error_um": length.mean() / UM,
             "mean_error_se_um": length.std(ddof=1) / math.sqrt(campaigns) / UM,
             "rms_error_um": math.sqrt(np.mean(length**2)) / UM,

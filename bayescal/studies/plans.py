@@ -16,11 +16,14 @@ deflection with the estimate, and the error left is the distance to the exact
 deflection of the campaign's truth.
 
 Parameters the plan cannot excite (``k1`` under hanging loads) are held at
-the cell's value in the estimate, as the test-pose prediction does
-(:func:`bayescal.inference.testpose.predict_cell_test_pose`); by default
-they are held in the truth too, and with ``vary_all`` the truth draws them
-like the others, so that the error the estimate's held value leaves at the
-test pose is counted (plans with loads in any direction against hanging masses).
+the cell's value in the estimate, as the compensation does
+(:mod:`bayescal.compensation.budget`); by default they are held in the truth
+too (the error the plan's data leave, ``rho0_identified``), and with
+``vary_all`` the truth draws them like the others.  ``from_prior`` names
+compliances whose truths every campaign draws from the cell's prior instead
+(log-normal about the cell's value with its ``[joints] k_log_sd``), whatever the
+plan, so that plans that do and do not excite them meet the same truths and the
+error a held value leaves is counted as the criterion ``ρ0`` counts it.
 
 Campaigns run on a :class:`concurrent.futures.Executor`; their seeds are
 spawned from one :class:`numpy.random.SeedSequence`, so the result does not
@@ -82,6 +85,8 @@ class CampaignModel:
         (3,) the test point's exact deflection at the cell's values, m.
     varied : numpy.ndarray
         (p,) the parameters the simulated truths draw away from the cell's values.
+    from_prior : numpy.ndarray
+        (p,) the parameters whose truths are drawn from the cell's prior instead.
     """
 
     cell: Cell
@@ -94,13 +99,19 @@ class CampaignModel:
     test_design: np.ndarray
     test_nominal: np.ndarray
     varied: np.ndarray
+    from_prior: np.ndarray
 
     @classmethod
-    def build(cls, cell: Cell, plan: Plan, repeats: int = 3, *, vary_all: bool = False) -> CampaignModel:
+    def build(cls, cell: Cell, plan: Plan, repeats: int = 3, *, vary_all: bool = False, from_prior: tuple[str, ...] = ()) -> CampaignModel:
         """Linearise the twin's noiseless campaign and the test pose by central differences.
 
         ``vary_all``: the truths draw every parameter, not only those the plan excites.
+        ``from_prior``: joint compliances (``"k1"``) whose truths are drawn from the cell's prior.
         """
+        names = parameter_names(cell)
+        unknown = [name for name in from_prior if name not in names[: cell.robot.nq]]
+        if unknown:
+            raise ValueError(f"from_prior takes joint compliances of the cell ({', '.join(names[: cell.robot.nq])}), got {', '.join(unknown)}")
         exact = ExactLinearisation(cell)
         designs, sigmas, deflections = [], [], []
         wrenches = plan.wrenches(cell)
@@ -123,6 +134,7 @@ class CampaignModel:
             test_design=exact.test_design(),
             test_nominal=test_deflection(cell),
             varied=np.ones_like(excited) if vary_all else excited,
+            from_prior=np.array([name in from_prior for name in names]),
         )
 
 
@@ -134,7 +146,9 @@ def _campaign(index: int, rng: np.random.Generator, model: CampaignModel) -> tup
     cell = model.cell
     names = parameter_names(cell)
     spread = np.array([TRUTH_SPREAD["k"] if name.startswith("k") else TRUTH_SPREAD[name] for name in names])
-    relative_truth = np.where(model.varied, np.random.default_rng(truth_seed).normal(size=len(names)) * spread, 0.0)
+    z = np.random.default_rng(truth_seed).normal(size=len(names))
+    relative_truth = np.where(model.varied, z * spread, 0.0)
+    relative_truth[model.from_prior] = np.expm1(cell.compliance_log_sd * z[model.from_prior])
     nominal = nominal_parameters(cell)
     truth_cell = with_parameters(cell, nominal * (1.0 + relative_truth))
     campaign = DigitalTwin(truth_cell).simulate(model.plan, model.repeats, np.random.default_rng(noise_seed))
@@ -223,17 +237,20 @@ def compare_plans(
     seed: int = 0,
     executor: Executor | None = None,
     vary_all: bool = False,
+    from_prior: tuple[str, ...] = (),
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Plans side by side: predicted ``ρ0`` against the error left over simulated campaigns.
 
     Every plan meets the same truths and noise streams (the same ``seed``); with
-    ``vary_all`` the truths draw the parameters a plan cannot excite too (module docstring).
+    ``vary_all`` the truths draw the parameters a plan cannot excite too, and the compliances
+    named in ``from_prior`` from the cell's prior (module docstring).
 
     Returns
     -------
     scores : pandas.DataFrame
         Indexed by plan: ``criterion_mm`` (predicted ρ0 of eq 39 with the exact model
-        linearised), ``criterion_linear_mm`` (with eq 31's design), ``simulated_rms_mm``
+        linearised, the priors of unexcited compliances counted), ``criterion_identified_mm``
+        (the plan's data alone: what the truths without ``vary_all`` leave), ``criterion_linear_mm`` (with eq 31's design), ``simulated_rms_mm``
         (rms length of the error left at the test pose), ``simulated_rms_se_mm`` (its
         standard error, delta method), ``simulated_q95_mm``, ``rms_ratio_to_first`` (this
         plan's simulated rms over the first plan's, on the same campaigns) and
@@ -246,7 +263,7 @@ def compare_plans(
     """
     rows, width_rows, squares = {}, [], []
     for name, plan in plans.items():
-        model = CampaignModel.build(cell, plan, repeats, vary_all=vary_all)
+        model = CampaignModel.build(cell, plan, repeats, vary_all=vary_all, from_prior=from_prior)
         weighted = model.design / model.sigma[:, np.newaxis]
         exact = predict(cell, repeats * weighted.T @ weighted, test_design=model.test_design)
         linear = predict(cell, sum(wrench_information(cell, q, w, repeats) for q, w in zip(plan.q, plan.wrenches(cell))))
@@ -256,6 +273,7 @@ def compare_plans(
         mean_squared = squared.mean()
         rows[name] = {
             "criterion_mm": exact.rho0 / MM,
+            "criterion_identified_mm": exact.rho0_identified / MM,
             "criterion_linear_mm": linear.rho0 / MM,
             "simulated_rms_mm": np.sqrt(mean_squared) / MM,
             "simulated_rms_se_mm": squared.std(ddof=1) / np.sqrt(campaigns) / (2.0 * np.sqrt(mean_squared)) / MM,

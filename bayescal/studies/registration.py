@@ -67,7 +67,7 @@ def _one(index: int, rng: np.random.Generator, *, cell: Cell, plan: Plan, turn_d
     tracker = replace(campaign, p0=placement.to_tracker(campaign.p0), p1=placement.to_tracker(campaign.p1))
     path = sweep_file(index)
     simulate_sweeps(cell, placement, rng, home_deg=SWEEP_HOME_DEG).to_csv(path, index=False)
-    registration = register(read_sweeps(path), cell, rng=rng)
+    registration = register(read_sweeps(path, cell.robot), cell, rng=rng)
     transfer, moved_cell = campaign_to_frame(tracker, registration.frames["base"], cell)
     unregistered = replace(campaign, p1=campaign.p0 + campaign.displacement @ turn)
     seed = int(rng.integers(2**31))

@@ -12,7 +12,7 @@ from bayescal.cell.config import Cell
 from bayescal.inference.elastostatic import restore_results
 from bayescal.inference.priors import GeometryPrior
 from bayescal.inference.results import ElastostaticResults
-from bayescal.inference.testpose import TestPosePrediction, predict_cell_test_pose
+from bayescal.compensation.testpose import TestPosePrediction, predict_cell_test_pose
 from bayescal.studies.residuals import residual_table
 
 __all__ = ["CalibrationFindings", "calibration_findings"]

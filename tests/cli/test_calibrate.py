@@ -81,7 +81,8 @@ def test_text_output_sets_the_estimates_beside_table_iv(capsys, campaign_file, c
     assert "not identifiable" not in rows["k3"]
     below = out[out.index("Not identifiable:") :]
     assert "  k1: no load" in below and "  K_c: the compensator changes" in below and "  s0: s0 enters" in below
-    assert out.count("not identifiable: held") == 0 and out.count("k1 is taken from the config") == 1
+    assert out.count("not identifiable: held") == 0 and out.count("k1, which this campaign cannot identify (prior: log-normal") == 1
+    assert "everything counted" in out and "from the identified parameters alone" in out
     assert out.index("Not identifiable:") < out.index("Joint 2 with its compensator") < out.index("test pose")
     assert out.count("q2 = ") == 5
     assert "test pose" in out

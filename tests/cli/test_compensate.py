@@ -115,3 +115,17 @@ def test_a_per_row_tool_point_needs_its_three_columns(main, short_calibration, t
     program.write_text("q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,fx_N,fy_N,fz_N,mx_Nm,my_Nm,mz_Nm,tcp_x_mm\n0,-50,80,0,-30,0,0,0,-500,0,0,0,300\n")
     assert _run(main, program, short_calibration["calibration"], short_calibration["config"], tmp_path / "o.csv") == 2
     assert "tcp_y_mm" in capsys.readouterr().err
+
+
+def test_the_terminal_gets_a_summary_and_the_controller_fixed_decimals(main, short_calibration, program_csv, tmp_path, capsys):
+    out = tmp_path / "compensated.csv"
+    assert _run(main, program_csv, short_calibration["calibration"], short_calibration["config"], out, "--decimals", "3") == 0
+    text = capsys.readouterr().out
+    assert "12 poses compensated" in text and "worst" in text and "flagged:" in text and "{" not in text
+    written = out.read_text().splitlines()
+    header = written[0].split(",")
+    column = header.index("q1_cmd_deg")
+    for line in written[1:]:
+        value = line.split(",")[column]
+        # "12.345", never "1.2e-05" nor "-0.000"
+        assert "e" not in value.lower() and value != "-0.000" and len(value.split(".")[1]) == 3

@@ -9,7 +9,7 @@ from bayescal.compensation.calibration import GRID_STEP, Calibration
 from bayescal.compensation.program import Program
 from bayescal.compensation.spread import deflection_draws, mean_square
 from bayescal.inference.elastostatic import ElastostaticModel
-from bayescal.inference.testpose import predict_cell_test_pose
+from bayescal.compensation.testpose import predict_cell_test_pose, test_pose_program
 from bayescal.robot.stiffness import ElasticArm
 from bayescal.sampling.gibbs import GibbsSampler
 from bayescal.studies.compensation import random_program
@@ -69,7 +69,7 @@ def test_without_compensator_or_with_another_joint_count_the_same_identity_holds
 
 
 def test_the_grid_of_the_compensated_joint_matches_eq_8(cell, calibrated):
-    calibration = load_calibration(calibrated[1], cell, np.random.default_rng(0))
+    calibration = load_calibration(calibrated[1], cell)
     q2 = np.random.default_rng(2).uniform(-130, -20, 3000) * DEG
     assert np.unique(q2).size > (q2.max() - q2.min()) / GRID_STEP  # the grid is used
     interpolated = calibration.compliances(q2)[1](q2)
@@ -78,7 +78,7 @@ def test_the_grid_of_the_compensated_joint_matches_eq_8(cell, calibrated):
 
 
 def test_mean_square_from_the_covariance_equals_the_draws(cell, calibrated):
-    calibration = load_calibration(calibrated[1], cell, np.random.default_rng(0))
+    calibration = load_calibration(calibrated[1], cell)
     program = random_program(cell, 5, np.random.default_rng(3))
     design = np.random.default_rng(4).normal(size=(5, 3, 6))
     own, equivalent = calibration.compliances(program.q[:, 1])
@@ -88,24 +88,37 @@ def test_mean_square_from_the_covariance_equals_the_draws(cell, calibrated):
     assert mean_square(design, centred_own, centred, 1) == pytest.approx(np.mean(np.sum(spread**2, axis=1), axis=1), rel=1e-10)
 
 
-def test_eq_38_at_the_test_pose_is_the_programs_rms_there(cell, calibrated):
+def test_the_test_pose_of_calibrate_is_the_one_pose_program_of_compensate(cell, calibrated):
     results, path = calibrated
-    calibration = load_calibration(path, cell, np.random.default_rng(0))
-    # The test-pose prediction holds k1 at the config's value; so does this calibration, with all the draws.
+    # calibrate's prediction from the posterior in memory; compensate's from the saved file, on a program
+    # holding the test pose and its wrench: one answer, to the last digit.
+    prediction = predict_cell_test_pose(results, cell)
+    program = test_pose_program(cell, cell.test_q, cell.test_wrench, cell.test_point)
+    compensated = compensate_program(program, load_calibration(path, cell), cell)
+    for key in ("rms", "q95", "q9973"):
+        assert compensated.errors[key][0] == prediction.budget.total[key][0]
+        assert compensated.budget.identified[key][0] == prediction.budget.identified[key][0]
+    assert np.array_equal(compensated.commands[0], prediction.corrected)
+    assert compensated.deflection[0] == pytest.approx(np.linalg.norm(prediction.applied), rel=1e-15)
+    # k1 is in the total, with its prior: the identified part is far smaller under hanging loads.
+    assert compensated.unidentified == ("k1", "K_c", "s0") or "k1" in compensated.unidentified
+    assert prediction.budget.identified["q9973"][0] < 0.1 * prediction.budget.total["q9973"][0]
+
+
+def test_the_correction_applies_the_median_not_the_mean_of_the_prior(cell, calibrated):
+    _, path = calibrated
+    calibration = load_calibration(path, cell)
+    program = test_pose_program(cell, cell.test_q, cell.test_wrench, cell.test_point)
+    median = compensate_program(program, calibration, cell)
+    # The same draws with k1 fixed at the cell's value: the correction must not move.
     own = np.array(calibration.own)
     own[:, 0] = cell.compliances[0]
-    full = results.compliance_draws(cell.test_q[1], fill=cell.compliances)
-    assert len(full) == calibration.n_draws
-    calibration = dataclasses.replace(calibration, own=own, unidentified=())
-    rotation, _ = cell.robot.flange_pose(cell.test_q)
-    # The cell's test wrench is referred to the flange origin; a program's to the tool point.
-    wrench = cell.test_wrench.copy()
-    wrench[3:] -= np.cross(rotation @ cell.test_point, wrench[:3])
-    program = Program(q=cell.test_q[None], wrench=wrench[None], tcp=cell.test_point[None], table=None)
-    compensated = compensate_program(program, calibration, cell)
-    prediction = predict_cell_test_pose(results, cell).to_json()["residual_error_mm"]
-    assert compensated.errors["rms"][0] * 1e3 == pytest.approx(prediction["rms"], rel=1e-9)
-    assert compensated.errors["q9973"][0] * 1e3 == pytest.approx(prediction["q99.73"], rel=1e-9)
+    fixed = compensate_program(program, dataclasses.replace(calibration, own=own), cell)
+    assert np.allclose(median.commands, fixed.commands, atol=1e-9, rtol=0)
+    # The mean of the log-normal draws, 1.13 times the cell's k1, would have turned the arm by more.
+    own[:, 0] = np.mean(calibration.own[:, 0])
+    mean = compensate_program(program, dataclasses.replace(calibration, own=own), cell)
+    assert np.abs(mean.commands[0, 0] - median.commands[0, 0]) > 1e-3 * np.abs(median.commands[0, 0] - cell.test_q[0])
 
 
 def test_a_cell_without_compensator_is_compensated_with_constant_compliances(cell):
@@ -119,7 +132,7 @@ def test_a_cell_without_compensator_is_compensated_with_constant_compliances(cel
     assert np.all(compensated.errors["rms"] < compensated.errors["q9973"])
     assert np.all((compensated.unidentified_share >= 0) & (compensated.unidentified_share < 1))
     assert np.median(compensated.unidentified_share) > 0.01
-    arm = ElasticArm.linear(bare.robot, own.mean(axis=0))
+    arm = ElasticArm.linear(bare.robot, np.median(own, axis=0))
     wrench = program.flange_wrench(np.stack([bare.robot.flange_pose(q)[0] for q in program.q]))
     for q, command, w in zip(program.q, compensated.commands, wrench):
         assert np.allclose(command + arm.equilibrium(command, w), q + arm.equilibrium(q, np.zeros(6)), atol=1e-11, rtol=0)

@@ -41,5 +41,16 @@ def test_the_json_carries_the_summary_the_counts_and_the_worst_poses_and_save_wr
     assert worst == sorted(worst, reverse=True)
     results.save(tmp_path / "compensated.csv")
     saved = pd.read_csv(tmp_path / "compensated.csv")
-    np.testing.assert_allclose(saved["error_q9973_mm"], results.table()["error_q9973_mm"], rtol=1e-8)
+    # Fixed decimals, as a controller reads them: 4 by default, never an exponent.
+    np.testing.assert_allclose(saved["error_q9973_mm"], results.table()["error_q9973_mm"], rtol=0, atol=5e-5)
+    text = (tmp_path / "compensated.csv").read_text()
+    assert "e-" not in text.split("\n", 1)[1] and "-0.0000," not in text
     assert (saved["flag"] != "ok").all()
+
+
+def test_a_program_may_not_carry_the_columns_the_compensated_file_adds_and_those_are_all_it_adds(cell):
+    from bayescal.compensation.program import compensated_columns
+
+    results = _results(cell)
+    added = [name for name in results.table().columns if name not in results.program.table.columns]
+    assert added == list(compensated_columns(results.robot))

@@ -19,7 +19,7 @@ def test_the_cell_file_gives_the_papers_mass_range(cell):
 
 
 def test_a_mass_range_of_zero_is_refused(cell):
-    with pytest.raises(InputError, match="mass range"):
+    with pytest.raises(InputError, match="mass_range, column 'mass_kg': expected masses above 0 kg"):
         load_design_space(cell, mass_range=(0.0, 0.0))
 
 

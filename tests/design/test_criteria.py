@@ -16,7 +16,9 @@ from bayescal.design.criteria import (
     criterion_value,
     criterion_values,
     predict,
+    prior_mean_square,
     test_pose_design,
+    wrench_information,
 )
 from bayescal.studies.precision import design_precision
 
@@ -38,10 +40,19 @@ def test_rho0_is_the_trace_of_eq_39_and_scales_with_repeats(cell, plan):
     excited = prediction.excited
     G0 = test_pose_design(cell)[:, excited]
     direct = math.sqrt(np.trace(G0 @ np.linalg.inv(information[np.ix_(excited, excited)]) @ G0.T))
-    assert prediction.rho0 == pytest.approx(direct, rel=1e-8)
-    assert predict(cell, 4 * information).rho0 == pytest.approx(prediction.rho0 / 2, rel=1e-10)
+    assert prediction.rho0_identified == pytest.approx(direct, rel=1e-8)
+    # k1, not excited by hanging loads, adds its prior's mean-square relative error times its column of G0.
+    k1 = test_pose_design(cell)[:, 0]
+    assert prediction.rho0 == pytest.approx(math.sqrt(direct**2 + k1 @ k1 * prior_mean_square(cell.compliance_log_sd)), rel=1e-10)
+    assert predict(cell, 4 * information).rho0_identified == pytest.approx(prediction.rho0_identified / 2, rel=1e-10)
     quiet = replace(cell, tracker=replace(cell.tracker, factor=cell.tracker.factor / 10))
-    assert predict(quiet, _information(quiet, plan)).rho0 == pytest.approx(prediction.rho0 / 10, rel=1e-10)
+    assert predict(quiet, _information(quiet, plan)).rho0_identified == pytest.approx(prediction.rho0_identified / 10, rel=1e-10)
+
+
+def test_the_prior_mean_square_is_the_log_normal_s_about_its_median():
+    z = np.random.default_rng(0).standard_normal(400_000)
+    assert prior_mean_square(0.5) == pytest.approx(np.mean((np.exp(0.5 * z) - 1) ** 2), rel=0.01)
+    assert prior_mean_square(0.5) == pytest.approx(0.3825, abs=1e-4)
 
 
 def test_batched_criteria_equal_the_single_ones(cell, plan):
@@ -82,3 +93,18 @@ def test_exact_linearisation_agrees_with_eq_31_on_the_joints(cell, plan):
     # the compensator's static torque moves the arm: K_c and s0 act beyond eq 8's stiffness
     assert np.linalg.norm(design[:, 7] - linear[:, 7]) > np.linalg.norm(linear[:, 7])
     np.testing.assert_allclose(exact.test_design()[:, joints], test_pose_design(cell)[:, joints], atol=0.05 * np.abs(test_pose_design(cell)).max())
+
+
+def test_a_hanging_plan_and_one_with_sideways_loads_are_scored_on_one_footing(cell, plan):
+    from bayescal.studies.load_directions import sideways
+
+    hanging = predict(cell, _information(cell, plan))
+    turned_plan = sideways(cell, plan, 3)
+    turned = predict(cell, sum(wrench_information(cell, q, w, 3) for q, w in zip(turned_plan.q, turned_plan.wrenches(cell))))
+    # Without k1's prior the hanging plan looked as good (its data part alone is a few μm); with it, the
+    # plan that identifies k1 is far better, as the simulated campaigns find (docs/design.md).
+    assert turned.excited[0] and not hanging.excited[0]
+    assert hanging.rho0_identified < 2 * turned.rho0
+    assert turned.rho0 < 0.05 * hanging.rho0 and turned.prior_share == 0.0 and hanging.prior_share > 0.99
+    payload = hanging.to_json()
+    assert "k1" in payload["criterion_includes"] and payload["criterion_identified_only"] < payload["criterion"]

@@ -64,7 +64,7 @@ def test_json_and_saved_plan(design, designer, tmp_path, cell):
         ({"angles": 2}, "at least 3 distinct q2 angles"),
         ({"angles": 2, "criterion": "d-optimal"}, "at least 3 distinct q2 angles"),
         ({"criterion": "a-optimal"}, "unknown criterion"),
-        ({"per_angle": 0}, "at least 1 angle"),
+        ({"per_angle": 0}, "at least 1 configuration per angle"),
     ],
 )
 def test_infeasible_requests(designer, request_, message):
@@ -106,3 +106,13 @@ def test_the_progress_note_names_its_unit_and_the_bar_stays_off_a_log(capsys):
     bar.step("x")
     bar.close()
     assert capsys.readouterr().err == ""
+
+
+def test_more_configurations_per_angle_than_the_candidates_blames_per_angle_before_any_draw(designer, monkeypatch):
+    def no_draw(*args, **kwargs):
+        raise AssertionError("candidates drawn before the request was checked")
+
+    monkeypatch.setattr(PlanDesigner, "candidates", no_draw)
+    with pytest.raises(InputError) as caught:
+        designer.optimise(5, 21, rng=0)
+    assert caught.value.source == "per_angle" and "at most 20 configurations per q2 angle" in caught.value.what

@@ -265,7 +265,7 @@ def test_a_tracker_model_that_does_not_describe_the_data_is_warned(cell, campaig
 
 def test_restore_gives_back_the_fitted_results_from_the_saved_posterior(cell, campaign, results, tmp_path):
     from bayescal.inference.elastostatic import restore_results
-    from bayescal.inference.testpose import predict_cell_test_pose
+    from bayescal.compensation.testpose import predict_cell_test_pose
     from bayescal.sampling.summary import load
 
     results.save(tmp_path / "posterior.nc")
@@ -279,7 +279,8 @@ def test_restore_gives_back_the_fitted_results_from_the_saved_posterior(cell, ca
     np.testing.assert_allclose(restored.residuals, results.residuals, rtol=0, atol=1e-15)
     np.testing.assert_allclose(restored.equivalent_compliance(np.radians([-120.0, -10.0])), results.equivalent_compliance(np.radians([-120.0, -10.0])))
     before, after = predict_cell_test_pose(results, cell).to_json(), predict_cell_test_pose(restored, cell).to_json()
-    assert after["residual_error_mm"] == pytest.approx(before["residual_error_mm"], rel=1e-9)
+    # The same draws give the same budget, to the last digit.
+    assert after["residual_error_mm"] == before["residual_error_mm"] and after["joints"] == before["joints"]
 
 
 def test_restore_refuses_the_posterior_of_another_campaign(cell, campaign, results):

@@ -43,8 +43,10 @@ BAD = {
     "unknown marker": (lambda f: f.assign(marker=f["marker"].replace("left", "elbow")), "unknown marker 'elbow'"),
     "one hand missing": (lambda f: f.drop(index=3), "no row for marker"),
     "metres": (lambda f: f.assign(x_mm=f.x_mm / 1000, y_mm=f.y_mm / 1000, z_mm=f.z_mm / 1000), "metres?"),
-    "radians": (lambda f: f.assign(**{c: np.radians(f[c]) / 2 for c in f.columns if c.startswith("q")}), "radians?"),
-    "joint count": (lambda f: f.drop(columns=["q19_deg"]), "the cell commands 19 joints"),
+    "radians": (lambda f: f.assign(**{c: np.radians(f[c]) / 2 for c in f.columns if c.startswith("q")}), "as angles in radians would"),
+    "joint count": (lambda f: f.drop(columns=["q19_deg"]), "has no column q19_deg but the cell"),
+    "joint in rad": (lambda f: f.rename(columns={"q3_deg": "q3_rad"}), "column 'q3_rad': the positions file has a column q3_rad where the cell"),
+    "a joint more": (lambda f: f.assign(q20_deg=0.0), "column 'q20_deg': the positions file has a column q20_deg but the cell"),
 }
 
 

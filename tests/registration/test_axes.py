@@ -1,11 +1,14 @@
 """Axis fits checked on sweeps drawn by Rodrigues rotation, written apart from the fit's model."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError
 from bayescal.registration import Sweeps, fit_axis
+from bayescal.registration.axes import span_needed
 
 
 def _rotate(v, axis, angle):
@@ -59,7 +62,7 @@ def test_mislabelled_reflector_is_reported():
     marker = sweep.marker.copy()
     marker[swap] = "R3"
     bad = Sweeps(sweep.joint, sweep.q, marker, sweep.xyz, sweep.line, sweep.source)
-    with pytest.raises(InputError, match=r"sim.csv:\d+.*'marker'.*mislabelled"):
+    with pytest.raises(InputError, match=r"sim.csv:\d+.*'marker'.*labelled 'R3' fits as 'R2'"):
         fit_axis(bad, 0, noise)
 
 
@@ -78,3 +81,27 @@ def test_coverage_nominal_over_200_registrations():
     z = np.array(z)
     for k, nominal in ((1, 0.6827), (2, 0.9545), (3, 0.9973)):
         assert abs(np.mean(z < k) - nominal) < 3 * np.sqrt(nominal * (1 - nominal) / z.size) + 1 / z.size
+
+
+def test_the_noise_is_learned_and_the_sds_follow_it():
+    rng = np.random.default_rng(5)
+    law = TrackerNoise()
+    axis, point, reflectors = _case(rng)
+    angles = np.radians(np.linspace(-60, 60, 9))
+    clean = fit_axis(_sweep(rng, axis, point, reflectors, angles, law), 0, law)
+    noisy = fit_axis(_sweep(rng, axis, point, reflectors, angles, replace(law, factor=5 * law.factor)), 0, law)
+    assert clean.excess == pytest.approx(1.0, abs=0.3) and noisy.excess == pytest.approx(5.0, rel=0.25)
+    assert noisy.beyond_tracker and not clean.beyond_tracker
+    assert noisy.direction_sd / clean.direction_sd == pytest.approx(noisy.excess, rel=0.1)
+
+
+def test_a_sweep_too_short_to_bend_beyond_the_noise_asks_for_more():
+    rng = np.random.default_rng(6)
+    law = TrackerNoise()
+    axis, point, reflectors = _case(rng)
+    assert span_needed(_sweep(rng, axis, point, reflectors, np.radians(np.linspace(-30, 30, 7)), law), 0, law) is None
+    needed = span_needed(_sweep(rng, axis, point, reflectors, np.radians(np.linspace(-0.25, 0.25, 7)), law), 0, law)
+    assert np.radians(0.5) < needed < np.radians(30)
+    # Ten times the noise asks for about sqrt(10) times the span: the sagitta grows with its square.
+    wider = span_needed(_sweep(rng, axis, point, reflectors, np.radians(np.linspace(-0.25, 0.25, 7)), law), 0, law, excess=10.0)
+    assert wider / needed == pytest.approx(np.sqrt(10), rel=0.1)

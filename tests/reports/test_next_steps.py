@@ -17,10 +17,10 @@ def test_lack_of_fit_sends_to_the_critique_and_the_other_model():
 
 def test_a_good_fit_names_what_is_not_identified_and_the_error_to_compare_with_the_tolerance():
     text = calibration_next_steps(FIT, ["K_c", "k1"], 0.0431, True)
-    assert "K_c, k1 cannot be told" in text and "bayescal plan" in text and "43 μm" in text and "bayescal compensate" in text
+    assert "K_c, k1 cannot be told" in text and "bayescal plan" in text and "43.1 μm (99.73 % at the test pose, everything counted)" in text and "bayescal compensate" in text
     # a parameter no campaign of the cell can identify is not sent to a new plan
     text = calibration_next_steps(FIT, ["K_c", "k1", "s0"], 0.0431, True, cell_limited=["k1"])
-    assert "K_c, s0 cannot be told" in text and "k1 keeps the config's value: no campaign of this cell" in text
+    assert "K_c, s0 cannot be told" in text and "k1 keeps the config's value, its prior in the error bounds: no campaign of this cell" in text
     assert calibration_next_steps(FIT | {"lack_of_fit": None}, [], None, True).startswith("Next: the fit is consistent")
 
 
