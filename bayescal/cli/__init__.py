@@ -31,7 +31,7 @@ from bayescal.output import forget_reads, forget_written, written_paths
 
 __all__ = ["main"]
 
-COMMANDS = ("geometry", "simulate", "calibrate", "plan", "study", "critique", "report", "compensate", "axes", "kinematics", "predict")
+COMMANDS = ("geometry", "simulate", "calibrate", "plan", "study", "critique", "report", "compensate", "axes", "kinematics", "predict", "export")
 
 
 class _Parser(argparse.ArgumentParser):
