@@ -38,9 +38,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_campaign_size import loop_offset  # noqa: E402
 from bench_startup import command_times  # noqa: E402
+from smoke import SAMPLER, sized  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-REPEATS = 5
+REPEATS = sized(5, 1)
 
 
 def _fits(campaign_csv: Path, geometry_nc: Path) -> None:
@@ -50,11 +51,12 @@ def _fits(campaign_csv: Path, geometry_nc: Path) -> None:
     from bayescal.cell.config import load_cell
     from bayescal.inference.elastostatic import ElastostaticModel
     from bayescal.inference.priors import posterior_geometry
+    from bayescal.inference.samplers import elastostatic_sampler
 
     warnings.simplefilter("ignore")
     cell = load_cell(ROOT / "data" / "kr270.toml")
     campaign = read_campaign(campaign_csv, cell=cell)
-    model = ElastostaticModel.from_cell(cell, posterior_geometry(geometry_nc, cell.compensator))
+    model = ElastostaticModel.from_cell(cell, posterior_geometry(geometry_nc, cell.compensator), sampler=elastostatic_sampler(**SAMPLER))
     model.fit(campaign, np.random.default_rng(0))  # the first call pays for lazy imports
     seconds: dict[str, list[float]] = {"batched": [], "loop": []}
     results = {}

@@ -19,10 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
+from smoke import SAMPLER, sized
+
 ROOT = Path(__file__).resolve().parents[1]
 
-NAIVE_POSES = 3
-NAIVE_DRAWS = 100
+NAIVE_POSES = sized(3, 1)
+NAIVE_DRAWS = sized(100, 2)
 
 
 def _naive_seconds_per_pose(cell, calibration, program) -> float:
@@ -48,6 +50,7 @@ def main(sizes: list[int]) -> None:
     from bayescal.cell.plan import read_plan
     from bayescal.compensation import compensate_program, load_calibration
     from bayescal.inference.elastostatic import ElastostaticModel
+    from bayescal.inference.samplers import elastostatic_sampler
     from bayescal.studies.compensation import random_program
     from bayescal.twin.simulator import DigitalTwin
 
@@ -55,7 +58,7 @@ def main(sizes: list[int]) -> None:
     campaign = DigitalTwin(cell).simulate(read_plan(ROOT / "data" / "table3_plan.csv", cell.robot), 3, np.random.default_rng(1))
     with warnings.catch_warnings(), tempfile.TemporaryDirectory() as folder:
         warnings.simplefilter("ignore")
-        ElastostaticModel.from_cell(cell).fit(campaign, 1).save(Path(folder) / "calibration.nc")
+        ElastostaticModel.from_cell(cell, sampler=elastostatic_sampler(**SAMPLER)).fit(campaign, 1).save(Path(folder) / "calibration.nc")
         calibration = load_calibration(Path(folder) / "calibration.nc", cell)
     fast = {}
     for n in sizes:
@@ -72,4 +75,4 @@ def main(sizes: list[int]) -> None:
 
 
 if __name__ == "__main__":
-    main([int(arg) for arg in sys.argv[1:]] or [1000, 10000])
+    main([int(arg) for arg in sys.argv[1:]] or sized([1000, 10000], [10]))

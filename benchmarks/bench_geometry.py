@@ -29,6 +29,7 @@ from pathlib import Path
 
 from bayescal.geometry.arcs import read_arc_points
 from bayescal.geometry.posterior import GeometryPosteriorModel, geometry_sampler
+from smoke import SAMPLER
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "table1_geometry.csv"
 COMPARED = ("L", "a_x", "a_y", "phi")
@@ -72,8 +73,8 @@ def command_line_seconds() -> tuple[float, float]:
 def main() -> None:
     points = read_arc_points(DATA)
     print(f"posterior: {DATA.name}, concentric cylinder markers, seed {SEED}")
-    default = measure("independence", geometry_sampler(), points)
-    previous = measure("emcee", geometry_sampler("emcee"), points)
+    default = measure("independence", geometry_sampler(**SAMPLER), points)
+    previous = measure("emcee", geometry_sampler("emcee", **SAMPLER), points)
     print(
         f"min ESS/s ratio (independence / emcee): {(default[1] / default[0]) / (previous[1] / previous[0]):.0f} by wall time, "
         f"{(default[1] / default[3]) / (previous[1] / previous[3]):.0f} by CPU time"

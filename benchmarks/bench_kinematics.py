@@ -27,22 +27,25 @@ sys.path.insert(0, str(ROOT / "examples"))
 
 from bayescal.kinematics import KinematicCalibration, Positions, load_points_cell, read_positions  # noqa: E402
 from bayescal.twin.independent import points as independent  # noqa: E402
+from smoke import SMOKE, sized  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data" / "dlr-justin" / "measurements.csv"
-PREDICTIONS = 10_000
+PREDICTIONS = sized(10_000, 20)
+GENERATED = sized(500, 20)
+"""Configurations of the independent generator fitted where DLR's data set is absent (always at the smoke size)."""
 
 
 def _positions(cell, tmp: Path) -> tuple[Positions, str]:
-    if DATA.is_file():
+    if DATA.is_file() and not SMOKE:
         import justin_positions
 
         justin_positions.convert(str(DATA), str(tmp / "positions.csv"))
         return read_positions(tmp / "positions.csv", cell), "DLR's 500 measured configurations"
     rng = np.random.default_rng(0)
-    joints = independent.configurations(rng, 500)
+    joints = independent.configurations(rng, GENERATED)
     xyz = independent.marker_positions(independent.draw_world(rng), joints, noise_rng=rng)
     n, m = xyz.shape[:2]
-    return Positions(joints, xyz, np.zeros((n, m), int), np.arange(n * m).reshape(n, m)), "500 configurations of the independent generator"
+    return Positions(joints, xyz, np.zeros((n, m), int), np.arange(n * m).reshape(n, m)), f"{GENERATED} configurations of the independent generator"
 
 
 def main() -> None:

@@ -34,6 +34,7 @@ from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.samplers import elastostatic_sampler
 from bayescal.studies.elastostatic_coverage import random_plan
 from bayescal.twin.simulator import DigitalTwin
+from smoke import SAMPLER, SMOKE
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 REPEATS = 3
@@ -42,7 +43,7 @@ ANGLES = 15
 
 
 def fit(cell, campaign, sampler: str) -> tuple[float, float, float, str, float]:
-    model = ElastostaticModel.from_cell(cell, sampler=elastostatic_sampler(sampler))
+    model = ElastostaticModel.from_cell(cell, sampler=elastostatic_sampler(sampler, **SAMPLER))
     began, cpu = time.perf_counter(), time.process_time()
     results = model.fit(campaign, 0)
     seconds, cpu = time.perf_counter() - began, time.process_time() - cpu
@@ -54,7 +55,7 @@ def fit(cell, campaign, sampler: str) -> tuple[float, float, float, str, float]:
 def campaigns(cell, quick: bool):
     table_iii = read_plan(DATA / "table3_plan.csv", cell.robot)
     yield "Table III", DigitalTwin(cell).simulate(table_iii, REPEATS, np.random.default_rng(1))
-    for factor in (10,) if quick else (10, 100):
+    for factor in () if SMOKE else (10,) if quick else (10, 100):
         rng = np.random.default_rng(factor)
         plan = random_plan(cell, ANGLES, len(table_iii.q) * factor // ANGLES, rng)
         yield f"{factor}x configurations", DigitalTwin(cell).simulate(plan, REPEATS, rng)

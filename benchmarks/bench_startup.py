@@ -19,8 +19,10 @@ import tempfile
 import time
 from pathlib import Path
 
+from smoke import sized
+
 ROOT = Path(__file__).resolve().parents[1]
-REPEATS = 5
+REPEATS = sized(5, 1)
 """Runs per case; the median damps the shared machine's noise."""
 
 

@@ -37,8 +37,10 @@ from unittest import mock
 import numpy as np
 from threadpoolctl import threadpool_info, threadpool_limits
 
+from smoke import SAMPLER, sized
+
 ROOT = Path(__file__).resolve().parents[1]
-REPEATS = 5
+REPEATS = sized(5, 1)
 
 
 def _campaigns(folder: Path) -> tuple[Path, Path]:
@@ -111,12 +113,13 @@ def _overhead() -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--configurations", type=int, default=10_000, help="size of the random campaign (default 10,000; 0 leaves it out)")
+    parser.add_argument("--configurations", type=int, default=sized(10_000, 20), help="size of the random campaign (default 10,000; 0 leaves it out)")
     args = parser.parse_args()
     from bayescal.cell.campaign import read_campaign
     from bayescal.cell.config import load_cell
     from bayescal.inference.elastostatic import ElastostaticModel
     from bayescal.inference.priors import posterior_geometry
+    from bayescal.inference.samplers import elastostatic_sampler
 
     blas = [(pool["internal_api"], pool["num_threads"]) for pool in threadpool_info() if pool["user_api"] == "blas"]
     print(f"BLAS as the script finds it: {blas}; {os.cpu_count()} cores; OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}")
@@ -124,10 +127,10 @@ def main() -> None:
     cell = load_cell(ROOT / "data" / "kr270.toml")
     with tempfile.TemporaryDirectory() as folder:
         geometry, table3 = _campaigns(Path(folder))
-        model = ElastostaticModel.from_cell(cell, posterior_geometry(geometry, cell.compensator))
+        model = ElastostaticModel.from_cell(cell, posterior_geometry(geometry, cell.compensator), sampler=elastostatic_sampler(**SAMPLER))
         _fits(model, read_campaign(table3, cell=cell), "Table III twin campaign, --geometry")
     if args.configurations:
-        _fits(ElastostaticModel.from_cell(cell), _random_campaign(cell, args.configurations), f"{args.configurations:,} random configurations")
+        _fits(ElastostaticModel.from_cell(cell, sampler=elastostatic_sampler(**SAMPLER)), _random_campaign(cell, args.configurations), f"{args.configurations:,} random configurations")
     _overhead()
 
 

@@ -14,10 +14,11 @@ if TYPE_CHECKING:
 
 __all__ = ["add_parser", "run"]
 
-SECONDS = {"exact": 20, "linear": 3}
+SECONDS = {"exact": 4, "linear": 3}
 """Time of a default design (5 × 3 configurations, 3 starts), s: the search's CPU time in one process on this
-project's machine (19.2 s exact, 3.0 s linear; the search runs on one thread, so an idle core's wall time).  Said
-before a design starts, since the command prints nothing else until it ends when stderr is not a terminal."""
+project's machine (3.5 s exact, 2.3 s linear, ``benchmarks/bench_design.py`` at load average 7.8; the search runs on
+one thread, so an idle core's wall time).  Said before a design starts, since the command prints nothing else until
+it ends when stderr is not a terminal."""
 FLAGS = {"angles": "--angles", "per_angle": "--per-angle", "repeats": "--repeats", "model": "--model", "criterion": "--criterion", "mass_range": "--mass-kg", "between": "--between"}
 """The library's argument names and this command's options."""
 
@@ -157,8 +158,7 @@ def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFr
         if sys.stderr.isatty() and not args.json:
             print(
                 f"bayescal plan: designing {args.angles} × {args.per_angle} configurations with the {args.model} model, "
-                f"about {max(seconds, 5):.0f} s"
-                + ("" if args.model == "linear" else f" (--model linear: about {max(seconds * SECONDS['linear'] / SECONDS['exact'], 5):.0f} s)"),
+                f"about {max(seconds, 1):.0f} s",
                 file=sys.stderr,
                 flush=True,
             )

@@ -35,7 +35,7 @@ from bayescal.cell.config import Cell
 from bayescal.cell.plausible import mass_range_violation
 from bayescal.errors import InputError
 from bayescal.design.criteria import solve_equilibrium
-from bayescal.robot.kinematics import Workspace
+from bayescal.robot.batched import BatchedChain, equilibria
 from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG
 
@@ -128,15 +128,16 @@ def load_design_space(cell: Cell, *, mass_range: tuple[float, float] | None = No
 
 
 def _segment_distance(p0: np.ndarray, p1: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Shortest distances (m) between the segment ``p0 p1`` and each segment ``a[i] b[i]`` (closest points clamped)."""
+    """Shortest distances (m) between segments ``p0 p1`` ``(..., 3)`` and segments ``a b`` ``(..., 3)`` (closest points
+    clamped; the arguments broadcast, the result has their shape without the last axis)."""
     u = p1 - p0
     v = b - a
     w = p0 - a
-    uu = u @ u
-    uv = v @ u
-    vv = np.einsum("ij,ij->i", v, v)
-    uw = w @ u
-    vw = np.einsum("ij,ij->i", v, w)
+    uu = np.einsum("...i,...i->...", u, u)
+    uv = np.einsum("...i,...i->...", v, u)
+    vv = np.einsum("...i,...i->...", v, v)
+    uw = np.einsum("...i,...i->...", w, u)
+    vw = np.einsum("...i,...i->...", v, w)
     denominator = uu * vv - uv**2
     parallel = denominator < 1e-12 * uu * np.maximum(vv, 1e-300)
     s = np.where(parallel, 0.0, (uv * vw - vv * uw) / np.where(parallel, 1.0, denominator))
@@ -144,7 +145,7 @@ def _segment_distance(p0: np.ndarray, p1: np.ndarray, a: np.ndarray, b: np.ndarr
     t = np.clip((uv * s + vw) / np.maximum(vv, 1e-300), 0.0, 1.0)
     # Re-clamping s for the clamped t gives the exact closest pair of two segments.
     s = np.clip((t * uv - uw) / uu, 0.0, 1.0)
-    gap = w + s[:, np.newaxis] * u - t[:, np.newaxis] * v
+    gap = w + s[..., np.newaxis] * u - t[..., np.newaxis] * v
     return np.linalg.norm(gap, axis=-1)
 
 
@@ -173,6 +174,7 @@ class Feasibility:
                 f"the visibility model needs {segments} link radii for a {cell.robot.nq}-joint arm, got {radii.size}", source=space.source
             )
         self._radii = radii
+        self._chain = BatchedChain.of(cell.robot)
 
     def violation(self, q, mass: float) -> str | None:
         """Why ``q`` loaded with ``mass`` kg is infeasible, or None when it is feasible.
@@ -199,47 +201,88 @@ class Feasibility:
         The mass range is not checked here (:meth:`violation` does for a hanging mass);
         the end-effector's limits (``cell.loading``) are.
         """
-        q = np.asarray(q, dtype=float)
-        couple = np.zeros(3) if couple is None else np.asarray(couple, dtype=float)
-        reason = self._within_limits(q) or self.cell.loading.force_violation(force) or self.cell.loading.couple_violation(couple)
-        if reason is not None:
-            return reason
-        # One workspace for the kinematics of this check: creating one costs more than the calls below.
-        robot = self.cell.robot.workspace()
-        rotation, _ = robot.flange_pose(q)
-        tool = robot.point_position(q, self._tool)
-        floor = self.space.floor_z
-        if np.any(tool[:, 2] < floor + self.space.tool_clearance):
-            return "a tool point is below the floor"
-        if robot.point_position(q, self.cell.load_point)[2] < floor + self.space.hanging_clearance:
-            return "the hanging load would touch the floor"
-        reason = self._visibility(q, rotation, tool[1:], robot)
-        if reason is not None:
-            return reason
-        try:
-            solve_equilibrium(self.cell, q, self.cell.wrench(q, force, couple), self.cell.load_point)
-        except EquilibriumError as exc:
-            return f"no loaded equilibrium ({exc})"
-        return None
+        couple = np.zeros(3) if couple is None else couple
+        q, force, couple = (np.asarray(v, dtype=float)[np.newaxis] for v in (q, force, couple))
+        return self.violations_under(q, force, couple)[0]
 
-    def _visibility(self, q: np.ndarray, rotation: np.ndarray, markers: np.ndarray, workspace: Workspace) -> str | None:
+    def violations_under(self, q: np.ndarray, force: np.ndarray, couple: np.ndarray, *, solve: bool = True) -> list[str | None]:
+        """:meth:`violation_under` of ``N`` configurations ``(N, nq)`` under forces and couples ``(N, 3)`` (N, N·m), at once.
+
+        The checks run from the cheapest to the equilibrium solve, each on the
+        configurations that passed the ones before, and the first that fails is reported.
+        ``solve=False`` leaves the equilibrium out, for a caller that solves it anyway.
+        """
+        q, force, couple = (np.asarray(v, dtype=float) for v in (q, force, couple))
+        reasons: list[str | None] = [None] * len(q)
+        loads = np.concatenate([force, couple], axis=1)
+        unique, which = np.unique(loads, axis=0, return_inverse=True)
+        load_reasons = [self.cell.loading.force_violation(u[:3]) or self.cell.loading.couple_violation(u[3:]) for u in unique]
+        for i in range(len(q)):
+            reasons[i] = self._within_limits(q[i]) or load_reasons[which.ravel()[i]]
+        alive = np.array([reason is None for reason in reasons], dtype=bool)
+        rows = np.flatnonzero(alive)
+        if not rows.size:
+            return reasons
+        poses = self._chain.poses(q[rows])
+        markers = np.stack([poses.points(point) for point in self._markers], axis=1)
+        floor = self.space.floor_z
+        low_tool = (poses.flange_origin[:, 2] < floor + self.space.tool_clearance) | np.any(markers[:, :, 2] < floor + self.space.tool_clearance, axis=1)
+        low_load = poses.points(self.cell.load_point)[:, 2] < floor + self.space.hanging_clearance
+        for k, row in enumerate(rows):
+            if low_tool[k]:
+                reasons[row] = "a tool point is below the floor"
+            elif low_load[k]:
+                reasons[row] = "the hanging load would touch the floor"
+        keep = ~(low_tool | low_load)
+        for k, reason in zip(np.flatnonzero(keep), self._visibility(poses, markers, keep)):
+            reasons[rows[k]] = reason
+        keep &= np.array([reasons[row] is None for row in rows], dtype=bool)
+        if solve:
+                self._equilibria(q[rows[keep]], force[rows[keep]], couple[rows[keep]], rows[keep], reasons)
+        return reasons
+
+    def _equilibria(self, q: np.ndarray, force: np.ndarray, couple: np.ndarray, rows: np.ndarray, reasons: list) -> None:
+        """Mark the ``rows`` whose loaded equilibrium does not exist; all are solved together, one by one only when one fails."""
+        if not len(q):
+            return
+        cell = self.cell
+        rotation = self._chain.poses(q).flange_rotation
+        wrench = np.concatenate([force, np.cross(np.einsum("nij,j->ni", rotation, cell.load_point), force) + couple], axis=1)
+        try:
+            equilibria(self._chain, q, wrench, cell.compliances, compensator=cell.compensator, compensated_joint=cell.compensated_joint, load_point=cell.load_point)
+            return
+        except EquilibriumError:
+            pass
+        for qi, w, row in zip(q, wrench, rows):
+            try:
+                solve_equilibrium(cell, qi, w, cell.load_point)
+            except EquilibriumError as exc:
+                reasons[row] = f"no loaded equilibrium ({exc})"
+
+    def _visibility(self, poses, markers: np.ndarray, rows: np.ndarray) -> list[str | None]:
+        """Why each configuration of ``poses`` selected by the bool ``rows`` cannot see every marker (positions ``markers`` (N, m, 3))."""
         tracker = self.cell.tracker.position
-        facing = rotation[:, 0]
+        facing = poses.flange_rotation[rows][:, :, 0]
+        markers = markers[rows]
         sight = tracker - markers
-        cosine = sight @ facing / np.linalg.norm(sight, axis=1)
-        worst = int(np.argmin(cosine))
-        if cosine[worst] < math.cos(self.space.acceptance):
-            name = list(self.cell.markers)[worst]
-            angle = math.degrees(math.acos(np.clip(cosine[worst], -1.0, 1.0)))
-            return f"marker {name} faces {angle:.0f} deg away from the tracker"
-        joints = workspace.joint_origins(q)
-        start = np.vstack([[joints[0, 0], joints[0, 1], self.space.floor_z], joints[:-2]])
-        end = joints[:-1]
-        radii = self._radii
-        for name, marker in zip(self.cell.markers, markers):
-            if np.any(_segment_distance(tracker, marker, start, end) < radii):
-                return f"the arm hides marker {name} from the tracker"
-        return None
+        cosine = np.einsum("nmi,ni->nm", sight, facing) / np.linalg.norm(sight, axis=2)
+        worst = np.argmin(cosine, axis=1)
+        joints = poses.origins[rows]
+        start = np.concatenate([np.stack([joints[:, 0, 0], joints[:, 0, 1], np.full(len(joints), self.space.floor_z)], axis=1)[:, None], joints[:, :-2]], axis=1)
+        end = joints[:, :-1]
+        hidden = _segment_distance(tracker, markers[:, :, None, :], start[:, None], end[:, None]) < self._radii
+        names = list(self.cell.markers)
+        reasons: list[str | None] = []
+        for n in range(len(markers)):
+            c = cosine[n, worst[n]]
+            if c < math.cos(self.space.acceptance):
+                angle = math.degrees(math.acos(np.clip(c, -1.0, 1.0)))
+                reasons.append(f"marker {names[worst[n]]} faces {angle:.0f} deg away from the tracker")
+            elif hidden[n].any():
+                reasons.append(f"the arm hides marker {names[int(np.flatnonzero(hidden[n].any(axis=1))[0])]} from the tracker")
+            else:
+                reasons.append(None)
+        return reasons
 
     def feasible(self, q, mass: float) -> bool:
         """True when :meth:`violation` finds nothing."""

@@ -54,8 +54,8 @@ from dataclasses import replace
 from bayescal.cell.config import Cell
 from bayescal.inference.parameters import ParameterRegistry
 from bayescal.jsonsafe import json_safe
+from bayescal.robot.batched import BatchedChain, equilibria
 from bayescal.robot.stiffness import ElasticArm, compliance_design
-from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import MM
 
 __all__ = [
@@ -64,6 +64,8 @@ __all__ = [
     "compliance_chain",
     "PlanPrediction",
     "configuration_design",
+    "configuration_designs",
+    "designs_information",
     "configuration_information",
     "criterion_value",
     "criterion_values",
@@ -115,23 +117,28 @@ def _prior_term(cell: Cell, G0: np.ndarray, excited: np.ndarray) -> float:
     return float(np.sum(G0[:, : cell.robot.nq][:, held] ** 2)) * prior_mean_square(cell.compliance_log_sd)
 
 
-def compliance_chain(cell: Cell, q2: float) -> tuple[np.ndarray, np.ndarray]:
+def compliance_chain(cell: Cell, q2) -> tuple[np.ndarray, np.ndarray]:
     """Compliances acting at joint angle ``q2`` (joint 2 with its compensator, eq 8) and their (nq, p)
-    derivatives in the parameters of :func:`parameter_names` (SI)."""
+    derivatives in the parameters of :func:`parameter_names` (SI).
+
+    ``q2`` may be an array of shape ``(N,)``: the results are then ``(N, nq)`` and ``(N, nq, p)``.
+    """
+    q2 = np.asarray(q2, dtype=float)
     k = cell.compliances
-    effective = k.copy()
+    effective = np.array(np.broadcast_to(k, q2.shape + k.shape))
     # The parameters' count, not their registry: building that reads the cell's reference table, once per
     # configuration of a search (half of a 5 × 3 plan's time).
-    chain = np.eye(cell.robot.nq, nominal_parameters(cell).size)
+    chain = np.array(np.broadcast_to(np.eye(cell.robot.nq, nominal_parameters(cell).size), q2.shape + (cell.robot.nq, nominal_parameters(cell).size)))
     compensator = cell.compensator
     if compensator is not None:
         j2 = cell.compensated_joint
-        effective[j2] = 1.0 / (1.0 / k[j2] + compensator.stiffness(q2))
+        effective[..., j2] = 1.0 / (1.0 / k[j2] + compensator.stiffness(q2))
         # K_c·a·L·η = C1·K_c + C2·s0·K_c (eq 35): derivatives C1 + s0·C2 in K_c and K_c·C2 in s0.
-        _, c1, c2 = compensator.regressor(q2)
-        chain[j2, j2] = effective[j2] ** 2 / k[j2] ** 2
-        chain[j2, -2] = -effective[j2] ** 2 * (c1 + compensator.s0 * c2)
-        chain[j2, -1] = -effective[j2] ** 2 * compensator.K_c * c2
+        regressor = compensator.regressor(q2)
+        c1, c2 = regressor[..., 1], regressor[..., 2]
+        chain[..., j2, j2] = effective[..., j2] ** 2 / k[j2] ** 2
+        chain[..., j2, -2] = -effective[..., j2] ** 2 * (c1 + compensator.s0 * c2)
+        chain[..., j2, -1] = -effective[..., j2] ** 2 * compensator.K_c * c2
     return effective, chain
 
 
@@ -155,14 +162,51 @@ def configuration_design(cell: Cell, q, wrench) -> tuple[np.ndarray, np.ndarray]
     sigma : numpy.ndarray
         (3·markers,) standard deviation of each deflection coordinate (m): ``√2 σ(p)``.
     """
-    q = np.asarray(q, dtype=float)
-    _, chain = compliance_chain(cell, float(q[cell.plan_joint]))
-    chain = chain * nominal_parameters(cell)[np.newaxis, :]
-    points = list(cell.markers.values())
-    workspace = cell.robot.workspace()
-    rows = [compliance_design(workspace, q, point, wrench) @ chain for point in points]
-    sigma = math.sqrt(2.0) * cell.tracker.sigma(workspace.point_position(q, np.array(points)))
-    return np.vstack(rows), np.repeat(sigma, 3)
+    design, sigma = configuration_designs(cell, np.asarray(q, dtype=float)[np.newaxis], np.asarray(wrench, dtype=float)[np.newaxis])
+    return design[0], sigma[0]
+
+
+def configuration_designs(cell: Cell, q: np.ndarray, wrench: np.ndarray, *, chain: BatchedChain | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`configuration_design` of ``N`` configurations at once, by :class:`~bayescal.robot.batched.BatchedChain`.
+
+    Parameters
+    ----------
+    q
+        ``(N, nq)`` joint angles, rad.
+    wrench
+        ``(N, 6)`` loads at the flange origin, base axes, N and N·m.
+    chain
+        The robot's batched chain, when already built.
+
+    Returns
+    -------
+    design : numpy.ndarray
+        ``(N, 3·markers, p)``.
+    sigma : numpy.ndarray
+        ``(N, 3·markers)``, m.
+    """
+    q, wrench = np.asarray(q, dtype=float), np.asarray(wrench, dtype=float)
+    chain = BatchedChain.of(cell.robot) if chain is None else chain
+    _, parameters = compliance_chain(cell, q[:, cell.plan_joint])
+    parameters = parameters * nominal_parameters(cell)
+    poses = chain.poses(q)
+    # eq 31: column j of a marker's A is its Jacobian column j times the torque J_F[:, j] · wrench
+    flange_linear, flange_angular = chain.point_jacobian(poses, poses.flange_origin)
+    torques = np.einsum("njc,nc->nj", flange_linear, wrench[:, :3]) + np.einsum("njc,nc->nj", flange_angular, wrench[:, 3:])
+    points = np.array(list(cell.markers.values()))
+    rows = []
+    for point in points:
+        linear, _ = chain.point_jacobian(poses, poses.points(point))
+        rows.append(np.swapaxes(linear * torques[:, :, np.newaxis], 1, 2) @ parameters)
+    positions = np.stack([poses.points(point) for point in points], axis=1)
+    sigma = math.sqrt(2.0) * cell.tracker.sigma(positions)
+    return np.concatenate(rows, axis=1), np.repeat(sigma, 3, axis=-1)
+
+
+def designs_information(design: np.ndarray, sigma: np.ndarray, repeats: int = 1) -> np.ndarray:
+    """``(N, p, p)`` information ``r Bᵀ W B`` of ``N`` configurations' designs ``(N, rows, p)`` with noise ``(N, rows)``, m."""
+    weighted = design / sigma[..., np.newaxis]
+    return repeats * np.swapaxes(weighted, -1, -2) @ weighted
 
 
 def configuration_information(cell: Cell, q, mass: float, repeats: int = 1, *, exact: ExactLinearisation | None = None) -> np.ndarray:
@@ -234,12 +278,15 @@ class ExactLinearisation:
     ``K_c`` and ``s0`` act on the deflections also through the arm's geometry,
     which eq 31's design leaves out: on Table III the exact model predicts
     K_c and s0 about 2.4 and 1.4 times more precisely than eq 31 (docs/design.md).
+
+    The equilibria of every configuration asked for at once, unloaded and loaded, at the
+    cell's values and at each parameter moved up and down, are solved together, in one call
+    of :func:`~bayescal.robot.batched.equilibria` whose rows carry their own compliances and spring.
     """
 
     def __init__(self, cell: Cell) -> None:
         self.cell = cell
         nominal = nominal_parameters(cell)
-        self._twins = []
         self._cells = []
         for i in range(len(nominal)):
             pair = []
@@ -248,8 +295,12 @@ class ExactLinearisation:
                 theta[i] *= 1.0 + sign * DIFFERENCE_STEP
                 pair.append(with_parameters(cell, theta))
             self._cells.append(pair)
-            self._twins.append([DigitalTwin(changed) for changed in pair])
-        self._nominal = DigitalTwin(cell)
+        self._chain = BatchedChain.of(cell.robot)
+        self._points = np.array(list(cell.markers.values()))
+        # Variant 0 is the cell itself, then each parameter up and down.
+        variants = [cell] + [changed for pair in self._cells for changed in pair]
+        self._compliances = np.array([changed.compliances for changed in variants])
+        self._springs = None if cell.compensator is None else np.array([[v.compensator.K_c, v.compensator.s0] for v in variants])
 
     def deflections(self, q, mass: float) -> np.ndarray:
         """(markers, 3) noiseless deflections (m) at the cell's values."""
@@ -257,8 +308,8 @@ class ExactLinearisation:
 
     def wrench_deflections(self, q, wrench) -> np.ndarray:
         """(markers, 3) noiseless deflections (m) at the cell's values under any (6,) ``wrench`` (flange origin, base axes)."""
-        unloaded, loaded = self._nominal.positions_under(q, wrench)
-        return loaded - unloaded
+        unloaded, loaded = self._positions(np.asarray(q, dtype=float)[np.newaxis], np.asarray(wrench, dtype=float)[np.newaxis], nominal_only=True)
+        return (loaded - unloaded)[0, 0]
 
     def configuration_design(self, q, mass: float) -> tuple[np.ndarray, np.ndarray]:
         """Like :func:`configuration_design`, from the exact model; the noise is that of the two readings."""
@@ -266,14 +317,50 @@ class ExactLinearisation:
 
     def wrench_design(self, q, wrench) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`configuration_design` under any (6,) ``wrench`` (flange origin, base axes, its force through the load point)."""
-        columns = []
-        for plus, minus in self._twins:
-            moved = [np.subtract(*twin.positions_under(q, wrench)[::-1]).ravel() for twin in (plus, minus)]
-            columns.append((moved[0] - moved[1]) / (2.0 * DIFFERENCE_STEP))
-        unloaded, loaded = self._nominal.positions_under(q, wrench)
-        tracker = self.cell.tracker
-        sigma = np.sqrt(tracker.deflection_variance(unloaded, loaded))
-        return np.column_stack(columns), np.repeat(sigma, 3)
+        design, sigma = self.wrench_designs(np.asarray(q, dtype=float)[np.newaxis], np.asarray(wrench, dtype=float)[np.newaxis])
+        return design[0], sigma[0]
+
+    def wrench_designs(self, q: np.ndarray, wrench: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`wrench_design` of ``N`` configurations at once.
+
+        Parameters
+        ----------
+        q
+            ``(N, nq)`` joint angles, rad.
+        wrench
+            ``(N, 6)`` loads at the flange origin, base axes, N and N·m, each force through the load point.
+
+        Returns
+        -------
+        design : numpy.ndarray
+            ``(N, 3·markers, p)`` derivatives of the markers' deflections (m) in the relative parameters.
+        sigma : numpy.ndarray
+            ``(N, 3·markers)`` standard deviation of each deflection coordinate (m), two readings.
+        """
+        q, wrench = np.asarray(q, dtype=float), np.asarray(wrench, dtype=float)
+        unloaded, loaded = self._positions(q, wrench)
+        deflection = (loaded - unloaded).reshape(len(self._compliances), len(q), -1)
+        design = (deflection[1::2] - deflection[2::2]) / (2.0 * DIFFERENCE_STEP)
+        sigma = np.sqrt(self.cell.tracker.deflection_variance(unloaded[0], loaded[0]))
+        return np.moveaxis(design, 0, -1), np.repeat(sigma, 3, axis=-1)
+
+    def _positions(self, q: np.ndarray, wrench: np.ndarray, *, nominal_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """``(V, N, markers, 3)`` marker positions (m) unloaded and loaded, for the V variants of the parameters
+        (the cell's values alone when ``nominal_only``)."""
+        n = len(q)
+        cell = self.cell
+        variants = 1 if nominal_only else len(self._compliances)
+        # rows: variant, then unloaded / loaded, then configuration
+        rows_q = np.tile(q, (2 * variants, 1))
+        rows_wrench = np.tile(np.concatenate([np.zeros_like(wrench), wrench]), (variants, 1))
+        theta = equilibria(
+            self._chain, rows_q, rows_wrench, np.repeat(self._compliances[:variants], 2 * n, axis=0),
+            compensator=cell.compensator, compensated_joint=cell.compensated_joint, load_point=cell.load_point,
+            springs=None if self._springs is None else np.repeat(self._springs[:variants], 2 * n, axis=0),
+        )
+        poses = self._chain.poses(rows_q + theta)
+        positions = np.stack([poses.points(point) for point in self._points], axis=1).reshape(variants, 2, n, len(self._points), 3)
+        return positions[:, 0], positions[:, 1]
 
     def test_design(self) -> np.ndarray:
         """(3, p) derivatives of the test point's exact deflection (m) in the relative parameters."""
@@ -433,7 +520,9 @@ def criterion_value(prediction: PlanPrediction, criterion: str) -> float:
     raise ValueError(f"unknown criterion {criterion!r}; expected one of {', '.join(CRITERIA)}")
 
 
-def criterion_values(cell: Cell, information: np.ndarray, criterion: str, *, test_design: np.ndarray | None = None) -> np.ndarray:
+def criterion_values(
+    cell: Cell, information: np.ndarray, criterion: str, *, test_design: np.ndarray | None = None, groups: np.ndarray | None = None
+) -> np.ndarray:
     """:func:`criterion_value` of many information matrices at once, as the exchange algorithm needs.
 
     Parameters
@@ -446,18 +535,41 @@ def criterion_values(cell: Cell, information: np.ndarray, criterion: str, *, tes
         One of :data:`CRITERIA`.
     test_design
         (3, p) :func:`test_pose_design` of ``cell``, when already computed.
+    groups
+        (n,) labels of independent batches scored in one call; None: one batch.
 
     Returns
     -------
     numpy.ndarray
         (n,) the criterion of each matrix (inf where it cannot be delivered).  The
         parameters held at their nominal value are those no matrix of the batch
-        excites; a parameter only some matrices excite makes the others singular.
+        (of the same label) excites; a parameter only some matrices excite makes the others singular.
     """
     if criterion not in CRITERIA:
         raise ValueError(f"unknown criterion {criterion!r}; expected one of {', '.join(CRITERIA)}")
+    if criterion == "compensator" and cell.compensator is None:
+        raise ValueError("the compensator criterion needs a cell with a compensator")
+    n, p = information.shape[0], information.shape[-1]
+    if n == 0:
+        return np.empty(0)
+    labels = np.zeros(n, dtype=int) if groups is None else np.unique(np.asarray(groups), return_inverse=True)[1].ravel()
     diagonal = np.einsum("nii->ni", information)
-    excited = diagonal.max(axis=0) > UNEXCITED * max(diagonal.max(), 1e-300)
+    peak = np.zeros((labels.max() + 1 if n else 0, p))
+    np.maximum.at(peak, labels, diagonal)
+    excited = peak > UNEXCITED * np.maximum(peak.max(axis=1, initial=0.0), 1e-300)[:, np.newaxis]
+    # Batches that hold the same parameters are scored together: eigh treats every matrix on its own.
+    masks, which = np.unique(excited, axis=0, return_inverse=True)
+    which = which.ravel()[labels]
+    G0 = None if criterion != "test-pose" else test_pose_design(cell) if test_design is None else test_design
+    values = np.empty(n)
+    for m, mask in enumerate(masks):
+        rows = np.flatnonzero(which == m)
+        values[rows] = _criterion_values(cell, information[rows], criterion, mask, G0)
+    return values
+
+
+def _criterion_values(cell: Cell, information: np.ndarray, criterion: str, excited: np.ndarray, G0: np.ndarray | None) -> np.ndarray:
+    """:func:`criterion_values` of matrices ``(n, p, p)`` that share the ``excited`` parameters ``(p,)``."""
     block = information[:, excited][:, :, excited]
     scale = 1.0 / np.sqrt(np.maximum(np.einsum("nii->ni", block), 1e-300))
     outer = scale[:, :, np.newaxis] * scale[:, np.newaxis, :]
@@ -468,9 +580,6 @@ def criterion_values(cell: Cell, information: np.ndarray, criterion: str, *, tes
         return np.where(usable, -(np.sum(np.log(safe), axis=1) - 2.0 * np.sum(np.log(scale), axis=1)), np.inf)
     inverse = (vectors / safe[:, np.newaxis, :]) @ vectors.transpose(0, 2, 1) * outer
     if criterion == "compensator":
-        if cell.compensator is None:
-            raise ValueError("the compensator criterion needs a cell with a compensator")
         return np.where(usable, inverse[:, -2, -2] + inverse[:, -1, -1], np.inf)
-    G0 = test_pose_design(cell) if test_design is None else test_design
     squared = np.einsum("ij,njk,ik->n", G0[:, excited], inverse, G0[:, excited])
     return np.where(usable, np.sqrt(np.maximum(squared, 0.0) + _prior_term(cell, G0, excited)), np.inf)

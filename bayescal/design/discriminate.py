@@ -66,7 +66,7 @@ counted, 13 of 15 (``docs/critique.md``).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from os import PathLike
 
 import numpy as np
@@ -452,6 +452,9 @@ class _Exchange:
     blocks: tuple
     beta: tuple
     rng: np.random.Generator
+    # this search's own memory: each q2 group's options, and the greedy fills already computed for a plan's other groups
+    _by_angle: dict = field(default_factory=dict, init=False)
+    _filled: dict = field(default_factory=dict, init=False)
 
     def score(self, fixed: list[int], candidates: np.ndarray) -> np.ndarray:
         """(P,) the worse separation (nats) of the plan ``fixed`` with each of the P ``candidates`` added."""
@@ -473,19 +476,22 @@ class _Exchange:
         link lagging on the side a negative torque takes it to, and a group of even
         size leaves it there too.
         """
-        options = np.setdiff1d(np.flatnonzero(self.group == angle), taken)
+        options = self._options(angle)
+        options = options[~np.isin(options, taken)]
         wanted = options[self.side[options] == (1.0 if slot % 2 == 0 else -1.0)]
         return wanted if wanted.size else options
 
-    def _fill(self, angle: int, per_angle: int, fixed: list[int], greedy: bool) -> list[int]:
-        """``per_angle`` options of group ``angle``, slot by slot: at random, or each the best added to ``fixed``."""
+    def _options(self, angle: int) -> np.ndarray:
+        """The options of q2 group ``angle``, in increasing order."""
+        if not self._by_angle:
+            self._by_angle.update({int(g): np.flatnonzero(self.group == g) for g in np.unique(self.group)})
+        return self._by_angle.get(int(angle), np.empty(0, dtype=int))
+
+    def _fill(self, angle: int, per_angle: int) -> list[int]:
+        """``per_angle`` options of group ``angle`` drawn at random, slot by slot (each slot's side first)."""
         members: list[int] = []
         for slot in range(per_angle):
-            pool = self._slot_pool(angle, slot, members)
-            if greedy:
-                members.append(int(pool[np.argmax(self.score(fixed + members, pool))]))
-            else:
-                members.append(int(self.rng.choice(pool)))
+            members.append(int(self.rng.choice(self._slot_pool(angle, slot, members))))
         return members
 
     def run(self, angles: int, per_angle: int) -> tuple[list[int], float]:
@@ -502,7 +508,7 @@ class _Exchange:
                 break
         else:
             raise InputError(f"no {angles} q2 angles {math.degrees(self.separation_rad):.0f} deg apart have feasible configurations", source="angles")
-        groups = [self._fill(int(g), per_angle, [], greedy=False) for g in chosen_angles]
+        groups = [self._fill(int(g), per_angle) for g in chosen_angles]
         current = self.value(_flat(groups))
         for _ in range(MAX_PASSES):
             improved = False
@@ -526,17 +532,41 @@ class _Exchange:
         """The best other q2 angle for group ``g``, filled greedily, when it beats ``current``."""
         rest = _flat(groups[:g] + groups[g + 1 :])
         others = chosen_angles[:g] + chosen_angles[g + 1 :]
+        angles = [
+            int(angle) for angle in np.unique(self.group)
+            if angle != chosen_angles[g] and self._separated(others + [int(angle)]) and len(self._options(angle)) >= len(groups[g])
+        ]
+        # The fills depend only on the other groups: unchanged since the last pass, they are not computed again.
+        key = (tuple(angles), len(groups[g]), tuple(rest))
+        if key not in self._filled:
+            self._filled[key] = self._greedy_fills(angles, len(groups[g]), rest)
         best = None
-        for angle in np.unique(self.group):
-            if angle == chosen_angles[g] or not self._separated(others + [int(angle)]):
-                continue
-            if np.count_nonzero(self.group == angle) < len(groups[g]):
-                continue
-            members = self._fill(int(angle), len(groups[g]), rest, greedy=True)
-            score = self.value(rest + members)
+        for angle, (members, score) in zip(angles, self._filled[key]):
             if score > current * (1 + 1e-9) and (best is None or score > best[2]):
-                best = (int(angle), members, score)
+                best = (angle, list(members), score)
         return best
+
+    def _greedy_fills(self, angles: list[int], per_angle: int, fixed: list[int]) -> list[tuple[list[int], float]]:
+        """Every group of ``angles`` filled slot by slot, each the best option added to ``fixed``, the groups scored together, and the
+        worse separation (nats) of each filled plan.  The plans' information is summed in the order of
+        :meth:`score`'s, member after member, so that the scores are those of one angle after another."""
+        members: list[list[int]] = [[] for _ in angles]
+        partial = np.repeat(self.information[np.asarray(fixed, dtype=int)].sum(axis=0)[np.newaxis], len(angles), axis=0)
+        for slot in range(per_angle):
+            pools = [self._slot_pool(angle, slot, chosen) for angle, chosen in zip(angles, members)]
+            sizes = [len(pool) for pool in pools]
+            label = np.repeat(np.arange(len(angles)), sizes)
+            scores = separation(partial[label] + self.information[np.concatenate(pools)], self.blocks, *self.beta).min(axis=-1)
+            starts = np.concatenate([[0], np.cumsum(sizes)])
+            for k, pool in enumerate(pools):
+                choice = int(pool[np.argmax(scores[starts[k] : starts[k + 1]])])
+                members[k].append(choice)
+                if slot < per_angle - 1:
+                    partial[k] = partial[k] + self.information[choice]
+        # the last member added to the others' sum, as value() adds it
+        last = np.array([chosen[-1] for chosen in members], dtype=int)
+        final = separation(partial + self.information[last], self.blocks, *self.beta).min(axis=-1)
+        return [(chosen, float(score)) for chosen, score in zip(members, final)]
 
 
 def _flat(groups: list[list[int]]) -> list[int]:

@@ -27,7 +27,7 @@ import numpy as np
 
 from bayescal.cell.config import Cell
 from bayescal.cell.plan import Plan
-from bayescal.design.criteria import ExactLinearisation, configuration_design
+from bayescal.design.criteria import ExactLinearisation, configuration_design, configuration_designs
 from bayescal.robot.stiffness import EquilibriumError
 
 __all__ = [
@@ -130,9 +130,10 @@ def free_candidates(
     finds no equilibrium is dropped.
     """
     kept, information, loads = [], [], []
+    bases = _all_basis_designs(cell, configurations, force, couple, exact)
     for row, q in enumerate(configurations):
         try:
-            basis, sigma = basis_designs(cell, q, force, couple, exact)
+            basis, sigma = bases[row] if bases is not None else basis_designs(cell, q, force, couple, exact)
         except EquilibriumError:
             continue
         drawn = draw_loads(DIRECTIONS_PER_CONFIGURATION, force, couple, rng)
@@ -141,6 +142,24 @@ def free_candidates(
         loads.append(drawn)
     kept = np.array(kept, dtype=int)
     return configurations[kept], index[kept], np.concatenate(information), np.concatenate(loads)
+
+
+def _all_basis_designs(cell: Cell, configurations: np.ndarray, force: float, couple: float, exact: ExactLinearisation | None):
+    """:func:`basis_designs` of every configuration ``(n, nq)``, solved at once; None when one has no equilibrium
+    (the caller then finds it one configuration at a time)."""
+    loads = [np.concatenate([axis * force, np.zeros(3)]) for axis in np.eye(3)]
+    loads += [np.concatenate([np.zeros(3), axis * couple]) for axis in np.eye(3)] if couple > 0 else []
+    loads.append(np.array([0.0, 0.0, -force, 0.0, 0.0, 0.0]))
+    n = len(configurations)
+    q = np.tile(configurations, (len(loads), 1))
+    wrench = np.array([cell.wrench(qi, load[:3], load[3:]) for load in loads for qi in configurations])
+    try:
+        design, sigma = configuration_designs(cell, q, wrench) if exact is None else exact.wrench_designs(q, wrench)
+    except EquilibriumError:
+        return None
+    design = design.reshape(len(loads), n, *design.shape[1:])
+    sigma = sigma.reshape(len(loads), n, -1)
+    return [(design[:-1, row], sigma[-1, row]) for row in range(n)]
 
 
 def loads_json(plan: Plan) -> dict:

@@ -39,17 +39,19 @@ from bayescal.design.criteria import (
     CRITERIA,
     ExactLinearisation,
     PlanPrediction,
-    configuration_information,
+    configuration_designs,
     criterion_values,
+    designs_information,
     predict,
     test_pose_design,
-    wrench_information,
 )
 from bayescal.design.loads import free_candidates, load_sizes, turned
 from bayescal.design.plan_design import PlanDesign, PlanEvaluation
 from bayescal.design.progress import Progress, best_text
 from bayescal.errors import InputError
+from bayescal.robot.batched import BatchedChain
 from bayescal.robot.compensator import MIN_ANGLES
+from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG
 
 __all__ = ["PlanDesign", "PlanDesigner"]
@@ -76,6 +78,15 @@ REFINE_STEP_DEG = (3.0, 0.1)
 MAX_PASSES = 20
 """Exchange passes at most; on the KR-270 a start settles in 3 to 6."""
 
+DRAW_BLOCK = 16
+"""Random draws checked together per wanted candidate (a block of ``DRAW_BLOCK × candidates`` draws at a q2 angle):
+about one draw in ten is feasible in the KR-270 cell, so one block usually fills an angle."""
+
+REFINE_BLOCK = 32
+"""Refinement steps looked ahead: the configurations they would propose from the current plan are solved together.
+The steps are still taken one after another; one whose configuration was not foreseen (its row changed by an
+accepted step) looks ahead again."""
+
 
 class PlanDesigner:
     """Designs calibration plans for a cell.
@@ -91,7 +102,7 @@ class PlanDesigner:
     model
         The model the search scores plans with: ``"exact"``
         (:class:`~bayescal.design.criteria.ExactLinearisation`, the identification's default model) or
-        ``"linear"`` (eq 31, about 70 times faster per configuration, but on the KR-270 its
+        ``"linear"`` (eq 31; the search takes two thirds of the exact model's time, but on the KR-270 its
         test-pose optimum leaves 1.4 times the exact model's error, docs/design.md).
     """
 
@@ -128,27 +139,52 @@ class PlanDesigner:
     def _test_design(self) -> np.ndarray:
         return test_pose_design(self.cell)
 
+    @cached_property
+    def _chain(self) -> BatchedChain:
+        return BatchedChain.of(self.cell.robot)
+
     # ----------------------------------------------------------------- scoring
 
     def information(self, q, mass: float, model: str | None = None) -> np.ndarray:
         """(p, p) information of one configuration measured :attr:`repeats` times (default: the search's model)."""
-        exact = self.exact if (model or self.model) == "exact" else None
-        return configuration_information(self.cell, q, mass, self.repeats, exact=exact)
+        q = np.asarray(q, dtype=float)[np.newaxis]
+        return self.informations(q, self._wrenches(q, np.array([[0.0, 0.0, -mass * self.cell.gravity]]), np.zeros((1, 3))), model)[0]
 
-    def _load_information(self, q, load: np.ndarray) -> np.ndarray:
-        """(p, p) information of ``q`` under a designed ``load`` (:mod:`bayescal.design.loads`), the search's model."""
-        if not self.free:
-            return self.information(q, self.mass)
-        exact = self.exact if self.model == "exact" else None
-        return wrench_information(self.cell, q, self.cell.wrench(q, load[:3], load[3:]), self.repeats, exact=exact)
+    def informations(self, q: np.ndarray, wrench: np.ndarray, model: str | None = None) -> np.ndarray:
+        """``(N, p, p)`` information of ``N`` configurations ``(N, nq)`` under wrenches ``(N, 6)`` (flange origin, base axes,
+        each force through the load point), each measured :attr:`repeats` times, all solved at once (default: the search's model)."""
+        if (model or self.model) == "exact":
+            design, sigma = self.exact.wrench_designs(q, wrench)
+        else:
+            design, sigma = configuration_designs(self.cell, q, wrench, chain=self._chain)
+        return designs_information(design, sigma, self.repeats)
 
-    def _violation(self, q, load: np.ndarray) -> str | None:
-        return self.feasibility.violation_under(q, load[:3], load[3:]) if self.free else self.feasibility.violation(q, self.mass)
+    def _wrenches(self, q: np.ndarray, force: np.ndarray, couple: np.ndarray) -> np.ndarray:
+        """``(N, 6)`` :meth:`Cell.wrench <bayescal.cell.config.Cell.wrench>` of ``N`` configurations at once."""
+        rotation = self._chain.poses(q).flange_rotation
+        force = np.broadcast_to(force, (len(q), 3))
+        return np.concatenate([force, np.cross(np.einsum("nij,j->ni", rotation, self.cell.load_point), force) + couple], axis=1)
+
+    def _forces(self, loads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Forces and couples ``(N, 3)`` of designed ``loads`` ``(N, 6)``: the heaviest mass hanging on a hanging-only cell."""
+        if self.free:
+            return loads[:, :3], loads[:, 3:]
+        return np.tile([0.0, 0.0, -self.mass * self.cell.gravity], (len(loads), 1)), np.zeros((len(loads), 3))
+
+    def _load_informations(self, q: np.ndarray, loads: np.ndarray) -> np.ndarray:
+        """``(N, p, p)`` information of configurations ``q`` under designed ``loads`` (:mod:`bayescal.design.loads`), the search's model."""
+        force, couple = self._forces(loads)
+        return self.informations(q, self._wrenches(q, force, couple))
+
+    def _violations(self, q: np.ndarray, loads: np.ndarray, *, solve: bool = True) -> list[str | None]:
+        """Why each configuration of ``q`` under its designed load is infeasible (None where feasible); the search's mass is in range.
+
+        ``solve=False`` leaves out the loaded equilibrium's existence (:meth:`Feasibility.violations_under`)."""
+        return self.feasibility.violations_under(q, *self._forces(loads), solve=solve)
 
     def evaluate(self, plan: Plan, model: str = "exact") -> PlanPrediction:
         """The prediction for any plan (its own masses or forces, or the cell's load where it has none)."""
-        exact = self.exact if model == "exact" else None
-        information = sum(wrench_information(self.cell, q, w, self.repeats, exact=exact) for q, w in zip(plan.q, plan.wrenches(self.cell)))
+        information = self.informations(plan.q, plan.wrenches(self.cell), model).sum(axis=0)
         design = self._exact_test_design if model == "exact" else self._test_design
         return predict(self.cell, information, test_design=design)
 
@@ -170,9 +206,9 @@ class PlanDesigner:
                 found.append({"config": number, "reason": reason})
         return found
 
-    def _scores(self, information: np.ndarray, criterion: str) -> np.ndarray:
+    def _scores(self, information: np.ndarray, criterion: str, groups: np.ndarray | None = None) -> np.ndarray:
         design = self._exact_test_design if self.model == "exact" else self._test_design
-        return criterion_values(self.cell, information, criterion, test_design=design)
+        return criterion_values(self.cell, information, criterion, test_design=design, groups=groups)
 
     def _score(self, information: np.ndarray, criterion: str) -> float:
         return float(self._scores(information[np.newaxis], criterion)[0])
@@ -225,16 +261,32 @@ class PlanDesigner:
         return np.linspace(low, low + (count - 1) * ANGLE_STEP_DEG * DEG, count)
 
     def _random_configuration(self, q2: float, rng: np.random.Generator, tries: int, reasons: Counter) -> np.ndarray | None:
+        found = self._random_configurations(q2, rng, 1, tries, reasons)
+        return found[0] if found else None
+
+    def _random_configurations(self, q2: float, rng: np.random.Generator, wanted: int, tries: int, reasons: Counter) -> list[np.ndarray]:
+        """Up to ``wanted`` feasible configurations at ``q2``, each from at most ``tries`` uniform draws; the first
+        that finds none ends the search.  The draws are checked by blocks, and the random stream is left
+        where drawing one configuration after another would leave it."""
         robot = self.cell.robot
-        for _ in range(tries):
-            q = rng.uniform(robot.lower, robot.upper)
-            q[self.cell.plan_joint] = q2
-            reason = self._violation(q, self._down)
-            if reason is None:
-                return q
-            # angles removed, so that "marker M1 faces 97 deg away" and "... 120 deg away" count together
-            reasons[re.sub(r" -?\d+(\.\d+)? deg", "", reason.split(" (")[0])] += 1
-        return None
+        found: list[np.ndarray] = []
+        failed = 0
+        while True:
+            state = rng.bit_generator.state
+            block = rng.uniform(robot.lower, robot.upper, size=(DRAW_BLOCK * wanted, robot.nq))
+            block[:, self.cell.plan_joint] = q2
+            for used, reason in enumerate(self._violations(block, np.tile(self._down, (len(block), 1))), start=1):
+                if reason is None:
+                    found.append(block[used - 1])
+                    failed = 0
+                else:
+                    failed += 1
+                    # angles removed, so that "marker M1 faces 97 deg away" and "... 120 deg away" count together
+                    reasons[re.sub(r" -?\d+(\.\d+)? deg", "", reason.split(" (")[0])] += 1
+                if len(found) == wanted or failed == tries:
+                    rng.bit_generator.state = state
+                    rng.uniform(robot.lower, robot.upper, size=(used, robot.nq))
+                    return found
 
     def candidates(self, rng: np.random.Generator, *, per_angle: int = CANDIDATES_PER_ANGLE, progress: bool = False):
         """Feasible candidates on the q2 grid: (n, nq) configurations, their grid index, information and (n, 6) loads.
@@ -250,12 +302,9 @@ class PlanDesigner:
         configurations, index, reasons = [], [], Counter()
         bar = Progress(len(grid), "plan: candidates", progress)
         for g, q2 in enumerate(grid):
-            for _ in range(per_angle):
-                q = self._random_configuration(q2, rng, TRIES_PER_CANDIDATE, reasons)
-                if q is None:
-                    break
-                configurations.append(q)
-                index.append(g)
+            found = self._random_configurations(q2, rng, per_angle, TRIES_PER_CANDIDATE, reasons)
+            configurations += found
+            index += [g] * len(found)
             bar.step()
         bar.close()
         if not configurations:
@@ -263,8 +312,8 @@ class PlanDesigner:
             raise InputError(f"no feasible configuration found in the cell (most frequent reason: {common})", source=self.cell.source)
         configurations, index = np.array(configurations), np.array(index)
         if not self.free:
-            information = np.array([self.information(q, self.mass) for q in configurations])
-            return grid, configurations, index, information, np.tile(self._down, (len(configurations), 1))
+            loads = np.tile(self._down, (len(configurations), 1))
+            return grid, configurations, index, self._load_informations(configurations, loads), loads
         exact = self.exact if self.model == "exact" else None
         return (grid, *free_candidates(self.cell, configurations, index, rng, self.force_size, self.couple_size, exact, self.repeats))
 
@@ -401,6 +450,8 @@ class PlanDesigner:
             return sum(information[c] for _, members in groups for c in members)
 
         current = self._score(total(groups), criterion)
+        # A group's fills depend only on the other groups: unchanged since the last pass, they are not computed again.
+        filled: dict[tuple, list] = {}
         for _ in range(MAX_PASSES):
             improved = False
             for g in range(len(groups)):
@@ -415,56 +466,124 @@ class PlanDesigner:
                     best = int(np.argmin(scores))
                     if scores[best] < current - 1e-12 * abs(current):
                         members[slot], current, improved = int(pool[best]), float(scores[best]), True
-                # the whole group to another q2, filled greedily
+                # the whole group to another q2, filled greedily: every angle's fill at once, then taken in turn
                 others = [grid[a] for h, (a, _) in enumerate(groups) if h != g]
+                angles = [int(a) for a in np.flatnonzero(usable) if self._separated(others + [grid[a]])]
                 rest = total(groups[:g] + groups[g + 1 :])
-                for angle in np.flatnonzero(usable):
-                    if angle == groups[g][0] or not self._separated(others + [grid[angle]]):
+                key = (tuple(angles), len(groups[g][1]), rest.tobytes())
+                if key not in filled:
+                    filled[key] = self._greedy_fills(angles, len(groups[g][1]), rest, available, information, criterion)
+                fills = filled[key]
+                for angle, (members, score) in zip(angles, fills):
+                    if angle == groups[g][0]:
                         continue
-                    members, partial = [], rest.copy()
-                    for _ in range(len(groups[g][1])):
-                        pool = np.setdiff1d(available[angle], members)
-                        choice = int(pool[np.argmin(self._scores(partial + information[pool], criterion))])
-                        members.append(choice)
-                        partial = partial + information[choice]
-                    score = self._score(partial, criterion)
                     if score < current - 1e-12 * abs(current):
-                        groups[g], current, improved = (int(angle), members), score, True
-                        rest = total(groups[:g] + groups[g + 1 :])
+                        groups[g], current, improved = (angle, list(members)), score, True
             if not improved:
                 break
         return groups
 
+    def _greedy_fills(self, angles: list[int], size: int, rest: np.ndarray, available, information: np.ndarray, criterion: str):
+        """For each q2 grid index of ``angles``, ``size`` of its candidates added one by one to the plan of information
+        ``rest``, each the best; the members and the criterion of each filled plan.  The angles are scored together."""
+        members: list[list[int]] = [[] for _ in angles]
+        partial = np.repeat(rest[np.newaxis], len(angles), axis=0)
+        for _ in range(size):
+            pools = [np.setdiff1d(available[a], chosen) for a, chosen in zip(angles, members)]
+            label = np.repeat(np.arange(len(angles)), [len(pool) for pool in pools])
+            flat = np.concatenate(pools)
+            scores = self._scores(partial[label] + information[flat], criterion, groups=label)
+            starts = np.concatenate([[0], np.cumsum([len(pool) for pool in pools])])
+            for k, pool in enumerate(pools):
+                choice = int(pool[np.argmin(scores[starts[k] : starts[k + 1]])])
+                members[k].append(choice)
+                partial[k] = partial[k] + information[choice]
+        return list(zip(members, self._scores(partial, criterion, groups=np.arange(len(angles)))))
+
     def _refine(self, q: np.ndarray, loads: np.ndarray, angles: int, per_angle: int, criterion: str, rng: np.random.Generator, steps: int):
-        robot = self.cell.robot
-        j2 = self.cell.plan_joint
         q, loads = q.copy(), loads.copy()
-        parts = np.array([self._load_information(row, load) for row, load in zip(q, loads)])
+        parts = self._load_informations(q, loads)
         current = self._score(parts.sum(axis=0), criterion)
-        first, last = (v * DEG for v in REFINE_STEP_DEG)
-        others = [j for j in range(robot.nq) if j != j2]
+        # information of each configuration and load met so far, None when infeasible: one step after another as
+        # drawn, the configurations evaluated ahead in batches (a row a step does not change keeps its evaluation)
+        known: dict[bytes, np.ndarray | None] = {}
         for step in range(steps):
-            size = first * (last / first) ** (step / max(steps - 1, 1))
-            proposal, turn = q.copy(), loads.copy()
-            if rng.random() < 0.3:
-                group = int(rng.integers(angles))
-                rows = np.arange(group * per_angle, (group + 1) * per_angle)
-                proposal[rows, j2] += rng.normal() * size
-                if not self._separated(list(proposal[::per_angle, j2])):
-                    continue
-            elif self.free and rng.random() < 0.5:
-                # the step (rad) turns the load's direction as far as it moves a joint
-                rows = np.array([int(rng.integers(len(q)))])
-                turn[rows[0]] = turned(loads[rows[0]], size, rng)
-            else:
-                rows = np.array([int(rng.integers(len(q)))])
-                proposal[rows[0], others] += rng.normal(size=len(others)) * size
-            if any(self._violation(proposal[r], turn[r]) is not None for r in rows):
+            before = rng.bit_generator.state
+            proposal = self._proposal(q, loads, step, steps, angles, per_angle, rng)
+            if proposal is None:
+                continue
+            moved, turn, rows = proposal
+            keys = [_key(moved[r], turn[r]) for r in rows]
+            if any(key not in known for key in keys):
+                after = rng.bit_generator.state
+                rng.bit_generator.state = before
+                self._look_ahead(q, loads, step, steps, angles, per_angle, rng, known)
+                rng.bit_generator.state = after
+            if any(known[key] is None for key in keys):
                 continue
             trial = parts.copy()
-            for r in rows:
-                trial[r] = self._load_information(proposal[r], turn[r])
+            for r, key in zip(rows, keys):
+                trial[r] = known[key]
             score = self._score(trial.sum(axis=0), criterion)
             if score < current:
-                q, loads, parts, current = proposal, turn, trial, score
+                q, loads, parts, current = moved, turn, trial, score
         return q, loads, current
+
+    def _look_ahead(self, q, loads, step, steps, angles, per_angle, rng, known: dict) -> None:
+        """Evaluate at once the configurations the next :data:`REFINE_BLOCK` steps would propose from the plan ``q``, ``loads``."""
+        wanted: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        for s in range(step, min(step + REFINE_BLOCK, steps)):
+            proposal = self._proposal(q, loads, s, steps, angles, per_angle, rng)
+            if proposal is not None:
+                moved, turn, rows = proposal
+                for r in rows:
+                    key = _key(moved[r], turn[r])
+                    if key not in known:
+                        wanted[key] = (moved[r], turn[r])
+        keys = list(wanted)
+        new_q = np.array([wanted[key][0] for key in keys])
+        new_loads = np.array([wanted[key][1] for key in keys])
+        information = None
+        if self.model == "exact":
+            # The exact designs solve each loaded equilibrium at the cell's values, the feasibility's last check: solved
+            # once, unless one fails (then the feasibility finds which, as it does for the linear model).
+            feasible = np.array([reason is None for reason in self._violations(new_q, new_loads, solve=False)], dtype=bool)
+            try:
+                information = self._load_informations(new_q[feasible], new_loads[feasible]) if feasible.any() else []
+            except EquilibriumError:
+                information = None
+        if information is None:
+            feasible = np.array([reason is None for reason in self._violations(new_q, new_loads)], dtype=bool)
+            information = self._load_informations(new_q[feasible], new_loads[feasible]) if feasible.any() else []
+        for key, value in zip([k for k, f in zip(keys, feasible) if f], information):
+            known[key] = value
+        known.update({key: None for key, f in zip(keys, feasible) if not f})
+
+    def _proposal(self, q: np.ndarray, loads: np.ndarray, step: int, steps: int, angles: int, per_angle: int, rng: np.random.Generator):
+        """Refinement step ``step``'s proposal from the plan ``q``, ``loads``: the proposed configurations, loads and
+        the rows changed, or None when it breaks the angles' separation."""
+        robot = self.cell.robot
+        j2 = self.cell.plan_joint
+        first, last = (v * DEG for v in REFINE_STEP_DEG)
+        others = [j for j in range(robot.nq) if j != j2]
+        size = first * (last / first) ** (step / max(steps - 1, 1))
+        proposal, turn = q.copy(), loads.copy()
+        if rng.random() < 0.3:
+            group = int(rng.integers(angles))
+            rows = np.arange(group * per_angle, (group + 1) * per_angle)
+            proposal[rows, j2] += rng.normal() * size
+            if not self._separated(list(proposal[::per_angle, j2])):
+                return None
+        elif self.free and rng.random() < 0.5:
+            # the step (rad) turns the load's direction as far as it moves a joint
+            rows = np.array([int(rng.integers(len(q)))])
+            turn[rows[0]] = turned(loads[rows[0]], size, rng)
+        else:
+            rows = np.array([int(rng.integers(len(q)))])
+            proposal[rows[0], others] += rng.normal(size=len(others)) * size
+        return proposal, turn, rows
+
+
+def _key(q: np.ndarray, load: np.ndarray) -> bytes:
+    """A configuration and its load as a dictionary key (exact values)."""
+    return q.tobytes() + load.tobytes()

@@ -29,6 +29,8 @@ import numpy as np
 from bayescal.robot.kinematics import Robot
 from bayescal.robot.stiffness import EquilibriumError
 
+from bayescal.robot.compensator import spring_stiffness, spring_torque
+
 if TYPE_CHECKING:
     from bayescal.robot.compensator import Compensator
 
@@ -264,9 +266,10 @@ class _Springs:
     compensator: Compensator | None
     joint: int | None
     gravity: bool
+    spring: np.ndarray | None = None
 
     def take(self, index: np.ndarray) -> _Springs:
-        return _Springs(self.compliances[index], self.compensator, self.joint, self.gravity)
+        return _Springs(self.compliances[index], self.compensator, self.joint, self.gravity, None if self.spring is None else self.spring[index])
 
 
 def _joint_load(chain: BatchedChain, q: np.ndarray, theta: np.ndarray, loads: _Loads, springs: _Springs):
@@ -280,8 +283,13 @@ def _joint_load(chain: BatchedChain, q: np.ndarray, theta: np.ndarray, loads: _L
         torque, derivative = torque - weight, derivative - weight_derivative
     if springs.compensator is not None:
         j = springs.joint
-        torque[:, j] -= springs.compensator.torque(linked[:, j])
-        derivative[:, j, j] -= springs.compensator.stiffness(linked[:, j])
+        if springs.spring is None:
+            torque[:, j] -= springs.compensator.torque(linked[:, j])
+            derivative[:, j, j] -= springs.compensator.stiffness(linked[:, j])
+        else:
+            K_c, s0 = springs.spring[:, 0], springs.spring[:, 1]
+            torque[:, j] -= spring_torque(springs.compensator, K_c, s0, linked[:, j])
+            derivative[:, j, j] -= spring_stiffness(springs.compensator, K_c, s0, linked[:, j])
     return torque, derivative
 
 
@@ -295,6 +303,7 @@ def equilibria(
     compensated_joint: int | None = None,
     load_point: np.ndarray | None = None,
     gravity: bool = True,
+    springs: np.ndarray | None = None,
     tol: float = 1e-13,
     max_iter: int = 30,
 ) -> np.ndarray:
@@ -320,6 +329,9 @@ def equilibria(
         ``(N, 3)`` or ``(3,)`` flange-frame point (m) where the force acts; None: the flange origin.
     gravity
         Include the links' weights.
+    springs
+        ``(N, 2)`` or ``(2,)`` each configuration's compensator spring ``[K_c, s0]`` (N/m, m) in place of
+        ``compensator``'s, whose linkage stays: many springs solved in one call; None: ``compensator``'s own.
     tol, max_iter
         Convergence threshold on the Newton step (rad) and the largest number of iterations.
 
@@ -341,7 +353,11 @@ def equilibria(
     if compensator is not None and compensated_joint is None:
         raise ValueError("a compensator needs compensated_joint, the index of the joint it acts on")
     loads = _loads(chain, q, wrench, load_point)
-    springs = _Springs(np.array(k), compensator, compensated_joint, gravity)
+    if springs is not None:
+        if compensator is None:
+            raise ValueError("springs replace a compensator's spring: give the compensator too")
+        springs = np.array(np.broadcast_to(np.asarray(springs, dtype=float), (n, 2)))
+    springs = _Springs(np.array(k), compensator, compensated_joint, gravity, springs)
     result = np.empty((n, nq))
     for start in range(0, n, CHUNK):
         part = np.arange(start, min(start + CHUNK, n))

@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["CompensatorGeometry", "Compensator", "MIN_ANGLES", "alpha", "stiffness_regressor"]
+__all__ = ["CompensatorGeometry", "Compensator", "MIN_ANGLES", "alpha", "spring_stiffness", "spring_torque", "stiffness_regressor"]
 
 MIN_ANGLES = 3
 """Distinct angles of the compensated joint that eq 34 needs: one per unknown, K_θ^0, K_c and s0·K_c."""
@@ -194,20 +194,15 @@ class Compensator(CompensatorGeometry):
 
         The generalized force on q2 in the robot's joint space is ``-M_c``.
         """
-        gamma = self.alpha - np.asarray(q2, dtype=float)
-        s = np.asarray(self.s(q2))
-        return _out(self.K_c * (1.0 - self.s0 / s) * self.a * self.L * np.sin(gamma))
+        return _out(spring_torque(self, self.K_c, self.s0, q2))
 
     def eta(self, q2: ArrayLike) -> np.ndarray | float:
         """Dimensionless coefficient ``eta(q2)`` of eq 9."""
-        gamma = self.alpha - np.asarray(q2, dtype=float)
-        s = np.asarray(self.s(q2))
-        aL = self.a * self.L
-        return _out(self.s0 / s * (aL / s**2 * np.sin(gamma) ** 2 + np.cos(gamma)) - np.cos(gamma))
+        return _out(_eta(self, self.s0, q2))
 
     def stiffness(self, q2: ArrayLike) -> np.ndarray | float:
         """The compensator's contribution ``K_c a L eta = dM_c/dq2`` to joint 2, in N·m/rad."""
-        return _out(self.K_c * self.a * self.L * np.asarray(self.eta(q2)))
+        return _out(spring_stiffness(self, self.K_c, self.s0, q2))
 
     def joint_stiffness(self, q2: ArrayLike, K0: float) -> np.ndarray | float:
         """Equivalent stiffness of joint 2, ``K_θ2 = K0 + K_c a L eta`` in N·m/rad, eq 8.
@@ -232,3 +227,23 @@ class Compensator(CompensatorGeometry):
         """The inverse of :meth:`equivalent_compliance`: joint 2's own compliance ``1/K_θ2^0`` (rad/(N·m))
         that, with this compensator at ``q2``, gives the ``equivalent`` compliance."""
         return _out(1.0 / (1.0 / np.asarray(equivalent, dtype=float) - np.asarray(self.stiffness(q2))))
+
+
+def spring_torque(geometry: CompensatorGeometry, K_c: ArrayLike, s0: ArrayLike, q2: ArrayLike) -> np.ndarray:
+    """:meth:`Compensator.torque` (N·m, eq 7) of springs ``K_c`` (N/m) and ``s0`` (m) on one ``geometry``, the
+    arguments broadcast against each other: many springs in one call (the batched equilibria's variants)."""
+    gamma = geometry.alpha - np.asarray(q2, dtype=float)
+    s = np.asarray(geometry.s(q2))
+    return K_c * (1.0 - s0 / s) * geometry.a * geometry.L * np.sin(gamma)
+
+
+def _eta(geometry: CompensatorGeometry, s0: ArrayLike, q2: ArrayLike) -> np.ndarray:
+    gamma = geometry.alpha - np.asarray(q2, dtype=float)
+    s = np.asarray(geometry.s(q2))
+    aL = geometry.a * geometry.L
+    return s0 / s * (aL / s**2 * np.sin(gamma) ** 2 + np.cos(gamma)) - np.cos(gamma)
+
+
+def spring_stiffness(geometry: CompensatorGeometry, K_c: ArrayLike, s0: ArrayLike, q2: ArrayLike) -> np.ndarray:
+    """:meth:`Compensator.stiffness` (N·m/rad, ``K_c a L eta``) of springs ``K_c`` and ``s0`` on one ``geometry``, arguments broadcast."""
+    return K_c * geometry.a * geometry.L * np.asarray(_eta(geometry, s0, q2))

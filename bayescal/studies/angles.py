@@ -70,6 +70,7 @@ def q2_angle_study(
     seed: int = 0,
     candidates_per_angle: int = CANDIDATES_PER_ANGLE,
     executor: Executor | None = None,
+    progress: bool = False,
 ) -> pd.DataFrame:
     """Predicted ±3σ widths of every parameter and the test-pose rms error per plan size.
 
@@ -91,6 +92,8 @@ def q2_angle_study(
         Candidate configurations at each q2 of the grid.
     executor
         Where the designs run; default a process pool on all cores.
+    progress
+        Draw a progress bar of the plans designed on stderr (a terminal only), with the remaining time measured on them.
 
     Returns
     -------
@@ -109,7 +112,10 @@ def q2_angle_study(
     candidate_seed, *design_seeds = root.spawn(1 + len(angles) * len(per_angle))
     candidates = designer.candidates(np.random.default_rng(candidate_seed), per_angle=candidates_per_angle)
     pairs = [(a, c) for a in angles for c in per_angle]
-    results = seeded_map(_design, pairs, design_seeds, executor=executor, designer=designer, candidates=candidates, criterion=criterion)
+    results = seeded_map(
+        _design, pairs, design_seeds, executor=executor, progress="study: plans" if progress else None,
+        designer=designer, candidates=candidates, criterion=criterion,
+    )
     return pd.DataFrame([row for rows in results for row in rows])
 
 

@@ -30,6 +30,7 @@ def seeded_map(
     seed: int | np.random.SeedSequence | Sequence[np.random.SeedSequence],
     *,
     executor: Executor | None = None,
+    progress: str | None = None,
     **shared: Any,
 ) -> list[T]:
     """``[task(item, rng, **shared) for item in items]`` with one independent generator per item.
@@ -47,6 +48,9 @@ def seeded_map(
         streams (the same campaigns planted with several magnitudes of an effect).
     executor
         Where the tasks run; None: a process pool on all cores, shut down on return.
+    progress
+        Label of a progress bar on stderr, counting the tasks done in the order of ``items``, its
+        remaining time measured on those done (drawn only on a terminal); None: no bar.
     **shared
         Keyword arguments passed to every task (sent once per task).
 
@@ -65,9 +69,21 @@ def seeded_map(
     generators = [np.random.default_rng(stream) for stream in streams]
     call = partial(_call, task, shared)
     if executor is not None:
-        return list(executor.map(call, items, generators))
+        return _collected(executor.map(call, items, generators), len(items), progress)
     with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
-        return list(pool.map(call, items, generators))
+        return _collected(pool.map(call, items, generators), len(items), progress)
+
+
+def _collected(results: Iterable[T], total: int, progress: str | None) -> list[T]:
+    from bayescal.design.progress import Progress
+
+    bar = Progress(total, progress or "", progress is not None)
+    collected = []
+    for result in results:
+        collected.append(result)
+        bar.step()
+    bar.close()
+    return collected
 
 
 def _call(task: Callable[..., T], shared: dict[str, Any], item: Any, rng: np.random.Generator) -> T:

@@ -9,11 +9,16 @@ markers at ``q + θ`` by forward kinematics, and lets the tracker read them with
 fresh noise at every repeat.  Planted effects (:mod:`bayescal.twin.effects`) change
 the compensator, the joint springs, add compliance outside the joints or
 corrupt the readings.
+
+With linear joint springs (no ``backlash`` or ``nonlinear_stiffness`` effect) a
+campaign's equilibria are solved all at once (:func:`~bayescal.robot.batched.equilibria`)
+and its readings drawn in one call, in the order one configuration after another draws them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import cached_property
 
 import numpy as np
 
@@ -22,6 +27,7 @@ from bayescal.cell.config import Cell
 from bayescal.twin.effects import EFFECTS, Effect
 from bayescal.errors import InputError
 from bayescal.cell.plan import Plan, prismatic_flags
+from bayescal.robot.batched import BatchedChain, equilibria
 from bayescal.robot.stiffness import ElasticArm, EquilibriumError, LinearJoints
 
 __all__ = ["DigitalTwin"]
@@ -79,6 +85,36 @@ class DigitalTwin:
             loaded = loaded + effect.displacement(robot, q + theta, self._points, wrench[:3], couple, self.cell.load_point)
         return unloaded, loaded
 
+    @cached_property
+    def _chain(self) -> BatchedChain:
+        return BatchedChain.of(self.cell.robot)
+
+    def _batched_positions(self, q: np.ndarray, wrenches: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(N, markers, 3)`` exact positions (m) unloaded and loaded of every configuration at once; None when
+        the joint law is not linear or a configuration has no equilibrium (the caller then solves one at a time)."""
+        if not isinstance(self.arm.joints, LinearJoints):
+            return None
+        n = len(q)
+        rows = np.concatenate([q, q])
+        try:
+            theta = equilibria(
+                self._chain, rows, np.concatenate([np.zeros_like(wrenches), wrenches]), self.arm.joints.compliances,
+                compensator=self.arm.compensator, compensated_joint=self.arm.compensated_joint,
+                load_point=self.cell.load_point, gravity=self.arm.gravity,
+            )
+        except EquilibriumError:
+            return None
+        poses = self._chain.poses(rows + theta)
+        positions = np.stack([poses.points(point) for point in self._points], axis=1)
+        unloaded, loaded = positions[:n], positions[n:]
+        if any(type(effect).displacement is not Effect.displacement for effect in self.effects):
+            rotation = self._chain.poses(q).flange_rotation
+            for i in range(n):
+                couple = wrenches[i, 3:] - np.cross(rotation[i] @ self.cell.load_point, wrenches[i, :3])
+                for effect in self.effects:
+                    loaded[i] = loaded[i] + effect.displacement(self.cell.robot, q[i] + theta[n + i], self._points, wrenches[i, :3], couple, self.cell.load_point)
+        return unloaded, loaded
+
     def simulate(self, plan: Plan, repeats: int, rng: np.random.Generator) -> Campaign:
         """A campaign: every configuration of ``plan`` measured ``repeats`` times, unloaded then loaded.
 
@@ -88,38 +124,46 @@ class DigitalTwin:
         """
         if repeats < 1:
             raise ValueError(f"expected at least 1 repeat, got {repeats}")
-        wrenches = plan.wrenches(self.cell)
-        n_markers = len(self.marker_names)
-        rows = {"config": [], "repeat": [], "marker": [], "q": [], "wrench": [], "p0": [], "p1": []}
-        for number, (q, wrench, line) in enumerate(zip(plan.q, wrenches, plan.lines), start=1):
-            try:
-                unloaded, loaded = self._positions(q, wrench)
-            except EquilibriumError as exc:
-                load = plan.describe_load(number - 1, self.cell.load_mass)
-                raise InputError(f"the twin finds no static equilibrium under {load} ({exc})", source=plan.source, line=int(line) or None) from None
-            for repeat in range(1, repeats + 1):
-                readings = []
-                for exact in (unloaded, loaded):
-                    measured = self.cell.tracker.measure(exact, rng)
-                    for effect in self.effects:
-                        measured = effect.corrupt(measured, rng)
-                    readings.append(measured)
-                rows["config"] += [number] * n_markers
-                rows["repeat"] += [repeat] * n_markers
-                rows["marker"] += list(self.marker_names)
-                rows["q"] += [q] * n_markers
-                rows["wrench"] += [wrench] * n_markers
-                rows["p0"].append(readings[0])
-                rows["p1"].append(readings[1])
+        q = np.asarray(plan.q, dtype=float)
+        n, m = len(q), len(self.marker_names)
+        # Plan.wrenches for all configurations at once: force through the load point and couple, arm at q
+        forces, couples = plan.forces(self.cell.load_mass, self.cell.gravity), plan.couples()
+        lever = np.einsum("nij,j->ni", self._chain.poses(q).flange_rotation, self.cell.load_point)
+        wrenches = np.concatenate([forces, np.cross(lever, forces) + couples], axis=1)
+        exact = self._batched_positions(q, wrenches)
+        if exact is None:
+            exact = np.empty((2, n, m, 3))
+            for number, (qi, wrench, line) in enumerate(zip(q, wrenches, plan.lines), start=1):
+                try:
+                    exact[:, number - 1] = self._positions(qi, wrench)
+                except EquilibriumError as exc:
+                    load = plan.describe_load(number - 1, self.cell.load_mass)
+                    raise InputError(f"the twin finds no static equilibrium under {load} ({exc})", source=plan.source, line=int(line) or None) from None
+        # readings (configuration, repeat, unloaded / loaded, marker, xyz), drawn in that order
+        states = np.stack(exact, axis=1)[:, np.newaxis]
+        tracker = self.cell.tracker
+        if all(type(effect).corrupt is Effect.corrupt for effect in self.effects):
+            readings = np.broadcast_to(states, (n, repeats) + states.shape[2:])
+            readings = readings + rng.normal(size=readings.shape) * tracker.sigma(readings)[..., np.newaxis]
+        else:
+            readings = np.empty((n, repeats) + states.shape[2:])
+            for i in range(n):
+                for r in range(repeats):
+                    for state in range(2):
+                        measured = tracker.measure(states[i, 0, state], rng)
+                        for effect in self.effects:
+                            measured = effect.corrupt(measured, rng)
+                        readings[i, r, state] = measured
+        per_row = repeats * m
         return Campaign(
-            config=np.array(rows["config"], dtype=int),
-            repeat=np.array(rows["repeat"], dtype=int),
-            marker=np.array(rows["marker"], dtype=str),
-            q=np.array(rows["q"], dtype=float),
-            wrench=np.array(rows["wrench"], dtype=float),
-            p0=np.vstack(rows["p0"]),
-            p1=np.vstack(rows["p1"]),
-            lines=np.zeros(len(rows["config"]), dtype=int),
+            config=np.repeat(np.arange(1, n + 1), per_row),
+            repeat=np.tile(np.repeat(np.arange(1, repeats + 1), m), n),
+            marker=np.tile(np.array(self.marker_names, dtype=str), n * repeats),
+            q=np.repeat(q, per_row, axis=0),
+            wrench=np.repeat(wrenches, per_row, axis=0),
+            p0=readings[:, :, 0].reshape(-1, 3),
+            p1=readings[:, :, 1].reshape(-1, 3),
+            lines=np.zeros(n * per_row, dtype=int),
             source="simulated",
             prismatic=prismatic_flags(self.cell.robot),
         )

@@ -109,3 +109,26 @@ def test_a_force_in_any_direction_deflects_as_the_linear_model_says(data_dir):
     sideways = DigitalTwin(replace(silent, compliances=cell.compliances * [2, 1, 1, 1, 1, 1])).simulate(plan, 1, np.random.default_rng(0))
     moved = np.abs(sideways.displacement - campaign.displacement).reshape(2, -1).max(axis=1)
     assert moved[0] > 1e-5 and moved[1] < 1e-9
+
+
+@pytest.mark.parametrize("effects", [(), ("link_compliance",), ("outliers=0.05",)])
+def test_the_batched_campaign_reads_what_one_configuration_at_a_time_reads(cell, plan, effects):
+    twin = DigitalTwin(cell, [parse_effect(text) for text in effects])
+    campaign = twin.simulate(plan, 2, np.random.default_rng(7))
+    rng = np.random.default_rng(7)
+    p0, p1 = [], []
+    for q, wrench in zip(plan.q, plan.wrenches(cell)):
+        unloaded, loaded = twin.positions_under(q, wrench)
+        for _ in range(2):
+            readings = []
+            for exact in (unloaded, loaded):
+                measured = cell.tracker.measure(exact, rng)
+                for effect in twin.effects:
+                    measured = effect.corrupt(measured, rng)
+                readings.append(measured)
+            p0.append(readings[0])
+            p1.append(readings[1])
+    # measured: 1.8e-15 m apart (the stacked arrays' rounding against Pinocchio's)
+    np.testing.assert_allclose(campaign.p0, np.vstack(p0), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(campaign.p1, np.vstack(p1), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(campaign.wrench[::6], plan.wrenches(cell), rtol=0, atol=1e-9)

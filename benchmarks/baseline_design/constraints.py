@@ -1,0 +1,246 @@
+"""Which configurations a calibration campaign can use: the constraints of eq 41 and of the cell.
+
+A configuration ``q`` loaded with a mass hanging at the tool's load point (the
+gravity-only loading of Klimchik et al.'s experiments), or, on a cell whose
+end-effector applies them, with a force in any direction and a couple
+(:mod:`bayescal.cell.loading`), is feasible when
+
+* every joint is within its limits;
+* the mass lies in the design's mass range; a force and a couple within the
+  end-effector's ``force_max_N`` (eq 41's ``‖F‖ ≤ F_max``) and ``couple_max_Nm``,
+  a force not straight down only on an end-effector that can apply it;
+* every marker is visible from the tracker: the line of sight does not pass
+  through the arm, and it meets the marker within the reflector's acceptance
+  angle;
+* no tool point (flange, markers, load point) is below the floor, and the
+  hanging mass keeps a clearance above it;
+* the loaded static equilibrium exists (Newton's method converges).
+
+The KR-270 URDF carries no collision or visual geometry, so the arm is
+approximated by capsules around the segments joining consecutive joint
+origins, with radii that are ESTIMATES of a KR-270's link cross-sections.
+The markers are taken to face along the flange's x axis (a reflector plate at
+the end of the tool, an ASSUMPTION: the cell file gives marker positions, not
+orientations).  Both approximations are settings of :class:`DesignSpace`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bayescal.cell.config import Cell
+from bayescal.cell.plausible import mass_range_violation
+from bayescal.errors import InputError
+from baseline_design.criteria import solve_equilibrium
+from bayescal.robot.kinematics import Workspace
+from bayescal.robot.stiffness import EquilibriumError
+from bayescal.units import DEG
+
+__all__ = ["DesignSpace", "Feasibility", "load_design_space"]
+
+LINK_RADII = (0.40, 0.30, 0.25, 0.20, 0.15)
+"""Radii (m) of the capsules around base→A1, A1→A2, A2→A3, A3→A4 and A4→A5 (ESTIMATES of the
+KR-270's castings, which the URDF does not describe); the wrist beyond A5 is left to the incidence test.
+For a robot of another number of joints the radii are spread over its nq - 1 segments from the
+base to its last but one joint, from the base's radius down to the wrist's (ESTIMATES too)."""
+
+ACCEPTANCE_DEG = 60.0
+"""Largest angle (deg) between a marker's facing direction and the line to the tracker: an
+ESTIMATE between the ±30° of a hollow-corner cube reflector and the ±60° of a glass-prism one."""
+
+FLOOR_Z = 0.0
+"""Height (m) of the floor in the robot's base frame: the robot stands on it."""
+
+HANGING_CLEARANCE = 0.5
+"""Height (m) the load point must keep above the floor for the sling and the hanging mass (ESTIMATE)."""
+
+TOOL_CLEARANCE = 0.05
+"""Height (m) every other tool point must keep above the floor."""
+
+MIN_ANGLE_SEPARATION_DEG = 5.0
+"""Smallest difference (deg) between two of a plan's q2 angles: closer angles add
+configurations, not a new point of the compensator's curve."""
+
+
+@dataclass(frozen=True)
+class DesignSpace:
+    """The admissible loads and the geometric limits of a campaign, SI.
+
+    Attributes
+    ----------
+    mass_range : tuple of float
+        ``(low, high)`` masses (kg) that may hang at the load point.
+    acceptance : float
+        Largest incidence angle on a marker, rad.
+    link_radii : tuple of float
+        Capsule radii of the arm segments (m), see :data:`LINK_RADII`.
+    floor_z : float
+        Floor height in the base frame, m.
+    hanging_clearance, tool_clearance : float
+        Clearances above the floor of the load point and of the other tool points, m.
+    min_separation : float
+        Smallest difference between two q2 angles of a plan, rad.
+    source : str
+        Where the settings came from.
+    """
+
+    mass_range: tuple[float, float]
+    acceptance: float = ACCEPTANCE_DEG * DEG
+    link_radii: tuple[float, ...] = field(default=LINK_RADII)
+    floor_z: float = FLOOR_Z
+    hanging_clearance: float = HANGING_CLEARANCE
+    tool_clearance: float = TOOL_CLEARANCE
+    min_separation: float = MIN_ANGLE_SEPARATION_DEG * DEG
+    source: str = "<defaults>"
+
+    def __post_init__(self) -> None:
+        reason = mass_range_violation(*self.mass_range)
+        if reason is not None:
+            raise InputError(reason, source=self.source, column="mass_kg")
+
+
+def load_design_space(cell: Cell, *, mass_range: tuple[float, float] | None = None) -> DesignSpace:
+    """The design space of ``cell``: its file's ``[design]`` table (:class:`~bayescal.cell.config.DesignLimits`), else the defaults.
+
+    The mass range defaults to the cell's ``[load] mass_kg`` alone; ``mass_range``
+    (kg), e.g. from the command line, overrides the file.
+
+    Raises
+    ------
+    InputError
+        For an empty or non-positive ``mass_range``.
+    """
+    limits = cell.design
+    source = cell.source
+    masses = limits.mass_range or (cell.load_mass, cell.load_mass)
+    if mass_range is not None:
+        masses, source = mass_range, "mass_range"
+    return DesignSpace(
+        mass_range=(float(masses[0]), float(masses[1])),
+        acceptance=ACCEPTANCE_DEG * DEG if limits.acceptance is None else limits.acceptance,
+        floor_z=FLOOR_Z if limits.floor_z is None else limits.floor_z,
+        hanging_clearance=HANGING_CLEARANCE if limits.hanging_clearance is None else limits.hanging_clearance,
+        source=source,
+    )
+
+
+def _segment_distance(p0: np.ndarray, p1: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Shortest distances (m) between the segment ``p0 p1`` and each segment ``a[i] b[i]`` (closest points clamped)."""
+    u = p1 - p0
+    v = b - a
+    w = p0 - a
+    uu = u @ u
+    uv = v @ u
+    vv = np.einsum("ij,ij->i", v, v)
+    uw = w @ u
+    vw = np.einsum("ij,ij->i", v, w)
+    denominator = uu * vv - uv**2
+    parallel = denominator < 1e-12 * uu * np.maximum(vv, 1e-300)
+    s = np.where(parallel, 0.0, (uv * vw - vv * uw) / np.where(parallel, 1.0, denominator))
+    s = np.clip(s, 0.0, 1.0)
+    t = np.clip((uv * s + vw) / np.maximum(vv, 1e-300), 0.0, 1.0)
+    # Re-clamping s for the clamped t gives the exact closest pair of two segments.
+    s = np.clip((t * uv - uw) / uu, 0.0, 1.0)
+    gap = w + s[:, np.newaxis] * u - t[:, np.newaxis] * v
+    return np.linalg.norm(gap, axis=-1)
+
+
+class Feasibility:
+    """Checks configurations of ``cell`` against ``space``.
+
+    Parameters
+    ----------
+    cell
+        The cell: robot, tool, tracker, compensator.
+    space
+        The admissible loads and geometric limits.
+    """
+
+    def __init__(self, cell: Cell, space: DesignSpace) -> None:
+        self.cell = cell
+        self.space = space
+        self._markers = np.array(list(cell.markers.values()))
+        self._tool = np.vstack([np.zeros(3), self._markers])
+        segments = cell.robot.nq - 1
+        radii = np.asarray(space.link_radii, dtype=float)
+        if radii.size != segments and tuple(space.link_radii) == LINK_RADII and segments >= 1:
+            radii = np.interp(np.linspace(0.0, radii.size - 1.0, segments), np.arange(radii.size), radii)
+        elif radii.size != segments:
+            raise InputError(
+                f"the visibility model needs {segments} link radii for a {cell.robot.nq}-joint arm, got {radii.size}", source=space.source
+            )
+        self._radii = radii
+
+    def violation(self, q, mass: float) -> str | None:
+        """Why ``q`` loaded with ``mass`` kg is infeasible, or None when it is feasible.
+
+        The checks run from the cheapest to the equilibrium solve, and the first
+        that fails is reported.
+        """
+        q = np.asarray(q, dtype=float)
+        low, high = self.space.mass_range
+        if not low - 1e-9 <= mass <= high + 1e-9 and self._within_limits(q) is None:
+            return f"load {mass:g} kg outside the mass range {low:g} to {high:g} kg"
+        return self.violation_under(q, [0.0, 0.0, -mass * self.cell.gravity])
+
+    def _within_limits(self, q: np.ndarray) -> str | None:
+        robot = self.cell.robot
+        if np.any(q < robot.lower - 1e-9) or np.any(q > robot.upper + 1e-9):
+            j = int(np.flatnonzero((q < robot.lower - 1e-9) | (q > robot.upper + 1e-9))[0])
+            return f"joint {robot.joint_names[j]} at {math.degrees(q[j]):.2f} deg is outside its limits"
+        return None
+
+    def violation_under(self, q, force, couple=None) -> str | None:
+        """Why ``q`` loaded with ``force`` (3,) N through the load point and ``couple`` (3,) N·m (base axes) is infeasible, or None.
+
+        The mass range is not checked here (:meth:`violation` does for a hanging mass);
+        the end-effector's limits (``cell.loading``) are.
+        """
+        q = np.asarray(q, dtype=float)
+        couple = np.zeros(3) if couple is None else np.asarray(couple, dtype=float)
+        reason = self._within_limits(q) or self.cell.loading.force_violation(force) or self.cell.loading.couple_violation(couple)
+        if reason is not None:
+            return reason
+        # One workspace for the kinematics of this check: creating one costs more than the calls below.
+        robot = self.cell.robot.workspace()
+        rotation, _ = robot.flange_pose(q)
+        tool = robot.point_position(q, self._tool)
+        floor = self.space.floor_z
+        if np.any(tool[:, 2] < floor + self.space.tool_clearance):
+            return "a tool point is below the floor"
+        if robot.point_position(q, self.cell.load_point)[2] < floor + self.space.hanging_clearance:
+            return "the hanging load would touch the floor"
+        reason = self._visibility(q, rotation, tool[1:], robot)
+        if reason is not None:
+            return reason
+        try:
+            solve_equilibrium(self.cell, q, self.cell.wrench(q, force, couple), self.cell.load_point)
+        except EquilibriumError as exc:
+            return f"no loaded equilibrium ({exc})"
+        return None
+
+    def _visibility(self, q: np.ndarray, rotation: np.ndarray, markers: np.ndarray, workspace: Workspace) -> str | None:
+        tracker = self.cell.tracker.position
+        facing = rotation[:, 0]
+        sight = tracker - markers
+        cosine = sight @ facing / np.linalg.norm(sight, axis=1)
+        worst = int(np.argmin(cosine))
+        if cosine[worst] < math.cos(self.space.acceptance):
+            name = list(self.cell.markers)[worst]
+            angle = math.degrees(math.acos(np.clip(cosine[worst], -1.0, 1.0)))
+            return f"marker {name} faces {angle:.0f} deg away from the tracker"
+        joints = workspace.joint_origins(q)
+        start = np.vstack([[joints[0, 0], joints[0, 1], self.space.floor_z], joints[:-2]])
+        end = joints[:-1]
+        radii = self._radii
+        for name, marker in zip(self.cell.markers, markers):
+            if np.any(_segment_distance(tracker, marker, start, end) < radii):
+                return f"the arm hides marker {name} from the tracker"
+        return None
+
+    def feasible(self, q, mass: float) -> bool:
+        """True when :meth:`violation` finds nothing."""
+        return self.violation(q, mass) is None

@@ -1,0 +1,543 @@
+"""Plans that tell two candidate models apart: the experiment that resolves a tie of the critique.
+
+When the critique finds two extensions of the classical model (say ``backlash``
+and ``nonlinear_stiffness``) that explain a campaign equally well, the campaign
+cannot tell them apart (``tied_with``).  A plan that can is one on which the two
+models, each sized as the tied campaign says, predict the most different
+deflections, measured in the tracker's noise.
+
+The criterion.  Both candidates are linear in their parameters
+(:mod:`bayescal.critique.extensions`): a marker's deflection is
+``X0 β0 + XA βA`` under A and ``X0 β0 + XB βB`` under B, ``X0`` the classical
+model.  If A is true, the best fit of B to noise-free data of a plan leaves the
+weighted residual sum of squares
+
+    λ_A = min_γ ‖XA βA − [X0 XB] γ‖²_W = βAᵀ (M_AA − M_AR M_RR⁺ M_RA) βA,
+
+``M = Σ r Zᵀ W Z`` the information of the joint design ``Z = [X0 XA XB]``
+summed over the plan's configurations (``r`` repeats, ``W = 1/(2σ²)``, two
+tracker readings per deflection), ``R`` the columns of ``[X0 XB]``.  With
+Gaussian noise, ``λ_A / 2`` nats is the expected log-likelihood ratio of A over
+B on the plan's data when A is true (the Kullback-Leibler divergence of their
+predictive distributions at known coefficients), the quantity a held-out ΔELPD
+estimates less the cost of the fitted parameters.  ``βA`` and ``βB`` are each
+model's fit to the tied campaign.
+
+The plan maximises the smaller of ``λ_A / 2`` and ``λ_B / 2``: whichever of the
+two is true, the plan should show it.
+
+The critique separates the two when the held-out ΔELPD exceeds twice its
+standard error, ``sqrt(K var(d))`` over the K configurations' differences: a
+plan whose separation sits in a few configurations (the few where a load
+reverses a joint's torque, for a lost motion) has a SE of its own size however
+large the total.  Each configuration's share ``λ_k`` of the separation (the
+rival fitted to the whole plan) gives the difference's expected mean ``λ_k / 2``
+and variance ``λ_k``, hence the ΔELPD expected in its SEs (:func:`expected_z`),
+which :class:`Discrimination` reports beside the nats.  Maximised instead of
+the separation, it resolved the twin's tied torque-dependent compliance more
+often and its tied lost motion less often, and with the command's search (four
+starts on eight candidates per angle) lost motion in 8 of 20 seeds against 13
+of 20 (``docs/critique.md``): the better the search, the more it fits the noise
+of coefficients taken from a campaign that could not tell the two apart.
+
+The search is Fedorov's exchange over a candidate set, as
+:class:`~bayescal.design.optimise.PlanDesigner`'s, with one difference: each
+candidate configuration comes at several masses across the design's range, and
+a plan may load one configuration at two masses, since a lost motion is an
+offset in the load and a torque-dependent compliance a curvature in it.
+
+The order of measurement.  A lost motion shows where a load takes a joint to
+the other side of its play, and which side a joint rests on depends on what
+came before: on the friction that holds it and on how the servo brought it
+there, neither known beforehand.  Within a q2 group the plan joint is not
+driven, so its side is set by the loads alone.  The plan's groups are measured
+in increasing q2 and each group's configurations alternate the side the load
+takes the plan joint to, from a positive torque: the joint arrives driven up,
+on the side a negative torque takes it to, and every configuration's first
+loading reverses the previous state's, however the joint is held and however it
+arrived.  The criterion counts that first loading from the far side of the play
+(:data:`~bayescal.critique.covariates.REVERSED_MARKER`) and the repeats after it
+as repeats.  Measured as a plan's candidates alone, without that order, the
+designed plans separated the independent generator's tied lost motion taken up
+on the side last driven to in 7 of 15 campaigns; ordered, 9 of 15; ordered and
+counted, 13 of 15 (``docs/critique.md``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from os import PathLike
+
+import numpy as np
+import pandas as pd
+
+from bayescal.cell.campaign import Campaign
+from bayescal.cell.config import Cell
+from bayescal.cell.plan import Plan, write_plan
+from bayescal.critique.compare import fit
+from bayescal.critique.covariates import REVERSED_MARKER, Rows, campaign_rows, pose_rows
+from bayescal.critique.extensions import CATALOGUE, Extension, base_columns
+from bayescal.critique.model import fitted_variant
+from baseline_design.constraints import DesignSpace, load_design_space
+from baseline_design.optimise import PlanDesigner
+from bayescal.errors import InputError
+from bayescal.inference.identifiability import independent_columns
+from bayescal.units import DEG
+
+__all__ = ["DISCRIMINATE", "PER_ANGLE", "MASS_LEVELS", "Discrimination", "DiscriminatingDesign", "DiscriminatingDesigner", "separation", "shares", "expected_z", "plan_z"]
+
+DISCRIMINATE = "discriminate"
+"""The criterion's name on the command line."""
+
+PER_ANGLE = 12
+"""Configurations per q2 angle of a discriminating plan by default: 5 × 12 at 3 repeats, four times Table III's.
+On campaigns where lost motion and a torque-dependent compliance tie, 5 × 6 separated the twin's in 57 of 58
+and 56 of 60, and the independent generator's two lost motions and its knee in 83, 64 and 66 %; 5 × 12 the
+latter in 92, 89 and 80 % (``bayescal.studies.discrimination``, docs/critique.md)."""
+
+MASS_LEVELS = 4
+"""Masses each candidate configuration is offered at, evenly over the design's range: two tell an
+offset from a slope, a third and fourth a slope from a curvature."""
+
+CANDIDATES_PER_ANGLE = 8
+"""Candidate configurations per q2 angle of the grid (about 460 on the KR-270, each at :data:`MASS_LEVELS` masses)."""
+
+STARTS = 4
+MAX_PASSES = 10
+"""Random starts and exchange passes at most; on the KR-270 a start settles in 2 to 4 passes."""
+
+_RIDGE = 1e-9
+"""Ridge on the rival model's unit-diagonal information: a direction whose eigenvalue is below it (k1
+under hanging loads, a lost motion no load of the plan reverses) is not fitted."""
+
+
+def _columns(rows: Rows, cell: Cell, extension: Extension) -> np.ndarray:
+    return extension.regressors(rows, cell).reshape(3 * len(rows), -1)
+
+
+@dataclass(frozen=True)
+class Discrimination:
+    """How well a plan separates two candidates.
+
+    Attributes
+    ----------
+    between : tuple of str
+        The candidates A and B.
+    nats : tuple of float
+        ``λ_A / 2`` and ``λ_B / 2``: the expected log-likelihood ratio of the true
+        model over its rival on the plan's data, when A, respectively B, is true.
+    z : tuple of float
+        The held-out ΔELPD of the true model over its rival, in its standard errors,
+        expected from how the separation is shared among the configurations
+        (:func:`expected_z`); the critique separates the two above ``DETECTION_Z``.
+    """
+
+    between: tuple[str, str]
+    nats: tuple[float, float]
+    z: tuple[float, float]
+
+    @property
+    def worst(self) -> float:
+        """The smaller of the two, nats: what the plan guarantees whichever is true."""
+        return float(min(self.nats))
+
+    def to_json(self) -> dict:
+        a, b = self.between
+        return {
+            f"if_{a}_true_nats": round(self.nats[0], 3),
+            f"if_{b}_true_nats": round(self.nats[1], 3),
+            "worst_nats": round(self.worst, 3),
+            f"if_{a}_true_z": round(self.z[0], 3),
+            f"if_{b}_true_z": round(self.z[1], 3),
+            "worst_z": round(float(min(self.z)), 3),
+        }
+
+
+def _residual(information: np.ndarray, own: np.ndarray, fitted: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    """(..., p) the coefficients ``v`` of deflections ``Z_own β`` less their best fit by the columns ``fitted``, in plans of information (..., p, p)."""
+    m_ro = information[..., fitted[:, None], own[None, :]]
+    m_rr = information[..., fitted[:, None], fitted[None, :]]
+    # unit diagonal and a ridge far below any direction a plan resolves: no fit along unexcited ones
+    size = np.sqrt(np.einsum("...ii->...i", m_rr))
+    size = np.where(size > 0, size, 1.0)
+    normal = m_rr / (size[..., :, None] * size[..., None, :]) + _RIDGE * np.eye(fitted.size)
+    gamma = np.linalg.solve(normal, (m_ro / size[..., :, None]) @ beta[:, None])[..., 0] / size
+    v = np.zeros(information.shape[:-2] + (information.shape[-1],))
+    v[..., own] = beta
+    v[..., fitted] -= gamma
+    return v
+
+
+def _directions(information: np.ndarray, blocks: tuple[slice, slice, slice], beta_a: np.ndarray, beta_b: np.ndarray) -> np.ndarray:
+    """(..., 2, p) the coefficients ``v`` of the true model's deflections less the rival's best fit, ``λ = vᵀ M v``, A then B true.
+
+    ``information`` (..., p, p) is the joint design's; ``blocks`` the columns of the classical model, of A and of B.
+    """
+    information = np.asarray(information)
+    base, a, b = (np.arange(information.shape[-1])[s] for s in blocks)
+    truths = ((a, beta_a, np.concatenate([base, b])), (b, beta_b, np.concatenate([base, a])))
+    return np.stack([_residual(information, own, rival, beta) for own, beta, rival in truths], axis=-2)
+
+
+def separation(information: np.ndarray, blocks: tuple[slice, slice, slice], beta_a: np.ndarray, beta_b: np.ndarray) -> np.ndarray:
+    """(..., 2) ``λ_A / 2`` and ``λ_B / 2`` (nats) of plans with joint information ``information`` (..., p, p).
+
+    ``blocks`` are the columns of the classical model, of A and of B in the joint design.
+    """
+    v = _directions(information, blocks, beta_a, beta_b)
+    return np.maximum(0.5 * np.einsum("...ti,...ij,...tj->...t", v, np.asarray(information), v), 0.0)
+
+
+def expected_z(mean: np.ndarray, variance: np.ndarray) -> np.ndarray:
+    """(...,) the held-out ΔELPD over its SE expected from K configurations' differences of mean ``mean`` and noise ``variance`` (..., K).
+
+    The SE of the held-out comparison is ``sqrt(K var(d))`` over the K differences
+    (:func:`~bayescal.critique.compare.compare_elpd`): it grows with how unequally
+    the configurations share the difference as well as with their noise, so a
+    separation that sits in a few configurations has a SE of its own size,
+    whatever its total.  Expected: ``Σ m_k / sqrt(K/(K-1) Σ (m_k - m̄)² + Σ v_k)``.
+    """
+    k = mean.shape[-1]
+    spread = np.sum((mean - mean.mean(axis=-1, keepdims=True)) ** 2, axis=-1) * (k / max(k - 1, 1))
+    total = mean.sum(axis=-1)
+    scale = np.sqrt(spread + variance.sum(axis=-1))
+    return np.divide(total, scale, out=np.zeros_like(total), where=scale > 0)
+
+
+def shares(information: np.ndarray, blocks: tuple[slice, slice, slice], beta_a: np.ndarray, beta_b: np.ndarray) -> np.ndarray:
+    """(..., 2, K) each configuration's share ``λ_k`` of the separation of plans of K configurations of information (..., K, p, p), A then B true.
+
+    The rival is fitted to the whole plan; ``Σ_k λ_k / 2`` is :func:`separation`.
+    """
+    information = np.asarray(information)
+    v = _directions(information.sum(axis=-3), blocks, beta_a, beta_b)
+    return np.einsum("...ti,...kij,...tj->...tk", v, information, v)
+
+
+def plan_z(information: np.ndarray, blocks: tuple[slice, slice, slice], beta_a: np.ndarray, beta_b: np.ndarray) -> np.ndarray:
+    """(..., 2) :func:`expected_z` of plans whose K configurations have information ``information`` (..., K, p, p), A then B true.
+
+    With the coefficients known and Gaussian noise, configuration k adds a
+    log-likelihood ratio of the true model over its rival of mean ``λ_k / 2`` and
+    variance ``λ_k``.
+    """
+    lam = np.maximum(shares(information, blocks, beta_a, beta_b), 0.0)
+    return expected_z(lam / 2, lam)
+
+
+@dataclass(frozen=True)
+class DiscriminatingDesign:
+    """A plan designed to separate two candidates, and how well it and the tied campaign do.
+
+    Attributes
+    ----------
+    plan : Plan
+        ``angles × per_angle`` configurations grouped by q2, each with its own mass.
+    planned, campaign : Discrimination
+        The plan's separation and that of the tied campaign's own configurations, at the same repeats.
+    magnitudes : dict
+        Each candidate's coefficients fitted to the tied campaign (SI, in the catalogue's columns).
+    repeats : int
+    starts : list of float
+        The worse separation (nats) reached from each random start.
+    plan_joint : int
+        Index (0-based) of the joint whose load each configuration reverses, in the plan's order.
+    seed : int or None
+    """
+
+    plan: Plan
+    planned: Discrimination
+    campaign: Discrimination
+    magnitudes: dict
+    repeats: int
+    starts: list
+    plan_joint: int
+    seed: int | None = None
+
+    @property
+    def order(self) -> str:
+        """How the plan must be measured for its separation to hold."""
+        return (
+            f"measure the configurations in the order written, each one's repeats in a row: each load takes joint "
+            f"{self.plan_joint + 1} to the other side of its play from the previous one's, where the configurations allow"
+        )
+
+    def summary(self) -> pd.DataFrame:
+        """One row per configuration: joint angles (deg) and load (kg)."""
+        table = pd.DataFrame(self.plan.q / DEG, columns=[f"q{j + 1}_deg" for j in range(self.plan.q.shape[1])])
+        table["load_kg"] = self.plan.load_kg
+        return table
+
+    def diagnostics(self) -> dict:
+        return {"starts_worst_nats": [round(v, 3) for v in self.starts]}
+
+    def to_json(self) -> dict:
+        a, b = self.planned.between
+        return {
+            "optimised_for": DISCRIMINATE,
+            "between": [a, b],
+            "planned": self.planned.to_json(),
+            "tied_campaign": self.campaign.to_json(),
+            "meaning": "expected log-likelihood ratio (nats) of the true model over the other on the plan's data, "
+            "each model sized by its fit to the tied campaign; a held-out ΔELPD estimates it",
+            "configurations": len(self.plan),
+            "repeats": self.repeats,
+            "q2_deg": sorted({round(float(v), 3) for v in self.plan.q[:, 1] / DEG}),
+            "load_kg": [round(float(m), 1) for m in self.plan.load_kg],
+            "seed": self.seed,
+            "order": self.order,
+        } | self.diagnostics()
+
+    def save(self, path: str | PathLike[str], *, comments: tuple[str, ...] = ()) -> None:
+        a, b = self.planned.between
+        note = (
+            f"plan to tell {a} from {b}: {self.planned.worst:.1f} nats and {min(self.planned.z):.1f} SE expected at worst, "
+            f"the tied campaign {self.campaign.worst:.1f} nats and {min(self.campaign.z):.1f} SE"
+        )
+        write_plan(self.plan, path, comments=(note, self.order) + tuple(comments))
+
+
+class DiscriminatingDesigner:
+    """Design the plan that best separates two candidates of the critique's catalogue on a tied campaign.
+
+    Parameters
+    ----------
+    cell
+        The cell.
+    between
+        The two candidates, names of :data:`~bayescal.critique.extensions.CATALOGUE` with columns.
+    campaign
+        The campaign on which they tie: each is sized by its fit to it.
+    space
+        The design space (joint limits, masses, tracker visibility); default the cell's.
+    repeats
+        Measurements of each configuration.
+    """
+
+    def __init__(self, cell: Cell, between: tuple[str, str], campaign: Campaign, space: DesignSpace | None = None, *, repeats: int = 3) -> None:
+        if len(between) != 2 or between[0] == between[1]:
+            raise InputError(f"expected two different candidates, got {','.join(between)}", source="between")
+        physical = [name for name, e in CATALOGUE.items() if e.physical and not e.robust]
+        for name in between:
+            if name not in physical:
+                raise InputError(f"unknown candidate '{name}'; expected two of {', '.join(physical)}", source="between")
+        self.cell, self.between, self.repeats = cell, tuple(between), repeats
+        self.space = load_design_space(cell) if space is None else space
+        self.campaign = campaign
+
+    def _design(self, rows: Rows, variants: tuple[Extension, Extension]) -> tuple[np.ndarray, tuple[slice, slice, slice]]:
+        blocks = [base_columns(rows, self.cell).reshape(3 * len(rows), -1)] + [_columns(rows, self.cell, e) for e in variants]
+        edges = np.cumsum([0] + [b.shape[1] for b in blocks])
+        return np.hstack(blocks), tuple(slice(edges[i], edges[i + 1]) for i in range(3))
+
+    def _information(self, rows: Rows, Z: np.ndarray, per: np.ndarray, repeats: int) -> np.ndarray:
+        """(K, p, p) the information of each of the K groups of rows labelled ``per`` (0..K-1), each read ``repeats`` times."""
+        sigma2 = 2.0 * np.repeat(self.cell.tracker.sigma(rows.position), 3) ** 2
+        weighted = Z / sigma2[:, None]
+        label = np.repeat(per, 3)
+        return np.array([repeats * Z[label == k].T @ weighted[label == k] for k in range(per.max() + 1)])
+
+    def optimise(
+        self,
+        angles: int = 5,
+        per_angle: int = PER_ANGLE,
+        rng: np.random.Generator | int | None = None,
+        *,
+        starts: int = STARTS,
+        candidates_per_angle: int = CANDIDATES_PER_ANGLE,
+    ) -> DiscriminatingDesign:
+        """The plan of ``angles × per_angle`` configurations that best separates the two candidates.
+
+        ``starts`` random starts of the exchange, ``candidates_per_angle`` candidate
+        configurations at each q2 of the grid; the same seed gives the same plan.
+        """
+        seed = rng if isinstance(rng, int) else None
+        rng = np.random.default_rng(rng)
+        designer = PlanDesigner(self.cell, self.space, repeats=self.repeats, model="linear")
+        if angles < 1 or angles > designer.max_angles():
+            raise InputError(f"expected 1 to {designer.max_angles()} angles, got {angles}", source="angles")
+        if not 1 <= per_angle <= candidates_per_angle * MASS_LEVELS:
+            raise InputError(
+                f"expected 1 to {candidates_per_angle * MASS_LEVELS} configurations per q2 angle (the {candidates_per_angle} candidates "
+                f"the design draws at each, at {MASS_LEVELS} masses), got {per_angle}",
+                source="per_angle",
+            )
+        grid, configurations, index, _, _ = designer.candidates(rng, per_angle=candidates_per_angle)
+        masses = np.linspace(*self.space.mass_range, MASS_LEVELS)
+        markers = np.array(list(self.cell.markers.values()))
+        # candidate c at mass level l is option c·L + l; one row per marker
+        option = np.repeat(np.arange(len(configurations) * MASS_LEVELS), len(markers))
+        q = configurations[option // len(markers) // MASS_LEVELS]
+        wrench = np.array([self.cell.load_wrench(qi, masses[o % MASS_LEVELS]) for qi, o in zip(q, option)])
+        pool = pose_rows(self.cell, q, wrench, np.tile(markers, (len(configurations) * MASS_LEVELS, 1)), config=option)
+        # the first loading of each candidate, measured after a load that took the plan joint the other way
+        first = replace(pool, marker=np.full(len(pool), REVERSED_MARKER))
+        measured = campaign_rows(self.cell, self.campaign)
+        # one design for the campaign and the pool, so that columns scaled by their rows (backlash) scale alike
+        # each candidate at the setting (a lost motion's friction hold) the tied campaign supports best
+        variants = tuple(fitted_variant(self.cell, measured, CATALOGUE[name])[0] for name in self.between)
+        Z, blocks = self._design(measured.extend(pool).extend(first), variants)
+        n, m = 3 * len(measured), 3 * len(pool)
+        beta = self._magnitudes(measured, Z[:n], blocks)
+        _, labels = np.unique(measured.config, return_inverse=True)
+        # the campaign's rows are its readings, every repeat already one of them
+        tied = self._information(measured, Z[:n], labels, 1)
+        information = self._information(first, Z[n + m :], option, 1) + self._information(pool, Z[n : n + m], option, self.repeats - 1)
+        group = np.repeat(index, MASS_LEVELS)
+        # the side each option's load leaves the plan joint at: the sign of that joint's loaded torque
+        side = np.sign((pool.static_torque + pool.load_torque)[:: len(markers), pool.plan_joint])
+        search = _Exchange(information, group, side, grid, self.space.min_separation, blocks, beta, rng)
+        best, reached = None, []
+        for _ in range(starts):
+            chosen, score = search.run(angles, per_angle)
+            reached.append(score)
+            if best is None or score > best[1]:
+                best = (chosen, score)
+        # q2 groups in increasing angle, each in the order of its slots: loads alternating the plan joint's side
+        order = np.array(sorted(best[0], key=lambda o: grid[group[o]]))
+        plan = Plan(
+            q=configurations[order // MASS_LEVELS], load_kg=masses[order % MASS_LEVELS], lines=np.zeros(len(order), dtype=int), source="optimised"
+        )
+        between = self.between
+        return DiscriminatingDesign(
+            plan=plan,
+            planned=_discrimination(between, information[order], blocks, beta),
+            campaign=_discrimination(between, tied, blocks, beta),
+            magnitudes={name: b.tolist() for name, b in zip(between, beta)},
+            repeats=self.repeats,
+            starts=reached,
+            plan_joint=pool.plan_joint,
+            seed=seed,
+        )
+
+    def _magnitudes(self, rows: Rows, Z: np.ndarray, blocks) -> tuple[np.ndarray, np.ndarray]:
+        """Each candidate's coefficients fitted, on top of the classical model, to the tied campaign (0 for columns it cannot fit)."""
+        y = rows.y.reshape(-1)
+        scale, group = np.repeat(rows.noise, 3), np.tile(np.arange(3), len(rows))
+        out = []
+        for own in blocks[1:]:
+            columns = np.concatenate([np.arange(Z.shape[1])[blocks[0]], np.arange(Z.shape[1])[own]])
+            kept = columns[independent_columns(Z[:, columns])]
+            fitted = fit(y, Z[:, kept], scale, group)
+            beta = np.zeros(Z.shape[1])
+            beta[kept] = fitted.beta
+            out.append(beta[own])
+        return out[0], out[1]
+
+
+def _discrimination(between: tuple[str, str], information: np.ndarray, blocks, beta) -> Discrimination:
+    """The separation of a plan whose configurations have information ``information`` (K, p, p)."""
+    nats = separation(information.sum(axis=0), blocks, *beta)
+    return Discrimination(between, tuple(float(v) for v in nats), tuple(float(v) for v in plan_z(information, blocks, *beta)))
+
+
+@dataclass
+class _Exchange:
+    """Fedorov's exchange on the worse of the two separations (:func:`separation`), configurations grouped by their q2 grid angle.
+
+    Within a group the plan joint is not driven, so the side of its lost motion
+    is set by the loads alone: the slots of a group alternate the side its loaded
+    torque takes (``side``, per option), so that measured in slot order every
+    configuration's first loading reverses the previous one's, whatever friction
+    holds the joint and however it arrived.  A group short of one side fills the
+    slots of that side from the other.
+    """
+
+    information: np.ndarray
+    group: np.ndarray
+    side: np.ndarray
+    grid: np.ndarray
+    separation_rad: float
+    blocks: tuple
+    beta: tuple
+    rng: np.random.Generator
+
+    def score(self, fixed: list[int], candidates: np.ndarray) -> np.ndarray:
+        """(P,) the worse separation (nats) of the plan ``fixed`` with each of the P ``candidates`` added."""
+        total = self.information[np.asarray(fixed, dtype=int)].sum(axis=0) + self.information[np.asarray(candidates, dtype=int)]
+        return separation(total, self.blocks, *self.beta).min(axis=-1)
+
+    def value(self, chosen: list[int]) -> float:
+        return float(self.score(chosen[:-1], chosen[-1:])[0])
+
+    def _separated(self, angles: list[int]) -> bool:
+        values = np.sort(self.grid[angles])
+        return len(values) < 2 or bool(np.min(np.diff(values)) >= self.separation_rad - 1e-12)
+
+    def _slot_pool(self, angle: int, slot: int, taken: list[int]) -> np.ndarray:
+        """The options of q2 group ``angle`` free for ``slot``: those whose load takes the plan joint to the slot's side.
+
+        Even slots take a positive torque, odd slots a negative one: the groups are
+        measured in increasing q2, so the plan joint arrives at each driven up, its
+        link lagging on the side a negative torque takes it to, and a group of even
+        size leaves it there too.
+        """
+        options = np.setdiff1d(np.flatnonzero(self.group == angle), taken)
+        wanted = options[self.side[options] == (1.0 if slot % 2 == 0 else -1.0)]
+        return wanted if wanted.size else options
+
+    def _fill(self, angle: int, per_angle: int, fixed: list[int], greedy: bool) -> list[int]:
+        """``per_angle`` options of group ``angle``, slot by slot: at random, or each the best added to ``fixed``."""
+        members: list[int] = []
+        for slot in range(per_angle):
+            pool = self._slot_pool(angle, slot, members)
+            if greedy:
+                members.append(int(pool[np.argmax(self.score(fixed + members, pool))]))
+            else:
+                members.append(int(self.rng.choice(pool)))
+        return members
+
+    def run(self, angles: int, per_angle: int) -> tuple[list[int], float]:
+        usable = [g for g in range(len(self.grid)) if np.count_nonzero(self.group == g) >= per_angle]
+        if len(usable) < angles:
+            # No angle with that many: the configurations per angle are at fault, not the number of angles.
+            raise InputError(
+                f"only {len(usable)} q2 angles have {per_angle} feasible configurations, {angles} requested",
+                source="angles" if usable else "per_angle",
+            )
+        for _ in range(1000):
+            chosen_angles = list(self.rng.choice(usable, size=angles, replace=False))
+            if self._separated(chosen_angles):
+                break
+        else:
+            raise InputError(f"no {angles} q2 angles {math.degrees(self.separation_rad):.0f} deg apart have feasible configurations", source="angles")
+        groups = [self._fill(int(g), per_angle, [], greedy=False) for g in chosen_angles]
+        current = self.value(_flat(groups))
+        for _ in range(MAX_PASSES):
+            improved = False
+            for g, members in enumerate(groups):
+                for slot in range(per_angle):
+                    pool = self._slot_pool(chosen_angles[g], slot, members)
+                    if not pool.size:
+                        continue
+                    rest = _flat(groups[:g]) + members[:slot] + members[slot + 1 :] + _flat(groups[g + 1 :])
+                    scores = self.score(rest, pool)
+                    if scores.max() > current * (1 + 1e-9):
+                        members[slot], current, improved = int(pool[np.argmax(scores)]), float(scores.max()), True
+                moved = self._move(groups, chosen_angles, g, current)
+                if moved is not None:
+                    chosen_angles[g], groups[g], current, improved = moved[0], moved[1], moved[2], True
+            if not improved:
+                break
+        return _flat(groups), current
+
+    def _move(self, groups, chosen_angles, g, current):
+        """The best other q2 angle for group ``g``, filled greedily, when it beats ``current``."""
+        rest = _flat(groups[:g] + groups[g + 1 :])
+        others = chosen_angles[:g] + chosen_angles[g + 1 :]
+        best = None
+        for angle in np.unique(self.group):
+            if angle == chosen_angles[g] or not self._separated(others + [int(angle)]):
+                continue
+            if np.count_nonzero(self.group == angle) < len(groups[g]):
+                continue
+            members = self._fill(int(angle), len(groups[g]), rest, greedy=True)
+            score = self.value(rest + members)
+            if score > current * (1 + 1e-9) and (best is None or score > best[2]):
+                best = (int(angle), members, score)
+        return best
+
+
+def _flat(groups: list[list[int]]) -> list[int]:
+    return [o for members in groups for o in members]

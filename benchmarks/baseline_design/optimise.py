@@ -1,0 +1,470 @@
+"""Optimal calibration plans (eq 40 under the constraints of eq 41): exchange, then continuous refinement.
+
+A plan has ``angles`` distinct q2 angles with ``per_angle`` configurations
+each, as the paper's Table III (five angles, three configurations).  The
+optimiser
+
+1. draws a large set of feasible candidate configurations (:mod:`bayescal.design.constraints`)
+   on a grid of q2 angles, the other joints uniform within their limits, and
+   computes each one's information matrix (:mod:`bayescal.design.criteria`);
+2. from a random start, exchanges (Fedorov's idea, in the form of Cook and
+   Nachtsheim's coordinate exchange) one configuration for the best candidate
+   at the same q2, or moves a whole group to another q2 angle filled greedily,
+   until a full pass improves nothing;
+3. refines the best plan continuously: random steps on a group's q2 or on one
+   configuration's other joints, kept when the plan stays feasible and improves,
+   with a step that shrinks from a few degrees to a tenth of one;
+4. repeats 2-3 from several random starts and keeps the best.
+
+Every configuration carries the heaviest mass of the design's range (the
+information of a configuration grows as the square of its load), or on a cell
+whose end-effector applies loads in any direction, a force of ``F_max`` (and
+a couple) in a direction the exchange and the refinement choose
+(:mod:`bayescal.design.loads`).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections import Counter
+from functools import cached_property
+
+import numpy as np
+
+from bayescal.cell.config import Cell
+from bayescal.cell.plan import Plan, prismatic_flags
+from baseline_design.constraints import DesignSpace, Feasibility, load_design_space
+from baseline_design.criteria import (
+    CRITERIA,
+    ExactLinearisation,
+    PlanPrediction,
+    configuration_information,
+    criterion_values,
+    predict,
+    test_pose_design,
+    wrench_information,
+)
+from baseline_design.loads import free_candidates, load_sizes, turned
+from bayescal.design.plan_design import PlanDesign, PlanEvaluation
+from bayescal.design.progress import Progress, best_text
+from bayescal.errors import InputError
+from bayescal.robot.compensator import MIN_ANGLES
+from bayescal.units import DEG
+
+__all__ = ["PlanDesign", "PlanDesigner"]
+
+ANGLE_STEP_DEG = 2.5
+"""Spacing (deg) of the candidates' q2 grid: finer than any plan's angle separation, and refined afterwards."""
+
+CANDIDATES_PER_ANGLE = 20
+"""Feasible candidate configurations drawn at each q2 of the grid (about 1100 on the KR-270)."""
+
+TRIES_PER_CANDIDATE = 60
+"""Random draws allowed per wanted candidate before a q2 angle is declared unusable
+(about one draw in ten is feasible in the KR-270 cell)."""
+
+STARTS = 3
+"""Random starts of the exchange; on the KR-270 their results differ by 1-3 % (docs/design.md)."""
+
+REFINE_STEPS = 200
+"""Proposals of the continuous refinement of each start."""
+
+REFINE_STEP_DEG = (3.0, 0.1)
+"""First and last standard deviation (deg) of the refinement's random steps."""
+
+MAX_PASSES = 20
+"""Exchange passes at most; on the KR-270 a start settles in 3 to 6."""
+
+
+class PlanDesigner:
+    """Designs calibration plans for a cell.
+
+    Parameters
+    ----------
+    cell
+        The cell: robot, tool, tracker noise, nominal stiffness, test pose.
+    space
+        Admissible loads and geometric limits; default :func:`load_design_space` of the cell.
+    repeats
+        Measurements of each configuration (the paper: 3).
+    model
+        The model the search scores plans with: ``"exact"``
+        (:class:`~bayescal.design.criteria.ExactLinearisation`, the identification's default model) or
+        ``"linear"`` (eq 31, about 70 times faster per configuration, but on the KR-270 its
+        test-pose optimum leaves 1.4 times the exact model's error, docs/design.md).
+    """
+
+    def __init__(self, cell: Cell, space: DesignSpace | None = None, *, repeats: int = 3, model: str = "exact") -> None:
+        if repeats < 1:
+            raise InputError(f"expected at least 1 repeat, got {repeats}", source="repeats")
+        if model not in ("linear", "exact"):
+            raise InputError(f"unknown model '{model}'; expected linear or exact", source="model")
+        cell.robot.check_limits(cell.test_q, source=cell.source)
+        self.cell = cell
+        self.space = load_design_space(cell) if space is None else space
+        self.repeats = repeats
+        self.model = model
+        self.feasibility = Feasibility(cell, self.space)
+        self.mass = self.space.mass_range[1]
+        self.free = not cell.loading.hanging_only
+        self.force_size, self.couple_size = load_sizes(cell, self.mass)
+        self._down = np.array([0.0, 0.0, -self.force_size, 0.0, 0.0, 0.0])
+        robot = cell.robot
+        j2 = cell.plan_joint
+        self.q2_range = (float(robot.lower[j2]), float(robot.upper[j2]))
+
+    # The exact model's finite differences take seconds: built on first use, not by the constructor.
+    @cached_property
+    def exact(self) -> ExactLinearisation:
+        """The exact model linearised about the cell's values (central differences)."""
+        return ExactLinearisation(self.cell)
+
+    @cached_property
+    def _exact_test_design(self) -> np.ndarray:
+        return self.exact.test_design()
+
+    @cached_property
+    def _test_design(self) -> np.ndarray:
+        return test_pose_design(self.cell)
+
+    # ----------------------------------------------------------------- scoring
+
+    def information(self, q, mass: float, model: str | None = None) -> np.ndarray:
+        """(p, p) information of one configuration measured :attr:`repeats` times (default: the search's model)."""
+        exact = self.exact if (model or self.model) == "exact" else None
+        return configuration_information(self.cell, q, mass, self.repeats, exact=exact)
+
+    def _load_information(self, q, load: np.ndarray) -> np.ndarray:
+        """(p, p) information of ``q`` under a designed ``load`` (:mod:`bayescal.design.loads`), the search's model."""
+        if not self.free:
+            return self.information(q, self.mass)
+        exact = self.exact if self.model == "exact" else None
+        return wrench_information(self.cell, q, self.cell.wrench(q, load[:3], load[3:]), self.repeats, exact=exact)
+
+    def _violation(self, q, load: np.ndarray) -> str | None:
+        return self.feasibility.violation_under(q, load[:3], load[3:]) if self.free else self.feasibility.violation(q, self.mass)
+
+    def evaluate(self, plan: Plan, model: str = "exact") -> PlanPrediction:
+        """The prediction for any plan (its own masses or forces, or the cell's load where it has none)."""
+        exact = self.exact if model == "exact" else None
+        information = sum(wrench_information(self.cell, q, w, self.repeats, exact=exact) for q, w in zip(plan.q, plan.wrenches(self.cell)))
+        design = self._exact_test_design if model == "exact" else self._test_design
+        return predict(self.cell, information, test_design=design)
+
+    def assess(self, plan: Plan, source: str = "") -> PlanEvaluation:
+        """``plan`` (read from ``source``) scored with the exact and the linear model, with the configurations
+        that break a constraint of the cell."""
+        return PlanEvaluation(plan, self.evaluate(plan, "exact"), self.evaluate(plan, "linear"), self.repeats, self.violations(plan), source)
+
+    def violations(self, plan: Plan) -> list[dict]:
+        """The configurations of ``plan`` (numbered from 1) that break a constraint, and why."""
+        found = []
+        forces, couples = plan.forces(self.cell.load_mass, self.cell.gravity), plan.couples()
+        for number, (q, mass) in enumerate(zip(plan.q, plan.masses(self.cell.load_mass)), start=1):
+            if plan.force is None:
+                reason = self.feasibility.violation(q, mass) or self.cell.loading.couple_violation(couples[number - 1])
+            else:
+                reason = self.feasibility.violation_under(q, forces[number - 1], couples[number - 1])
+            if reason is not None:
+                found.append({"config": number, "reason": reason})
+        return found
+
+    def _scores(self, information: np.ndarray, criterion: str) -> np.ndarray:
+        design = self._exact_test_design if self.model == "exact" else self._test_design
+        return criterion_values(self.cell, information, criterion, test_design=design)
+
+    def _score(self, information: np.ndarray, criterion: str) -> float:
+        return float(self._scores(information[np.newaxis], criterion)[0])
+
+    # ----------------------------------------------------------------- requests
+
+    def max_angles(self) -> int:
+        """Most distinct q2 angles the joint range allows at the design's separation."""
+        low, high = self.q2_range
+        return int(math.floor((high - low) / self.space.min_separation + 1e-9)) + 1
+
+    def check_request(self, angles: int, per_angle: int, criterion: str, *, candidates_per_angle: int = CANDIDATES_PER_ANGLE) -> None:
+        """Raise the :class:`InputError` :meth:`optimise` would for a request no plan can meet, before any work.
+
+        ``candidates_per_angle`` is the number of candidates the design will draw at each q2 angle: no plan takes more.
+        """
+        self._check_request(angles, per_angle, criterion)
+        if per_angle > candidates_per_angle:
+            raise InputError(
+                f"expected at most {candidates_per_angle} configurations per q2 angle (the candidates the design draws at each), "
+                f"got {per_angle}",
+                source="per_angle",
+            )
+
+    def _check_request(self, angles: int, per_angle: int, criterion: str, *, scored: bool = True) -> None:
+        if criterion not in CRITERIA:
+            raise InputError(f"unknown criterion '{criterion}'; expected one of {', '.join(CRITERIA)}", source="criterion")
+        if angles < 1:
+            raise InputError(f"expected at least 1 angle, got {angles}", source="angles")
+        if per_angle < 1:
+            raise InputError(f"expected at least 1 configuration per angle, got {per_angle}", source="per_angle")
+        if angles > self.max_angles():
+            low, high = (math.degrees(v) for v in self.q2_range)
+            raise InputError(
+                f"{angles} q2 angles do not fit in the joint range {low:.0f} to {high:.0f} deg at "
+                f"{math.degrees(self.space.min_separation):.0f} deg apart (at most {self.max_angles()})",
+                source="angles",
+            )
+        # every criterion inverts the information in K_θ2^0, K_c and s0, singular below three angles
+        if self.cell.compensator is not None and angles < MIN_ANGLES and scored:
+            raise InputError(
+                f"the compensator's K_θ2^0, K_c and s0 need at least {MIN_ANGLES} distinct q2 angles, got {angles}", source="angles"
+            )
+
+    # ----------------------------------------------------------------- candidates
+
+    def _grid(self) -> np.ndarray:
+        low, high = self.q2_range
+        count = int(math.floor((high - low) / (ANGLE_STEP_DEG * DEG) + 1e-9)) + 1
+        return np.linspace(low, low + (count - 1) * ANGLE_STEP_DEG * DEG, count)
+
+    def _random_configuration(self, q2: float, rng: np.random.Generator, tries: int, reasons: Counter) -> np.ndarray | None:
+        robot = self.cell.robot
+        for _ in range(tries):
+            q = rng.uniform(robot.lower, robot.upper)
+            q[self.cell.plan_joint] = q2
+            reason = self._violation(q, self._down)
+            if reason is None:
+                return q
+            # angles removed, so that "marker M1 faces 97 deg away" and "... 120 deg away" count together
+            reasons[re.sub(r" -?\d+(\.\d+)? deg", "", reason.split(" (")[0])] += 1
+        return None
+
+    def candidates(self, rng: np.random.Generator, *, per_angle: int = CANDIDATES_PER_ANGLE, progress: bool = False):
+        """Feasible candidates on the q2 grid: (n, nq) configurations, their grid index, information and (n, 6) loads.
+
+        On an any-direction cell each configuration comes under :data:`~bayescal.design.loads.DIRECTIONS_PER_CONFIGURATION` loads.
+
+        Raises
+        ------
+        InputError
+            When no configuration is feasible (e.g. a tracker that sees no marker).
+        """
+        grid = self._grid()
+        configurations, index, reasons = [], [], Counter()
+        bar = Progress(len(grid), "plan: candidates", progress)
+        for g, q2 in enumerate(grid):
+            for _ in range(per_angle):
+                q = self._random_configuration(q2, rng, TRIES_PER_CANDIDATE, reasons)
+                if q is None:
+                    break
+                configurations.append(q)
+                index.append(g)
+            bar.step()
+        bar.close()
+        if not configurations:
+            common = reasons.most_common(1)[0][0] if reasons else "no draws"
+            raise InputError(f"no feasible configuration found in the cell (most frequent reason: {common})", source=self.cell.source)
+        configurations, index = np.array(configurations), np.array(index)
+        if not self.free:
+            information = np.array([self.information(q, self.mass) for q in configurations])
+            return grid, configurations, index, information, np.tile(self._down, (len(configurations), 1))
+        exact = self.exact if self.model == "exact" else None
+        return (grid, *free_candidates(self.cell, configurations, index, rng, self.force_size, self.couple_size, exact, self.repeats))
+
+    def random_plan(self, angles: int, per_angle: int, rng: np.random.Generator) -> Plan:
+        """A random feasible plan: ``angles`` q2 values uniform over the range and apart, random other joints."""
+        self._check_request(angles, per_angle, "d-optimal", scored=False)
+        low, high = self.q2_range
+        reasons: Counter = Counter()
+        for _ in range(100):
+            q2 = np.sort(rng.uniform(low, high, size=angles))
+            if angles > 1 and np.min(np.diff(q2)) < self.space.min_separation:
+                continue
+            rows = []
+            for value in q2:
+                for _ in range(per_angle):
+                    q = self._random_configuration(float(value), rng, TRIES_PER_CANDIDATE * 10, reasons)
+                    if q is None:
+                        break
+                    rows.append(q)
+            if len(rows) == angles * per_angle:
+                return self._plan(np.array(rows), np.tile(self._down, (len(rows), 1)))
+        raise InputError(f"no random feasible plan with {angles} angles found (most frequent reason: {reasons.most_common(1)})", source="angles")
+
+    def _plan(self, q: np.ndarray, loads: np.ndarray) -> Plan:
+        lines = np.zeros(len(q), dtype=int)
+        prismatic = prismatic_flags(self.cell.robot)
+        if not self.free:
+            return Plan(q=q, load_kg=np.full(len(q), self.mass), lines=lines, source="optimised", prismatic=prismatic)
+        return Plan(
+            q=q, load_kg=None, lines=lines, source="optimised", force=loads[:, :3],
+            couple=loads[:, 3:] if self.couple_size > 0 else None, prismatic=prismatic,
+        )
+
+    # ----------------------------------------------------------------- optimisation
+
+    def optimise(
+        self,
+        angles: int = 5,
+        per_angle: int = 3,
+        criterion: str = "test-pose",
+        rng: np.random.Generator | int | None = None,
+        *,
+        starts: int = STARTS,
+        refine_steps: int = REFINE_STEPS,
+        candidates_per_angle: int = CANDIDATES_PER_ANGLE,
+        candidates: tuple | None = None,
+        progress: bool = False,
+    ) -> PlanDesign:
+        """The best plan found for ``criterion`` (module docstring for the algorithm).
+
+        Parameters
+        ----------
+        angles
+            Distinct q2 angles.
+        per_angle
+            Configurations at each angle.
+        criterion
+            ``"test-pose"`` (eqs 38-40), ``"compensator"`` or ``"d-optimal"``.
+        rng
+            Random generator or seed; the same seed gives the same plan.
+        starts
+            Random starts of the exchange.
+        refine_steps
+            Proposals of the continuous refinement of each start (0: exchange only).
+        candidates_per_angle
+            Candidate configurations at each q2 of the grid.
+        candidates
+            A candidate set from :meth:`candidates` to reuse (studies that design many plans).
+        progress
+            Draw a progress bar on stderr.
+
+        Raises
+        ------
+        InputError
+            For a request no plan can meet: an unknown criterion, more angles than the
+            joint range allows, too few angles for the compensator, no feasible configuration.
+        """
+        if candidates is None:
+            self.check_request(angles, per_angle, criterion, candidates_per_angle=candidates_per_angle)
+        else:
+            self._check_request(angles, per_angle, criterion)
+        seed = rng if isinstance(rng, int) else None
+        rng = np.random.default_rng(rng)
+        if candidates is None:
+            candidates = self.candidates(rng, per_angle=candidates_per_angle, progress=progress)
+        grid, configurations, index, information, loads = candidates
+        available = [np.flatnonzero(index == g) for g in range(len(grid))]
+        usable = np.array([len(c) >= per_angle for c in available])
+        if np.count_nonzero(usable) < angles:
+            # No angle with that many: the configurations per angle are at fault, not the number of angles.
+            raise InputError(
+                f"only {np.count_nonzero(usable)} q2 angles have {per_angle} feasible configurations, {angles} requested",
+                source="angles" if usable.any() else "per_angle",
+            )
+        bar = Progress(starts, f"plan: {criterion}", progress)
+        best, scores = None, []
+        for _ in range(starts):
+            groups = self._start(grid, usable, available, angles, per_angle, rng)
+            groups = self._exchange(groups, grid, usable, available, information, criterion)
+            chosen = [c for group in groups for c in group[1]]
+            q, load, score = self._refine(configurations[chosen], loads[chosen], angles, per_angle, criterion, rng, refine_steps)
+            scores.append(score)
+            if best is None or score < best[2]:
+                best = (q, load, score)
+            bar.step(best_text(best[2], criterion))
+        bar.close()
+        plan = self._plan(best[0], best[1])
+        return PlanDesign(
+            plan=plan,
+            criterion=criterion,
+            prediction=self.evaluate(plan, "exact"),
+            linear=self.evaluate(plan, "linear"),
+            model=self.model,
+            repeats=self.repeats,
+            starts=scores,
+            candidates=len(configurations),
+            seed=seed,
+            plan_joint=self.cell.plan_joint,
+        )
+
+    def _separated(self, values: list[float]) -> bool:
+        values = np.sort(values)
+        return len(values) < 2 or bool(np.min(np.diff(values)) >= self.space.min_separation - 1e-12)
+
+    def _start(self, grid, usable, available, angles, per_angle, rng):
+        for _ in range(1000):
+            chosen = rng.choice(np.flatnonzero(usable), size=angles, replace=False)
+            if self._separated(list(grid[chosen])):
+                return [(int(g), list(rng.choice(available[g], size=per_angle, replace=False))) for g in chosen]
+        raise InputError(f"no {angles} q2 angles {math.degrees(self.space.min_separation):.0f} deg apart have feasible configurations", source="angles")
+
+    def _exchange(self, groups, grid, usable, available, information, criterion):
+        def total(groups):
+            return sum(information[c] for _, members in groups for c in members)
+
+        current = self._score(total(groups), criterion)
+        for _ in range(MAX_PASSES):
+            improved = False
+            for g in range(len(groups)):
+                # one configuration for another at the same q2
+                for slot in range(len(groups[g][1])):
+                    angle, members = groups[g]
+                    pool = np.setdiff1d(available[angle], members)
+                    if not pool.size:
+                        continue
+                    base = total(groups) - information[members[slot]]
+                    scores = self._scores(base + information[pool], criterion)
+                    best = int(np.argmin(scores))
+                    if scores[best] < current - 1e-12 * abs(current):
+                        members[slot], current, improved = int(pool[best]), float(scores[best]), True
+                # the whole group to another q2, filled greedily
+                others = [grid[a] for h, (a, _) in enumerate(groups) if h != g]
+                rest = total(groups[:g] + groups[g + 1 :])
+                for angle in np.flatnonzero(usable):
+                    if angle == groups[g][0] or not self._separated(others + [grid[angle]]):
+                        continue
+                    members, partial = [], rest.copy()
+                    for _ in range(len(groups[g][1])):
+                        pool = np.setdiff1d(available[angle], members)
+                        choice = int(pool[np.argmin(self._scores(partial + information[pool], criterion))])
+                        members.append(choice)
+                        partial = partial + information[choice]
+                    score = self._score(partial, criterion)
+                    if score < current - 1e-12 * abs(current):
+                        groups[g], current, improved = (int(angle), members), score, True
+                        rest = total(groups[:g] + groups[g + 1 :])
+            if not improved:
+                break
+        return groups
+
+    def _refine(self, q: np.ndarray, loads: np.ndarray, angles: int, per_angle: int, criterion: str, rng: np.random.Generator, steps: int):
+        robot = self.cell.robot
+        j2 = self.cell.plan_joint
+        q, loads = q.copy(), loads.copy()
+        parts = np.array([self._load_information(row, load) for row, load in zip(q, loads)])
+        current = self._score(parts.sum(axis=0), criterion)
+        first, last = (v * DEG for v in REFINE_STEP_DEG)
+        others = [j for j in range(robot.nq) if j != j2]
+        for step in range(steps):
+            size = first * (last / first) ** (step / max(steps - 1, 1))
+            proposal, turn = q.copy(), loads.copy()
+            if rng.random() < 0.3:
+                group = int(rng.integers(angles))
+                rows = np.arange(group * per_angle, (group + 1) * per_angle)
+                proposal[rows, j2] += rng.normal() * size
+                if not self._separated(list(proposal[::per_angle, j2])):
+                    continue
+            elif self.free and rng.random() < 0.5:
+                # the step (rad) turns the load's direction as far as it moves a joint
+                rows = np.array([int(rng.integers(len(q)))])
+                turn[rows[0]] = turned(loads[rows[0]], size, rng)
+            else:
+                rows = np.array([int(rng.integers(len(q)))])
+                proposal[rows[0], others] += rng.normal(size=len(others)) * size
+            if any(self._violation(proposal[r], turn[r]) is not None for r in rows):
+                continue
+            trial = parts.copy()
+            for r in rows:
+                trial[r] = self._load_information(proposal[r], turn[r])
+            score = self._score(trial.sum(axis=0), criterion)
+            if score < current:
+                q, loads, parts, current = proposal, turn, trial, score
+        return q, loads, current

@@ -1,0 +1,103 @@
+"""``bayescal plan``'s searches against the previous code, in one run: the same plans, in a fraction of the time.
+
+For each case the designer of the package and the previous one
+(``baseline_design``: the plan designer before batched equilibria, kept verbatim)
+design a plan from the same seed in this process, one after the other:
+
+* ``exact``: the default exact model, 5 × 3, 3 starts, the test-pose criterion (``bayescal plan --config data/kr270.toml``);
+* ``linear``: the same with eq 31's linear model (``--model linear``);
+* ``discriminate``: the plan that separates ``backlash`` from ``nonlinear_stiffness`` on a tied
+  campaign (the twin's Table III campaign, 3 repeats, seed 0, ``backlash=0.002``), 50-280 kg,
+  5 × 12, 4 starts (``--criterion discriminate``, docs/critique.md).
+
+Printed for each: CPU and wall seconds of each designer and their ratio, whether the two plans are
+the same (largest joint-angle difference), and the largest relative difference of the criterion
+values each start reached; the script stops when the plans differ.  CPU time is the steadier figure on a shared machine; one BLAS thread, as
+the command line sets.  Command-line start-up (about a second) is not included.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from smoke import SMOKE  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+SEED = 0
+OPTIONS = {"exact": {}, "linear": {}} if not SMOKE else {"linear": {"starts": 1, "refine_steps": 5, "candidates_per_angle": 3}}
+"""Options of the plan searches: the command's defaults, or one linear start on a few candidates at the smoke size."""
+DISCRIMINATE = {} if not SMOKE else {"per_angle": 2, "starts": 1, "candidates_per_angle": 2}
+
+
+def _timed(function):
+    began, cpu = time.perf_counter(), time.process_time()
+    result = function()
+    return result, time.perf_counter() - began, time.process_time() - cpu
+
+
+def _line(name: str, new: tuple, old: tuple, plans: tuple[np.ndarray, np.ndarray], starts: tuple) -> None:
+    same = plans[0].shape == plans[1].shape and np.array_equal(plans[0], plans[1])
+    moved = np.max(np.abs(plans[0] - plans[1])) if plans[0].shape == plans[1].shape else np.inf
+    values = np.abs(np.array(starts[0]) / np.array(starts[1]) - 1.0).max()
+    print(
+        f"{name:<13} new {new[2]:6.2f} s CPU ({new[1]:6.2f} s wall)  previous {old[2]:6.2f} s CPU ({old[1]:6.2f} s wall)  "
+        f"ratio {old[2] / new[2]:5.1f}x CPU  same plan: {'yes' if same else 'NO'} (largest angle difference {np.degrees(moved):.1e} deg), "
+        f"criterion of each start within {values:.1e} (relative)",
+        flush=True,
+    )
+    if not same:
+        sys.exit(f"{name}: the package's plan differs from the previous code's for the same seed")
+
+
+def plans(cell) -> None:
+    from baseline_design.optimise import PlanDesigner as Previous
+
+    from bayescal.design.optimise import PlanDesigner
+
+    for model, options in OPTIONS.items():
+        new = _timed(lambda: PlanDesigner(cell, model=model).optimise(5, 3, "test-pose", rng=SEED, **options))
+        old = _timed(lambda: Previous(cell, model=model).optimise(5, 3, "test-pose", rng=SEED, **options))
+        _line(model, new, old, (new[0].plan.q, old[0].plan.q), (new[0].starts, old[0].starts))
+
+
+def discriminate(cell) -> None:
+    from baseline_design.constraints import load_design_space as previous_space
+    from baseline_design.discriminate import DiscriminatingDesigner as Previous
+
+    from bayescal.cell.plan import read_plan
+    from bayescal.design.constraints import load_design_space
+    from bayescal.design.discriminate import DiscriminatingDesigner
+    from bayescal.twin.effects import parse_effect
+    from bayescal.twin.simulator import DigitalTwin
+
+    plan = read_plan(ROOT / "data" / "table3_plan.csv", cell.robot)
+    tie = DigitalTwin(cell, [parse_effect("backlash=0.002")]).simulate(plan, 3, np.random.default_rng(0))
+    between = ("backlash", "nonlinear_stiffness")
+    new = _timed(lambda: DiscriminatingDesigner(cell, between, tie, load_design_space(cell, mass_range=(50, 280))).optimise(rng=SEED, **DISCRIMINATE))
+    old = _timed(lambda: Previous(cell, between, tie, previous_space(cell, mass_range=(50, 280))).optimise(rng=SEED, **DISCRIMINATE))
+    _line("discriminate", new, old, (new[0].plan.q, old[0].plan.q), (new[0].starts, old[0].starts))
+
+
+def main() -> None:
+    from bayescal.cell.config import load_cell
+
+    warnings.simplefilter("ignore")
+    print(f"load average (1, 5, 15 min): {' '.join(f'{x:.1f}' for x in os.getloadavg())} on {os.cpu_count()} cores")
+    cell = load_cell(ROOT / "data" / "kr270.toml")
+    plans(cell)
+    discriminate(cell)
+
+
+if __name__ == "__main__":
+    main()
