@@ -20,9 +20,10 @@ data, one row per marker per repeat per configuration::
   cell's tool load point is assumed.  A couple in the wrench beyond the force's
   moment about the flange origin acts as a dead couple;
 * optional ``t0_s, t1_s``: when the unloaded and the loaded reading were taken,
-  in seconds from any origin (a tracker's time stamps); the model criticism
-  then follows a drift of the tracker's frame in time rather than in the order
-  of the rows.
+  in seconds from any origin (a tracker's time stamps); with repeats of a
+  configuration taken at different times, the model criticism measures the
+  tracker's drift from them (``bayescal.critique.drift``); without times it
+  cannot test for a drift.
 
 Rows pair up when every row holds both its unloaded and its loaded position,
 no (config, repeat, marker) appears twice, and all rows of a configuration

@@ -22,7 +22,8 @@ def add_parser(subparsers) -> None:
         help="criticise the classical VJM model on a campaign: misfit, likely cause, held-out gain",
         description=(
             "Compare the classical serial VJM model (constant joint compliances, eq 30) with its extensions "
-            "(compensator, link_compliance, tool_compliance, backlash, nonlinear_stiffness, outliers) by their "
+            "(compensator, link_compliance, tool_compliance, backlash, nonlinear_stiffness, outliers, and drift where "
+            "the campaign's repeated readings can show it) by their "
             "predictive density on held-out configurations, name the causes whose gain is clear of its "
             "uncertainty, and report the gain. With --geometry, criticise the planar two-step compensator-geometry "
             "model on tracker arcs instead (tilt, pivot_motion, cylinder_slip, joint_scale, closed_loop; held-out joint angles)."
@@ -168,6 +169,8 @@ def _text(results, figures: list[str]) -> str:
     before, after = results.before, results.after
     lines = [f"{results.source}: {results.n_equations} equations in {results.n_configs} configurations"]
     lines += _outcome_lines(results, "configurations", "the classical model")
+    if results.negligible:
+        lines[1] += f" ({', '.join(results.negligible)} detectable but too small to matter at the test pose)"
     lines += [
         "",
         f"held-out gain: ΔELPD {results.gain.delta_elpd:.1f} ± {results.gain.se:.1f} nats; residual rms "
@@ -176,11 +179,42 @@ def _text(results, figures: list[str]) -> str:
         f"test pose: the classical model's prediction differs from the extended one's by "
         f"{results.test_pose['classical_error_mm'] * 1000:.1f} μm",
         f"rule: a cause is named when ΔELPD > {results.rule['z']:g} SE and > {results.rule['floor_nats']:g} nats, "
-        f"or > {results.rule['decisive_nats']:g} nats",
+        f"or > {results.rule['decisive_nats']:g} nats and > {results.rule['decisive_z']:g} SE",
     ]
+    for cause, entry in results.importance.items():
+        before, after = (1000 * v for v in entry["residual_rms_mm"])
+        lines.append(
+            f"{cause}: residual rms {before:.1f} -> {after:.1f} μm, test pose moved {1000 * entry['test_pose_change_mm']:.1f} μm "
+            f"(its sd {1000 * entry['test_pose_sd_mm']:.1f} μm)"
+            + ("" if entry["matters"] else ": detectable but too small to matter")
+        )
+    from bayescal.critique.extensions import CATALOGUE
+
+    plannable = {name for name, e in CATALOGUE.items() if e.physical and not e.robust}
+    for kind, pairs in (("tied with", results.tied_with), ("contested by", results.contested_by)):
+        for cause, others in pairs.items():
+            lines.append(f"{cause} {kind} {', '.join(others)}")
+            # the plan that separates exactly that pair (docs/critique.md, The experiment that resolves a tie)
+            lines += [
+                f"  to separate them: bayescal plan --config CELL.toml --criterion discriminate --between {cause},{other} "
+                f"--campaign {results.source} -o PLAN.csv"
+                for other in others
+                if {cause, other} <= plannable
+            ]
+    drift = results.drift
+    if drift.get("testable"):
+        rate = ", ".join(f"{v:+.3f}" for v in drift["translation_mm_per_h"])
+        lines.append(
+            f"drift from {drift['evidence']}: ({rate}) mm/h, {1000 * drift['deflection_rms_mm']:.1f} μm rms in the deflections"
+            + (" (removed)" if "drift" in results.causes else "")
+        )
+    elif drift:
+        lines.append(f"drift: not testable on this campaign: {drift['evidence']}")
     if figures:
         lines.append(f"figures: {', '.join(figures)}")
     misfit = getattr(results, "lack_of_fit", None)
-    advice = critique_next_steps(list(results.causes), misfit is not None and misfit.significant(), results.test_pose["classical_error_mm"])
+    advice = critique_next_steps(
+        list(results.causes), misfit is not None and misfit.significant(), results.test_pose["classical_error_mm"], results.negligible
+    )
     lines += ["", *textwrap.wrap(advice, width=100)]
     return "\n".join(lines)

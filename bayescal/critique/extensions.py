@@ -35,6 +35,11 @@ parameters where the physics allows:
     or softens with torque), the torque being the weight's and the load's.
 ``outliers``
     Student-t tracker noise instead of Gaussian (no new columns).
+``drift``
+    The tracker's frame moving between a row's unloaded and loaded reading, at the
+    rates the campaign's readings of one state repeated in time show
+    (:mod:`bayescal.critique.drift`; one column, its amplitude; not tried where the
+    campaign holds no such readings).
 
 :data:`PROBES` are not physics but the covariates of
 :data:`~bayescal.critique.covariates.COVARIATES`, each in every base axis: a
@@ -51,6 +56,7 @@ import numpy as np
 
 from bayescal.cell.config import Cell
 from bayescal.critique.covariates import COVARIATES, PREDICTED_MARKER, REVERSED_MARKER, Rows
+from bayescal.critique.drift import drift_deflection, drift_evidence
 
 __all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "BACKLASH_HOLDS", "BACKLASH_SHIFTS", "BACKLASH_SETTINGS", "APPROACH_MOVE", "OUTLIER_DOF"]
 
@@ -327,35 +333,19 @@ def _nonlinear_stiffness(rows: Rows, cell: Cell) -> np.ndarray:
 
 
 def _drift(rows: Rows, cell: Cell) -> np.ndarray:
-    """The tracker's frame creeping between a configuration's unloaded and loaded reading.
+    """The tracker's frame moving between each row's unloaded and loaded reading, as the campaign's readings of one
+    state repeated in time show it (:func:`~bayescal.critique.drift.drift_evidence`): one column, the drift's
+    amplitude (1 where the evidence is right).
 
-    To first order any slow motion of the tracker (thermal growth of its stand, a
-    settling tripod) is a translation ``v`` and a small rotation ``w`` about the
-    tracker, which add ``v + w x (p - tracker)`` to a deflection read at ``p``.
-    Where the campaign stamps its readings (``t0_s, t1_s``), the motion is a rate
-    times the time between the two readings, the rate either constant or changing
-    linearly over the campaign; otherwise each is constant or grows with the order
-    of measurement.  12 columns, in the deflections' scale.
+    Its direction comes from readings the deflections do not enter, so that it cannot take up a load-correlated
+    misfit (the twelve free frame-motion columns fitted to the deflections did: they tied with every link and tool
+    compliance on the independent generator).  Without that evidence there is no column, and the critique says the
+    drift is not testable on the campaign.
     """
-    lever = rows.position - cell.tracker.position
-    # w x lever = -lever x w: the columns of the cross-product matrix of -lever.
-    cross = np.zeros((len(rows), 3, 3))
-    cross[:, 0, 1], cross[:, 0, 2] = lever[:, 2], -lever[:, 1]
-    cross[:, 1, 0], cross[:, 1, 2] = -lever[:, 2], lever[:, 0]
-    cross[:, 2, 0], cross[:, 2, 1] = lever[:, 1], -lever[:, 0]
-    constant = np.concatenate([np.broadcast_to(np.eye(3), cross.shape), cross / np.linalg.norm(lever, axis=1).mean()], axis=2)
-    if np.all(np.isfinite(rows.times)):
-        interval = rows.times[:, 1] - rows.times[:, 0]
-        middle = rows.times.mean(axis=1)
-        span = max(float(np.ptp(middle)), 1.0)
-        # rate × interval, in units of the mean interval; the rate's change over the campaign's span
-        steady = interval / max(float(interval.mean()), 1e-9)
-        growth = steady * (middle - middle.min()) / span
-        columns = [constant * steady[:, np.newaxis, np.newaxis], constant * growth[:, np.newaxis, np.newaxis]]
-    else:
-        growth = rows.order / max(int(rows.order.max()), 1)
-        columns = [constant, constant * growth[:, np.newaxis, np.newaxis]]
-    return np.concatenate(columns, axis=2) * np.abs(rows.y).mean()
+    evidence = drift_evidence(rows, cell)
+    if not evidence.testable:
+        return np.zeros((len(rows), 3, 0))
+    return drift_deflection(evidence, rows)[0][:, :, np.newaxis]
 
 
 def _no_columns(rows: Rows, cell: Cell) -> np.ndarray:
@@ -371,7 +361,7 @@ CATALOGUE: dict[str, Extension] = {
         Extension("backlash", "lost motion in the joints where the load reverses their torque", _backlash, grid=BACKLASH_SETTINGS, describe=_hold_reading),
         Extension("nonlinear_stiffness", "joint stiffness that changes with the torque carried", _nonlinear_stiffness),
         Extension("outliers", "heavy-tailed (Student-t) tracker errors", _no_columns, robust=True),
-        Extension("drift", "the tracker's frame creeps between the unloaded and the loaded reading", _drift, physical=False),
+        Extension("drift", "the tracker's frame moves between the unloaded and the loaded reading, as repeated readings show", _drift, physical=False),
     )
 }
 """The physical extensions, named as the digital twin's effects."""

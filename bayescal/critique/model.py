@@ -6,7 +6,13 @@ base axis) and adds, greedily, the extension of
 :data:`~bayescal.critique.extensions.CATALOGUE` that best predicts held-out
 configurations, as long as its gain is clear of its uncertainty
 (:data:`DETECTION_Z` standard errors and :data:`DETECTION_FLOOR` nats, or
-:data:`DECISIVE_GAIN` nats whatever the standard error).
+:data:`DECISIVE_GAIN` nats and :data:`DECISIVE_Z` standard errors: no clause names a
+gain within its own standard error).
+Each named cause is measured by what it changes for the user (:meth:`Critique.run`'s
+``importance``: the held-out residual rms and the prediction at the test pose), and a
+cause that changes neither by more than the calibration's own uncertainty at the test
+pose is reported as detectable but too small to matter.  ``drift`` is tried only where
+the campaign's readings repeated in time can show it (:mod:`bayescal.critique.drift`).
 When no extension passes any more, the residual offsets of
 :data:`~bayescal.critique.extensions.PROBES` are tried by the same rule
 (without the decisive branch, since their many free offsets can fit a few odd
@@ -31,6 +37,7 @@ from bayescal.cell.config import Cell
 from bayescal.critique.checks import residual_summary
 from bayescal.critique.compare import Comparison, CrossValidation, compare, cross_validate, fit
 from bayescal.critique.covariates import COVARIATES, Rows, campaign_rows, pose_rows
+from bayescal.critique.drift import DriftEvidence, drift_deflection, drift_evidence
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
 from bayescal.errors import InputError
 from bayescal.inference.elastostatic import ElastostaticModel
@@ -40,7 +47,7 @@ from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit, least_s
 from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG, MM
 
-__all__ = ["Critique", "CritiqueResults", "Outcome", "fitted_variant", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "UNEXPLAINED", "passes", "strongest", "check_candidates"]
+__all__ = ["Critique", "CritiqueResults", "Outcome", "fitted_variant", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "DECISIVE_Z", "TIE_NOISE", "UNEXPLAINED", "passes", "strongest", "check_candidates"]
 
 DETECTION_Z = 2.0
 """A cause is named only when its held-out gain exceeds this many standard errors of the difference."""
@@ -51,6 +58,16 @@ DECISIVE_GAIN = 25.0
 """A held-out gain (nats) named whatever its standard error: the normal approximation of the
 SE fails when the gain sits in a few configurations (gross tracker errors hit a few
 readings; Sivula et al. 2020), and null campaigns never come near it (docs/critique.md)."""
+DECISIVE_Z = 1.0
+"""... but not within one standard error of it: a gain of 35.1 ± 42.5 nats named ``outliers`` on an
+independent-generator campaign with nothing planted.  One SE, not two, because the SE of a gain that
+sits in a few configurations is itself inflated by them (gross tracker errors: 52-384 nats against
+SEs of 47-253 on the twin), and the decisive branch exists for those."""
+TIE_NOISE = 1.0
+"""Two candidates tie only where their fitted predictions of the campaign's deflections differ nowhere by more
+than this many standard deviations of a reading's noise (the final noise level of the equation): beyond it some
+reading of this plan could tell them apart, and a candidate the named one does not beat held out is reported as
+contesting it (``contested_by``), not as tied."""
 UNEXPLAINED = "unexplained"
 MIN_CONFIGURATIONS = 4
 """Fewest configurations a held-out comparison can rest on (the SE of the difference needs several)."""
@@ -65,8 +82,13 @@ class _Model:
         return any(e.robust for e in self.extensions)
 
     def design(self, rows: Rows, cell: Cell) -> np.ndarray:
+        return self.blocks(rows, cell)[0]
+
+    def blocks(self, rows: Rows, cell: Cell) -> tuple[np.ndarray, np.ndarray]:
+        """(3N, p) the design, and (p,) which of its columns predict at other poses (the base's and the physical extensions')."""
         blocks = [base_columns(rows, cell)] + [e.regressors(rows, cell) for e in self.extensions]
-        return np.concatenate(blocks, axis=2).reshape(3 * len(rows), -1)
+        physical = np.concatenate([np.full(b.shape[2], e is None or e.physical) for b, e in zip(blocks, (None, *self.extensions))])
+        return np.concatenate(blocks, axis=2).reshape(3 * len(rows), -1), physical
 
     def plus(self, extension: Extension) -> _Model:
         return _Model(self.extensions + (extension,))
@@ -123,12 +145,19 @@ class Critique:
         def validate(model: _Model) -> CrossValidation:
             return cross_validate(y, model.design(rows, self.cell), scale, group, config, robust=model.robust)
 
+        def fitted(model: _Model, cv: CrossValidation) -> np.ndarray:
+            return cv.full.predict(model.design(rows, self.cell)[:, cv.columns])
+
         model = _Model(())
         base = current = validate(model)
+        drift = drift_evidence(rows, self.cell)
         causes: list[str] = []
         tied: dict[str, list[str]] = {}
+        contested: dict[str, list[str]] = {}
         steps: list[dict[str, Comparison]] = []
-        remaining = [CATALOGUE[name] for name in self.catalogue]
+        history = [(model, current)]
+        # without readings that can show a drift, a drift fitted to the deflections would be a catch-all
+        remaining = [CATALOGUE[name] for name in self.catalogue if name != "drift" or drift.testable]
         while remaining:
             trials = {e.name: _best_variant(e, model, validate) for e in remaining}
             evidence = {name: compare(current, cv) for name, (_, cv) in trials.items()}
@@ -136,10 +165,14 @@ class Critique:
             best = strongest(evidence)
             if best is None:
                 break
-            tied[best] = _tied(best, trials, evidence)
+            noise = current.full.level[group] * scale
+            tied[best], contested[best] = _rivals(
+                best, trials, evidence, lambda name: fitted(model.plus(trials[name][0]), trials[name][1]), noise
+            )
             extension, current = trials[best]
             model = model.plus(extension)
             causes.append(best)
+            history.append((model, current))
             remaining = [e for e in remaining if e.name != best]
         probes = {name: compare(current, validate(model.plus(PROBES[name]))) for name in self.probes}
         covariate = strongest(probes, decisive=False)
@@ -155,6 +188,8 @@ class Critique:
         unmatched = misfit is not None and misfit.significant() and not model.robust
         if covariate is not None or unmatched:
             causes.append(UNEXPLAINED)
+        equation_rows = np.repeat(np.arange(len(rows)), 3)
+        importance = self._importance(history, rows, y, scale, group, equation_rows)
         return CritiqueResults(
             causes=causes,
             unexplained_covariate=covariate,
@@ -163,8 +198,8 @@ class Critique:
             base=base,
             final=current,
             gain=compare(base, current),
-            before=residual_summary(y, base, np.repeat(np.arange(len(rows)), 3)),
-            after=residual_summary(y, current, np.repeat(np.arange(len(rows)), 3)),
+            before=residual_summary(y, base, equation_rows),
+            after=residual_summary(y, current, equation_rows),
             test_pose=self._test_pose(model, rows, y, scale, group),
             n_configs=n_configs,
             n_equations=y.size,
@@ -172,7 +207,10 @@ class Critique:
             source=campaign.source,
             lack_of_fit=misfit,
             tied_with={cause: others for cause, others in tied.items() if others},
+            contested_by={cause: others for cause, others in contested.items() if others},
             settings={e.name: e.reading(rows) for e in model.extensions if e.setting is not None},
+            importance=importance,
+            drift=_drift_report(drift, rows, "drift" in self.catalogue),
         )
 
     def discriminate(self, campaign: Campaign, a: str, b: str) -> Comparison:
@@ -215,27 +253,63 @@ class Critique:
         per_angle = rows.design[:, :, joint, np.newaxis] * (angles[:, np.newaxis] == np.arange(angles.max() + 1))[:, np.newaxis, :]
         return np.concatenate([design.reshape(len(rows), 3, -1), per_angle], axis=2).reshape(3 * len(rows), -1)
 
-    def _test_pose(self, model: _Model, rows: Rows, y, scale, group) -> dict:
-        """Deflection of the cell's test point predicted by the classical and by the extended model, mm."""
+    def _test_prediction(self, model: _Model, rows: Rows, y, scale, group) -> tuple[np.ndarray, np.ndarray]:
+        """Deflection (3,) of the cell's test point the model predicts, and its sd (3,), m.
+
+        Fitted with all its columns, predicted with the physical ones only: a drift or a probe is
+        removed from the campaign, not carried to the test pose.
+        """
         cell = self.cell
         test = pose_rows(cell, cell.test_q, cell.test_wrench, cell.test_point)
-        physical = _Model(tuple(e for e in model.extensions if e.physical))
+        X = model.design(rows, cell)
+        cv_columns = independent_columns(X)
+        fitted = fit(y, X[:, cv_columns], scale, group, robust=model.robust)
+        # with the campaign's rows, so that columns scaled by the campaign (backlash) scale alike
+        design, physical = model.blocks(rows.extend(test), cell)
+        X0 = design[-3:] * physical
+        mean = X0[:, cv_columns] @ fitted.beta
+        # Joints the campaign does not excite (k1 under vertical loads) keep the cell's compliance.
+        dropped = np.setdiff1d(np.arange(cell.robot.nq), cv_columns[cv_columns < cell.robot.nq])
+        mean = mean + X0[:, dropped] @ cell.compliances[dropped]
+        sd = np.sqrt(np.einsum("ij,jk,ik->i", X0[:, cv_columns], fitted.cov, X0[:, cv_columns]))
+        return mean, sd
+
+    def _test_pose(self, model: _Model, rows: Rows, y, scale, group) -> dict:
+        """Deflection of the cell's test point predicted by the classical and by the extended model, mm."""
         out = {}
-        for name, m in (("classical", _Model(())), ("extended", physical)):
-            X = m.design(rows, cell)
-            cv_columns = independent_columns(X)
-            fitted = fit(y, X[:, cv_columns], scale, group, robust=m.robust)
-            # with the campaign's rows, so that columns scaled by the campaign (backlash) scale alike
-            X0 = m.design(rows.extend(test), cell)[-3:]
-            mean = X0[:, cv_columns] @ fitted.beta
-            # Joints the campaign does not excite (k1 under vertical loads) keep the cell's compliance.
-            dropped = np.setdiff1d(np.arange(cell.robot.nq), cv_columns[cv_columns < cell.robot.nq])
-            mean = mean + X0[:, dropped] @ cell.compliances[dropped]
-            sd = np.sqrt(np.einsum("ij,jk,ik->i", X0[:, cv_columns], fitted.cov, X0[:, cv_columns]))
+        for name, m in (("classical", _Model(())), ("extended", model)):
+            mean, sd = self._test_prediction(m, rows, y, scale, group)
             out[name] = {"deflection_mm": (mean / MM).tolist(), "sd_mm": (sd / MM).tolist()}
         difference = np.array(out["extended"]["deflection_mm"]) - np.array(out["classical"]["deflection_mm"])
         out["classical_error_mm"] = float(np.linalg.norm(difference))
         out["note"] = "classical_error_mm: the error the classical model leaves at the test pose if the extended model is right"
+        return out
+
+    def _importance(self, history: list[tuple[_Model, CrossValidation]], rows: Rows, y, scale, group, equation_rows) -> dict:
+        """What each named cause changes for the user: the held-out residual rms, and the prediction at the test pose.
+
+        A cause *matters* when it moves the test pose's prediction, or explains a misfit across the
+        campaign's configurations (``sqrt(rms_before² - rms_after²)`` of the held-out residuals), by more
+        than the calibration's own uncertainty at the test pose (the norm of the prediction's sd with the
+        cause): below it, compensating for the cause moves the arm by less than the calibration already
+        leaves uncertain.
+        """
+        out = {}
+        predictions = [self._test_prediction(m, rows, y, scale, group) for m, _ in history]
+        for k in range(1, len(history)):
+            name = history[k][0].extensions[-1].name
+            before = residual_summary(y, history[k - 1][1], equation_rows)["residual_rms_mm"]
+            after = residual_summary(y, history[k][1], equation_rows)["residual_rms_mm"]
+            moved = float(np.linalg.norm(predictions[k][0] - predictions[k - 1][0]) / MM)
+            explained = float(np.sqrt(max(before**2 - after**2, 0.0)))
+            uncertainty = float(np.linalg.norm(predictions[k][1]) / MM)
+            out[name] = {
+                "residual_rms_mm": [round(before, 5), round(after, 5)],
+                "explained_misfit_rms_mm": round(explained, 5),
+                "test_pose_change_mm": round(moved, 5),
+                "test_pose_sd_mm": round(uncertainty, 5),
+                "matters": bool(moved > uncertainty or explained > uncertainty),
+            }
         return out
 
 
@@ -258,19 +332,36 @@ def fitted_variant(cell: Cell, rows: Rows, extension: Extension) -> tuple[Extens
     return _best_variant(extension, _Model(()), validate)
 
 
-def _tied(best: str, trials: dict, evidence: dict[str, Comparison]) -> list[str]:
-    """Candidates that also pass and that ``best`` does not beat by :data:`DETECTION_Z` SE on held-out configurations.
+def _rivals(best: str, trials: dict, evidence: dict[str, Comparison], fitted: Callable[[str], np.ndarray], noise: np.ndarray) -> tuple[list[str], list[str]]:
+    """Candidates that also pass and that ``best`` does not beat by :data:`DETECTION_Z` SE on held-out configurations:
+    those tied with it, and those that contest it.
 
-    Such candidates explain this campaign about as well: it cannot tell them apart.
+    Tied: their fitted deflections (``fitted(name)``, (3N,) m) differ from ``best``'s by less than
+    :data:`TIE_NOISE` times ``noise`` (3N,) m at every equation; they explain this campaign alike, and
+    it cannot tell them apart.  Contested: their predictions differ by more somewhere, so that this plan
+    could separate them, but the held-out scores did not (some configurations favour each, as a misfit
+    that neither candidate explains makes them do).
     """
-    tied = []
+    tied, contested = [], []
     for name in trials:
         if name == best or not passes(evidence[name]):
             continue
         lead = compare(trials[name][1], trials[best][1])
-        if lead.delta_elpd <= DETECTION_Z * lead.se:
-            tied.append(name)
-    return tied
+        if lead.delta_elpd > DETECTION_Z * lead.se:
+            continue
+        alike = np.max(np.abs(fitted(name) - fitted(best)) / noise) < TIE_NOISE
+        (tied if alike else contested).append(name)
+    return tied, contested
+
+
+def _drift_report(drift: DriftEvidence, rows: Rows, tried: bool) -> dict:
+    """Whether the campaign can show a drift, the rates its repeated readings give, and the drift that puts into the deflections."""
+    payload = drift.to_json() | {"candidate": tried and drift.testable}
+    if drift.testable:
+        mean, sd = drift_deflection(drift, rows)
+        payload["deflection_rms_mm"] = round(float(np.sqrt(np.mean(mean**2)) / MM), 5)
+        payload["deflection_sd_rms_mm"] = round(float(np.sqrt(np.mean(sd**2)) / MM), 5)
+    return payload
 
 
 def _residual_table(rows: Rows, y: np.ndarray, base: CrossValidation, final: CrossValidation) -> pd.DataFrame:
@@ -330,7 +421,7 @@ def strongest(evidence: dict[str, Comparison], decisive: bool = True) -> str | N
 def passes(comparison: Comparison, decisive: bool = True) -> bool:
     """The naming rule; ``decisive=False`` for the probes, whose many free offsets can fit a few odd configurations."""
     clear = comparison.delta_elpd > max(DETECTION_Z * comparison.se, DETECTION_FLOOR)
-    return clear or (decisive and comparison.delta_elpd > DECISIVE_GAIN)
+    return clear or (decisive and comparison.delta_elpd > max(DECISIVE_GAIN, DECISIVE_Z * comparison.se))
 
 
 @dataclass
@@ -380,6 +471,15 @@ class CritiqueResults(Outcome):
         The cell's test pose predicted by both models.
     residuals : pandas.DataFrame
         One row per equation: covariates, held-out standardised residuals and LOO-PIT of both models.
+    tied_with, contested_by : dict
+        Per named cause, the candidates it does not beat on held-out configurations by :data:`DETECTION_Z` SE
+        whose fitted deflections differ from its own nowhere by :data:`TIE_NOISE` noise sd (tied), or somewhere
+        by more (contested).
+    importance : dict
+        Per named extension, what it changes (:meth:`Critique._importance`): residual rms before and after (mm),
+        the misfit it explains (mm), the test pose's prediction moved (mm) beside its sd (mm), and whether it matters.
+    drift : dict
+        Whether the campaign's readings can show a drift, and the rates they give (:mod:`bayescal.critique.drift`).
     """
 
     base: CrossValidation
@@ -394,8 +494,16 @@ class CritiqueResults(Outcome):
     source: str = ""
     lack_of_fit: LackOfFit | None = None
     tied_with: dict = field(default_factory=dict)
+    contested_by: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
-    rule: dict = field(default_factory=lambda: {"z": DETECTION_Z, "floor_nats": DETECTION_FLOOR, "decisive_nats": DECISIVE_GAIN})
+    importance: dict = field(default_factory=dict)
+    drift: dict = field(default_factory=dict)
+    rule: dict = field(default_factory=lambda: {"z": DETECTION_Z, "floor_nats": DETECTION_FLOOR, "decisive_nats": DECISIVE_GAIN, "decisive_z": DECISIVE_Z})
+
+    @property
+    def negligible(self) -> list[str]:
+        """Named causes detectable on held-out configurations but too small to matter (:meth:`Critique._importance`)."""
+        return [name for name, entry in self.importance.items() if not entry["matters"]]
 
     @property
     def evidence(self) -> dict[str, Comparison]:
@@ -423,7 +531,8 @@ class CritiqueResults(Outcome):
                 "test_pose": self.test_pose,
             },
             "covariates": {name: c.to_json() | {"meaning": COVARIATES[name]} for name, c in self.probes.items()},
-            "rule": {"delta_elpd_over_se": DETECTION_Z, "floor_nats": DETECTION_FLOOR, "decisive_nats": DECISIVE_GAIN},
+            "rule": {"delta_elpd_over_se": DETECTION_Z, "floor_nats": DETECTION_FLOOR, "decisive_nats": DECISIVE_GAIN,
+                     "decisive_over_se": DECISIVE_Z, "tie_noise_sd": TIE_NOISE},
             "n_configurations": self.n_configs,
             "n_equations": self.n_equations,
             "campaign": self.source,
@@ -431,7 +540,11 @@ class CritiqueResults(Outcome):
         if self.unexplained_covariate is not None:
             payload["unexplained_covariate"] = self.unexplained_covariate
         payload["tied_with"] = {cause: list(others) for cause, others in self.tied_with.items()}
+        payload["contested_by"] = {cause: list(others) for cause, others in self.contested_by.items()}
         payload["settings"] = dict(self.settings)
+        payload["importance"] = {name: dict(entry) for name, entry in self.importance.items()}
+        payload["negligible"] = self.negligible
+        payload["drift"] = dict(self.drift)
         payload["lack_of_fit"] = None if self.lack_of_fit is None else self.lack_of_fit.to_json() | {
             "model": "final",
             "level": LACK_OF_FIT_LEVEL,

@@ -96,14 +96,15 @@ def _side_by_side(findings: DetectionFindings) -> list[str]:
         "unlike the cell file and measures random plans of 6 q2 angles × 5 configurations × 3 repeats, 200-300 kg; "
         f"campaign k of each case is seeded {INDEPENDENT_FIRST_SEED} + k; {findings.seconds.get('independent', 0.0):.0f} s. "
         "\"right\": the planted family named first, or in a tie with the first, or `unexplained` for an effect outside the "
-        "catalogue, or `adequate` without an effect; \"wrong alone\": a wrong first cause tied with nothing; \"lack of fit\": "
+        "catalogue, or `adequate` without an effect; \"alone\": the planted family first, tied with nothing and contested by nothing; "
+        "\"wrong alone\": a wrong first cause tied with nothing and contested by nothing; \"lack of fit\": "
         f"the repeats' F test rejecting the calibration's model at {LACK_OF_FIT_SIZE_LEVEL:g} (its size on the `none` row, its power on the others). "
         "An effect is planted at its default, or at the multiple of it (× m) that `INDEPENDENT_EFFECTS` sets so that its lack of fit "
         "is significant (next section), and then also at its default. The targets are "
         "misfit ≥ 95 %, right ≥ 90 %, wrong alone ≤ 5 % and, without an effect, adequate ≥ 95 %.",
         "",
-        "| family | twin: named first at its default | twin: misfit | independent effect | campaigns | misfit | right | wrong alone | lack of fit |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| family | twin: named first at its default | twin: misfit | independent effect | campaigns | misfit | right | alone | wrong alone | lack of fit |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row in rates.itertuples():
         family = "none" if row.effect == "none" else INDEPENDENT_EFFECT_NAMES[row.effect].cause or "unexplained"
@@ -115,7 +116,7 @@ def _side_by_side(findings: DetectionFindings) -> list[str]:
         multiple = "" if row.effect == "none" or row.magnitude == 1.0 else f" × {row.magnitude:g}"
         lines.append(
             f"| {family} | {first} | {misfit} | `{row.effect}`{multiple} | {row.n} | {100 * row.misfit:.0f} % | {100 * row.right:.0f} % "
-            f"| {100 * row.wrong_single:.0f} % | {100 * row.lack_of_fit:.0f} % |"
+            f"| {100 * row.alone:.0f} % | {100 * row.wrong_single:.0f} % | {100 * row.lack_of_fit:.0f} % |"
         )
     return lines + [""]
 

@@ -8,6 +8,8 @@ cannot tell), then whether the test pose's error left is small enough to use.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from bayescal.reports.numbers import error_length
 
 from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL
@@ -64,7 +66,7 @@ def calibration_next_steps(
     return "Next: " + " ".join(steps) if steps else "Next: the fit is consistent with the repeats; the result can be used."
 
 
-def critique_next_steps(causes: list[str], lack_of_fit: bool, classical_error_mm: float) -> str:
+def critique_next_steps(causes: list[str], lack_of_fit: bool, classical_error_mm: float, negligible: Sequence[str] = ()) -> str:
     """One or two sentences on what to do after a critique of the elastostatic model.
 
     Parameters
@@ -75,6 +77,9 @@ def critique_next_steps(causes: list[str], lack_of_fit: bool, classical_error_mm
         Whether the final model misses the configuration means by more than the repeats allow.
     classical_error_mm : float
         How far the classical model's test-pose prediction lies from the extended one's (mm).
+    negligible : sequence of str
+        The named causes detectable but too small to matter: each moves the test pose's prediction, and
+        explains a misfit across the campaign, by less than the calibration's own uncertainty at the test pose.
     """
     gap = f"{classical_error_mm * 1000:.0f} μm"
     if not causes and not lack_of_fit:
@@ -84,6 +89,12 @@ def critique_next_steps(causes: list[str], lack_of_fit: bool, classical_error_mm
         return (
             "Next: the repeats show a misfit that no cause of the catalogue matches; re-measure a few configurations, "
             "check the markers and the tracker's registration, and do not compensate with this campaign until the misfit is gone."
+        )
+    if all(cause in negligible for cause in named) and not lack_of_fit:
+        return (
+            f"Next: {', '.join(named)} {'is' if len(named) == 1 else 'are'} detectable on held-out configurations but too small to matter: "
+            f"the test pose's prediction moves by {gap}, within the calibration's own uncertainty there; calibrate with the "
+            "classical model (`bayescal calibrate`) and do not re-measure the cell for it."
         )
     return (
         f"Next: the classical model misses {', '.join(named)} (largest gain first; `docs/critique.md` says what each means and how to "

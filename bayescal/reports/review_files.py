@@ -148,7 +148,8 @@ def critique_section(page: Page, critique: Mapping, source: str) -> None:
     if isinstance(rule, Mapping) and {"delta_elpd_over_se", "floor_nats"} <= set(rule):
         page.paragraph(
             f"Rule: a cause is named when ΔELPD > {rule['delta_elpd_over_se']:g} SE and > {rule['floor_nats']:g} nats"
-            + (f", or > {rule['decisive_nats']:g} nats" if "decisive_nats" in rule else "") + "."
+            + (f", or > {rule['decisive_nats']:g} nats" if "decisive_nats" in rule else "")
+            + (f" and > {rule['decisive_over_se']:g} SE" if "decisive_over_se" in rule else "") + "."
         )
     rest = {key: value for key, value in critique.items() if key not in CRITIQUE_SHOWN}
     if rest:
@@ -167,7 +168,8 @@ def _next_step(critique: Mapping, named: list[str] | None) -> str:
     if named is None or not finite_number(error):
         return ""
     misfit = isinstance(lack, Mapping) and finite_number(lack.get("p_value")) and lack["p_value"] < lack.get("level", 0.01)
-    return critique_next_steps(named, bool(misfit), float(error))
+    negligible = critique.get("negligible")
+    return critique_next_steps(named, bool(misfit), float(error), [n for n in negligible if isinstance(n, str)] if isinstance(negligible, list) else ())
 
 
 def _elpd_frame(rows: Mapping, extra: tuple[str, ...]) -> pd.DataFrame:

@@ -41,6 +41,7 @@ __all__ = [
     "INDEPENDENT_FIRST_SEED",
     "independent_detection",
     "independent_rates",
+    "drift_coverage",
     "POWER_MULTIPLES",
     "independent_lack_of_fit",
     "lack_of_fit_power",
@@ -210,12 +211,13 @@ def _independent_one(case: tuple, rng: np.random.Generator, cell) -> dict:
     first = causes[0] if causes else None
     expected = truth.expected
     tie = result.tied_with.get(first, []) if first else []
+    contest = result.contested_by.get(first, []) if first else []
     if expected == "adequate":
-        right = not causes
+        right = alone = not causes
     elif expected == "unexplained":
-        right = "unexplained" in causes
+        right, alone = "unexplained" in causes, causes == ["unexplained"]
     else:
-        right = first == expected or expected in tie
+        right, alone = first == expected or expected in tie + contest, first == expected and not tie and not contest
     lof = result.lack_of_fit
     return {
         "effect": effect or "none",
@@ -226,7 +228,11 @@ def _independent_one(case: tuple, rng: np.random.Generator, cell) -> dict:
         "causes": ",".join(causes),
         "tied_with": ";".join(f"{k}:{'+'.join(v)}" for k, v in result.tied_with.items()),
         "right": right,
-        "wrong_single": bool(causes) and not right and not tie,
+        "alone": alone,
+        "wrong_single": bool(causes) and not right and not tie and not contest,
+        "contested_by": ";".join(f"{k}:{'+'.join(v)}" for k, v in result.contested_by.items()),
+        "negligible": ",".join(result.negligible),
+        "drift_testable": bool(result.drift.get("testable")),
         "lof_p": np.nan if lof is None else float(lof.p_value),
         "classical_lof_p": np.nan if classical is None else float(classical.p_value),
     }
@@ -259,10 +265,14 @@ def independent_detection(
     Returns
     -------
     pandas.DataFrame
-        ``effect, magnitude, seed, expected, verdict, causes, tied_with, right, wrong_single, lof_p``:
+        ``effect, magnitude, seed, expected, verdict, causes, tied_with, right, alone, wrong_single, contested_by, negligible,
+        drift_testable, lof_p``:
         ``right`` when the first cause is the planted family or ties with it, when an effect
         outside the catalogue is called ``unexplained``, or when a campaign without an effect is
-        adequate; ``wrong_single`` a misfit whose first cause is wrong and tied with nothing;
+        adequate, or contested by the planted family; ``alone`` when right without a tie or a contest (and
+        ``unexplained`` the only cause); ``wrong_single`` a misfit whose first cause is wrong, tied with nothing
+        and contested by nothing; ``contested_by`` the candidates contesting each named cause; ``negligible`` the
+        named causes too small to matter; ``drift_testable`` whether the campaign's repeated readings can show a drift;
         ``lof_p`` the lack-of-fit test's p-value against the repeats for the final model,
         ``classical_lof_p`` for the calibration's model alone (no extension).
     """
@@ -277,7 +287,7 @@ def independent_detection(
 
 
 def independent_rates(table: pd.DataFrame) -> pd.DataFrame:
-    """Per effect and magnitude (``none`` first): campaigns, and the fractions misfit, right, wrong single cause, and the
+    """Per effect and magnitude (``none`` first): campaigns, and the fractions misfit, right, right alone, wrong single cause, and the
     calibration model's lack of fit at :data:`LACK_OF_FIT_SIZE_LEVEL` (its size on ``none``, its power on the effects)."""
     rows = []
     for (effect, magnitude), group in table.groupby(["effect", "magnitude"], sort=False):
@@ -289,11 +299,65 @@ def independent_rates(table: pd.DataFrame) -> pd.DataFrame:
                 "n": len(group),
                 "misfit": float(np.mean(group["verdict"] == "misfit")),
                 "right": float(np.mean(group["right"])),
+                "alone": float(np.mean(group["alone"])),
                 "wrong_single": float(np.mean(group["wrong_single"])),
                 "lack_of_fit": float(np.mean(group["classical_lof_p"] < LACK_OF_FIT_SIZE_LEVEL)),
             }
         )
     return pd.DataFrame.from_records(rows)
+
+
+def _drift_one(case: tuple, rng: np.random.Generator, cell) -> dict:
+    """The drift one campaign of the independent generator's ``thermal_drift`` shows in its repeated readings, against
+    the planted steady drift (a task of :func:`~bayescal.studies.parallel.seeded_map`)."""
+    from bayescal.critique.covariates import campaign_rows
+    from bayescal.critique.drift import drift_evidence
+
+    multiple, seed = case
+    campaign, truth = _independent_campaign("thermal_drift", multiple, rng, cell)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        evidence = drift_evidence(campaign_rows(cell, campaign), cell)
+    planted = np.concatenate([truth.world.drift.velocity, truth.world.drift.spin])
+    z = (evidence.rate - planted) / np.sqrt(np.diag(evidence.cov))
+    return {"multiple": multiple, "seed": seed, "testable": evidence.testable, "p_value": evidence.p_value,
+            "translation_z": float(np.abs(z[:3]).max()), "rotation_z": float(np.abs(z[3:]).max())}
+
+
+def drift_coverage(
+    config: str | PathLike[str],
+    multiples: Sequence[float] = (1.0,),
+    *,
+    n_seeds: int = 40,
+    first_seed: int = INDEPENDENT_FIRST_SEED,
+    executor: Executor | None = None,
+) -> pd.DataFrame:
+    """The tracker's drift measured from the repeated readings of the independent generator's ``thermal_drift`` campaigns.
+
+    Parameters
+    ----------
+    config
+        The cell TOML around which the generator draws its truths.
+    multiples
+        Magnitudes of the drift, as multiples of its default.
+    n_seeds
+        Campaigns per multiple (campaign ``k`` seeded ``first_seed + k``, the campaigns of :func:`independent_detection`).
+    executor
+        Runs the campaigns; default a :class:`concurrent.futures.ProcessPoolExecutor`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``multiple, seed, testable, p_value, translation_z, rotation_z``: the largest error of the three translation
+        and of the three rotation rates against the planted steady drift, in the estimates' sd, and the F test's
+        p-value of all six rates zero.
+    """
+    from bayescal.cell.config import load_cell
+    from bayescal.studies.parallel import seeded_map
+
+    tasks = [(float(m), first_seed + k) for m in multiples for k in range(n_seeds)]
+    streams = [np.random.SeedSequence(seed) for _, seed in tasks]
+    return pd.DataFrame.from_records(seeded_map(_drift_one, tasks, streams, executor=executor, cell=load_cell(config)))
 
 
 POWER_MULTIPLES: tuple[float, ...] = (0.5, 1.0, 1.5, 2.0, 3.0)

@@ -104,3 +104,38 @@ def test_geometry_bad_input_is_one_line_and_exit_2(capsys, tmp_path, argv, expec
     status, out, err = run(capsys, [arg.replace("{tmp}", str(tmp_path)) for arg in argv])
     assert status == 2 and out == "" and len(err.strip().splitlines()) == 1 and expected in err, err
     assert Path(TABLE_I).read_text() == before
+
+
+def test_a_tie_offers_the_plan_that_separates_that_pair_and_drift_says_how_to_become_testable(capsys, cell, plan, tmp_path):
+    # the twin's Table III campaign whose nonlinear stiffness ties with backlash (their fitted deflections within the noise)
+    import numpy as np
+
+    from bayescal.twin.effects import parse_effect
+    from bayescal.twin.simulator import DigitalTwin
+
+    campaign = DigitalTwin(cell, [parse_effect("nonlinear_stiffness=0.3")]).simulate(plan, 3, np.random.default_rng(np.random.SeedSequence([3, 39])))
+    path = tmp_path / "tied.csv"
+    write_campaign(campaign, path)
+    status, out, _ = run(capsys, [str(path), "--config", CONFIG])
+    assert status == 0
+    assert "nonlinear_stiffness tied with backlash" in out
+    assert f"--criterion discriminate --between nonlinear_stiffness,backlash --campaign {path}" in out
+    assert "drift: not testable on this campaign" in out and "t0_s, t1_s" in out
+    assert "test pose moved" in out and "> 25 nats and > 1 SE" in out
+
+
+def test_a_detectable_cause_too_small_to_matter_is_said_so_in_the_verdict(capsys, cell, plan, tmp_path):
+    # the twin's Table III campaign with 1 % gross readings (seed [3, 39]): the robust fit moves the test pose
+    # by 3.0 μm against its sd of 5.4 μm
+    import numpy as np
+
+    from bayescal.twin.effects import parse_effect
+    from bayescal.twin.simulator import DigitalTwin
+
+    campaign = DigitalTwin(cell, [parse_effect("outliers=0.01")]).simulate(plan, 3, np.random.default_rng(np.random.SeedSequence([3, 39])))
+    path = tmp_path / "outliers.csv"
+    write_campaign(campaign, path)
+    status, out, _ = run(capsys, [str(path), "--config", CONFIG])
+    assert status == 0
+    assert "verdict: misfit - causes in order of gain: outliers (outliers detectable but too small to matter at the test pose)" in out
+    assert "outliers is detectable on held-out configurations but too small to matter" in out.replace("\n", " ")

@@ -216,8 +216,8 @@ def test_the_lever_probe_is_each_markers_place_not_its_reading(cell, twin_campai
 
 
 def _stamped_with_drift(campaign, rate_mm_per_h: float, rng):
-    """The campaign with irregular reading times (2-25 min between the unloaded and the loaded reading) and the
-    tracker's frame drifting at ``rate_mm_per_h`` along a random direction in between."""
+    """The campaign with irregular reading times (2-25 min between the unloaded and the loaded reading, 2-10 min to
+    the next repeat) and the tracker's frame drifting at ``rate_mm_per_h`` along a random direction all the while."""
     import dataclasses
 
     keys = list(dict.fromkeys(zip(campaign.config.tolist(), campaign.repeat.tolist())))
@@ -229,7 +229,9 @@ def _stamped_with_drift(campaign, rate_mm_per_h: float, rng):
     times = np.array([stamps[key] for key in zip(campaign.config.tolist(), campaign.repeat.tolist())])
     direction = rng.normal(size=3)
     velocity = rate_mm_per_h * 1e-3 / 3600.0 * direction / np.linalg.norm(direction)
-    return dataclasses.replace(campaign, p1=campaign.p1 + (times[:, 1] - times[:, 0])[:, None] * velocity, times=times)
+    return dataclasses.replace(
+        campaign, p0=campaign.p0 + times[:, :1] * velocity, p1=campaign.p1 + times[:, 1:] * velocity, times=times
+    ), velocity
 
 
 @pytest.mark.parametrize("seed", [100, 101])
@@ -238,6 +240,41 @@ def test_a_tracker_drifting_in_time_is_named_drift_from_the_reading_times(cell, 
 
     rng = np.random.default_rng(seed)
     campaign = twin_campaign(seed=seed)
-    assert Critique(cell).run(_stamped_with_drift(campaign, 0.4, rng)).causes == ["drift"]
+    drifting, velocity = _stamped_with_drift(campaign, 0.4, rng)
+    results = Critique(cell).run(drifting)
+    assert results.causes == ["drift"]
+    # measured from the repeated readings, within 3 sd of the planted rate
+    drift = results.drift
+    estimate, sd = np.array(drift["translation_mm_per_h"]), np.array(drift["translation_sd_mm_per_h"])
+    assert np.all(np.abs(estimate - velocity * 3600.0 / 1e-3) < 3 * sd + 1e-3), (estimate, sd, velocity)
     # the same stamps without a drift: nothing to name
-    assert Critique(cell).run(_stamped_with_drift(campaign, 0.0, np.random.default_rng(seed))).causes == []
+    assert Critique(cell).run(_stamped_with_drift(campaign, 0.0, np.random.default_rng(seed))[0]).causes == []
+
+
+def test_without_reading_times_drift_is_not_tried_and_the_critique_says_how_to_make_it_testable(cell, twin_campaign):
+    from bayescal.critique import Critique
+
+    results = Critique(cell).run(twin_campaign(seed=4))
+    assert "drift" not in results.evidence
+    assert results.drift["testable"] is False and results.drift["candidate"] is False
+    assert "t0_s, t1_s" in results.drift["evidence"] and "repeat" in results.drift["evidence"]
+
+
+def test_drift_evidence_ignores_a_configurations_first_unloaded_reading_and_needs_repeats_apart_in_time(cell, twin_campaign):
+    # a joint arriving at a configuration keeps its play where the move left it: a first unloaded reading moved
+    # by a millimetre must not pass for a drift; with one repeat per configuration nothing is read twice
+    import dataclasses
+
+    from bayescal.critique.covariates import campaign_rows
+    from bayescal.critique.drift import drift_evidence
+
+    campaign, _ = _stamped_with_drift(twin_campaign(seed=5), 0.0, np.random.default_rng(5))
+    evidence = drift_evidence(campaign_rows(cell, campaign), cell)
+    first = campaign.repeat == 1
+    arrived = dataclasses.replace(campaign, p0=campaign.p0 + first[:, np.newaxis] * np.array([0.0, 0.0, -1e-3]))
+    moved = drift_evidence(campaign_rows(cell, arrived), cell)
+    assert evidence.testable and moved.testable
+    assert np.allclose(moved.rate, evidence.rate, atol=1e-3 * np.sqrt(np.diag(evidence.cov)).max())
+    single = twin_campaign(seed=5, repeats=1)
+    once, _ = _stamped_with_drift(single, 0.4, np.random.default_rng(5))
+    assert not drift_evidence(campaign_rows(cell, once), cell).testable

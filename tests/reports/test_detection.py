@@ -17,7 +17,7 @@ def _findings(**changes):
         {"effect": ["none", "none", "gear_play", "gear_play"], "magnitude": [0.0, 0.0, 1.0, 1.0], "seed": [9000, 9001, 9000, 9001],
          "expected": ["adequate", "adequate", "backlash", "backlash"], "verdict": ["adequate", "misfit", "misfit", "misfit"],
          "causes": ["", "unexplained", "backlash", "outliers"], "tied_with": ["", "", "", ""], "right": [True, False, True, False],
-         "wrong_single": [False, True, False, True], "lof_p": [0.5, 0.001, 0.2, 0.01],
+         "alone": [True, False, True, False], "wrong_single": [False, True, False, True], "lof_p": [0.5, 0.001, 0.2, 0.01],
          "classical_lof_p": [0.5, 0.001, 0.01, 0.01]}
     )
     values = dict(config="data/kr270.toml", plan="data/table3_plan.csv", twin=twin, other_plans={}, independent=independent,
@@ -30,8 +30,8 @@ def test_the_report_renders_power_thresholds_false_alarms_and_both_generators_si
     assert "| backlash | 0.015 | deg | 1 | 100 % | 100 % | 100 % |" in text
     assert "- `backlash`: 0.015 deg (the twin's default: 0.015)" in text
     assert "False alarms: 0 % of 1 campaigns without any effect were called a misfit." in text
-    assert "| none | — | 0 % | `none` | 2 | 50 % | 50 % | 50 % | 50 % |" in text
-    assert "| backlash | 100 % | 100 % | `gear_play` | 2 | 100 % | 50 % | 50 % | 100 % |" in text
+    assert "| none | — | 0 % | `none` | 2 | 50 % | 50 % | 50 % | 50 % | 50 % |" in text
+    assert "| backlash | 100 % | 100 % | `gear_play` | 2 | 100 % | 50 % | 50 % | 50 % | 100 % |" in text
 
 
 def test_the_lack_of_fit_section_renders_size_and_power_by_multiple():
@@ -43,14 +43,14 @@ def test_the_lack_of_fit_section_renders_size_and_power_by_multiple():
     raised = pd.DataFrame(
         {"effect": ["thermal_drift", "thermal_drift"], "magnitude": [3.0, 1.0], "seed": [9000, 9000], "expected": ["drift", "drift"],
          "verdict": ["misfit", "adequate"], "causes": ["drift", ""], "tied_with": ["", ""], "right": [True, False],
-         "wrong_single": [False, False], "lof_p": [0.001, 0.3], "classical_lof_p": [0.001, 0.3]}
+         "alone": [True, False], "wrong_single": [False, False], "lof_p": [0.001, 0.3], "classical_lof_p": [0.001, 0.3]}
     )
     independent = pd.concat([_findings().independent, raised], ignore_index=True)
     text = render_report(
         _findings(lack_of_fit=power, independent=independent, seconds={"twin": 1.0, "independent": 2.0, "lack_of_fit": 3.0})
     )
-    assert "| drift | — | — | `thermal_drift` × 3 | 1 | 100 % | 100 % | 0 % | 100 % |" in text
-    assert "| drift | — | — | `thermal_drift` | 1 | 0 % | 0 % | 0 % | 0 % |" in text
+    assert "| drift | — | — | `thermal_drift` × 3 | 1 | 100 % | 100 % | 100 % | 0 % | 100 % |" in text
+    assert "| drift | — | — | `thermal_drift` | 1 | 0 % | 0 % | 0 % | 0 % | 0 % |" in text
     assert "| none | — | 2 | 50.0 % | 0.0 % | 1.100 (1.010) |" in text
     assert "| thermal_drift | 1 | 2 | 50.0 % | 50.0 % | 1.300 (1.010) |" in text
     assert "Size: 1 of 2 campaigns without an effect rejected at 5 % (a true 5 % gives 0.1 ± 0.3)." in text

@@ -30,3 +30,10 @@ def test_the_critique_s_next_step_follows_its_verdict_causes_and_repeats():
     assert "no cause of the catalogue" in critique_next_steps(["unexplained"], True, 0.002)
     text = critique_next_steps(["outliers", "unexplained"], True, 0.0123)
     assert "misses outliers (" in text and "12 μm" in text and "tolerance" in text
+
+
+def test_a_cause_too_small_to_matter_is_said_so_and_sends_no_one_to_re_measure():
+    text = critique_next_steps(["compensator"], False, 0.0022, negligible=["compensator"])
+    assert "too small to matter" in text and "2 μm" in text and "do not re-measure" in text
+    # one cause that matters beside it: the usual advice
+    assert "misses compensator, backlash" in critique_next_steps(["compensator", "backlash"], False, 0.05, negligible=["compensator"])
