@@ -57,7 +57,7 @@ LABEL_GAIN = 25.0
 """Nats by which relabelling some readings must explain a sweep better before a reflector is called mislabelled:
 the critique's decisive gain (:data:`bayescal.critique.model.DECISIVE_GAIN`).  On the independent cell generator
 (noise 3-10 times the tracker's law, one reflector 5 times noisier or not; docs/registration.md) no relabelling of an
-honest sweep gains anything, while two reflectors swapped at one angle gain 33 nats at the least."""
+honest sweep gains anything (200 files), while two reflectors swapped at one angle gain 30 nats at the least."""
 
 MIN_BENDING = 8.0
 """Fewest noise sds by which the farthest reflector's arc must bend away from its chord (its sagitta) for the
@@ -73,15 +73,6 @@ _REFITTED = 3
 """Relabellings refitted at each step of the search, those that fit best at the current parameters.  Measured on 80
 files of the independent cell generator: the same gains as refitting every permutation of every angle, at 0.26
 instead of 3.2 s per file."""
-_NOISE_ITERATIONS = 20
-"""Most rounds of learning the noise and refitting the axis with it."""
-_NOISE_TOLERANCE = 1e-3
-"""Change of the learned sds, relative to each, that ends the rounds."""
-_SHARED_FLOOR = -30.0
-"""Log of the smallest shared turn's variance tried, in units of the tracker's noise over the readings' lever
-(e⁻³⁰: nothing shared)."""
-_LOG_CEILING = 30.0
-"""Log of the largest variance tried, in the units of :func:`_learn_noise` (e³⁰: noise a million times the law's sd)."""
 _SAME_ANGLE = 1e-6 * DEG
 """Angles closer than this (rad) are one angle of the sweep: below any controller's resolution."""
 
@@ -109,11 +100,6 @@ class AxisFit:
         Sum of squared residuals over the tracker's law (not the learned noise).
     dof
         Degrees of freedom: ``3n`` minus the parameters.
-    excess
-        The readings' own noise learned from the arcs over the tracker's law, ``s ≥ 1``.
-    turn_along, turn_across
-        The sd (rad) learned for the turn shared by the readings of one angle, about the axis (the joint's
-        transmission error and repeatability) and across it (its wobble), each component.
     """
 
     joint: int
@@ -124,9 +110,6 @@ class AxisFit:
     residual_rms: float
     chi2: float
     dof: int
-    excess: float = 1.0
-    turn_along: float = 0.0
-    turn_across: float = 0.0
 
     @property
     def direction_sd(self) -> float:
@@ -149,6 +132,11 @@ class AxisFit:
         return float(np.sqrt(self.chi2_per_dof))
 
     @property
+    def excess(self) -> float:
+        """The noise learned from the arcs over the tracker's law, ``max(1, χ²/dof)^½``: the factor in the axis's sd."""
+        return max(1.0, self.scatter)
+
+    @property
     def beyond_tracker(self) -> bool:
         """Whether χ² exceeds its upper :data:`SCATTER_LEVEL` quantile under the tracker's law."""
         from scipy.stats import chi2
@@ -167,8 +155,7 @@ class AxisFit:
             "chi2_per_dof": self.chi2_per_dof,
             "scatter_over_tracker": self.scatter,
             "excess_over_tracker": self.excess,
-            "turn_along_sd_mrad": self.turn_along * 1e3,
-            "turn_across_sd_mrad": self.turn_across * 1e3,
+
         }])
 
     def diagnostics(self) -> pd.DataFrame:
@@ -190,8 +177,7 @@ class AxisFit:
             "dof": self.dof,
             "scatter_over_tracker": self.scatter,
             "excess_over_tracker": self.excess,
-            "turn_along_sd_mrad": self.turn_along * 1e3,
-            "turn_across_sd_mrad": self.turn_across * 1e3,
+
             "reflectors": self.reflectors.to_dict(orient="records"),
         }
 
@@ -278,13 +264,10 @@ def _model(x: np.ndarray, start: AxisStart, index: np.ndarray) -> np.ndarray:
     return c + h[:, None] * a + r[:, None] * (np.cos(q + phi)[:, None] * e1 + np.sin(q + phi)[:, None] * e2)
 
 
-def _solve(start: AxisStart, index: np.ndarray, sigma: np.ndarray, x0: np.ndarray, whitener: np.ndarray | None = None):
-    """Weighted least squares of the circle model: each reading's noise sd ``sigma`` (n,) m, or the (n, n)
-    ``whitener`` of :func:`_whitener` when readings of one angle share an error."""
-    if whitener is None:
-        return least_squares(lambda x: ((_model(x, start, index) - start.xyz) / sigma[:, None]).ravel(), x0,
-                             method="lm", x_scale="jac")
-    return least_squares(lambda x: whitener @ (_model(x, start, index) - start.xyz).ravel(), x0, method="lm", x_scale="jac")
+def _solve(start: AxisStart, index: np.ndarray, sigma: np.ndarray, x0: np.ndarray):
+    """Weighted least squares of the circle model, each reading's noise sd ``sigma`` (n,) m."""
+    return least_squares(lambda x: ((_model(x, start, index) - start.xyz) / sigma[:, None]).ravel(), x0,
+                         method="lm", x_scale="jac")
 
 
 def _profile(chi2: float, n: int) -> float:
@@ -384,64 +367,8 @@ def span_needed(sweep: Sweeps, joint: int, noise: TrackerNoise, excess: float = 
     return None if best >= MIN_BENDING else float(min(needed, 2 * np.pi))
 
 
-def _turns(start: AxisStart, x: np.ndarray) -> np.ndarray:
-    """(n, 3, 3) how each reading moves (m per rad) when the distal links turn about the axis point by a small
-    rotation with components along the axis and along the two directions across it."""
-    a, c = _unpack(x[:4], *start.frame)
-    e1, e2 = _perpendicular(a)
-    lever = _model(x, start, start.index) - c
-    # ω × d for ω = a, e1, e2 in turn: the columns.
-    return np.stack([np.cross(w, lever) for w in (a, e1, e2)], axis=2)
-
-
-def _covariances(keys: np.ndarray, sigma: np.ndarray, turns: np.ndarray, noise: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Per angle: the indices into the flattened (n * 3) readings and their covariance (m²) under ``noise``:
-    ``s²`` (the readings' own excess over the tracker's law), ``τa²`` and ``τw²`` (rad², the variance of the turn
-    shared by one angle's readings about the axis and across it)."""
-    s2, along, across = noise
-    out = []
-    for key in np.unique(keys):
-        rows = np.flatnonzero(keys == key)
-        flat = (3 * rows[:, None] + np.arange(3)).ravel()
-        A = turns[rows].reshape(-1, 3)
-        out.append((flat, s2 * np.diag(np.repeat(sigma[rows] ** 2, 3)) + (A * [along, across, across]) @ A.T))
-    return out
-
-
-def _whitener(blocks: list[tuple[np.ndarray, np.ndarray]], size: int) -> np.ndarray:
-    """(size, size) matrix ``W`` with ``W C Wᵀ = I`` for the block-diagonal covariance ``C`` of :func:`_covariances`."""
-    W = np.zeros((size, size))
-    for flat, C in blocks:
-        W[np.ix_(flat, flat)] = np.linalg.inv(np.linalg.cholesky(C))
-    return W
-
-
-def _learn_noise(residual: np.ndarray, keys: np.ndarray, sigma: np.ndarray, turns: np.ndarray, parameters: int) -> np.ndarray:
-    """``(s², τa², τw²)`` at their maximum likelihood given the residuals (n, 3), ``s² ≥ 1`` (the tracker's law a lower
-    bound), then times ``N / (N - parameters)`` for the parameters fitted (the restricted likelihood's correction, to
-    first order)."""
-    from scipy.optimize import minimize
-
-    flat = residual.ravel()
-    # Turns in units of the noise over the readings' mean lever: the optimiser's variables are then of order 1.
-    unit = float(np.median(sigma)) ** 2 / float(np.mean(np.sum(turns[:, :, 0] ** 2, axis=1)) + 1e-300)
-
-    def negative_log_likelihood(u: np.ndarray) -> float:
-        total = 0.0
-        for rows, C in _covariances(keys, sigma, turns, np.exp(u) * [1.0, unit, unit]):
-            total += 0.5 * np.linalg.slogdet(C)[1] + 0.5 * float(flat[rows] @ np.linalg.solve(C, flat[rows]))
-        return total
-
-    start = max(1.0, float(np.mean((residual / sigma[:, None]) ** 2)))
-    best = minimize(negative_log_likelihood, [np.log(start), np.log(0.1 * start), np.log(0.1 * start)], method="L-BFGS-B",
-                    bounds=[(0.0, _LOG_CEILING), (_SHARED_FLOOR, _LOG_CEILING), (_SHARED_FLOOR, _LOG_CEILING)])
-    noise = np.exp(best.x) * [1.0, unit, unit] * flat.size / max(flat.size - parameters, 1)
-    noise[0] = max(noise[0], 1.0)
-    return noise
-
-
 def fit_axis(sweep: Sweeps, joint: int, noise: TrackerNoise) -> AxisFit:
-    """Fit the common axis of all reflectors of the sweep of ``joint`` (0-based), with the noise learned from its arcs.
+    """Fit the common axis of all reflectors of the sweep of ``joint`` (0-based), with the joint's learned excess noise.
 
     Parameters
     ----------
@@ -462,22 +389,11 @@ def fit_axis(sweep: Sweeps, joint: int, noise: TrackerNoise) -> AxisFit:
     sigma = noise.sigma(start.xyz)
     fit = _solve(start, start.index, sigma, start.x0)
     _relabelled(start, sigma, fit, sweep, joint)
-    keys = np.round(start.q / _SAME_ANGLE).astype(np.int64)
-    noise = np.array([1.0, 0.0, 0.0])
-    for _ in range(_NOISE_ITERATIONS):
-        turns = _turns(start, fit.x)
-        learned = _learn_noise(_model(fit.x, start, start.index) - start.xyz, keys, sigma, turns, fit.x.size)
-        # Converged when the excess and the shared turns' sds move by less than the tolerance of the excess.
-        converged = np.all(np.abs(np.sqrt(learned) - np.sqrt(noise)) < _NOISE_TOLERANCE * np.sqrt([1.0, *learned[1:].clip(1e-30)]))
-        noise = learned
-        fit = _solve(start, start.index, sigma, fit.x, _whitener(_covariances(keys, sigma, turns, noise), start.xyz.size))
-        if converged:
-            break
-    return _result(fit, joint, start, sigma, noise)
+    return _result(fit, joint, start, sigma)
 
 
-def _result(fit, joint: int, start: AxisStart, sigma: np.ndarray, noise: np.ndarray) -> AxisFit:
-    """Package the optimum: Laplace covariance (with the learned noise) pushed to (direction, point), per-reflector residuals."""
+def _result(fit, joint: int, start: AxisStart, sigma: np.ndarray) -> AxisFit:
+    """Package the optimum: Laplace covariance with the learned excess pushed to (direction, point), per-reflector residuals."""
     index = start.index
     residual = _model(fit.x, start, index) - start.xyz
     z = residual / sigma[:, None]
@@ -487,7 +403,9 @@ def _result(fit, joint: int, start: AxisStart, sigma: np.ndarray, noise: np.ndar
                      "phase_deg": float(np.degrees(fit.x[6 + 3 * k])),
                      "rms_mm": float(np.sqrt(np.mean(np.sum(residual[index == k] ** 2, axis=1)))) / MM,
                      "z_rms": float(np.sqrt(np.mean(z[index == k] ** 2)))})
-    cov_x = np.linalg.pinv(fit.jac.T @ fit.jac)[:4, :4]
+    chi2, dof = float(np.sum(z**2)), fit.fun.size - fit.x.size
+    excess2 = max(1.0, chi2 / max(dof, 1))
+    cov_x = excess2 * np.linalg.pinv(fit.jac.T @ fit.jac)[:4, :4]
     step, J = 1e-7, np.empty((6, 4))
     base = np.concatenate(_unpack(fit.x[:4], *start.frame))
     for i in range(4):
@@ -495,5 +413,4 @@ def _result(fit, joint: int, start: AxisStart, sigma: np.ndarray, noise: np.ndar
         dx[i] += step
         J[:, i] = (np.concatenate(_unpack(dx, *start.frame)) - base) / step
     return AxisFit(joint, base[:3], base[3:], J @ cov_x @ J.T, pd.DataFrame(rows),
-                   float(np.sqrt(np.mean(np.sum(residual**2, axis=1)))), float(np.sum(z**2)), fit.fun.size - fit.x.size,
-                   float(np.sqrt(noise[0])), float(np.sqrt(noise[1])), float(np.sqrt(noise[2])))
+                   float(np.sqrt(np.mean(np.sum(residual**2, axis=1)))), chi2, dof)

@@ -179,10 +179,8 @@ def _missing(axes: dict[int, AxisFit], left_out: dict[int, str]) -> str:
     lacking = [j for j in (0, 1) if j not in axes]
     if not lacking:
         return ""
-    joints = " and ".join(str(j + 1) for j in lacking)
-    why = "; ".join(f"joint {j + 1}'s sweep {left_out[j]}" for j in lacking if j in left_out)
-    return (f"no base frame and no paper frame: sweep joint{'s' if len(lacking) > 1 else ''} {joints} "
-            f"(both frames are built from the axes of joints 1 and 2{'; ' + why if why else ''})")
+    asks = [f"joint {j + 1} {'longer (its sweep is too short)' if j in left_out else ''}".strip() for j in lacking]
+    return f"no base frame and no paper frame: sweep {' and '.join(asks)} (both frames are built from the axes of joints 1 and 2)"
 
 
 def register(sweeps: Sweeps, cell: Cell, rng: np.random.Generator | int | None = 0, draws: int = 400, *,

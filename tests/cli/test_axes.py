@@ -242,4 +242,4 @@ def test_a_sweep_too_short_asks_for_a_longer_one(main, cell, tmp_path, capsys):
     assert main(["axes", str(path), "--config", str(DATA / "kr270.toml")]) == 0
     out = capsys.readouterr().out
     assert "joint 1: no axis: the sweep over 0.5 deg is too short to determine its axis" in out and "sweep at least" in out
-    assert "no base frame and no paper frame: sweep joints 1 and 2" in out
+    assert "no base frame and no paper frame: sweep joint 1 longer (its sweep is too short) and joint 2 longer" in out
