@@ -25,6 +25,8 @@ table: a campaign's marker positions and wrench, a program's wrench
 
 from __future__ import annotations
 
+import warnings
+
 import re
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
@@ -164,6 +166,7 @@ def read_joint_table(
     reserved: Collection[str] = (),
     reserved_why: str = "",
     span_in_degrees: bool = True,
+    limits_refuse: bool = True,
 ) -> tuple[pd.DataFrame, np.ndarray]:
     """Read a joint-angle table with the checks of the module documentation.
 
@@ -210,7 +213,10 @@ def read_joint_table(
     if span_in_degrees and layout.owner:
         _check_radians(layout, q, lines, source)
     if layout.robot is not None:
-        _check_limits(layout.robot, q, lines, source)
+        if limits_refuse:
+            _check_limits(layout.robot, q, lines, source)
+        else:
+            _warn_limits(layout.robot, q, lines, source, what)
     return frame, q
 
 
@@ -248,6 +254,23 @@ def _check_limits(robot: Robot, q: np.ndarray, lines: np.ndarray, source: str) -
     outside = np.flatnonzero(np.any((q < robot.lower) | (q > robot.upper), axis=1))
     for row in outside:
         robot.check_limits(q[row], source=source, line=int(lines[row]))
+
+
+def _warn_limits(robot: Robot, q: np.ndarray, lines: np.ndarray, source: str, what: str) -> None:
+    """Warn, once, of rows beyond the joint limits, for a table whose use is geometric (a sweep's axis fit needs no limit)."""
+    outside = np.any((q < robot.lower) | (q > robot.upper), axis=0)
+    if not outside.any():
+        return
+    j = int(np.flatnonzero(outside)[0])
+    row = int(np.flatnonzero((q[:, j] < robot.lower[j]) | (q[:, j] > robot.upper[j]))[0])
+    scale, unit = robot.position_scale[j], robot.position_units[j]
+    warnings.warn(
+        f"{source}:{int(lines[row])}: the {what} moves joint {robot.joint_names[j]} to {q[row, j] / scale:.3f} {unit}, beyond "
+        f"its limits in {robot.source} ({robot.lower[j] / scale:.1f} to {robot.upper[j] / scale:.1f} {unit}): read as it is "
+        "(the axis fit needs no limit); is the cell's URDF the swept robot's?",
+        UserWarning,
+        stacklevel=3,
+    )
 
 
 def _check_radians(layout: JointLayout, q: np.ndarray, lines: np.ndarray, source: str) -> None:

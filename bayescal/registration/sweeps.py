@@ -83,7 +83,7 @@ def read_sweeps(path: str | PathLike[str], robot: Robot | None = None) -> Sweeps
     robot
         The robot swept; when given, the joint columns are checked as every
         joint-angle table's (:func:`~bayescal.cell.joint_tables.read_joint_table`:
-        the robot's joints, within its limits).  Their unit is judged by the
+        the robot's joints; beyond its limits only warned of).  Their unit is judged by the
         reflectors' circles (:data:`MAX_RADIUS`), not by their span: a sweep
         may move one joint a few degrees about an all-zero home pose.
 
@@ -96,8 +96,8 @@ def read_sweeps(path: str | PathLike[str], robot: Robot | None = None) -> Sweeps
     ------
     InputError
         One line naming the file, line and column: a missing column or bad
-        value, joint columns other than the robot's, a joint outside its limits,
-        a joint index outside ``1 … m``, a sweep in which another joint than the
+        value, joint columns other than the robot's (a joint beyond its limits is
+        warned of: the axis fit needs none), a joint index outside ``1 … m``, a sweep in which another joint than the
         named one moves, a reflector swept through fewer than :data:`MIN_ANGLES`
         angles.
     """
@@ -105,7 +105,10 @@ def read_sweeps(path: str | PathLike[str], robot: Robot | None = None) -> Sweeps
     columns = {"joint": "integer", "marker": "text", "x_mm": "number", "y_mm": "number", "z_mm": "number"}
     position_units = {"x_mm": "mm", "y_mm": "mm", "z_mm": "mm"}
     if robot is not None:
-        frame, q = read_joint_table(path, JointLayout.of(robot), columns, what="sweep file", units=position_units, span_in_degrees=False)
+        # An axis fit is geometry: angles beyond the URDF's limits (a sweep of ±360 deg where the URDF says ±350) are warned of, not refused.
+        frame, q = read_joint_table(
+            path, JointLayout.of(robot), columns, what="sweep file", units=position_units, span_in_degrees=False, limits_refuse=False
+        )
         present = list(robot.position_columns)
     else:
         q_columns = {f"q{k}_deg": "number" for k in range(1, MAX_JOINTS + 1)}

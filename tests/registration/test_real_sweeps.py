@@ -38,3 +38,23 @@ def test_without_joint_2_the_missing_sweep_is_named(registration):
     payload = registration.to_json()
     assert payload["missing"] == registration.missing and set(payload["axes"]) == {"1", "3", "4", "5", "6"}
 
+
+
+def test_the_command_reads_the_real_file_with_the_kr270_cell_and_warns_of_the_limits(capsys, tmp_path):
+    from bayescal.cli import main
+
+    if not SWEEPS.is_file():
+        pytest.skip(f"the real sweeps are not at {SWEEPS}")
+    config = Path(__file__).resolve().parents[2] / "data" / "kr270.toml"
+    out = tmp_path / "registration.json"
+    assert main(["axes", str(SWEEPS), "--config", str(config), "-o", str(out)]) == 0
+    captured = capsys.readouterr()
+    # A4 and A6 swept through ±360°, beyond the KR-270's ±350°: warned of, not refused (the axis fit needs no limit).
+    assert "beyond its limits" in captured.err and "is the cell's URDF the swept robot's?" in captured.err
+    assert "sweep joint 2" in captured.out and out.is_file()
+    # The file written is read back by calibrate's loader, which names what it lacks.
+    from bayescal.errors import InputError
+    from bayescal.registration.register import read_frame
+
+    with pytest.raises(InputError, match="no base frame: sweep joint 2"):
+        read_frame(out, "base")
