@@ -6,7 +6,7 @@ digital twin that simulates laser-tracker calibration campaigns, and the
 propagation of the identified parameters to the positioning error at a test pose.
 
 The names below are the entry points; each lives in the subpackage of its concern
-(see the README's architecture section) and is imported on first use, so that
+(see docs/architecture.md) and is imported on first use, so that
 ``import bayescal`` stays light.
 """
 

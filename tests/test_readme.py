@@ -1,4 +1,4 @@
-"""The numbers the README quotes from `make demo` are the numbers `make demo` prints, and every option is documented."""
+"""The numbers the README and its pages quote from `make demo` are the numbers `make demo` prints, and every option is documented."""
 
 import argparse
 import contextlib
@@ -14,6 +14,11 @@ from bayescal.reports.numbers import with_uncertainty
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text(encoding="utf-8")
+RESULTS = (ROOT / "docs" / "results.md").read_text(encoding="utf-8")
+SPEED = (ROOT / "docs" / "speed.md").read_text(encoding="utf-8")
+PYTHON = (ROOT / "docs" / "python.md").read_text(encoding="utf-8")
+README_LINES = 150
+"""The README is read in five minutes: the rest lives in docs/."""
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +42,7 @@ def demo(tmp_path_factory):
     argv = ["calibrate", str(campaign), "--config", str(data / "kr270.toml"), "--geometry", str(geometry)]
     run("calibrate", argv + ["--json", "--posterior", str(folder / "calibration.nc")])
     run("calibrate_text", argv)
-    # The README's one-pose program: the test pose and its wrench, the moment taken about the tool point.
+    # The one-pose program of docs/python.md: the test pose and its wrench, the moment taken about the tool point.
     (folder / "program.csv").write_text(
         "q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,fx_N,fy_N,fz_N,mx_Nm,my_Nm,mz_Nm\n0.0,-50.0,80.0,0.0,-30.0,0.0,-1000.0,500.0,-600.0,0.0,0.0,0.0\n"
     )
@@ -59,7 +64,7 @@ def test_the_demos_error_left_at_the_test_pose_is_the_one_the_readme_quotes(demo
     assert f"{error['rms']:.3f}" == quoted.group(1) and f"{error['q99.73']:.3f}" == quoted.group(2)
     identified = error["identified_only"]
     assert f"{identified['rms'] * 1000:.1f}" == quoted.group(3) and f"{identified['q99.73'] * 1000:.1f}" == quoted.group(4)
-    # calibrate's text prints the same, and so does compensate on the README's one-pose program, with the same targets
+    # calibrate's text prints the same, and so does compensate on that one-pose program, with the same targets
     text = demo["calibrate_text"]
     assert f"99.73% {quoted.group(2)} mm" in text and f"99.73% {quoted.group(4)} μm" in text
     header, row = demo["compensated"].splitlines()
@@ -75,9 +80,9 @@ def test_the_geometry_the_readme_quotes_is_the_demos(demo):
     parameters = demo["geometry"]["parameters"]
     for name in ("L", "a_x", "a_y"):
         shown = with_uncertainty(parameters[name]["mean"], parameters[name]["sd"], "mm")
-        assert f"{name} = {shown}" in README, f"the README does not quote {name} = {shown}"
-    assert f"{parameters['a_y']['mean'] - 120.30:.2f}".replace("-", "−") + " mm" in README
-    assert f"R-hat ≤ {demo['geometry']['diagnostics']['r_hat_max']:.3f} with the default seed" in README
+        assert f"{name} = {shown}" in RESULTS, f"docs/results.md does not quote {name} = {shown}"
+    assert f"{parameters['a_y']['mean'] - 120.30:.2f}".replace("-", "−") + " mm" in RESULTS
+    assert f"R-hat ≤ {demo['geometry']['diagnostics']['r_hat_max']:.3f} with the default seed" in RESULTS
 
 
 def test_the_elastostatic_widths_and_diagnostics_the_readme_quotes_are_the_demos(demo):
@@ -88,7 +93,7 @@ def test_the_elastostatic_widths_and_diagnostics_the_readme_quotes_are_the_demos
     change = re.search(r"by ([\d.]+–[\d.]+ %) across the campaign", parameters["K_c"]["reason"]).group(1)
     assert f"only {change}" in README
     diagnostics = demo["calibrate"]["diagnostics"]
-    speed = re.search(r"\| `bayescal calibrate` on Table III.*\| R-hat ≤ ([\d.]+), ESS ≥ ([\d,]+) \|", README)
+    speed = re.search(r"\| `bayescal calibrate` on Table III.*\| R-hat ≤ ([\d.]+), ESS ≥ ([\d,]+) \|", SPEED)
     assert speed.group(1) == f"{diagnostics['r_hat_max']:.3f}"
     assert speed.group(2) == f"{diagnostics['ess_bulk_min']:,.0f}"
 
@@ -108,12 +113,12 @@ def test_every_option_of_every_command_is_documented():
 
 
 def test_the_python_example_runs_and_writes_only_into_its_own_folder(tmp_path, monkeypatch):
-    code = re.search(r"```python\n(.*?)```", README, re.S).group(1)
+    code = re.search(r"```python\n(.*?)```", PYTHON, re.S).group(1)
     assert 'out = Path("example")' in code
     # run from a folder holding only the data, so that anything written elsewhere would show
     (tmp_path / "data").symlink_to(ROOT / "data")
     monkeypatch.chdir(tmp_path)
-    exec(compile(code, "README.md", "exec"), {"__name__": "readme"})
+    exec(compile(code, "docs/python.md", "exec"), {"__name__": "readme"})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["data", "example"]
     written = {p.name for p in (tmp_path / "example").iterdir()}
     assert {"geometry_posterior.nc", "calibration.nc", "program.csv", "compensated.csv", "plan.csv"} <= written
@@ -127,12 +132,18 @@ def test_the_misstated_config_figures_the_readme_quotes_are_the_committed_report
         if len(cells) == 9 and cells[0] in ("spring 4.6x stiffer, s0 +26 %", "link masses 15 % heavier"):
             rows[cells[0].split()[0], cells[1], cells[2]] = cells
     quoted = re.search(r"0\.3 μm noise; `reports/elastostatic\.md`\) K_c = ([\d.]+) ± ([\d.]+) N/mm, s0 = ([\d.]+) ± ([\d.]+) mm\n"
-                       r"\(±3σ, R-hat ([\d.]+)\)", README)
-    assert quoted, "the README no longer quotes the stiffer spring's fit at 0.3 μm"
+                       r"\(±3σ, R-hat ([\d.]+)\)", RESULTS)
+    assert quoted, "docs/results.md no longer quotes the stiffer spring's fit at 0.3 μm"
     kc, s0 = rows["spring", "0.3", "K_c"], rows["spring", "0.3", "s0"]
     assert quoted.groups()[:4] == (kc[4], kc[5], s0[4], s0[5])
     assert kc[8] == quoted.group(5)
     scale = rows["link", "0.3", "gravity_scale"]
-    assert f"mass scale\ncomes out {scale[4]} ± {scale[5]} (R-hat {scale[8]})" in README
+    assert f"mass scale\ncomes out {scale[4]} ± {scale[5]} (R-hat {scale[8]})" in RESULTS
     kc9, s09 = rows["spring", "9", "K_c"], rows["spring", "9", "s0"]
-    assert f"K_c = {kc9[4]} ± {kc9[5]}\nN/mm and s0 = {s09[4]} ± {s09[5]} mm (R-hat {kc9[8]})" in README
+    assert f"K_c = {kc9[4]} ± {kc9[5]}\nN/mm and s0 = {s09[4]} ± {s09[5]} mm (R-hat {kc9[8]})" in RESULTS
+
+
+def test_the_readme_is_read_in_five_minutes_and_names_every_page_of_docs():
+    assert len(README.splitlines()) <= README_LINES
+    for page in sorted((ROOT / "docs").glob("*.md")):
+        assert f"docs/{page.name}" in README, f"the README does not point to docs/{page.name}"
