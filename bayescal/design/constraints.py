@@ -283,7 +283,3 @@ class Feasibility:
             else:
                 reasons.append(None)
         return reasons
-
-    def feasible(self, q, mass: float) -> bool:
-        """True when :meth:`violation` finds nothing."""
-        return self.violation(q, mass) is None

@@ -153,7 +153,7 @@ class ElastostaticModel:
         """A model for a calibration cell: its robot, tool load point, tracker, and nominal stiffness.
 
         ``geometry`` defaults to :func:`config_geometry` of the cell's compensator (None for a
-        cell without one); ``options`` are the other fields (``model``, ``sampler``, ``n_draws`` …).
+        cell without one); ``options`` are the other fields (``model``, ``sampler``, ``noise``, ``max_iterations``, ``extensions``).
         """
         if cell.compensator is None:
             if geometry is not None:

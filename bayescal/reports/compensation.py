@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from bayescal.compensation.results import FLAG_OK, WORST
 from bayescal.errors import InputError
 from bayescal.reports.page import Page
 from bayescal.tables import read_table
@@ -19,8 +20,6 @@ __all__ = ["read_compensated", "compensation_section", "plot_program_errors", "C
 COLUMNS = ("deflection_mm", "error_rms_mm", "error_q9973_mm")
 """The compensated program's columns the section shows (besides ``flag``)."""
 
-WORST = 10
-"""Poses listed in the worst-poses table."""
 
 
 def read_compensated(path: str) -> pd.DataFrame:
@@ -66,7 +65,7 @@ def compensation_section(page: Page, frame: pd.DataFrame, source: str) -> None:
     page.heading("compensation", "Compensated machining program")
     if source:
         page.paragraph(f"From {source}.")
-    flagged = frame["flag"] != "ok"
+    flagged = frame["flag"] != FLAG_OK
     totals = pd.DataFrame(
         {"median": frame[list(COLUMNS)].median(), "max": frame[list(COLUMNS)].max()},
     )

@@ -239,7 +239,7 @@ def _rigid_section(f: GeometryFindings) -> list[str]:
     )
     rms.index.name = "marker"
     drift = [f"{name} {row['drift_deg']:.2f} deg ({row['drift_along_arc_mm']:.2f} mm along its arc)" for name, row in markers.iterrows()]
-    against_noise = f"{f.drift_verdict} P1's noise"
+    against_noise = f"{f.drift_verdict} P1's noise ({f.drift_in_noise:.1f} times its rms residual at the least)"
     narrower = f.rigid_narrower
     if f.drift_verdict != "within":
         verdict = (

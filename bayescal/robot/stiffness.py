@@ -1,4 +1,4 @@
-"""Virtual-joint (VJM) elastostatics of a serial robot with a gravity compensator on joint 2.
+"""Virtual-joint (VJM) elastostatics of a serial robot with a gravity compensator on one joint (joint 2 on the KR-270).
 
 Klimchik et al., sections II-III.  Each joint is a rigid actuator held at the
 controller's angle ``q`` followed by a virtual spring of compliance ``k_j``
@@ -159,9 +159,9 @@ class ElasticArm:
         The robot (kinematics and link masses).
     joints
         Deflection law of the joint springs (:class:`LinearJoints` for compliances
-        ``k`` in rad/(N·m); joint 2's excludes the compensator).
+        ``k`` in rad/(N·m); the compensated joint's excludes the compensator).
     compensator
-        The gravity compensator acting on joint 2, if any.
+        The gravity compensator acting on the compensated joint, if any.
     gravity
         Include the links' weights.
     load_point

@@ -446,3 +446,15 @@ def test_a_compensator_on_joint_3_labels_its_per_angle_compliances_by_joint_3(da
     assert "k3_q3" in fitted.tree["posterior"] and "q3_deg" in fitted.tree["posterior"].coords
     angles = sorted(np.unique(np.round(np.degrees(robot_campaign.q[:, 2]), 3)))
     assert sorted(float(name[6:-1]) for name in per_angle) == pytest.approx(angles, abs=1e-3)
+
+
+def test_the_options_from_cell_documents_are_fields_of_the_model():
+    import dataclasses
+    import re
+
+    from bayescal.inference.elastostatic import ElastostaticModel
+
+    listed = re.search(r"``options`` are the other fields \((.*?)\)", ElastostaticModel.from_cell.__doc__, re.S).group(1)
+    names = re.findall(r"``(\w+)``", listed)
+    fields = {f.name for f in dataclasses.fields(ElastostaticModel)}
+    assert names and set(names) <= fields, set(names) - fields
