@@ -83,7 +83,7 @@ def _registration_text(registration) -> str:
         lines.append(f"{j + 1:>5} {direction:>32} {fit.direction_sd * 1e3:9.4g} {point:>32} {fit.point_sd / MM:9.4g} "
                      f"{fit.residual_rms / MM:8.4f} {fit.chi2_per_dof:8.3g} {fit.excess:7.3g}")
     lines.append("(χ²/dof against the tracker's law; excess: the noise learned from the arcs over that law, "
-                 "by which the sds are widened)")
+                 "by which the sds are widened at least; more where one angle's readings share an error)")
     excluded = registration.excluded
     if excluded["joints"] or excluded["markers"]:
         left = [f"the sweep{'s' if len(excluded['joints']) > 1 else ''} of joint{'s' if len(excluded['joints']) > 1 else ''} "
@@ -97,7 +97,7 @@ def _registration_text(registration) -> str:
         lines.append(f"warning: the arcs of joint{'s' if len(beyond) > 1 else ''} {', '.join(str(j + 1) for j in beyond)} "
                      f"scatter {size} times the tracker's law, beyond its chance (χ²/dof above): the cell adds error its "
                      "tracker's datasheet does not (the reflectors' seating, the joint's wobble and transmission error, air); "
-                     "the noise is learned from the arcs and the sds above are widened by the excess, and so are the frames' "
+                     "the noise is learned from the arcs and the sds above are widened by the excess at least, and so are the frames' "
                      "built from them; --critique says whether an effect of the joint explains it")
     for j, why in registration.left_out.items():
         lines.append(f"joint {j + 1}: no axis: the sweep {why}")

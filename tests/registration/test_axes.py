@@ -8,6 +8,7 @@ import pytest
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError
 from bayescal.registration import Sweeps, fit_axis
+from bayescal.registration import axes
 from bayescal.registration.axes import span_needed
 
 
@@ -67,7 +68,7 @@ def test_mislabelled_reflector_is_reported():
 
 
 @pytest.mark.slow
-def test_coverage_nominal_over_200_registrations():
+def test_coverage_at_least_nominal_over_200_registrations():
     rng = np.random.default_rng(11)
     noise = TrackerNoise()
     z = []
@@ -79,8 +80,11 @@ def test_coverage_nominal_over_200_registrations():
         keep = w > w.max() * 1e-9
         z.extend(np.abs(V[:, keep].T @ err) / np.sqrt(w[keep]))
     z = np.array(z)
+    # Never below the excess-scaled Laplace sds, which are exact for this noise: the sandwich's own noise widens them
+    # (measured 78.9 / 98.1 / 100 % within ±1/2/3 sd); sds 1.5 times too wide would cover ±1 sd in 87 %.
+    assert np.mean(z < 1) < 0.85
     for k, nominal in ((1, 0.6827), (2, 0.9545), (3, 0.9973)):
-        assert abs(np.mean(z < k) - nominal) < 3 * np.sqrt(nominal * (1 - nominal) / z.size) + 1 / z.size
+        assert np.mean(z < k) > nominal - 3 * np.sqrt(nominal * (1 - nominal) / z.size) - 1 / z.size
 
 
 def test_the_noise_is_learned_and_the_sds_follow_it():
@@ -92,7 +96,31 @@ def test_the_noise_is_learned_and_the_sds_follow_it():
     noisy = fit_axis(_sweep(rng, axis, point, reflectors, angles, replace(law, factor=5 * law.factor)), 0, law)
     assert clean.excess == pytest.approx(1.0, abs=0.3) and noisy.excess == pytest.approx(5.0, rel=0.25)
     assert noisy.beyond_tracker and not clean.beyond_tracker
-    assert noisy.direction_sd / clean.direction_sd == pytest.approx(noisy.excess, rel=0.1)
+    # Measured 4.96 for an excess of 4.30: the sds follow the excess, and the sandwich by angle may widen them more.
+    assert noisy.direction_sd / clean.direction_sd == pytest.approx(noisy.excess, rel=0.2)
+
+
+def test_errors_shared_by_one_angle_widen_the_sds_never_below_the_excess(monkeypatch):
+    rng = np.random.default_rng(8)
+    law = TrackerNoise()
+    axis, point, reflectors = _case(rng)
+    angles = np.radians(np.linspace(-60, 60, 7))
+    clean = _sweep(rng, axis, point, reflectors, angles, replace(law, factor=0.0))
+    # Each angle's readings tilted together by 1 mrad about a direction across the axis (a wobbling joint).
+    xyz = clean.xyz.copy()
+    for q in angles:
+        rows = clean.q[:, 0] == q
+        across = np.cross(axis, rng.normal(size=3))
+        xyz[rows] = point + np.array([_rotate(v, across, rng.normal() * 1e-3) for v in xyz[rows] - point])
+    xyz = law.measure(xyz, rng)
+    wobbling = Sweeps(clean.joint, clean.q, clean.marker, xyz, clean.line, clean.source)
+    fit = fit_axis(wobbling, 0, law)
+    monkeypatch.setattr(axes, "_clustered", lambda fit, bread, cluster: np.zeros_like(bread))
+    excess_only = fit_axis(wobbling, 0, law)
+    assert fit.excess == excess_only.excess > 3.0
+    assert np.linalg.eigvalsh(fit.cov - excess_only.cov).min() > -1e-12 * np.abs(fit.cov).max()
+    # Measured: the direction's sd 1.11 times the excess's.
+    assert fit.direction_sd > 1.05 * excess_only.direction_sd
 
 
 def test_a_sweep_too_short_to_bend_beyond_the_noise_asks_for_more():
