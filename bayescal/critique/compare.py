@@ -31,18 +31,29 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg, special, stats
+from scipy import linalg, special
 
 from bayescal.critique.extensions import OUTLIER_DOF
-from bayescal.inference.identifiability import independent_columns
+from bayescal.inference.identifiability import COLLINEAR_TOLERANCE, independent_columns
 
-__all__ = ["Fit", "CrossValidation", "Comparison", "fit", "cross_validate", "compare", "compare_elpd"]
+__all__ = ["Fit", "CrossValidation", "Comparison", "fit", "cross_validate", "compare", "compare_elpd", "smallest_unexplained_fraction"]
 
 AXIS_ITERATIONS = 3
 """Reweightings for the axis noise levels (their ratios settle to 1e-3 within three on twin campaigns)."""
 EM_ITERATIONS = 200
 EM_TOLERANCE = 1e-4
 """EM of the Student-t noise stops when no coefficient moves by more than this fraction of its sd."""
+COLLINEAR_MARGIN = 2.0
+"""Folds whose every column, judged from their Gram matrix, clears ``COLLINEAR_TOLERANCE`` by this factor keep all
+columns without Gram-Schmidt; the others are checked by :func:`independent_columns` itself.  The Gram matrix squares
+the columns' condition, so its estimate of a column's unexplained fraction is off by about ``1e-16 · cond²``; a factor
+of 2 (a fraction of 2e-3, not 1e-3) leaves room for conditions up to about 1e6.  On the demo's campaign 2 of the
+624 Gaussian fits of its critique fall below it (a fraction of 1.9e-3, then 0.08 and above) and are fitted alone
+(``benchmarks/bench_critique.py`` prints the smallest)."""
+DOWNDATE_FLOOR = 1e-6
+"""A fold's Gram matrix is the campaign's less its held-out configuration's, which keeps about ``1e-16 / f`` of
+relative precision in a column that keeps a fraction ``f`` of its sum of squares: a fold in which a column keeps
+less than this fraction (a torque reversal seen mostly in the held-out configuration) is fitted alone."""
 
 
 @dataclass(frozen=True)
@@ -77,12 +88,12 @@ class Fit:
         noise = (self.level[group] * scale) ** 2
         if self.robust:
             spread = np.sqrt(noise + np.einsum("ij,jk,ik->i", X, self.cov, X))
-            return float(np.sum(stats.t.logpdf(residual / spread, self.dof) - np.log(spread)))
+            return float(np.sum(_t_logpdf(residual / spread, self.dof) - np.log(spread)))
         covariance = np.diag(noise) + X @ self.cov @ X.T
-        factor = linalg.cho_factor(covariance, lower=True)
-        z = linalg.solve_triangular(factor[0], residual, lower=True)
+        factor = np.linalg.cholesky(covariance)
+        z = linalg.solve_triangular(factor, residual, lower=True)
         n, nu = len(y), self.dof
-        log_det = 2.0 * np.sum(np.log(np.diag(factor[0])))
+        log_det = 2.0 * np.sum(np.log(np.diag(factor)))
         return float(
             special.gammaln((nu + n) / 2)
             - special.gammaln(nu / 2)
@@ -94,6 +105,11 @@ class Fit:
     def marginal_sd(self, X: np.ndarray, scale: np.ndarray, group: np.ndarray) -> np.ndarray:
         """Predictive scale of each equation (the Student t's scale parameter), m."""
         return np.sqrt((self.level[group] * scale) ** 2 + np.einsum("ij,jk,ik->i", X, self.cov, X))
+
+
+def _t_logpdf(x: np.ndarray, nu: float) -> np.ndarray:
+    # Student t's log density from scipy.special, as the PIT's stdtr: the fits need nothing of scipy.stats (0.34-0.36 s to import)
+    return special.gammaln((nu + 1) / 2) - special.gammaln(nu / 2) - 0.5 * np.log(nu * np.pi) - (nu + 1) / 2 * np.log1p(x**2 / nu)
 
 
 def _wls(y, X, weight):
@@ -185,27 +201,159 @@ class CrossValidation:
 def cross_validate(
     y: np.ndarray, X: np.ndarray, scale: np.ndarray, group: np.ndarray, config: np.ndarray, *, robust: bool = False
 ) -> CrossValidation:
-    """Leave-one-configuration-out predictive densities of the model ``X`` (equations' ``config``)."""
+    """Leave-one-configuration-out predictive densities of the model ``X`` (equations' ``config``).
+
+    Gaussian folds are fitted together (:func:`_gaussian_folds`): the normal equations of a fold are the
+    whole campaign's less the held-out configuration's, per base axis, so that one pass over the equations
+    serves every fold and reweighting; each fold's equations are then solved by one batched factorisation.
+    A fold whose columns come near collinearity, and every fold of the Student-t model (whose weights are
+    per equation), are fitted alone by :func:`fit`.
+    """
     columns = independent_columns(X)
     X = X[:, columns]
-    configs = np.unique(config)
+    configs, fold = np.unique(config, return_inverse=True)
+    # the last of the batched fits holds nothing out: the model fitted to all equations
+    batched = {} if robust else _gaussian_folds(y, X, scale, group, fold, configs.size + 1)
+    full = batched.pop(configs.size, None) or fit(y, X, scale, group, robust=robust)
     elpd = np.empty(configs.size)
     predicted = np.empty(y.size)
     sd = np.empty(y.size)
     pit = np.empty(y.size)
-    for k, held in enumerate(configs):
-        out = config == held
-        # A column the other configurations do not excite (a torque reversal seen in the
-        # held-out one only) has no estimate: the held-out prediction goes without it.
-        keep = independent_columns(X[~out])
-        model = fit(y[~out], X[~out][:, keep], scale[~out], group[~out], robust=robust)
+    together = _score_together(batched, y, X, scale, group, fold, elpd, predicted, sd, pit)
+    for k in range(configs.size):
+        if k in together:
+            continue
+        out = fold == k
+        if k in batched:
+            model, keep = batched[k], slice(None)
+        else:
+            # A column the other configurations do not excite (a torque reversal seen in the
+            # held-out one only) has no estimate: the held-out prediction goes without it.
+            keep = independent_columns(X[~out])
+            model = fit(y[~out], X[~out][:, keep], scale[~out], group[~out], robust=robust)
         held_out = X[out][:, keep]
         elpd[k] = model.log_density(y[out], held_out, scale[out], group[out])
         predicted[out] = model.predict(held_out)
         sd[out] = model.marginal_sd(held_out, scale[out], group[out])
-        pit[out] = stats.t.cdf((y[out] - predicted[out]) / sd[out], model.dof)
-    full = fit(y, X, scale, group, robust=robust)
+        pit[out] = special.stdtr(model.dof, (y[out] - predicted[out]) / sd[out])
     return CrossValidation(configs=configs, elpd=elpd, predicted=predicted, sd=sd, pit=pit, full=full, columns=columns)
+
+
+def _score_together(models: dict[int, Fit], y, X, scale, group, fold, elpd, predicted, sd, pit) -> set[int]:
+    """Held-out scores of the batched Gaussian folds whose configurations have the most equations in common, at once.
+
+    :meth:`Fit.log_density`, :meth:`Fit.predict`, :meth:`Fit.marginal_sd` and the PIT of each such
+    fold, written into ``elpd`` (K,), ``predicted``, ``sd`` and ``pit`` (n,); returns the folds scored.
+    """
+    if not models:
+        return set()
+    sizes = np.bincount(fold)
+    candidates = np.array(sorted(models))
+    size = np.bincount(sizes[candidates]).argmax()
+    folds = candidates[sizes[candidates] == size]
+    index = np.argsort(fold, kind="stable").reshape(-1)
+    starts = np.concatenate([[0], np.cumsum(sizes)])
+    held = index[starts[folds][:, np.newaxis] + np.arange(size)]  # (F, m) equations of each fold
+    beta = np.stack([models[k].beta for k in folds])
+    cov = np.stack([models[k].cov for k in folds])
+    level = np.stack([models[k].level for k in folds])
+    nu = np.array([models[k].dof for k in folds])
+    Xh = X[held]  # (F, m, p)
+    mean = (Xh @ beta[:, :, np.newaxis])[:, :, 0]
+    residual = y[held] - mean
+    noise = (np.take_along_axis(level, group[held], axis=1) * scale[held]) ** 2
+    spread = Xh @ cov @ np.swapaxes(Xh, 1, 2)
+    factor = np.linalg.cholesky(spread + noise[:, :, np.newaxis] * np.eye(size))
+    z = np.linalg.solve(factor, residual[:, :, np.newaxis])[:, :, 0]
+    log_det = 2.0 * np.sum(np.log(np.diagonal(factor, axis1=1, axis2=2)), axis=1)
+    elpd[folds] = (
+        special.gammaln((nu + size) / 2)
+        - special.gammaln(nu / 2)
+        - size / 2 * np.log(nu * np.pi)
+        - log_det / 2
+        - (nu + size) / 2 * np.log1p(np.sum(z**2, axis=1) / nu)
+    )
+    scale_t = np.sqrt(noise + np.diagonal(spread, axis1=1, axis2=2))
+    predicted[held] = mean
+    sd[held] = scale_t
+    pit[held] = special.stdtr(nu[:, np.newaxis], residual / scale_t)
+    return set(folds.tolist())
+
+
+def smallest_unexplained_fraction(X: np.ndarray, fold: np.ndarray, n_folds: int) -> np.ndarray:
+    """(K,) per fold, the smallest fraction of a column of ``X`` (n, p) not explained by the columns before it.
+
+    Taken from the fold's Gram matrix (the equations whose ``fold`` index is not the fold's): the
+    diagonal of the Cholesky factor of its unit-diagonal form, the fraction :func:`independent_columns`
+    compares with ``COLLINEAR_TOLERANCE``; 0 for a fold with a column that keeps less than
+    :data:`DOWNDATE_FLOOR` of its sum of squares, or a Gram matrix that is not positive definite.
+    """
+    member = (fold == np.arange(n_folds)[:, np.newaxis]).astype(float)
+    outer = (X[:, :, np.newaxis] * X[:, np.newaxis, :]).reshape(len(X), -1)
+    gram = (outer.sum(axis=0) - member @ outer).reshape(n_folds, X.shape[1], X.shape[1])
+    diagonal = np.diagonal(gram, axis1=1, axis2=2)
+    fraction = np.zeros(n_folds)
+    usable = np.all(diagonal > DOWNDATE_FLOOR * np.sum(X**2, axis=0), axis=1)
+    if not np.any(usable):
+        return fraction
+    norm = np.sqrt(diagonal[usable])
+    try:
+        factor = np.linalg.cholesky(gram[usable] / (norm[:, :, np.newaxis] * norm[:, np.newaxis, :]))
+    except np.linalg.LinAlgError:
+        return fraction
+    fraction[usable] = np.nan_to_num(np.diagonal(factor, axis1=1, axis2=2).min(axis=1))
+    return fraction
+
+
+def _gaussian_folds(y, X, scale, group, fold, n_folds: int) -> dict[int, Fit]:
+    """Gaussian fits of every fold whose columns are clearly independent, by fold index: :func:`fit` batched over folds.
+
+    Per fold and base axis the normal equations (``A'A``, ``A'z`` with ``A = X / scale``, ``z = y / scale``)
+    are the campaign's less the fold's held-out configuration's; each reweighting combines them with the
+    axis levels and solves all folds with one batched Cholesky factorisation, on unit-norm columns as
+    :func:`fit` does.  The residuals are taken from the equations themselves, not from the normal equations,
+    so that a close fit loses no digits.
+    """
+    n, p = X.shape
+    clear = smallest_unexplained_fraction(X, fold, n_folds) > COLLINEAR_MARGIN * COLLINEAR_TOLERANCE
+    if not np.any(clear):
+        return {}
+    A, z = X / scale[:, np.newaxis], y / scale
+    held = fold == np.arange(n_folds)[:, np.newaxis]  # (K, n)
+    axis = group == np.arange(3)[:, np.newaxis]  # (3, n)
+    held_axis = (held[:, np.newaxis, :] & axis[np.newaxis]).reshape(3 * n_folds, n).astype(float)
+    outer = (A[:, :, np.newaxis] * A[:, np.newaxis, :]).reshape(n, -1)
+    gram = (axis.astype(float) @ outer)[np.newaxis] - (held_axis @ outer).reshape(n_folds, 3, -1)
+    gram = gram.reshape(n_folds, 3, p, p)[clear]
+    moment = A * z[:, np.newaxis]
+    rhs = ((axis.astype(float) @ moment)[np.newaxis] - (held_axis @ moment).reshape(n_folds, 3, p))[clear]
+    train = (~held[clear])[:, np.newaxis, :] & axis[np.newaxis]  # (F, 3, n)
+    counts = train.sum(axis=2)
+    present = counts > 0
+
+    def solve(variance):
+        weighted = np.sum(gram / variance[:, :, np.newaxis, np.newaxis], axis=1)
+        norm = np.sqrt(np.diagonal(weighted, axis1=1, axis2=2))
+        factor = np.linalg.cholesky(weighted / (norm[:, :, np.newaxis] * norm[:, np.newaxis, :]))
+        b = np.sum(rhs / variance[:, :, np.newaxis], axis=1) / norm
+        inner = np.linalg.solve(factor, b[:, :, np.newaxis])
+        beta = np.linalg.solve(np.swapaxes(factor, 1, 2), inner)[:, :, 0] / norm
+        squares = ((z[np.newaxis] - beta @ A.T) ** 2)[:, np.newaxis, :] * train
+        return beta, squares.sum(axis=2), weighted
+
+    variance = np.ones(counts.shape)
+    for _ in range(AXIS_ITERATIONS):
+        _, squares, _ = solve(variance)
+        variance = np.maximum(np.where(present, squares / np.maximum(counts, 1), 1.0), 1e-30)
+    beta, squares, gram_weighted = solve(variance)
+    dof = counts.sum(axis=1) - p
+    s2 = (squares / variance).sum(axis=1) / dof
+    cov = s2[:, np.newaxis, np.newaxis] * np.linalg.inv(gram_weighted)
+    level = np.sqrt(s2[:, np.newaxis] * variance)
+    return {
+        int(k): Fit(beta=beta[i], cov=cov[i], level=level[i], dof=float(dof[i]), robust=False)
+        for i, k in enumerate(np.flatnonzero(clear))
+    }
 
 
 @dataclass(frozen=True)

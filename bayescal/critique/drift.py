@@ -29,7 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from bayescal.cell.config import Cell
 from bayescal.critique.covariates import Rows
@@ -171,7 +171,7 @@ def drift_evidence(rows: Rows, cell: Cell) -> DriftEvidence:
         f"repeated up to {span / 60:.0f} min apart"
     )
     return DriftEvidence(
-        True, reason, rate, cov, tracker, n_groups, int(inside.sum()), span, float(stats.f.sf(statistic, 6, dof))
+        True, reason, rate, cov, tracker, n_groups, int(inside.sum()), span, float(special.fdtrc(6, dof, statistic))
     )
 
 

@@ -2,7 +2,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from bayescal.critique.compare import compare, cross_validate, fit
+from bayescal.critique.compare import compare, cross_validate, fit, smallest_unexplained_fraction
+from bayescal.inference.identifiability import independent_columns
 
 
 def _linear_data(rng, n_configs=12, per_config=9, levels=(1.0, 2.0, 0.5)):
@@ -71,3 +72,49 @@ def test_compare_elpd_sums_the_differences_with_the_se_of_their_mean():
     assert c.delta_elpd == pytest.approx(4.0)
     assert c.se == pytest.approx(np.sqrt(4 * np.var([1.0, 2.0, 0.0, 1.0], ddof=1)))
     assert c.n_configs == 4
+
+
+def _fold_by_fold(y, X, scale, group, config):
+    """Each fold fitted alone by ``fit`` and scored by its ``Fit``: what ``cross_validate`` batches."""
+    elpd, predicted, sd, pit = [], np.empty(y.size), np.empty(y.size), np.empty(y.size)
+    for held in np.unique(config):
+        out = config == held
+        keep = independent_columns(X[~out])
+        model = fit(y[~out], X[~out][:, keep], scale[~out], group[~out])
+        elpd.append(model.log_density(y[out], X[out][:, keep], scale[out], group[out]))
+        predicted[out] = model.predict(X[out][:, keep])
+        sd[out] = model.marginal_sd(X[out][:, keep], scale[out], group[out])
+        pit[out] = stats.t.cdf((y[out] - predicted[out]) / sd[out], model.dof)
+    return np.array(elpd), predicted, sd, pit
+
+
+@pytest.mark.parametrize("uneven", [False, True], ids=["equal folds", "uneven folds"])
+def test_batched_folds_equal_each_fold_fitted_alone(uneven):
+    rng = np.random.default_rng(7)
+    y, X, scale, group, config = _linear_data(rng)
+    if uneven:
+        # a configuration of 6 equations, not 9, and a column only the last configuration excites:
+        # its fold must drop that column, as fit on the remaining equations would
+        keep_rows = ~((config == 3) & (np.arange(len(y)) % 9 >= 6))
+        y, X, scale, group, config = y[keep_rows], X[keep_rows], scale[keep_rows], group[keep_rows], config[keep_rows]
+        X = np.column_stack([X, np.where(config == config.max(), rng.normal(size=len(y)), 0.0)])
+    cv = cross_validate(y, X, scale, group, config)
+    elpd, predicted, sd, pit = _fold_by_fold(y, X, scale, group, config)
+    assert cv.elpd == pytest.approx(elpd, rel=1e-10)
+    assert cv.predicted == pytest.approx(predicted, rel=1e-10)
+    assert cv.sd == pytest.approx(sd, rel=1e-10)
+    assert cv.pit == pytest.approx(pit, rel=1e-10)
+
+
+def test_smallest_unexplained_fraction_is_what_gram_schmidt_measures():
+    rng = np.random.default_rng(3)
+    X = rng.normal(size=(60, 3))
+    X[:, 2] = X[:, 0] + 0.01 * X[:, 2]
+    fold = np.repeat(np.arange(6), 10)
+    fraction = smallest_unexplained_fraction(X, fold, 6)
+    for k in range(6):
+        rest = X[fold != k]
+        q, _ = np.linalg.qr(rest[:, :2])
+        column = rest[:, 2]
+        expected = np.linalg.norm(column - q @ (q.T @ column)) / np.linalg.norm(column)
+        assert fraction[k] == pytest.approx(expected, rel=1e-6)
