@@ -15,6 +15,25 @@ from ._registered import add_registration_option, read_arcs_in_paper_frame, read
 
 __all__ = ["add_parser", "run"]
 
+CATALOGUES = "{catalogue}"
+"""Where the description names the candidates: filled from the catalogues when the help is shown."""
+
+
+class _CatalogueHelp(argparse.HelpFormatter):
+    """Names the critique's candidates in the description from their catalogues, when the help is shown.
+
+    The catalogues are the one source of the candidates; building them imports the critique, which
+    the other subcommands, whose parsers are built on every run, do not need.
+    """
+
+    def _format_text(self, text: str) -> str:
+        if CATALOGUES in text:
+            from bayescal.critique.extensions import CATALOGUE
+            from bayescal.critique.geometry import GEOMETRY_CATALOGUE
+
+            text = text.replace(CATALOGUES, ", ".join(CATALOGUE), 1).replace("{geometry}", ", ".join(GEOMETRY_CATALOGUE), 1)
+        return super()._format_text(text)
+
 
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
@@ -22,12 +41,12 @@ def add_parser(subparsers) -> None:
         help="criticise the classical VJM model on a campaign: misfit, likely cause, held-out gain",
         description=(
             "Compare the classical serial VJM model (constant joint compliances, eq 30) with its extensions "
-            "(compensator, link_compliance, tool_compliance, backlash, nonlinear_stiffness, outliers, and drift where "
-            "the campaign's repeated readings can show it) by their "
+            f"({CATALOGUES}; drift only where the campaign's repeated readings can show it) by their "
             "predictive density on held-out configurations, name the causes whose gain is clear of its "
             "uncertainty, and report the gain. With --geometry, criticise the planar two-step compensator-geometry "
-            "model on tracker arcs instead (tilt, pivot_motion, cylinder_slip, joint_scale, closed_loop; held-out joint angles)."
+            "model on tracker arcs instead ({geometry}; held-out joint angles)."
         ),
+        formatter_class=_CatalogueHelp,
     )
     parser.add_argument("campaign", nargs="?", help="campaign CSV (bayescal simulate writes one), or a positions file of a cell of "
                         "measured points (then the model ladder of `bayescal kinematics`, scored held out); not with --geometry")

@@ -139,3 +139,12 @@ def test_a_detectable_cause_too_small_to_matter_is_said_so_in_the_verdict(capsys
     assert status == 0
     assert "verdict: misfit - causes in order of gain: outliers (outliers detectable but too small to matter at the test pose)" in out
     assert "outliers is detectable on held-out configurations but too small to matter" in out.replace("\n", " ")
+
+
+def test_the_help_names_every_candidate_of_both_catalogues(capsys):
+    from bayescal.critique.extensions import CATALOGUE
+    from bayescal.critique.geometry import GEOMETRY_CATALOGUE
+
+    assert main(["critique", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert all(name in text for name in [*CATALOGUE, *GEOMETRY_CATALOGUE]) and "{" not in text

@@ -7,8 +7,8 @@ and readout errors (``noise``), the effects' registry (``effects``), random plan
 (``plans``) and the generator itself (``generator``).
 """
 
-from bayescal.twin.independent.effects import CAUSES, EFFECTS, Effect, World
+from bayescal.twin.independent.effects import CAUSES, EFFECTS, PlantedEffect, World
 from bayescal.twin.independent.generator import SPREADS, TIMELINE, IndependentGenerator, Truth
 from bayescal.twin.independent.plans import random_plan
 
-__all__ = ["CAUSES", "EFFECTS", "Effect", "World", "IndependentGenerator", "Truth", "SPREADS", "TIMELINE", "random_plan"]
+__all__ = ["CAUSES", "EFFECTS", "PlantedEffect", "World", "IndependentGenerator", "Truth", "SPREADS", "TIMELINE", "random_plan"]

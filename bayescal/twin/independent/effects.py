@@ -24,7 +24,7 @@ from bayescal.twin.independent.noise import FrameDrift, LineOfSightJumps, ScaleE
 from bayescal.twin.independent.solver import SpringLinkage
 from bayescal.twin.independent.structure import ApproachPlay, GearPlay, KneeJoints, LinkBeams, RandomField, ToolMount, tube
 
-__all__ = ["World", "Effect", "EFFECTS", "CAUSES"]
+__all__ = ["World", "PlantedEffect", "EFFECTS", "CAUSES"]
 
 CAUSES = (
     "compensator",
@@ -89,7 +89,7 @@ class World:
 
 
 @dataclass(frozen=True)
-class Effect:
+class PlantedEffect:
     """A plantable effect.
 
     Attributes
@@ -219,34 +219,34 @@ def _field(world: World, cell: Cell, size: float, rng) -> World:
     return replace(world, field=field, field_force=FIELD_FORCE)
 
 
-EFFECTS: dict[str, Effect] = {
+EFFECTS: dict[str, PlantedEffect] = {
     effect.name: effect
     for effect in (
-        Effect("stiff_spring", "the compensator's spring stiffer (rate × the size), progressive, with a longer free length",
+        PlantedEffect("stiff_spring", "the compensator's spring stiffer (rate × the size), progressive, with a longer free length",
                "compensator", 3.0, "factor on K_c", _spring),
-        Effect("link_beams", "upper arm and forearm bend and twist as cast-iron tubes under their own weight and the load beyond",
+        PlantedEffect("link_beams", "upper arm and forearm bend and twist as cast-iron tubes under their own weight and the load beyond",
                "link_compliance", 1.0, "factor on the tubes' compliance", _beams),
-        Effect("tool_mount", "a 30 kg tool on an adaptor that turns under the bending moment (torsion 0.4 times it) and shears",
+        PlantedEffect("tool_mount", "a 30 kg tool on an adaptor that turns under the bending moment (torsion 0.4 times it) and shears",
                "tool_compliance", 0.4, "μrad/(N·m) in bending", _tool),
-        Effect("gear_play", "lost motion of every joint's gears, held by friction until the torque exceeds "
+        PlantedEffect("gear_play", "lost motion of every joint's gears, held by friction until the torque exceeds "
                "3 % of the rated torque the other way",
                "backlash", 1.0, "arcmin of play per joint", _play),
-        Effect("approach_play", "lost motion of every joint on the flank its servo last drove it to (the direction "
+        PlantedEffect("approach_play", "lost motion of every joint on the flank its servo last drove it to (the direction "
                "of its last move, from a home pose), crossed when the torque exceeds a friction hold drawn "
                "per joint (1-6 % of rated); each joint's play the size times 0.5-1.5",
                "backlash", 1.0, "arcmin of play per joint", _approach),
-        Effect("knee_joints", "every joint spring softer by this fraction below 10 % of its rated torque",
+        PlantedEffect("knee_joints", "every joint spring softer by this fraction below 10 % of its rated torque",
                "nonlinear_stiffness", 0.5, "fraction of extra compliance", _knee),
-        Effect("los_jumps", "3 % of readings re-acquired off along the line of sight, by 0.5 to 1.5 times the size",
+        PlantedEffect("los_jumps", "3 % of readings re-acquired off along the line of sight, by 0.5 to 1.5 times the size",
                "outliers", 1.0, "mm", _jumps),
-        Effect("thermal_drift", "the tracker's frame drifts in time: a steady translation, a 30 min cycle of a tenth of "
+        PlantedEffect("thermal_drift", "the tracker's frame drifts in time: a steady translation, a 30 min cycle of a tenth of "
                "its hourly amount and a turn of 0.1 mrad/h per mm/h about the tracker",
                "drift", 0.2, "mm/h", _drift),
-        Effect("tracker_scale", "every distance from the tracker off by a relative error (refractive index)",
+        PlantedEffect("tracker_scale", "every distance from the tracker off by a relative error (refractive index)",
                "tracker_scale", 20.0, "ppm", _scale),
-        Effect("load_rehang", "the load hangs somewhere else on the tool each time it is hung (per axis)",
+        PlantedEffect("load_rehang", "the load hangs somewhere else on the tool each time it is hung (per axis)",
                None, 4.0, "mm standard deviation", _rehang),
-        Effect("random_field", "a smooth random function of the joint angles and the marker added to the loaded deflection",
+        PlantedEffect("random_field", "a smooth random function of the joint angles and the marker added to the loaded deflection",
                None, 40.0, "μm per coordinate at 2600 N", _field),
     )
 }
