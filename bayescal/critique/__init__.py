@@ -5,6 +5,7 @@ compensator-geometry model on tracker arcs (Table I).
 """
 
 from bayescal.critique.geometry import GeometryCritique, GeometryCritiqueResults
-from bayescal.critique.model import Critique, CritiqueResults
+from bayescal.critique.model import Critique
+from bayescal.critique.results import CritiqueResults
 
 __all__ = ["Critique", "CritiqueResults", "GeometryCritique", "GeometryCritiqueResults"]

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from bayescal.critique.geometry import GeometryCritiqueResults
-from bayescal.critique.model import CritiqueResults
+from bayescal.critique.results import CritiqueResults
 
 __all__ = ["write_figures", "write_geometry_figures"]
 

@@ -83,8 +83,8 @@ multiplied (their correlation through the shared parameters, small beside the
 noise, is neglected).  ΔELPD and its SE are those of
 :func:`bayescal.critique.compare.compare_elpd` over the held-out angles.
 
-**Rule**: :data:`~bayescal.critique.model.DETECTION_Z` SE and
-:data:`~bayescal.critique.model.DETECTION_FLOOR` nats, greedy as the
+**Rule**: :data:`~bayescal.critique.rule.DETECTION_Z` SE and
+:data:`~bayescal.critique.rule.DETECTION_FLOOR` nats, greedy as the
 elastostatic critique, without its decisive branch: none of the candidates is
 about heavy tails, and with a handful of angles the held-out end angles are
 extrapolations, where one angle can carry any gain.
@@ -103,7 +103,8 @@ import pandas as pd
 
 from bayescal.critique.compare import Comparison, compare_elpd
 from bayescal.critique.layout_fit import _GROUPS, LayoutFit, _fit, _group_rows, _Spec, _TooFewDegrees
-from bayescal.critique.model import DETECTION_FLOOR, DETECTION_Z, UNEXPLAINED, Outcome, check_candidates, strongest
+from bayescal.critique.results import Outcome
+from bayescal.critique.rule import DETECTION_FLOOR, DETECTION_Z, UNEXPLAINED, check_candidates, strongest
 from bayescal.errors import InputError
 from bayescal.geometry.arcs import MarkerPoints
 from bayescal.units import DEG, MM
@@ -323,7 +324,7 @@ def _residual_table(points: MarkerPoints, base: AngleValidation, final: AngleVal
 
 @dataclass
 class GeometryCritiqueResults(Outcome):
-    """What the geometry critique found (:class:`~bayescal.critique.model.Outcome`, and the following).
+    """What the geometry critique found (:class:`~bayescal.critique.results.Outcome`, and the following).
 
     Attributes
     ----------

@@ -5,8 +5,9 @@
 base axis) and adds, greedily, the extension of
 :data:`~bayescal.critique.extensions.CATALOGUE` that best predicts held-out
 configurations, as long as its gain is clear of its uncertainty
-(:data:`DETECTION_Z` standard errors and :data:`DETECTION_FLOOR` nats, or
-:data:`DECISIVE_GAIN` nats and :data:`DECISIVE_Z` standard errors: no clause names a
+(:mod:`bayescal.critique.rule`: :data:`~bayescal.critique.rule.DETECTION_Z` standard errors and
+:data:`~bayescal.critique.rule.DETECTION_FLOOR` nats, or :data:`~bayescal.critique.rule.DECISIVE_GAIN`
+nats and :data:`~bayescal.critique.rule.DECISIVE_Z` standard errors: no clause names a
 gain within its own standard error).
 Each named cause is measured by what it changes for the user (:meth:`Critique.run`'s
 ``importance``: the held-out residual rms and the prediction at the test pose), and a
@@ -23,11 +24,8 @@ cause ``unexplained`` with the covariate it follows.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from os import PathLike
-from pathlib import Path
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -36,40 +34,22 @@ from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.critique.checks import residual_summary
 from bayescal.critique.compare import Comparison, CrossValidation, compare, cross_validate, fit
-from bayescal.critique.covariates import COVARIATES, Rows, campaign_rows, pose_rows
+from bayescal.critique.covariates import Rows, campaign_rows, pose_rows
 from bayescal.critique.drift import DriftEvidence, drift_deflection, drift_evidence
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
+from bayescal.critique.results import CritiqueResults
+from bayescal.critique.rule import DETECTION_Z, TIE_NOISE, UNEXPLAINED, check_candidates, passes, strongest
 from bayescal.errors import InputError
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.equations import check_campaign
 from bayescal.inference.identifiability import independent_columns
-from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit, least_squares_lack_of_fit, line_of_sight, replicate_cells
+from bayescal.inference.lack_of_fit import least_squares_lack_of_fit, line_of_sight, replicate_cells
 from bayescal.robot.stiffness import EquilibriumError
 from bayescal.threads import one_blas_thread
 from bayescal.units import DEG, MM
 
-__all__ = ["Critique", "CritiqueResults", "Outcome", "fitted_variant", "DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "DECISIVE_Z", "TIE_NOISE", "UNEXPLAINED", "passes", "strongest", "check_candidates"]
+__all__ = ["Critique", "fitted_variant"]
 
-DETECTION_Z = 2.0
-"""A cause is named only when its held-out gain exceeds this many standard errors of the difference."""
-DETECTION_FLOOR = 4.0
-"""... and this many nats: below it a gain is within what chance fits of a few extra
-parameters give on null campaigns (measured: docs/critique.md)."""
-DECISIVE_GAIN = 25.0
-"""A held-out gain (nats) named whatever its standard error: the normal approximation of the
-SE fails when the gain sits in a few configurations (gross tracker errors hit a few
-readings; Sivula et al. 2020), and null campaigns never come near it (docs/critique.md)."""
-DECISIVE_Z = 1.0
-"""... but not within one standard error of it: a gain of 35.1 ± 42.5 nats named ``outliers`` on an
-independent-generator campaign with nothing planted.  One SE, not two, because the SE of a gain that
-sits in a few configurations is itself inflated by them (gross tracker errors: 52-384 nats against
-SEs of 47-253 on the twin), and the decisive branch exists for those."""
-TIE_NOISE = 1.0
-"""Two candidates tie only where their fitted predictions of the campaign's deflections differ nowhere by more
-than this many standard deviations of a reading's noise (the final noise level of the equation): beyond it some
-reading of this plan could tell them apart, and a candidate the named one does not beat held out is reported as
-contesting it (``contested_by``), not as tied."""
-UNEXPLAINED = "unexplained"
 MIN_CONFIGURATIONS = 4
 """Fewest configurations a held-out comparison can rest on (the SE of the difference needs several)."""
 
@@ -341,11 +321,11 @@ def fitted_variant(cell: Cell, rows: Rows, extension: Extension) -> tuple[Extens
 
 
 def _rivals(best: str, trials: dict, evidence: dict[str, Comparison], fitted: Callable[[str], np.ndarray], noise: np.ndarray) -> tuple[list[str], list[str]]:
-    """Candidates that also pass and that ``best`` does not beat by :data:`DETECTION_Z` SE on held-out configurations:
+    """Candidates that also pass and that ``best`` does not beat by :data:`~bayescal.critique.rule.DETECTION_Z` SE on held-out configurations:
     those tied with it, and those that contest it.
 
     Tied: their fitted deflections (``fitted(name)``, (3N,) m) differ from ``best``'s by less than
-    :data:`TIE_NOISE` times ``noise`` (3N,) m at every equation; they explain this campaign alike, and
+    :data:`~bayescal.critique.rule.TIE_NOISE` times ``noise`` (3N,) m at every equation; they explain this campaign alike, and
     it cannot tell them apart.  Contested: their predictions differ by more somewhere, so that this plan
     could separate them, but the held-out scores did not (some configurations favour each, as a misfit
     that neither candidate explains makes them do).
@@ -392,185 +372,3 @@ def _residual_table(rows: Rows, y: np.ndarray, base: CrossValidation, final: Cro
             "final_pit": final.pit,
         }
     )
-
-
-def _candidate_summary(
-    steps: list[dict[str, Comparison]], causes: list[str], probes: dict[str, Comparison], covariate: str | None
-) -> pd.DataFrame:
-    """One row per candidate and greedy step, then per covariate probe: held-out ΔELPD, its SE, and whether it was named."""
-    records = []
-    for step_number, step in enumerate(steps, start=1):
-        for name, c in step.items():
-            named = step_number <= len(causes) and causes[step_number - 1] == name
-            records.append(
-                {"candidate": name, "kind": "extension", "step": step_number, "delta_elpd_nats": c.delta_elpd, "se_nats": c.se, "named": named}
-            )
-    for name, c in probes.items():
-        records.append(
-            {"candidate": name, "kind": "covariate", "step": len(steps) + 1, "delta_elpd_nats": c.delta_elpd, "se_nats": c.se,
-             "named": name == covariate}
-        )
-    return pd.DataFrame.from_records(records, columns=["candidate", "kind", "step", "delta_elpd_nats", "se_nats", "named"])
-
-
-def check_candidates(names: tuple[str, ...], known) -> None:
-    """Refuse candidate names that are not among ``known``."""
-    unknown = [name for name in names if name not in known]
-    if unknown:
-        raise ValueError(f"unknown candidate(s) {', '.join(unknown)}; expected some of {', '.join(known)}")
-
-
-def strongest(evidence: dict[str, Comparison], decisive: bool = True) -> str | None:
-    """The candidate of largest held-out gain among those that pass :func:`passes`, or None."""
-    passing = [name for name, c in evidence.items() if passes(c, decisive)]
-    return max(passing, key=lambda name: evidence[name].delta_elpd) if passing else None
-
-
-def passes(comparison: Comparison, decisive: bool = True) -> bool:
-    """The naming rule; ``decisive=False`` for the probes, whose many free offsets can fit a few odd configurations."""
-    clear = comparison.delta_elpd > max(DETECTION_Z * comparison.se, DETECTION_FLOOR)
-    return clear or (decisive and comparison.delta_elpd > max(DECISIVE_GAIN, DECISIVE_Z * comparison.se))
-
-
-@dataclass
-class Outcome:
-    """What a greedy critique found: the causes it named and the evidence, step by step.
-
-    Attributes
-    ----------
-    causes : list of str
-        Extensions named, in the order added (each fitted on top of those before),
-        then ``"unexplained"`` when a misfit remains that follows a covariate.
-    unexplained_covariate : str or None
-        The covariate the remaining misfit follows.
-    steps : list of dict
-        Per greedy step, every candidate's held-out comparison against the model so far.
-    probes : dict
-        Each covariate probe's comparison against the final model.
-    """
-
-    causes: list[str]
-    unexplained_covariate: str | None
-    steps: list[dict[str, Comparison]]
-    probes: dict[str, Comparison]
-
-    @property
-    def verdict(self) -> str:
-        return "misfit" if self.causes else "adequate"
-
-    def summary(self) -> pd.DataFrame:
-        """One row per candidate and greedy step, then per covariate probe: held-out ΔELPD, its SE, and whether it was named."""
-        return _candidate_summary(self.steps, self.causes, self.probes, self.unexplained_covariate)
-
-
-@dataclass
-class CritiqueResults(Outcome):
-    """What the campaign critique found (:class:`Outcome`, and the following).
-
-    Attributes
-    ----------
-    base, final : CrossValidation
-        The classical and the final model, left-one-configuration-out.
-    gain : Comparison
-        The final model against the classical one on held-out configurations.
-    before, after : dict
-        Held-out residual statistics of the classical and the final model (mm).
-    test_pose : dict
-        The cell's test pose predicted by both models.
-    residuals : pandas.DataFrame
-        One row per equation: covariates, held-out standardised residuals and LOO-PIT of both models.
-    tied_with, contested_by : dict
-        Per named cause, the candidates it does not beat on held-out configurations by :data:`DETECTION_Z` SE
-        whose fitted deflections differ from its own nowhere by :data:`TIE_NOISE` noise sd (tied), or somewhere
-        by more (contested).
-    importance : dict
-        Per named extension, what it changes (:meth:`Critique._importance`): residual rms before and after (mm),
-        the misfit it explains (mm), the test pose's prediction moved (mm) beside its sd (mm), and whether it matters.
-    drift : dict
-        Whether the campaign's readings can show a drift, and the rates they give (:mod:`bayescal.critique.drift`).
-    """
-
-    base: CrossValidation
-    final: CrossValidation
-    gain: Comparison
-    before: dict
-    after: dict
-    test_pose: dict
-    n_configs: int
-    n_equations: int
-    residuals: pd.DataFrame
-    source: str = ""
-    lack_of_fit: LackOfFit | None = None
-    tied_with: dict = field(default_factory=dict)
-    contested_by: dict = field(default_factory=dict)
-    settings: dict = field(default_factory=dict)
-    importance: dict = field(default_factory=dict)
-    drift: dict = field(default_factory=dict)
-    rule: dict = field(default_factory=lambda: {"z": DETECTION_Z, "floor_nats": DETECTION_FLOOR, "decisive_nats": DECISIVE_GAIN, "decisive_z": DECISIVE_Z})
-
-    @property
-    def negligible(self) -> list[str]:
-        """Named causes detectable on held-out configurations but too small to matter (:meth:`Critique._importance`)."""
-        return [name for name, entry in self.importance.items() if not entry["matters"]]
-
-    @property
-    def evidence(self) -> dict[str, Comparison]:
-        """Each catalogue extension's comparison at the step it was named, or at the last step for the others."""
-        out: dict[str, Comparison] = {}
-        for step in self.steps:
-            for name, comparison in step.items():
-                out[name] = comparison
-        return out
-
-    def to_json(self) -> dict:
-        evidence = {}
-        for step_number, step in enumerate(self.steps, start=1):
-            for name, c in step.items():
-                evidence[name] = c.to_json() | {"step": step_number, "named": name in self.causes}
-        payload = {
-            "verdict": self.verdict,
-            "causes": list(self.causes),
-            "evidence": evidence,
-            "gain": self.gain.to_json()
-            | {
-                "held_out": "leave-one-configuration-out",
-                "before": self.before,
-                "after": self.after,
-                "test_pose": self.test_pose,
-            },
-            "covariates": {name: c.to_json() | {"meaning": COVARIATES[name]} for name, c in self.probes.items()},
-            "rule": {"delta_elpd_over_se": DETECTION_Z, "floor_nats": DETECTION_FLOOR, "decisive_nats": DECISIVE_GAIN,
-                     "decisive_over_se": DECISIVE_Z, "tie_noise_sd": TIE_NOISE},
-            "n_configurations": self.n_configs,
-            "n_equations": self.n_equations,
-            "campaign": self.source,
-        }
-        if self.unexplained_covariate is not None:
-            payload["unexplained_covariate"] = self.unexplained_covariate
-        payload["tied_with"] = {cause: list(others) for cause, others in self.tied_with.items()}
-        payload["contested_by"] = {cause: list(others) for cause, others in self.contested_by.items()}
-        payload["settings"] = dict(self.settings)
-        payload["importance"] = {name: dict(entry) for name, entry in self.importance.items()}
-        payload["negligible"] = self.negligible
-        payload["drift"] = dict(self.drift)
-        payload["lack_of_fit"] = None if self.lack_of_fit is None else self.lack_of_fit.to_json() | {
-            "model": "final",
-            "level": LACK_OF_FIT_LEVEL,
-            "meaning": "scatter of the configuration means about the final model against the scatter between repeats",
-        }
-        return payload
-
-    def diagnostics(self) -> dict:
-        """What the comparison rests on: held-out configurations and equations, the decision rule, the
-        held-out residual rms (mm) of the classical and the final model, and the repeats' lack-of-fit p-value."""
-        return {
-            "n_configurations": self.n_configs,
-            "n_equations": self.n_equations,
-            "rule": dict(self.rule),
-            "held_out_rms_mm": {"classical": self.before.get("residual_rms_mm"), "final": self.after.get("residual_rms_mm")},
-            "lack_of_fit_p": None if self.lack_of_fit is None else self.lack_of_fit.p_value,
-        }
-
-    def save(self, path: str | PathLike[str]) -> None:
-        """Write :meth:`to_json` to ``path``."""
-        Path(path).write_text(json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n")

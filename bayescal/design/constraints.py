@@ -34,7 +34,7 @@ import numpy as np
 from bayescal.cell.config import Cell
 from bayescal.cell.plausible import mass_range_violation
 from bayescal.errors import InputError
-from bayescal.design.criteria import solve_equilibrium
+from bayescal.design.linearisation import solve_equilibrium
 from bayescal.robot.batched import BatchedChain, equilibria
 from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG

@@ -13,6 +13,9 @@ covariance is its inverse (eq 37, weighted).  This is the linear-Gaussian
 closed form the criteria of eqs 38-39 assume; the Bayesian identification's
 posterior agrees with it when the priors are wide and the model nearly linear.
 
+The covariance and ``ρ0`` of one plan are :func:`bayescal.design.prediction.predict`'s, the exact
+model's designs :class:`bayescal.design.linearisation.ExactLinearisation`'s.
+
 Everything here works in relative parameters ``u = θ/θ_nominal - 1`` so that
 the information matrix is well conditioned across rad/(N·m), N/m and m.
 
@@ -44,25 +47,22 @@ cannot excite them.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
-
-from dataclasses import replace
 
 from bayescal.cell.config import Cell
 from bayescal.inference.parameters import ParameterRegistry
-from bayescal.jsonsafe import json_safe
-from bayescal.robot.batched import BatchedChain, equilibria
-from bayescal.robot.stiffness import ElasticArm, compliance_design
-from bayescal.units import MM
+from bayescal.robot.batched import BatchedChain
+from bayescal.robot.stiffness import compliance_design
+
+if TYPE_CHECKING:
+    from bayescal.design.linearisation import ExactLinearisation
+    from bayescal.design.prediction import PlanPrediction
 
 __all__ = [
     "CRITERIA",
-    "ExactLinearisation",
     "compliance_chain",
-    "PlanPrediction",
     "configuration_design",
     "configuration_designs",
     "designs_information",
@@ -71,12 +71,8 @@ __all__ = [
     "criterion_values",
     "nominal_parameters",
     "parameter_names",
-    "predict",
     "prior_mean_square",
-    "solve_equilibrium",
-    "test_deflection",
     "test_pose_design",
-    "with_parameters",
     "wrench_information",
 ]
 
@@ -236,270 +232,6 @@ def test_pose_design(cell: Cell) -> np.ndarray:
 
 
 test_pose_design.__test__ = False  # a library function, not a pytest test
-
-
-DIFFERENCE_STEP = 1e-4
-"""Relative step of the exact model's central differences: deflections are nearly linear in the
-parameters, so the truncation error (order step², relative) stays far below the solves' rounding."""
-
-
-def with_parameters(cell: Cell, theta: np.ndarray) -> Cell:
-    """``cell`` with the parameters ``theta`` = [k1..k<n>, K_c, s0] (SI)."""
-    nq = cell.robot.nq
-    compensator = cell.compensator
-    if compensator is not None:
-        compensator = replace(compensator, K_c=float(theta[nq]), s0=float(theta[nq + 1]))
-    return replace(cell, compliances=np.array(theta[:nq], dtype=float), compensator=compensator)
-
-
-def solve_equilibrium(cell: Cell, q, wrench, load_point) -> np.ndarray:
-    """(nq,) joint deflections (rad) of ``cell``'s arm at ``q`` under ``wrench``, its force acting at ``load_point``.
-
-    Raises :class:`~bayescal.robot.stiffness.EquilibriumError` when there is none.
-    """
-    return ElasticArm.linear(cell.robot, cell.compliances, compensator=cell.compensator, load_point=load_point, compensated_joint=cell.compensated_joint).equilibrium(q, wrench)
-
-
-def test_deflection(cell: Cell) -> np.ndarray:
-    """(3,) exact deflection (m) of the test point under the test wrench, its force acting at that point."""
-    robot = cell.robot
-    states = [solve_equilibrium(cell, cell.test_q, wrench, cell.test_point) for wrench in (np.zeros(6), cell.test_wrench)]
-    return robot.point_position(cell.test_q + states[1], cell.test_point) - robot.point_position(cell.test_q + states[0], cell.test_point)
-
-
-test_deflection.__test__ = False  # a library function, not a pytest test
-
-
-class ExactLinearisation:
-    """The exact model (the twin's loaded equilibrium with the links' weights and the compensator)
-    linearised about the cell's values by central differences, in relative parameters.
-
-    The compensator's static torque moves the unloaded and loaded equilibria, so
-    ``K_c`` and ``s0`` act on the deflections also through the arm's geometry,
-    which eq 31's design leaves out: on Table III the exact model predicts
-    K_c and s0 about 2.4 and 1.4 times more precisely than eq 31 (docs/design.md).
-
-    The equilibria of every configuration asked for at once, unloaded and loaded, at the
-    cell's values and at each parameter moved up and down, are solved together, in one call
-    of :func:`~bayescal.robot.batched.equilibria` whose rows carry their own compliances and spring.
-    """
-
-    def __init__(self, cell: Cell) -> None:
-        self.cell = cell
-        nominal = nominal_parameters(cell)
-        self._cells = []
-        for i in range(len(nominal)):
-            pair = []
-            for sign in (1.0, -1.0):
-                theta = nominal.copy()
-                theta[i] *= 1.0 + sign * DIFFERENCE_STEP
-                pair.append(with_parameters(cell, theta))
-            self._cells.append(pair)
-        self._chain = BatchedChain.of(cell.robot)
-        self._points = np.array(list(cell.markers.values()))
-        # Variant 0 is the cell itself, then each parameter up and down.
-        variants = [cell] + [changed for pair in self._cells for changed in pair]
-        self._compliances = np.array([changed.compliances for changed in variants])
-        self._springs = None if cell.compensator is None else np.array([[v.compensator.K_c, v.compensator.s0] for v in variants])
-
-    def deflections(self, q, mass: float) -> np.ndarray:
-        """(markers, 3) noiseless deflections (m) at the cell's values."""
-        return self.wrench_deflections(q, self.cell.load_wrench(q, mass))
-
-    def wrench_deflections(self, q, wrench) -> np.ndarray:
-        """(markers, 3) noiseless deflections (m) at the cell's values under any (6,) ``wrench`` (flange origin, base axes)."""
-        unloaded, loaded = self._positions(np.asarray(q, dtype=float)[np.newaxis], np.asarray(wrench, dtype=float)[np.newaxis], nominal_only=True)
-        return (loaded - unloaded)[0, 0]
-
-    def configuration_design(self, q, mass: float) -> tuple[np.ndarray, np.ndarray]:
-        """Like :func:`configuration_design`, from the exact model; the noise is that of the two readings."""
-        return self.wrench_design(q, self.cell.load_wrench(q, mass))
-
-    def wrench_design(self, q, wrench) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`configuration_design` under any (6,) ``wrench`` (flange origin, base axes, its force through the load point)."""
-        design, sigma = self.wrench_designs(np.asarray(q, dtype=float)[np.newaxis], np.asarray(wrench, dtype=float)[np.newaxis])
-        return design[0], sigma[0]
-
-    def wrench_designs(self, q: np.ndarray, wrench: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`wrench_design` of ``N`` configurations at once.
-
-        Parameters
-        ----------
-        q
-            ``(N, nq)`` joint angles, rad.
-        wrench
-            ``(N, 6)`` loads at the flange origin, base axes, N and N·m, each force through the load point.
-
-        Returns
-        -------
-        design : numpy.ndarray
-            ``(N, 3·markers, p)`` derivatives of the markers' deflections (m) in the relative parameters.
-        sigma : numpy.ndarray
-            ``(N, 3·markers)`` standard deviation of each deflection coordinate (m), two readings.
-        """
-        q, wrench = np.asarray(q, dtype=float), np.asarray(wrench, dtype=float)
-        unloaded, loaded = self._positions(q, wrench)
-        deflection = (loaded - unloaded).reshape(len(self._compliances), len(q), -1)
-        design = (deflection[1::2] - deflection[2::2]) / (2.0 * DIFFERENCE_STEP)
-        sigma = np.sqrt(self.cell.tracker.deflection_variance(unloaded[0], loaded[0]))
-        return np.moveaxis(design, 0, -1), np.repeat(sigma, 3, axis=-1)
-
-    def _positions(self, q: np.ndarray, wrench: np.ndarray, *, nominal_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """``(V, N, markers, 3)`` marker positions (m) unloaded and loaded, for the V variants of the parameters
-        (the cell's values alone when ``nominal_only``)."""
-        n = len(q)
-        cell = self.cell
-        variants = 1 if nominal_only else len(self._compliances)
-        # rows: variant, then unloaded / loaded, then configuration
-        rows_q = np.tile(q, (2 * variants, 1))
-        rows_wrench = np.tile(np.concatenate([np.zeros_like(wrench), wrench]), (variants, 1))
-        theta = equilibria(
-            self._chain, rows_q, rows_wrench, np.repeat(self._compliances[:variants], 2 * n, axis=0),
-            compensator=cell.compensator, compensated_joint=cell.compensated_joint, load_point=cell.load_point,
-            springs=None if self._springs is None else np.repeat(self._springs[:variants], 2 * n, axis=0),
-        )
-        poses = self._chain.poses(rows_q + theta)
-        positions = np.stack([poses.points(point) for point in self._points], axis=1).reshape(variants, 2, n, len(self._points), 3)
-        return positions[:, 0], positions[:, 1]
-
-    def test_design(self) -> np.ndarray:
-        """(3, p) derivatives of the test point's exact deflection (m) in the relative parameters."""
-        return np.column_stack(
-            [(test_deflection(plus) - test_deflection(minus)) / (2.0 * DIFFERENCE_STEP) for plus, minus in self._cells]
-        )
-
-
-@dataclass(frozen=True)
-class PlanPrediction:
-    """What a plan's information matrix predicts (relative parameters; SI where stated).
-
-    Attributes
-    ----------
-    names : list of str
-    nominal : numpy.ndarray
-        (p,) parameter values, SI.
-    excited : numpy.ndarray
-        (p,) bool, parameters the plan excites; the others are held at their nominal values.
-    covariance : numpy.ndarray
-        (p, p) covariance of the relative parameters; NaN rows and columns where not
-        excited, or everywhere when the plan cannot separate the excited ones.
-    rho0 : float
-        rms positioning error left at the test pose after compensation (eq 39), m, the priors of the
-        compliances the plan does not excite included; inf when the plan cannot predict it.
-    rho0_identified : float
-        The same with every compliance the plan does not excite held at its applied value: the part
-        the plan's data set, m.
-    log_det : float
-        log det of the excited block of the information matrix (relative parameters); -inf when singular.
-    registry : ParameterRegistry
-        The cell's parameters: units at the edges, SI factors, and its published results (its
-        ``reference_csv``, Table IV for the KR-270) where it names them.
-    """
-
-    names: list[str]
-    nominal: np.ndarray
-    excited: np.ndarray
-    covariance: np.ndarray
-    rho0: float
-    log_det: float
-    registry: ParameterRegistry
-    rho0_identified: float = math.nan
-
-    @property
-    def prior_share(self) -> float:
-        """Fraction of ``ρ0²`` from the priors of the compliances the plan does not excite."""
-        if not math.isfinite(self.rho0) or self.rho0 == 0:
-            return math.nan
-        return max(0.0, 1.0 - (self.rho0_identified / self.rho0) ** 2)
-
-    @property
-    def relative_sd(self) -> np.ndarray:
-        """(p,) standard deviation of each parameter as a fraction of its value (NaN where not excited)."""
-        return np.sqrt(np.diag(self.covariance))
-
-    def summary(self) -> pd.DataFrame:
-        """Predicted precision per parameter in the paper's units.
-
-        Columns ``value``, ``sd``, ``width_3sd_pct`` (3 sd in % of the value),
-        ``table_iv_pct`` (the cell's published widths, Klimchik et al.'s Table IV for the
-        KR-270; only when the cell names them) and ``unit``.
-        """
-        parameters = [self.registry[name] for name in self.names]
-        factors = np.array([1.0 / p.si_factor for p in parameters])
-        sd = self.relative_sd * np.abs(self.nominal)
-        columns = {"value": self.nominal * factors, "sd": sd * factors, "width_3sd_pct": 300.0 * self.relative_sd}
-        if self.registry.published is not None:
-            columns["table_iv_pct"] = [100.0 * p.published[1] / p.published[0] if p.published else math.nan for p in parameters]
-        columns["unit"] = [p.unit for p in parameters]
-        return pd.DataFrame(columns, index=pd.Index(self.names, name="parameter"))
-
-    def to_json(self) -> dict:
-        """``criterion`` (ρ0 in mm, null when not predictable) and each parameter's ±3σ width."""
-        table = self.summary()
-        not_excited = [name for name, excited in zip(self.names, self.excited) if not excited and name.startswith("k")]
-        return {
-            "criterion": json_safe(self.rho0 / MM),
-            "criterion_unit": "mm rms at the test pose after compensation",
-            "criterion_includes": "the identified parameters' uncertainty and the prior of "
-            + (", ".join(not_excited) + ", which the plan does not excite" if not_excited else "no unexcited compliance (every one excited)"),
-            "criterion_identified_only": json_safe(self.rho0_identified / MM),
-            "criterion_prior_share_of_mean_square": json_safe(self.prior_share),
-            "log_det_information": json_safe(self.log_det),
-            "parameters": {
-                name: {
-                    "value": float(row.value),
-                    "unit": row.unit,
-                    "sd": json_safe(row.sd),
-                    "width_3sd": json_safe(3.0 * row.sd),
-                    "width_3sd_pct": json_safe(row.width_3sd_pct),
-                    "excited": bool(excited),
-                }
-                for (name, row), excited in zip(table.iterrows(), self.excited)
-            },
-        }
-
-
-def predict(cell: Cell, information: np.ndarray, *, test_design: np.ndarray | None = None) -> PlanPrediction:
-    """The covariance, ``ρ0`` and ``log det`` a plan's information matrix gives.
-
-    Parameters
-    ----------
-    cell
-        The cell (nominal parameters, test pose).
-    information
-        (p, p) sum of :func:`configuration_information` over the plan.
-    test_design
-        (3, p) :func:`test_pose_design` of ``cell``, when already computed.
-    """
-    names = parameter_names(cell)
-    p = len(names)
-    G0 = test_pose_design(cell) if test_design is None else test_design
-    diagonal = np.diag(information)
-    excited = diagonal > UNEXCITED * max(diagonal.max(), 1e-300)
-    block = information[np.ix_(excited, excited)]
-    # Equilibrating the block keeps the eigenvalue test meaningful when one parameter dominates.
-    scale = 1.0 / np.sqrt(np.diag(block))
-    values, vectors = np.linalg.eigh(block * np.outer(scale, scale))
-    covariance = np.full((p, p), np.nan)
-    rho0 = rho0_identified = math.inf
-    log_det = -math.inf
-    if values.size and values[0] > SINGULAR * values[-1]:
-        inverse = (vectors / values) @ vectors.T * np.outer(scale, scale)
-        covariance[np.ix_(excited, excited)] = inverse
-        squared = max(float(np.trace(G0[:, excited] @ inverse @ G0[:, excited].T)), 0.0)
-        rho0_identified = math.sqrt(squared)
-        rho0 = math.sqrt(squared + _prior_term(cell, G0, excited))
-        log_det = float(np.sum(np.log(values)) - 2.0 * np.sum(np.log(scale)))
-    return PlanPrediction(
-        names=names,
-        nominal=nominal_parameters(cell),
-        excited=excited,
-        covariance=covariance,
-        rho0=rho0,
-        log_det=log_det,
-        registry=ParameterRegistry.of_cell(cell),
-        rho0_identified=rho0_identified,
-    )
 
 
 def criterion_value(prediction: PlanPrediction, criterion: str) -> float:

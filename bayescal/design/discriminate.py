@@ -6,41 +6,11 @@ cannot tell them apart (``tied_with``).  A plan that can is one on which the two
 models, each sized as the tied campaign says, predict the most different
 deflections, measured in the tracker's noise.
 
-The criterion.  Both candidates are linear in their parameters
-(:mod:`bayescal.critique.extensions`): a marker's deflection is
-``X0 β0 + XA βA`` under A and ``X0 β0 + XB βB`` under B, ``X0`` the classical
-model.  If A is true, the best fit of B to noise-free data of a plan leaves the
-weighted residual sum of squares
+The criterion, the smaller of the two models' expected log-likelihood ratios on the
+plan's data, and the held-out ΔELPD it is expected to give in its standard errors, are
+:mod:`bayescal.design.separation`'s.
 
-    λ_A = min_γ ‖XA βA − [X0 XB] γ‖²_W = βAᵀ (M_AA − M_AR M_RR⁺ M_RA) βA,
-
-``M = Σ r Zᵀ W Z`` the information of the joint design ``Z = [X0 XA XB]``
-summed over the plan's configurations (``r`` repeats, ``W = 1/(2σ²)``, two
-tracker readings per deflection), ``R`` the columns of ``[X0 XB]``.  With
-Gaussian noise, ``λ_A / 2`` nats is the expected log-likelihood ratio of A over
-B on the plan's data when A is true (the Kullback-Leibler divergence of their
-predictive distributions at known coefficients), the quantity a held-out ΔELPD
-estimates less the cost of the fitted parameters.  ``βA`` and ``βB`` are each
-model's fit to the tied campaign.
-
-The plan maximises the smaller of ``λ_A / 2`` and ``λ_B / 2``: whichever of the
-two is true, the plan should show it.
-
-The critique separates the two when the held-out ΔELPD exceeds twice its
-standard error, ``sqrt(K var(d))`` over the K configurations' differences: a
-plan whose separation sits in a few configurations (the few where a load
-reverses a joint's torque, for a lost motion) has a SE of its own size however
-large the total.  Each configuration's share ``λ_k`` of the separation (the
-rival fitted to the whole plan) gives the difference's expected mean ``λ_k / 2``
-and variance ``λ_k``, hence the ΔELPD expected in its SEs (:func:`expected_z`),
-which :class:`Discrimination` reports beside the nats.  Maximised instead of
-the separation, it resolved the twin's tied torque-dependent compliance more
-often and its tied lost motion less often, and with the command's search (four
-starts on eight candidates per angle) lost motion in 8 of 20 seeds against 13
-of 20 (``docs/critique.md``): the better the search, the more it fits the noise
-of coefficients taken from a campaign that could not tell the two apart.
-
-The search is Fedorov's exchange over a candidate set, as
+The search (:mod:`bayescal.design.discriminating_search`) is Fedorov's exchange over a candidate set, as
 :class:`~bayescal.design.optimise.PlanDesigner`'s, with one difference: each
 candidate configuration comes at several masses across the design's range, and
 a plan may load one configuration at two masses, since a lost motion is an
@@ -65,8 +35,7 @@ counted, 13 of 15 (``docs/critique.md``).
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from os import PathLike
 
 import numpy as np
@@ -80,12 +49,14 @@ from bayescal.critique.covariates import REVERSED_MARKER, Rows, campaign_rows, p
 from bayescal.critique.extensions import CATALOGUE, Extension, base_columns
 from bayescal.critique.model import fitted_variant
 from bayescal.design.constraints import DesignSpace, load_design_space
+from bayescal.design.discriminating_search import _Exchange
 from bayescal.design.optimise import PlanDesigner
+from bayescal.design.separation import Discrimination, plan_z, separation
 from bayescal.errors import InputError
 from bayescal.inference.identifiability import independent_columns
 from bayescal.units import DEG
 
-__all__ = ["DISCRIMINATE", "PER_ANGLE", "MASS_LEVELS", "Discrimination", "DiscriminatingDesign", "DiscriminatingDesigner", "separation", "shares", "expected_z", "plan_z"]
+__all__ = ["DISCRIMINATE", "PER_ANGLE", "MASS_LEVELS", "DiscriminatingDesign", "DiscriminatingDesigner"]
 
 DISCRIMINATE = "discriminate"
 """The criterion's name on the command line."""
@@ -104,126 +75,13 @@ CANDIDATES_PER_ANGLE = 8
 """Candidate configurations per q2 angle of the grid (about 460 on the KR-270, each at :data:`MASS_LEVELS` masses)."""
 
 STARTS = 4
-MAX_PASSES = 10
-"""Random starts and exchange passes at most; on the KR-270 a start settles in 2 to 4 passes."""
-
-_RIDGE = 1e-9
-"""Ridge on the rival model's unit-diagonal information: a direction whose eigenvalue is below it (k1
-under hanging loads, a lost motion no load of the plan reverses) is not fitted."""
+"""Random starts of the exchange (its passes: :data:`~bayescal.design.discriminating_search.MAX_PASSES`)."""
 
 
 def _columns(rows: Rows, cell: Cell, extension: Extension) -> np.ndarray:
     return extension.regressors(rows, cell).reshape(3 * len(rows), -1)
 
 
-@dataclass(frozen=True)
-class Discrimination:
-    """How well a plan separates two candidates.
-
-    Attributes
-    ----------
-    between : tuple of str
-        The candidates A and B.
-    nats : tuple of float
-        ``λ_A / 2`` and ``λ_B / 2``: the expected log-likelihood ratio of the true
-        model over its rival on the plan's data, when A, respectively B, is true.
-    z : tuple of float
-        The held-out ΔELPD of the true model over its rival, in its standard errors,
-        expected from how the separation is shared among the configurations
-        (:func:`expected_z`); the critique separates the two above ``DETECTION_Z``.
-    """
-
-    between: tuple[str, str]
-    nats: tuple[float, float]
-    z: tuple[float, float]
-
-    @property
-    def worst(self) -> float:
-        """The smaller of the two, nats: what the plan guarantees whichever is true."""
-        return float(min(self.nats))
-
-    def to_json(self) -> dict:
-        a, b = self.between
-        return {
-            f"if_{a}_true_nats": round(self.nats[0], 3),
-            f"if_{b}_true_nats": round(self.nats[1], 3),
-            "worst_nats": round(self.worst, 3),
-            f"if_{a}_true_z": round(self.z[0], 3),
-            f"if_{b}_true_z": round(self.z[1], 3),
-            "worst_z": round(float(min(self.z)), 3),
-        }
-
-
-def _residual(information: np.ndarray, own: np.ndarray, fitted: np.ndarray, beta: np.ndarray) -> np.ndarray:
-    """(..., p) the coefficients ``v`` of deflections ``Z_own β`` less their best fit by the columns ``fitted``, in plans of information (..., p, p)."""
-    m_ro = information[..., fitted[:, None], own[None, :]]
-    m_rr = information[..., fitted[:, None], fitted[None, :]]
-    # unit diagonal and a ridge far below any direction a plan resolves: no fit along unexcited ones
-    size = np.sqrt(np.einsum("...ii->...i", m_rr))
-    size = np.where(size > 0, size, 1.0)
-    normal = m_rr / (size[..., :, None] * size[..., None, :]) + _RIDGE * np.eye(fitted.size)
-    gamma = np.linalg.solve(normal, (m_ro / size[..., :, None]) @ beta[:, None])[..., 0] / size
-    v = np.zeros(information.shape[:-2] + (information.shape[-1],))
-    v[..., own] = beta
-    v[..., fitted] -= gamma
-    return v
-
-
-def _directions(information: np.ndarray, blocks: tuple[slice, slice, slice], beta_a: np.ndarray, beta_b: np.ndarray) -> np.ndarray:
-    """(..., 2, p) the coefficients ``v`` of the true model's deflections less the rival's best fit, ``λ = vᵀ M v``, A then B true.
-
-    ``information`` (..., p, p) is the joint design's; ``blocks`` the columns of the classical model, of A and of B.
-    """
-    information = np.asarray(information)
-    base, a, b = (np.arange(information.shape[-1])[s] for s in blocks)
-    truths = ((a, beta_a, np.concatenate([base, b])), (b, beta_b, np.concatenate([base, a])))
-    return np.stack([_residual(information, own, rival, beta) for own, beta, rival in truths], axis=-2)
-
-
-def separation(information: np.ndarray, blocks: tuple[slice, slice, slice], beta_a: np.ndarray, beta_b: np.ndarray) -> np.ndarray:
-    """(..., 2) ``λ_A / 2`` and ``λ_B / 2`` (nats) of plans with joint information ``information`` (..., p, p).
-
-    ``blocks`` are the columns of the classical model, of A and of B in the joint design.
-    """
-    v = _directions(information, blocks, beta_a, beta_b)
-    return np.maximum(0.5 * np.einsum("...ti,...ij,...tj->...t", v, np.asarray(information), v), 0.0)
-
-
-def expected_z(mean: np.ndarray, variance: np.ndarray) -> np.ndarray:
-    """(...,) the held-out ΔELPD over its SE expected from K configurations' differences of mean ``mean`` and noise ``variance`` (..., K).
-
-    The SE of the held-out comparison is ``sqrt(K var(d))`` over the K differences
-    (:func:`~bayescal.critique.compare.compare_elpd`): it grows with how unequally
-    the configurations share the difference as well as with their noise, so a
-    separation that sits in a few configurations has a SE of its own size,
-    whatever its total.  Expected: ``Σ m_k / sqrt(K/(K-1) Σ (m_k - m̄)² + Σ v_k)``.
-    """
-    k = mean.shape[-1]
-    spread = np.sum((mean - mean.mean(axis=-1, keepdims=True)) ** 2, axis=-1) * (k / max(k - 1, 1))
-    total = mean.sum(axis=-1)
-    scale = np.sqrt(spread + variance.sum(axis=-1))
-    return np.divide(total, scale, out=np.zeros_like(total), where=scale > 0)
-
-
-def shares(information: np.ndarray, blocks: tuple[slice, slice, slice], beta_a: np.ndarray, beta_b: np.ndarray) -> np.ndarray:
-    """(..., 2, K) each configuration's share ``λ_k`` of the separation of plans of K configurations of information (..., K, p, p), A then B true.
-
-    The rival is fitted to the whole plan; ``Σ_k λ_k / 2`` is :func:`separation`.
-    """
-    information = np.asarray(information)
-    v = _directions(information.sum(axis=-3), blocks, beta_a, beta_b)
-    return np.einsum("...ti,...kij,...tj->...tk", v, information, v)
-
-
-def plan_z(information: np.ndarray, blocks: tuple[slice, slice, slice], beta_a: np.ndarray, beta_b: np.ndarray) -> np.ndarray:
-    """(..., 2) :func:`expected_z` of plans whose K configurations have information ``information`` (..., K, p, p), A then B true.
-
-    With the coefficients known and Gaussian noise, configuration k adds a
-    log-likelihood ratio of the true model over its rival of mean ``λ_k / 2`` and
-    variance ``λ_k``.
-    """
-    lam = np.maximum(shares(information, blocks, beta_a, beta_b), 0.0)
-    return expected_z(lam / 2, lam)
 
 
 @dataclass(frozen=True)
@@ -430,144 +288,3 @@ def _discrimination(between: tuple[str, str], information: np.ndarray, blocks, b
     """The separation of a plan whose configurations have information ``information`` (K, p, p)."""
     nats = separation(information.sum(axis=0), blocks, *beta)
     return Discrimination(between, tuple(float(v) for v in nats), tuple(float(v) for v in plan_z(information, blocks, *beta)))
-
-
-@dataclass
-class _Exchange:
-    """Fedorov's exchange on the worse of the two separations (:func:`separation`), configurations grouped by their q2 grid angle.
-
-    Within a group the plan joint is not driven, so the side of its lost motion
-    is set by the loads alone: the slots of a group alternate the side its loaded
-    torque takes (``side``, per option), so that measured in slot order every
-    configuration's first loading reverses the previous one's, whatever friction
-    holds the joint and however it arrived.  A group short of one side fills the
-    slots of that side from the other.
-    """
-
-    information: np.ndarray
-    group: np.ndarray
-    side: np.ndarray
-    grid: np.ndarray
-    separation_rad: float
-    blocks: tuple
-    beta: tuple
-    rng: np.random.Generator
-    # this search's own memory: each q2 group's options, and the greedy fills already computed for a plan's other groups
-    _by_angle: dict = field(default_factory=dict, init=False)
-    _filled: dict = field(default_factory=dict, init=False)
-
-    def score(self, fixed: list[int], candidates: np.ndarray) -> np.ndarray:
-        """(P,) the worse separation (nats) of the plan ``fixed`` with each of the P ``candidates`` added."""
-        total = self.information[np.asarray(fixed, dtype=int)].sum(axis=0) + self.information[np.asarray(candidates, dtype=int)]
-        return separation(total, self.blocks, *self.beta).min(axis=-1)
-
-    def value(self, chosen: list[int]) -> float:
-        return float(self.score(chosen[:-1], chosen[-1:])[0])
-
-    def _separated(self, angles: list[int]) -> bool:
-        values = np.sort(self.grid[angles])
-        return len(values) < 2 or bool(np.min(np.diff(values)) >= self.separation_rad - 1e-12)
-
-    def _slot_pool(self, angle: int, slot: int, taken: list[int]) -> np.ndarray:
-        """The options of q2 group ``angle`` free for ``slot``: those whose load takes the plan joint to the slot's side.
-
-        Even slots take a positive torque, odd slots a negative one: the groups are
-        measured in increasing q2, so the plan joint arrives at each driven up, its
-        link lagging on the side a negative torque takes it to, and a group of even
-        size leaves it there too.
-        """
-        options = self._options(angle)
-        options = options[~np.isin(options, taken)]
-        wanted = options[self.side[options] == (1.0 if slot % 2 == 0 else -1.0)]
-        return wanted if wanted.size else options
-
-    def _options(self, angle: int) -> np.ndarray:
-        """The options of q2 group ``angle``, in increasing order."""
-        if not self._by_angle:
-            self._by_angle.update({int(g): np.flatnonzero(self.group == g) for g in np.unique(self.group)})
-        return self._by_angle.get(int(angle), np.empty(0, dtype=int))
-
-    def _fill(self, angle: int, per_angle: int) -> list[int]:
-        """``per_angle`` options of group ``angle`` drawn at random, slot by slot (each slot's side first)."""
-        members: list[int] = []
-        for slot in range(per_angle):
-            members.append(int(self.rng.choice(self._slot_pool(angle, slot, members))))
-        return members
-
-    def run(self, angles: int, per_angle: int) -> tuple[list[int], float]:
-        usable = [g for g in range(len(self.grid)) if np.count_nonzero(self.group == g) >= per_angle]
-        if len(usable) < angles:
-            # No angle with that many: the configurations per angle are at fault, not the number of angles.
-            raise InputError(
-                f"only {len(usable)} q2 angles have {per_angle} feasible configurations, {angles} requested",
-                source="angles" if usable else "per_angle",
-            )
-        for _ in range(1000):
-            chosen_angles = list(self.rng.choice(usable, size=angles, replace=False))
-            if self._separated(chosen_angles):
-                break
-        else:
-            raise InputError(f"no {angles} q2 angles {math.degrees(self.separation_rad):.0f} deg apart have feasible configurations", source="angles")
-        groups = [self._fill(int(g), per_angle) for g in chosen_angles]
-        current = self.value(_flat(groups))
-        for _ in range(MAX_PASSES):
-            improved = False
-            for g, members in enumerate(groups):
-                for slot in range(per_angle):
-                    pool = self._slot_pool(chosen_angles[g], slot, members)
-                    if not pool.size:
-                        continue
-                    rest = _flat(groups[:g]) + members[:slot] + members[slot + 1 :] + _flat(groups[g + 1 :])
-                    scores = self.score(rest, pool)
-                    if scores.max() > current * (1 + 1e-9):
-                        members[slot], current, improved = int(pool[np.argmax(scores)]), float(scores.max()), True
-                moved = self._move(groups, chosen_angles, g, current)
-                if moved is not None:
-                    chosen_angles[g], groups[g], current, improved = moved[0], moved[1], moved[2], True
-            if not improved:
-                break
-        return _flat(groups), current
-
-    def _move(self, groups, chosen_angles, g, current):
-        """The best other q2 angle for group ``g``, filled greedily, when it beats ``current``."""
-        rest = _flat(groups[:g] + groups[g + 1 :])
-        others = chosen_angles[:g] + chosen_angles[g + 1 :]
-        angles = [
-            int(angle) for angle in np.unique(self.group)
-            if angle != chosen_angles[g] and self._separated(others + [int(angle)]) and len(self._options(angle)) >= len(groups[g])
-        ]
-        # The fills depend only on the other groups: unchanged since the last pass, they are not computed again.
-        key = (tuple(angles), len(groups[g]), tuple(rest))
-        if key not in self._filled:
-            self._filled[key] = self._greedy_fills(angles, len(groups[g]), rest)
-        best = None
-        for angle, (members, score) in zip(angles, self._filled[key]):
-            if score > current * (1 + 1e-9) and (best is None or score > best[2]):
-                best = (angle, list(members), score)
-        return best
-
-    def _greedy_fills(self, angles: list[int], per_angle: int, fixed: list[int]) -> list[tuple[list[int], float]]:
-        """Every group of ``angles`` filled slot by slot, each the best option added to ``fixed``, the groups scored together, and the
-        worse separation (nats) of each filled plan.  The plans' information is summed in the order of
-        :meth:`score`'s, member after member, so that the scores are those of one angle after another."""
-        members: list[list[int]] = [[] for _ in angles]
-        partial = np.repeat(self.information[np.asarray(fixed, dtype=int)].sum(axis=0)[np.newaxis], len(angles), axis=0)
-        for slot in range(per_angle):
-            pools = [self._slot_pool(angle, slot, chosen) for angle, chosen in zip(angles, members)]
-            sizes = [len(pool) for pool in pools]
-            label = np.repeat(np.arange(len(angles)), sizes)
-            scores = separation(partial[label] + self.information[np.concatenate(pools)], self.blocks, *self.beta).min(axis=-1)
-            starts = np.concatenate([[0], np.cumsum(sizes)])
-            for k, pool in enumerate(pools):
-                choice = int(pool[np.argmax(scores[starts[k] : starts[k + 1]])])
-                members[k].append(choice)
-                if slot < per_angle - 1:
-                    partial[k] = partial[k] + self.information[choice]
-        # the last member added to the others' sum, as value() adds it
-        last = np.array([chosen[-1] for chosen in members], dtype=int)
-        final = separation(partial + self.information[last], self.blocks, *self.beta).min(axis=-1)
-        return [(chosen, float(score)) for chosen, score in zip(members, final)]
-
-
-def _flat(groups: list[list[int]]) -> list[int]:
-    return [o for members in groups for o in members]

@@ -27,7 +27,8 @@ import numpy as np
 
 from bayescal.cell.config import Cell
 from bayescal.cell.plan import Plan
-from bayescal.design.criteria import ExactLinearisation, configuration_design, configuration_designs
+from bayescal.design.criteria import configuration_design, configuration_designs
+from bayescal.design.linearisation import ExactLinearisation
 from bayescal.robot.stiffness import EquilibriumError
 
 __all__ = [

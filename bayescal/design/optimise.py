@@ -10,10 +10,11 @@ optimiser
 2. from a random start, exchanges (Fedorov's idea, in the form of Cook and
    Nachtsheim's coordinate exchange) one configuration for the best candidate
    at the same q2, or moves a whole group to another q2 angle filled greedily,
-   until a full pass improves nothing;
+   until a full pass improves nothing (:mod:`bayescal.design.exchange`);
 3. refines the best plan continuously: random steps on a group's q2 or on one
    configuration's other joints, kept when the plan stays feasible and improves,
-   with a step that shrinks from a few degrees to a tenth of one;
+   with a step that shrinks from a few degrees to a tenth of one
+   (:mod:`bayescal.design.refinement`);
 4. repeats 2-3 from several random starts and keeps the best.
 
 Every configuration carries the heaviest mass of the design's range (the
@@ -37,21 +38,21 @@ from bayescal.cell.plan import Plan, prismatic_flags
 from bayescal.design.constraints import DesignSpace, Feasibility, load_design_space
 from bayescal.design.criteria import (
     CRITERIA,
-    ExactLinearisation,
-    PlanPrediction,
     configuration_designs,
     criterion_values,
     designs_information,
-    predict,
     test_pose_design,
 )
-from bayescal.design.loads import free_candidates, load_sizes, turned
+from bayescal.design.exchange import Exchange
+from bayescal.design.linearisation import ExactLinearisation
+from bayescal.design.loads import free_candidates, load_sizes
 from bayescal.design.plan_design import PlanDesign, PlanEvaluation
+from bayescal.design.prediction import PlanPrediction, predict
 from bayescal.design.progress import Progress, best_text
+from bayescal.design.refinement import REFINE_STEPS, Refinement
 from bayescal.errors import InputError
 from bayescal.robot.batched import BatchedChain
 from bayescal.robot.compensator import MIN_ANGLES
-from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG
 
 __all__ = ["PlanDesign", "PlanDesigner"]
@@ -69,26 +70,12 @@ TRIES_PER_CANDIDATE = 60
 STARTS = 3
 """Random starts of the exchange; on the KR-270 their results differ by 1-3 % (docs/design.md)."""
 
-REFINE_STEPS = 200
-"""Proposals of the continuous refinement of each start."""
-
-REFINE_STEP_DEG = (3.0, 0.1)
-"""First and last standard deviation (deg) of the refinement's random steps."""
-
-MAX_PASSES = 20
-"""Exchange passes at most; on the KR-270 a start settles in 3 to 6."""
-
 DRAW_BLOCK = 16
 """Random draws checked together per wanted candidate (a block of ``DRAW_BLOCK × candidates`` draws at a q2 angle):
 about one draw in ten is feasible in the KR-270 cell, so one block usually fills an angle."""
 
-REFINE_BLOCK = 32
-"""Refinement steps looked ahead: the configurations they would propose from the current plan are solved together.
-The steps are still taken one after another; one whose configuration was not foreseen (its row changed by an
-accepted step) looks ahead again."""
 
-
-class PlanDesigner:
+class PlanDesigner(Exchange, Refinement):
     """Designs calibration plans for a cell.
 
     Parameters
@@ -101,7 +88,7 @@ class PlanDesigner:
         Measurements of each configuration (the paper: 3).
     model
         The model the search scores plans with: ``"exact"``
-        (:class:`~bayescal.design.criteria.ExactLinearisation`, the identification's default model) or
+        (:class:`~bayescal.design.linearisation.ExactLinearisation`, the identification's default model) or
         ``"linear"`` (eq 31; the search takes two thirds of the exact model's time, but on the KR-270 its
         test-pose optimum leaves 1.4 times the exact model's error, docs/design.md).
     """
@@ -437,153 +424,3 @@ class PlanDesigner:
     def _separated(self, values: list[float]) -> bool:
         values = np.sort(values)
         return len(values) < 2 or bool(np.min(np.diff(values)) >= self.space.min_separation - 1e-12)
-
-    def _start(self, grid, usable, available, angles, per_angle, rng):
-        for _ in range(1000):
-            chosen = rng.choice(np.flatnonzero(usable), size=angles, replace=False)
-            if self._separated(list(grid[chosen])):
-                return [(int(g), list(rng.choice(available[g], size=per_angle, replace=False))) for g in chosen]
-        raise InputError(f"no {angles} q2 angles {math.degrees(self.space.min_separation):.0f} deg apart have feasible configurations", source="angles")
-
-    def _exchange(self, groups, grid, usable, available, information, criterion):
-        def total(groups):
-            return sum(information[c] for _, members in groups for c in members)
-
-        current = self._score(total(groups), criterion)
-        # A group's fills depend only on the other groups: unchanged since the last pass, they are not computed again.
-        filled: dict[tuple, list] = {}
-        for _ in range(MAX_PASSES):
-            improved = False
-            for g in range(len(groups)):
-                # one configuration for another at the same q2
-                for slot in range(len(groups[g][1])):
-                    angle, members = groups[g]
-                    pool = np.setdiff1d(available[angle], members)
-                    if not pool.size:
-                        continue
-                    base = total(groups) - information[members[slot]]
-                    scores = self._scores(base + information[pool], criterion)
-                    best = int(np.argmin(scores))
-                    if scores[best] < current - 1e-12 * abs(current):
-                        members[slot], current, improved = int(pool[best]), float(scores[best]), True
-                # the whole group to another q2, filled greedily: every angle's fill at once, then taken in turn
-                others = [grid[a] for h, (a, _) in enumerate(groups) if h != g]
-                angles = [int(a) for a in np.flatnonzero(usable) if self._separated(others + [grid[a]])]
-                rest = total(groups[:g] + groups[g + 1 :])
-                key = (tuple(angles), len(groups[g][1]), rest.tobytes())
-                if key not in filled:
-                    filled[key] = self._greedy_fills(angles, len(groups[g][1]), rest, available, information, criterion)
-                fills = filled[key]
-                for angle, (members, score) in zip(angles, fills):
-                    if angle == groups[g][0]:
-                        continue
-                    if score < current - 1e-12 * abs(current):
-                        groups[g], current, improved = (angle, list(members)), score, True
-            if not improved:
-                break
-        return groups
-
-    def _greedy_fills(self, angles: list[int], size: int, rest: np.ndarray, available, information: np.ndarray, criterion: str):
-        """For each q2 grid index of ``angles``, ``size`` of its candidates added one by one to the plan of information
-        ``rest``, each the best; the members and the criterion of each filled plan.  The angles are scored together."""
-        members: list[list[int]] = [[] for _ in angles]
-        partial = np.repeat(rest[np.newaxis], len(angles), axis=0)
-        for _ in range(size):
-            pools = [np.setdiff1d(available[a], chosen) for a, chosen in zip(angles, members)]
-            label = np.repeat(np.arange(len(angles)), [len(pool) for pool in pools])
-            flat = np.concatenate(pools)
-            scores = self._scores(partial[label] + information[flat], criterion, groups=label)
-            starts = np.concatenate([[0], np.cumsum([len(pool) for pool in pools])])
-            for k, pool in enumerate(pools):
-                choice = int(pool[np.argmin(scores[starts[k] : starts[k + 1]])])
-                members[k].append(choice)
-                partial[k] = partial[k] + information[choice]
-        return list(zip(members, self._scores(partial, criterion, groups=np.arange(len(angles)))))
-
-    def _refine(self, q: np.ndarray, loads: np.ndarray, angles: int, per_angle: int, criterion: str, rng: np.random.Generator, steps: int):
-        q, loads = q.copy(), loads.copy()
-        parts = self._load_informations(q, loads)
-        current = self._score(parts.sum(axis=0), criterion)
-        # information of each configuration and load met so far, None when infeasible: one step after another as
-        # drawn, the configurations evaluated ahead in batches (a row a step does not change keeps its evaluation)
-        known: dict[bytes, np.ndarray | None] = {}
-        for step in range(steps):
-            before = rng.bit_generator.state
-            proposal = self._proposal(q, loads, step, steps, angles, per_angle, rng)
-            if proposal is None:
-                continue
-            moved, turn, rows = proposal
-            keys = [_key(moved[r], turn[r]) for r in rows]
-            if any(key not in known for key in keys):
-                after = rng.bit_generator.state
-                rng.bit_generator.state = before
-                self._look_ahead(q, loads, step, steps, angles, per_angle, rng, known)
-                rng.bit_generator.state = after
-            if any(known[key] is None for key in keys):
-                continue
-            trial = parts.copy()
-            for r, key in zip(rows, keys):
-                trial[r] = known[key]
-            score = self._score(trial.sum(axis=0), criterion)
-            if score < current:
-                q, loads, parts, current = moved, turn, trial, score
-        return q, loads, current
-
-    def _look_ahead(self, q, loads, step, steps, angles, per_angle, rng, known: dict) -> None:
-        """Evaluate at once the configurations the next :data:`REFINE_BLOCK` steps would propose from the plan ``q``, ``loads``."""
-        wanted: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-        for s in range(step, min(step + REFINE_BLOCK, steps)):
-            proposal = self._proposal(q, loads, s, steps, angles, per_angle, rng)
-            if proposal is not None:
-                moved, turn, rows = proposal
-                for r in rows:
-                    key = _key(moved[r], turn[r])
-                    if key not in known:
-                        wanted[key] = (moved[r], turn[r])
-        keys = list(wanted)
-        new_q = np.array([wanted[key][0] for key in keys])
-        new_loads = np.array([wanted[key][1] for key in keys])
-        information = None
-        if self.model == "exact":
-            # The exact designs solve each loaded equilibrium at the cell's values, the feasibility's last check: solved
-            # once, unless one fails (then the feasibility finds which, as it does for the linear model).
-            feasible = np.array([reason is None for reason in self._violations(new_q, new_loads, solve=False)], dtype=bool)
-            try:
-                information = self._load_informations(new_q[feasible], new_loads[feasible]) if feasible.any() else []
-            except EquilibriumError:
-                information = None
-        if information is None:
-            feasible = np.array([reason is None for reason in self._violations(new_q, new_loads)], dtype=bool)
-            information = self._load_informations(new_q[feasible], new_loads[feasible]) if feasible.any() else []
-        for key, value in zip([k for k, f in zip(keys, feasible) if f], information):
-            known[key] = value
-        known.update({key: None for key, f in zip(keys, feasible) if not f})
-
-    def _proposal(self, q: np.ndarray, loads: np.ndarray, step: int, steps: int, angles: int, per_angle: int, rng: np.random.Generator):
-        """Refinement step ``step``'s proposal from the plan ``q``, ``loads``: the proposed configurations, loads and
-        the rows changed, or None when it breaks the angles' separation."""
-        robot = self.cell.robot
-        j2 = self.cell.plan_joint
-        first, last = (v * DEG for v in REFINE_STEP_DEG)
-        others = [j for j in range(robot.nq) if j != j2]
-        size = first * (last / first) ** (step / max(steps - 1, 1))
-        proposal, turn = q.copy(), loads.copy()
-        if rng.random() < 0.3:
-            group = int(rng.integers(angles))
-            rows = np.arange(group * per_angle, (group + 1) * per_angle)
-            proposal[rows, j2] += rng.normal() * size
-            if not self._separated(list(proposal[::per_angle, j2])):
-                return None
-        elif self.free and rng.random() < 0.5:
-            # the step (rad) turns the load's direction as far as it moves a joint
-            rows = np.array([int(rng.integers(len(q)))])
-            turn[rows[0]] = turned(loads[rows[0]], size, rng)
-        else:
-            rows = np.array([int(rng.integers(len(q)))])
-            proposal[rows[0], others] += rng.normal(size=len(others)) * size
-        return proposal, turn, rows
-
-
-def _key(q: np.ndarray, load: np.ndarray) -> bytes:
-    """A configuration and its load as a dictionary key (exact values)."""
-    return q.tobytes() + load.tobytes()

@@ -16,8 +16,9 @@ import pandas as pd
 
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.cell.plan import Plan, write_plan
-from bayescal.design.criteria import PlanPrediction, criterion_value
+from bayescal.design.criteria import criterion_value
 from bayescal.design.loads import loads_json
+from bayescal.design.prediction import PlanPrediction
 from bayescal.inference.parameters import ANGLE_DECIMALS
 from bayescal.jsonsafe import json_safe
 from bayescal.units import DEG, MM
@@ -37,7 +38,7 @@ class PlanDesign:
         What was minimised (one of :data:`bayescal.design.criteria.CRITERIA`).
     prediction : PlanPrediction
         The plan's predicted precision and test-pose error with the exact model
-        linearised (:class:`~bayescal.design.criteria.ExactLinearisation`), as the
+        linearised (:class:`~bayescal.design.linearisation.ExactLinearisation`), as the
         identification's default model sees it.
     linear : PlanPrediction
         The same with eq 31's design (the paper's eqs 37-39).

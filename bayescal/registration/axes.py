@@ -69,7 +69,7 @@ __all__ = ["AxisFit", "AxisStart", "axis_start", "fit_axis", "relabel_evidence",
 
 LABEL_GAIN = 25.0
 """Nats by which relabelling some readings must explain a sweep better before a reflector is called mislabelled:
-the critique's decisive gain (:data:`bayescal.critique.model.DECISIVE_GAIN`).  On the independent cell generator
+the critique's decisive gain (:data:`bayescal.critique.rule.DECISIVE_GAIN`).  On the independent cell generator
 (noise 3-10 times the tracker's law, one reflector 5 times noisier or not; docs/registration.md) no relabelling of an
 honest sweep gains anything (200 files), while two reflectors swapped at one angle gain 30 nats at the least."""
 

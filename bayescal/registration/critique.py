@@ -24,7 +24,7 @@ fit's parameter uncertainty added to the noise (a Gaussian predictive).  A
 candidate is *named* when its gain in expected log predictive density over the
 circle model, summed over the held-out angles, exceeds :data:`SWEEP_Z` standard
 errors and :data:`SWEEP_FLOOR` nats, or the campaign critique's decisive gain
-(:data:`~bayescal.critique.model.DECISIVE_GAIN` nats) whatever its standard error
+(:data:`~bayescal.critique.rule.DECISIVE_GAIN` nats) whatever its standard error
 (Vehtari, Gelman & Gabry 2017 for the standard error ``sqrt(K var(d))``, which
 fails when the gain sits in one or two of a few angles); the thresholds are set
 on the digital twin's clean sweeps and measured on the independent generator's
@@ -45,7 +45,7 @@ from scipy.optimize import least_squares
 from scipy.stats import multivariate_normal
 
 from bayescal.cell.tracker import TrackerNoise
-from bayescal.critique.model import DECISIVE_GAIN
+from bayescal.critique.rule import DECISIVE_GAIN
 from bayescal.registration.axes import axis_start
 from bayescal.registration.sweeps import Sweeps
 from bayescal.units import DEG, MM, UM

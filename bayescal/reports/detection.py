@@ -17,15 +17,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bayescal.studies.detection import (
-    INDEPENDENT_FIRST_SEED,
-    LACK_OF_FIT_SIZE_LEVEL,
-    DetectionFindings,
-    independent_rates,
-    lack_of_fit_power,
-    markdown_table,
-    power_threshold,
-)
+from bayescal.studies.detection import DetectionFindings, markdown_table, power_threshold
+from bayescal.studies.independent_detection import INDEPENDENT_FIRST_SEED, LACK_OF_FIT_SIZE_LEVEL, independent_rates, lack_of_fit_power
 from bayescal.twin.effects import EFFECTS as TWIN_EFFECTS
 from bayescal.twin.independent import EFFECTS as INDEPENDENT_EFFECT_NAMES
 from bayescal.units import DEG
@@ -129,7 +122,7 @@ def _power_section(findings: DetectionFindings) -> list[str]:
         "## The lack-of-fit test's size and power on the independent generator",
         "",
         "The repeats' F test of the calibration's model alone (the critique with an empty catalogue, "
-        "`bayescal.studies.detection.independent_lack_of_fit`), on the campaigns of the side-by-side table's seeds with "
+        "`bayescal.studies.independent_detection.independent_lack_of_fit`), on the campaigns of the side-by-side table's seeds with "
         "each effect at multiples of its default. The row `none` is the test's size; \"mean F\" is set against the statistic's mean "
         "under the model. `INDEPENDENT_EFFECTS` holds the magnitude at which each effect is tested against the detection "
         "targets: the smallest multiple in {1, 1.5, 2, 3} at which the test rejects at 5 % in at least 95 % of the "

@@ -101,7 +101,7 @@ def _one(
     """One seed (a task of :func:`~bayescal.studies.parallel.seeded_map`): the tied campaign, the designed plan,
     and the comparison on the plan's campaign."""
     from bayescal.critique import Critique
-    from bayescal.critique.model import DETECTION_Z
+    from bayescal.critique.rule import DETECTION_Z
     from bayescal.design.constraints import load_design_space
     from bayescal.design.discriminate import DiscriminatingDesigner
 

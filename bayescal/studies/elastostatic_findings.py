@@ -26,7 +26,7 @@ import pandas as pd
 
 from bayescal.cell.config import Cell, load_cell
 from bayescal.cell.plan import read_plan
-from bayescal.design.criteria import test_deflection
+from bayescal.design.linearisation import test_deflection
 from bayescal.inference.elastostatic import EXTENSIONS, ElastostaticModel
 from bayescal.inference.identifiability import grouped
 from bayescal.inference.parameters import ParameterRegistry, label_angle

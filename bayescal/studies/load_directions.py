@@ -46,7 +46,7 @@ import pandas as pd
 from bayescal.cell.config import Cell
 from bayescal.cell.loading import Loading
 from bayescal.cell.plan import Plan
-from bayescal.design.criteria import predict
+from bayescal.design.prediction import predict
 from bayescal.design.optimise import PlanDesigner
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.studies.plans import CampaignModel, simulate_plan

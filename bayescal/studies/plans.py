@@ -42,16 +42,9 @@ import pandas as pd
 
 from bayescal.cell.config import Cell
 from bayescal.cell.plan import Plan
-from bayescal.design.criteria import (
-    UNEXCITED,
-    ExactLinearisation,
-    nominal_parameters,
-    parameter_names,
-    predict,
-    test_deflection,
-    with_parameters,
-    wrench_information,
-)
+from bayescal.design.criteria import UNEXCITED, nominal_parameters, parameter_names, wrench_information
+from bayescal.design.linearisation import ExactLinearisation, test_deflection, with_parameters
+from bayescal.design.prediction import predict
 from bayescal.studies.parallel import seeded_map
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import MM

@@ -9,15 +9,8 @@ from collections import Counter
 import numpy as np
 import pytest
 
-from bayescal.design.criteria import (
-    DIFFERENCE_STEP,
-    ExactLinearisation,
-    compliance_chain,
-    configuration_designs,
-    criterion_values,
-    nominal_parameters,
-    with_parameters,
-)
+from bayescal.design.criteria import compliance_chain, configuration_designs, criterion_values, nominal_parameters
+from bayescal.design.linearisation import DIFFERENCE_STEP, ExactLinearisation, with_parameters
 from bayescal.design.optimise import TRIES_PER_CANDIDATE, PlanDesigner
 from bayescal.robot.stiffness import compliance_design
 from bayescal.twin.simulator import DigitalTwin

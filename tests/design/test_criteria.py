@@ -1,4 +1,4 @@
-"""Tests of bayescal.design.criteria: eqs 37-40 on the linearised compensated model, and the exact linearisation."""
+"""Tests of bayescal.design.criteria and .prediction: eqs 37-40 on the linearised compensated model, and of .linearisation."""
 
 from __future__ import annotations
 
@@ -10,16 +10,16 @@ import pytest
 
 from bayescal.design.criteria import (
     CRITERIA,
-    ExactLinearisation,
     configuration_design,
     configuration_information,
     criterion_value,
     criterion_values,
-    predict,
     prior_mean_square,
     test_pose_design,
     wrench_information,
 )
+from bayescal.design.linearisation import ExactLinearisation
+from bayescal.design.prediction import predict
 from bayescal.studies.precision import design_precision
 
 

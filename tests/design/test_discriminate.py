@@ -1,4 +1,4 @@
-"""Tests of bayescal/design/discriminate.py: plans that separate two candidates of the critique."""
+"""Tests of bayescal/design/discriminate.py, separation.py and discriminating_search.py: plans that separate two candidates of the critique."""
 
 from __future__ import annotations
 
@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from bayescal.design.constraints import load_design_space
-from bayescal.design.discriminate import DiscriminatingDesigner, _Exchange, expected_z, separation, shares
+from bayescal.design.discriminate import DiscriminatingDesigner
+from bayescal.design.discriminating_search import _Exchange
+from bayescal.design.separation import expected_z, separation, shares
 from bayescal.design.optimise import PlanDesigner
 from bayescal.errors import InputError
 

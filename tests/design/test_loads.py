@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from bayescal.cell.config import load_cell
-from bayescal.design.criteria import ExactLinearisation, wrench_information
+from bayescal.design.criteria import wrench_information
+from bayescal.design.linearisation import ExactLinearisation
 from bayescal.design.loads import basis_designs, combined_information, draw_loads, load_sizes, turned
 from bayescal.design.optimise import PlanDesigner
 

@@ -1,4 +1,4 @@
-"""Tests of bayescal.design.criteria.test_deflection: a cell's true deflection at its test pose."""
+"""Tests of bayescal.design.linearisation.test_deflection: a cell's true deflection at its test pose."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-from bayescal.design.criteria import test_deflection
+from bayescal.design.linearisation import test_deflection
 from bayescal.units import MM
 
 

@@ -4,16 +4,14 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from bayescal.studies.detection import (
+from bayescal.studies.detection import detection_power, markdown_table, power_threshold
+from bayescal.studies.independent_detection import (
     INDEPENDENT_EFFECTS,
-    detection_power,
     drift_coverage,
     independent_detection,
     independent_lack_of_fit,
     independent_rates,
     lack_of_fit_power,
-    markdown_table,
-    power_threshold,
 )
 
 DATA = Path(__file__).resolve().parents[2] / "data"

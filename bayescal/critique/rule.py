@@ -1,0 +1,53 @@
+"""The critiques' naming rule: when a held-out gain names a cause, and when two candidates tie.
+
+A candidate is named when its held-out ΔELPD clears :data:`DETECTION_Z` standard errors and
+:data:`DETECTION_FLOOR` nats, or :data:`DECISIVE_GAIN` nats and :data:`DECISIVE_Z` standard errors
+(:func:`passes`); :class:`~bayescal.critique.model.Critique` and
+:class:`~bayescal.critique.geometry.GeometryCritique` both apply it.
+"""
+
+from __future__ import annotations
+
+from bayescal.critique.compare import Comparison
+
+__all__ = ["DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "DECISIVE_Z", "TIE_NOISE", "UNEXPLAINED", "passes", "strongest", "check_candidates"]
+
+DETECTION_Z = 2.0
+"""A cause is named only when its held-out gain exceeds this many standard errors of the difference."""
+DETECTION_FLOOR = 4.0
+"""... and this many nats: below it a gain is within what chance fits of a few extra
+parameters give on null campaigns (measured: docs/critique.md)."""
+DECISIVE_GAIN = 25.0
+"""A held-out gain (nats) named whatever its standard error: the normal approximation of the
+SE fails when the gain sits in a few configurations (gross tracker errors hit a few
+readings; Sivula et al. 2020), and null campaigns never come near it (docs/critique.md)."""
+DECISIVE_Z = 1.0
+"""... but not within one standard error of it: a gain of 35.1 ± 42.5 nats named ``outliers`` on an
+independent-generator campaign with nothing planted.  One SE, not two, because the SE of a gain that
+sits in a few configurations is itself inflated by them (gross tracker errors: 52-384 nats against
+SEs of 47-253 on the twin), and the decisive branch exists for those."""
+TIE_NOISE = 1.0
+"""Two candidates tie only where their fitted predictions of the campaign's deflections differ nowhere by more
+than this many standard deviations of a reading's noise (the final noise level of the equation): beyond it some
+reading of this plan could tell them apart, and a candidate the named one does not beat held out is reported as
+contesting it (``contested_by``), not as tied."""
+UNEXPLAINED = "unexplained"
+
+
+def check_candidates(names: tuple[str, ...], known) -> None:
+    """Refuse candidate names that are not among ``known``."""
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        raise ValueError(f"unknown candidate(s) {', '.join(unknown)}; expected some of {', '.join(known)}")
+
+
+def strongest(evidence: dict[str, Comparison], decisive: bool = True) -> str | None:
+    """The candidate of largest held-out gain among those that pass :func:`passes`, or None."""
+    passing = [name for name, c in evidence.items() if passes(c, decisive)]
+    return max(passing, key=lambda name: evidence[name].delta_elpd) if passing else None
+
+
+def passes(comparison: Comparison, decisive: bool = True) -> bool:
+    """The naming rule; ``decisive=False`` for the probes, whose many free offsets can fit a few odd configurations."""
+    clear = comparison.delta_elpd > max(DETECTION_Z * comparison.se, DETECTION_FLOOR)
+    return clear or (decisive and comparison.delta_elpd > max(DECISIVE_GAIN, DECISIVE_Z * comparison.se))
