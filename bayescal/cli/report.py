@@ -26,6 +26,9 @@ _SCHEMAS = {
 }
 """Per JSON option: the keys it must have with their types, a key only the other kind has, and the command that writes it."""
 
+LADDER_KEYS = {"verdict": str, "rungs": list, "steps": list, "without": list, "folds": int}
+"""The keys a model ladder's JSON must have, with their types."""
+
 VERDICTS = ("adequate", "misfit")
 """The verdicts `bayescal critique` gives."""
 
@@ -208,13 +211,24 @@ def _read_json(path: str, option: str) -> dict:
         raise InputError(f"expected a JSON object (the output of {writer}), got a {type(data).__name__}", source=path)
     if foreign in data:
         raise InputError(f"the JSON has the key '{foreign}' of another command's output; {option} expects the output of {writer}", source=path)
+    from bayescal.kinematics.ladder import LADDER_KIND
+
+    if option == "--critique" and data.get("kind") == LADDER_KIND:
+        _check_keys(data, LADDER_KEYS, path, "bayescal critique POSITIONS.csv --config POINTS_CELL.toml --json")
+        return data
+    _check_keys(data, required, path, writer)
+    if option == "--critique" and data["verdict"] not in VERDICTS:
+        raise InputError(f"expected a verdict {' or '.join(VERDICTS)}, got {data['verdict']!r}", source=path, column="verdict")
+    return data
+
+
+def _check_keys(data: dict, required: dict, path: str, writer: str) -> None:
+    from bayescal.errors import InputError
+
     for key, kind in required.items():
         if key not in data or not isinstance(data[key], kind) or isinstance(data[key], bool):
             found = "no such key" if key not in data else f"a {type(data[key]).__name__}"
             raise InputError(f"expected the key '{key}' of the output of {writer}, found {found}", source=path, column=key)
-    if option == "--critique" and data["verdict"] not in VERDICTS:
-        raise InputError(f"expected a verdict {' or '.join(VERDICTS)}, got {data['verdict']!r}", source=path, column="verdict")
-    return data
 
 
 def _read_csv(path: str, option: str):

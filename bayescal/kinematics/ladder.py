@@ -25,7 +25,13 @@ from bayescal.kinematics.model import GROUPS, RUNGS
 from bayescal.kinematics.positions import Positions
 from bayescal.kinematics.results import KinematicResults
 
-__all__ = ["LadderFindings", "ModelLadder", "DECISIVE_SE", "PUBLISHED"]
+__all__ = ["LadderFindings", "ModelLadder", "DECISIVE_SE", "PUBLISHED", "LADDER_KIND"]
+
+LADDER_KIND = "bayescal model ladder"
+"""The ``kind`` of the ladder's JSON: how ``bayescal report --critique`` tells it from a campaign's critique."""
+
+PUBLISHED_SOURCE = "Tenhumberg and Bäuml, Humanoids 2021 (Agile Justin, 500 configurations)"
+"""Where :data:`PUBLISHED` and :data:`PUBLISHED_WITHOUT` come from."""
 
 DECISIVE_SE = 2.0
 """A step's held-out ELPD gain must exceed this many standard errors of the paired difference to be named."""
@@ -90,9 +96,10 @@ class LadderFindings:
         return {"folds": self.folds, "steps": self.steps}
 
     def to_json(self) -> dict:
-        return {"kind": "bayescal model ladder", "folds": self.folds, "verdict": self.verdict,
+        return {"kind": LADDER_KIND, "folds": self.folds, "verdict": self.verdict,
                 "rungs": self.rungs.reset_index().to_dict(orient="records"), "steps": self.steps,
-                "without": self.without.reset_index().to_dict(orient="records")}
+                "without": self.without.reset_index().to_dict(orient="records"),
+                "published": {"source": PUBLISHED_SOURCE, "rungs_mean_sd_max_mm": PUBLISHED, "without_mean_mm": PUBLISHED_WITHOUT}}
 
     def text(self) -> str:
         """The findings as the terminal shows them."""

@@ -32,6 +32,8 @@ from bayescal.reports.numbers import error_length, fixed, table_texts
 from bayescal.reports.test_pose import unidentified_sentence
 from bayescal.reports.page import HTML_FILE, JSON_FILE, MARKDOWN_FILE, Page
 from bayescal.reports.review_data import data_section, residual_section
+from bayescal.kinematics.ladder import LADDER_KIND
+from bayescal.reports.ladder import ladder_section
 from bayescal.reports.review_files import critique_section, plan_section, registration_section
 from bayescal.reports.review_parameters import (
     _as_published,
@@ -76,7 +78,8 @@ class ReviewInputs:
     test_pose : TestPosePrediction or None
         The prediction at the cell's test pose.
     plan, critique : dict or None
-        The JSON printed by ``bayescal plan --json`` and ``bayescal critique --json``.
+        The JSON printed by ``bayescal plan --json`` and ``bayescal critique --json`` (of a campaign, or the model
+        ladder of a cell of measured points).
     study : pandas.DataFrame or None
         A q2-angle study table.
     compensation : pandas.DataFrame or None
@@ -133,7 +136,9 @@ def render_review(inputs: ReviewInputs) -> dict[str, bytes]:
         if inputs.residuals is not None:
             residual_section(page, inputs.results, inputs.residuals, inputs.campaign, inputs.cell)
     if inputs.critique is not None:
-        critique_section(page, inputs.critique, inputs.sources.get("critique", ""))
+        # A points cell's critique is the model ladder (bayescal.kinematics.ladder), a campaign's the VJM critique.
+        render = ladder_section if inputs.critique.get("kind") == LADDER_KIND else critique_section
+        render(page, inputs.critique, inputs.sources.get("critique", ""))
     _convergence_section(page, inputs, facts)
     if inputs.results is not None:
         _pairs_section(page, inputs.results, inputs.seed, _published_iv(inputs.cell))
@@ -177,7 +182,9 @@ def _overview(page: Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
                f"{', '.join(error['unidentified'])}, which the campaign does not identify." if error["unidentified"] else ".")
         )
     if inputs.critique is not None and "verdict" in inputs.critique:
-        lines.append(f"Critique: {inputs.critique['verdict']}.")
+        ladder = inputs.critique.get("kind") == LADDER_KIND
+        verdict = str(inputs.critique["verdict"]).removeprefix("verdict: ")
+        lines.append(f"{'Model ladder' if ladder else 'Critique'}: {verdict}.")
     page.items(lines or ["No posterior was given: only the files below are shown."])
     page.table("inputs", pd.DataFrame({"file": list(inputs.sources.values())}, index=pd.Index(list(inputs.sources), name="input")))
     page.close()

@@ -209,3 +209,20 @@ def test_a_missing_figure_is_caught_by_the_chromium_check(report, tmp_path):
     probed = _probe(report, tmp_path, remove=("eta.png",))
     assert any("eta.png" in error for error in probed["errors"])
     assert [image["natural"] for image in probed["images"] if image["src"] == "eta.png"] == [0]
+
+
+def test_a_points_cells_ladder_is_shown_as_its_own_section(tmp_path):
+    from bayescal.kinematics.ladder import LadderFindings
+    from bayescal.reports.review import ReviewInputs, render_review
+
+    rungs = pd.DataFrame(
+        [{"model": name, "mean_mm": mean, "sd_mm": 1.0, "max_mm": 9.0, "in_sample_mean_mm": mean - 0.2, "elpd": -1000.0 + i,
+          "elpd_se": 20.0, "coverage_95": 0.94, "model_error_sd_mm": 1.0} for i, (name, mean) in enumerate([("frames", 16.03), ("full", 3.40)])]
+    ).set_index("model")
+    without = pd.DataFrame([{"without": "k_theta", "mean_mm": 3.67, "elpd_loss": 40.0, "elpd_loss_se": 9.0}]).set_index("without")
+    steps = [{"from": "frames", "to": "full", "adds": ["theta"], "elpd_gain": 900.0, "elpd_gain_se": 30.0, "error_change_mm": -12.6, "named": True}]
+    ladder = json.loads(json.dumps(LadderFindings(rungs, steps, without, 10, "verdict: the data call for full").to_json()))
+    files = render_review(ReviewInputs(sources={"critique": "ladder.json"}, critique=ladder))
+    text = files["summary.md"].decode()
+    assert "Model ladder on measured points" in text and "16.03" in text and "21.33 / 9.71 / 63.41" in text
+    assert "frames → full" in text and "9.09" in text and "Critique of the model" not in text
