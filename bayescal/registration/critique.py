@@ -23,8 +23,9 @@ all angles but one and predicts the readings at the angle left out, with the
 fit's parameter uncertainty added to the noise (a Gaussian predictive).  A
 candidate is *named* when its gain in expected log predictive density over the
 circle model, summed over the held-out angles, exceeds :data:`SWEEP_Z` standard
-errors and :data:`SWEEP_FLOOR` nats, or the campaign critique's decisive gain
-(:data:`~bayescal.critique.rule.DECISIVE_GAIN` nats) whatever its standard error
+errors and :data:`SWEEP_FLOOR` nats, or, as in the campaign critique, the decisive gain
+(:data:`~bayescal.critique.rule.DECISIVE_GAIN` nats) clear of one standard error
+(:data:`~bayescal.critique.rule.DECISIVE_Z`): no gain within its standard error is named
 (Vehtari, Gelman & Gabry 2017 for the standard error ``sqrt(K var(d))``, which
 fails when the gain sits in one or two of a few angles); the thresholds are set
 on the digital twin's clean sweeps and measured on the independent generator's
@@ -45,7 +46,7 @@ from scipy.optimize import least_squares
 from scipy.stats import multivariate_normal
 
 from bayescal.cell.tracker import TrackerNoise
-from bayescal.critique.rule import DECISIVE_GAIN
+from bayescal.critique.rule import DECISIVE_GAIN, DECISIVE_Z
 from bayescal.registration.axes import axis_start
 from bayescal.registration.sweeps import Sweeps
 from bayescal.units import DEG, MM, UM
@@ -239,7 +240,7 @@ def critique_joint(sweep: Sweeps, joint: int, noise: TrackerNoise) -> JointCriti
         value, sd = _estimate(candidate, full[candidate], data.count, data.q)
         rows[candidate] = {
             "delta_elpd": gain, "se": se,
-            "named": bool((gain > SWEEP_Z * se and gain > SWEEP_FLOOR) or gain > DECISIVE_GAIN),
+            "named": bool((gain > SWEEP_Z * se and gain > SWEEP_FLOOR) or (gain > DECISIVE_GAIN and gain > DECISIVE_Z * se)),
             "estimate": value, "estimate_sd": sd, "unit": UNITS[candidate],
             "rms_circle_mm": float(np.sqrt(scores[None][:, 1].sum() / (3 * n)) / MM),
             "rms_candidate_mm": float(np.sqrt(scores[candidate][:, 1].sum() / (3 * n)) / MM),
@@ -264,7 +265,7 @@ class SweepCritique:
 
     def diagnostics(self) -> dict:
         """The verdict and the naming rule (ΔELPD over its SE and its floor in nats, or the decisive gain in nats)."""
-        return {"verdict": self.verdict, "rule": {"z": SWEEP_Z, "floor_nats": SWEEP_FLOOR, "decisive_nats": DECISIVE_GAIN}}
+        return {"verdict": self.verdict, "rule": {"z": SWEEP_Z, "floor_nats": SWEEP_FLOOR, "decisive_nats": DECISIVE_GAIN, "decisive_over_se": DECISIVE_Z}}
 
     def to_json(self) -> dict:
         return self.diagnostics() | {"joints": {str(j + 1): c.to_json() for j, c in self.joints.items()},
