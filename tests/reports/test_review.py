@@ -226,3 +226,12 @@ def test_a_points_cells_ladder_is_shown_as_its_own_section(tmp_path):
     text = files["summary.md"].decode()
     assert "Model ladder on measured points" in text and "16.03" in text and "21.33 / 9.71 / 63.41" in text
     assert "frames → full" in text and "9.09" in text and "Critique of the model" not in text
+
+
+def test_the_review_does_not_import_scipy_stats():
+    # scipy.stats was 0.46 s of the demo's 4.6 s review, loaded only for the model ladder's LADDER_KIND.
+    import sys
+
+    code = "import sys, bayescal.reports.review; print('scipy.stats' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"
