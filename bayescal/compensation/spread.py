@@ -3,8 +3,9 @@
 At a pose ``q`` with a wrench ``w`` at the flange origin the tool point's
 deflection is, to first order, ``A k`` with ``A[:, j] = J_p[:, j] (J_F[:, j]·w)``
 (eq 31) and ``k`` the joints' equivalent compliances (the compensator included,
-eq 8).  Compensation applies one prediction (the posterior mean); a draw ``k_s``
-would have deflected the tool by ``A (k_s - k̄)`` more: the error left.  With
+eq 8).  Compensation applies one prediction (the draws' medians,
+:mod:`bayescal.compensation.budget`); a draw ``k_s`` would have deflected the tool by
+``A (k_s - k_applied)`` more: the error left.  With
 ``A`` computed once per pose, every draw is applied by one matrix product.
 Both the test-pose prediction (eq 38) and the program compensation use these
 functions: one code path.
@@ -17,7 +18,7 @@ import numpy as np
 from bayescal.robot.kinematics import Robot
 from bayescal.robot.stiffness import compliance_design
 
-__all__ = ["THREE_SIGMA", "designs", "deflection_draws", "error_quantiles", "mean_square"]
+__all__ = ["THREE_SIGMA", "designs", "deflection_draws", "error_quantiles"]
 
 THREE_SIGMA = 0.9973
 """Two-sided probability of ±3σ of a normal distribution (the paper's interval)."""
@@ -64,23 +65,6 @@ def deflection_draws(design: np.ndarray, compliances: np.ndarray, varying: np.nd
     out = (design.reshape(P * 3, n) @ compliances.T).reshape(P, 3, -1)
     if varying is not None:
         out += design[:, :, joint, None] * varying[:, None, :]
-    return out
-
-
-def mean_square(design: np.ndarray, compliances: np.ndarray, varying: np.ndarray | None = None, joint: int | None = None) -> np.ndarray:
-    """``(P,)`` mean over the draws of ``|A_p k_s|²`` (m²) from the draws' second moments: ``trace(A M Aᵀ)`` (eq 38).
-
-    Arguments as :func:`deflection_draws` (centred draws give eq 38's ``rho0²``); no ``(P, 3, S)`` array is formed.
-    """
-    S = compliances.shape[0]
-    if varying is not None:
-        compliances = compliances.copy()
-        compliances[:, joint] = 0.0
-    gram = np.einsum("pia,pib->pab", design, design)
-    out = np.einsum("pab,ab->p", gram, compliances.T @ compliances / S)
-    if varying is not None:
-        cross = varying @ compliances / S
-        out += 2.0 * np.einsum("pa,pa->p", gram[:, :, joint], cross) + gram[:, joint, joint] * np.mean(varying**2, axis=1)
     return out
 
 

@@ -7,7 +7,6 @@ import pytest
 from bayescal.compensation import compensate_poses, compensate_program, load_calibration
 from bayescal.compensation.calibration import GRID_STEP, Calibration
 from bayescal.compensation.program import Program
-from bayescal.compensation.spread import deflection_draws, mean_square
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.compensation.testpose import predict_cell_test_pose, test_pose_program
 from bayescal.robot.stiffness import ElasticArm
@@ -75,17 +74,6 @@ def test_the_grid_of_the_compensated_joint_matches_eq_8(cell, calibrated):
     interpolated = calibration.compliances(q2)[1](q2)
     exact = calibration.compliances(q2[:5])[1](q2[:5])
     assert np.max(np.abs(interpolated[:5] / exact - 1)) < 1e-5
-
-
-def test_mean_square_from_the_covariance_equals_the_draws(cell, calibrated):
-    calibration = load_calibration(calibrated[1], cell)
-    program = random_program(cell, 5, np.random.default_rng(3))
-    design = np.random.default_rng(4).normal(size=(5, 3, 6))
-    own, equivalent = calibration.compliances(program.q[:, 1])
-    varying = equivalent(program.q[:, 1])
-    centred_own, centred = own - own.mean(axis=0), varying - varying.mean(axis=1, keepdims=True)
-    spread = deflection_draws(design, centred_own, centred, 1)
-    assert mean_square(design, centred_own, centred, 1) == pytest.approx(np.mean(np.sum(spread**2, axis=1), axis=1), rel=1e-10)
 
 
 def test_the_test_pose_of_calibrate_is_the_one_pose_program_of_compensate(cell, calibrated):
