@@ -100,7 +100,28 @@ def read_table(
     numbered = _numbered_lines(Path(path), source)
     rows = list(csv.reader([line for _, line in numbered], skipinitialspace=True))
     header_line = numbered[0][0]
-    header = [name.strip() for name in rows[0]]
+    header = _checked_header(rows[0], columns, source, header_line)
+    wanted = dict(columns) | {name: kind for name, kind in optional.items() if name in header}
+    if len(numbered) == 1:
+        raise InputError("no data rows after the header", source=source)
+
+    position = {name: header.index(name) for name in wanted}
+    values: dict[str, list] = {name: [] for name in wanted}
+    lines = []
+    for (number, _), fields in zip(numbered[1:], rows[1:]):
+        if len(fields) != len(header):
+            raise InputError(f"expected {len(header)} fields as in the header, got {len(fields)}", source=source, line=number)
+        for name, kind in wanted.items():
+            values[name].append(_parse(fields[position[name]].strip(), kind, name, units.get(name), source, number))
+        lines.append(number)
+    frame = pd.DataFrame(values, index=pd.Index(lines, name="line"))
+    frame.attrs["source"] = source
+    return frame
+
+
+def _checked_header(fields: list[str], columns: Mapping[str, ColumnKind], source: str, header_line: int) -> list[str]:
+    """The header's column names, once each, comma-separated, with every required column present."""
+    header = [name.strip() for name in fields]
     duplicated = sorted({name for name in header if header.count(name) > 1})
     if duplicated:
         raise InputError(f"column '{duplicated[0]}' appears more than once in the header", source=source, line=header_line)
@@ -119,22 +140,7 @@ def read_table(
                 source=source,
                 line=header_line,
             )
-    wanted = dict(columns) | {name: kind for name, kind in optional.items() if name in header}
-    if len(numbered) == 1:
-        raise InputError("no data rows after the header", source=source)
-
-    position = {name: header.index(name) for name in wanted}
-    values: dict[str, list] = {name: [] for name in wanted}
-    lines = []
-    for (number, _), fields in zip(numbered[1:], rows[1:]):
-        if len(fields) != len(header):
-            raise InputError(f"expected {len(header)} fields as in the header, got {len(fields)}", source=source, line=number)
-        for name, kind in wanted.items():
-            values[name].append(_parse(fields[position[name]].strip(), kind, name, units.get(name), source, number))
-        lines.append(number)
-    frame = pd.DataFrame(values, index=pd.Index(lines, name="line"))
-    frame.attrs["source"] = source
-    return frame
+    return header
 
 
 def _numbered_lines(file: Path, source: str) -> list[tuple[int, str]]:

@@ -165,44 +165,51 @@ def read_krl(src: str | PathLike[str]) -> ControllerProgram:
             program.unsupported += 1
             continue
         program.motions += 1
-        verb = motion.group(1).upper()
-        if "{" in motion.group(2):
-            raise InputError("an inline target is not supported: declare it in the .dat and move to its name", source=source, line=number, column=str(code.index("{") + 1))
-        arguments = [part.strip() for part in motion.group(2).split(",")]
-        wanted = 2 if verb == "CIRC" else 1
-        moved = arguments[:wanted]
-        for part in arguments[wanted:]:
-            if part and not _APPROXIMATION.match(part) and not re.match(r"^CA\s+\S+$", part, re.IGNORECASE):
-                raise InputError(f"unexpected '{part}' after the {verb} target", source=source, line=number, column=str(code.find(part) + 1))
-        if len(moved) < wanted or not all(moved):
-            raise InputError(f"{verb} needs {'an auxiliary and an end target' if wanted == 2 else 'a target'}", source=source, line=number)
-        for name_text in moved:
-            column = code.find(name_text) + 1
-            name = name_text.split()[0].upper()
-            if name not in declared or declared[name][0] == "FRAME":
-                raise InputError(f"'{name_text}' is not a target declared in {dat_path.name}", source=source, line=number, column=str(column))
-            kind, fields, dat_index, dat_column = declared[name]
-            cartesian = kind in ("E6POS", "POS")
-            if not cartesian and verb != "PTP":
-                raise InputError(f"{verb} moves to a Cartesian target; '{name_text}' is an {kind}", source=source, line=number, column=str(column))
-            if frames["TOOL"] is None or (cartesian and frames["BASE"] is None):
-                missing = "$TOOL" if frames["TOOL"] is None else "$BASE"
-                raise InputError(f"{verb} {name_text} comes before {missing} is set: the target's frame is unknown", source=source, line=number, column=str(column))
-            base = frames["BASE"] if cartesian else IDENTITY
-            if name in targets:
-                seen = targets[name]
-                if not (same_frame(seen.tool, frames["TOOL"]) and same_frame(seen.base, base)):
-                    raise InputError(
-                        f"target {name_text} is moved to with another $TOOL or $BASE than at its first motion: one declaration "
-                        "cannot carry two compensated poses; declare a target per frame",
-                        source=source, line=number, column=str(column),
-                    )
-                continue
-            targets[name] = _target(name, kind, fields, str(dat_path), dat_index + 1, dat_column, frames["TOOL"], base, names)
-            program.spans[name] = ("dat", dat_index, fields)
+        _add_motion_targets(motion, code, number, source, dat_path, declared, (frames, names), targets, program)
     program.targets = list(targets.values())
     set_rotations(program.targets, kuka_rotation)
     return program
+
+
+def _add_motion_targets(motion: re.Match, code: str, number: int, source: str, dat_path: Path, declared: dict[str, tuple],
+                        frame_state: tuple[dict, dict], targets: dict[str, Target], program: ControllerProgram) -> None:
+    """Check one motion statement and add the targets it moves to (once each, in the ``$BASE``/``$TOOL`` then set)."""
+    frames, names = frame_state
+    verb = motion.group(1).upper()
+    if "{" in motion.group(2):
+        raise InputError("an inline target is not supported: declare it in the .dat and move to its name", source=source, line=number, column=str(code.index("{") + 1))
+    arguments = [part.strip() for part in motion.group(2).split(",")]
+    wanted = 2 if verb == "CIRC" else 1
+    moved = arguments[:wanted]
+    for part in arguments[wanted:]:
+        if part and not _APPROXIMATION.match(part) and not re.match(r"^CA\s+\S+$", part, re.IGNORECASE):
+            raise InputError(f"unexpected '{part}' after the {verb} target", source=source, line=number, column=str(code.find(part) + 1))
+    if len(moved) < wanted or not all(moved):
+        raise InputError(f"{verb} needs {'an auxiliary and an end target' if wanted == 2 else 'a target'}", source=source, line=number)
+    for name_text in moved:
+        column = code.find(name_text) + 1
+        name = name_text.split()[0].upper()
+        if name not in declared or declared[name][0] == "FRAME":
+            raise InputError(f"'{name_text}' is not a target declared in {dat_path.name}", source=source, line=number, column=str(column))
+        kind, fields, dat_index, dat_column = declared[name]
+        cartesian = kind in ("E6POS", "POS")
+        if not cartesian and verb != "PTP":
+            raise InputError(f"{verb} moves to a Cartesian target; '{name_text}' is an {kind}", source=source, line=number, column=str(column))
+        if frames["TOOL"] is None or (cartesian and frames["BASE"] is None):
+            missing = "$TOOL" if frames["TOOL"] is None else "$BASE"
+            raise InputError(f"{verb} {name_text} comes before {missing} is set: the target's frame is unknown", source=source, line=number, column=str(column))
+        base = frames["BASE"] if cartesian else IDENTITY
+        if name in targets:
+            seen = targets[name]
+            if not (same_frame(seen.tool, frames["TOOL"]) and same_frame(seen.base, base)):
+                raise InputError(
+                    f"target {name_text} is moved to with another $TOOL or $BASE than at its first motion: one declaration "
+                    "cannot carry two compensated poses; declare a target per frame",
+                    source=source, line=number, column=str(column),
+                )
+            continue
+        targets[name] = _target(name, kind, fields, str(dat_path), dat_index + 1, dat_column, frames["TOOL"], base, names)
+        program.spans[name] = ("dat", dat_index, fields)
 
 
 def _frame_value(text: str, declared, source: str, number: int, column: int, dat_path: Path) -> tuple[np.ndarray, np.ndarray]:

@@ -164,6 +164,31 @@ def read_rapid(path: str | PathLike[str]) -> ControllerProgram:
     source = str(file)
     lines = read_lines(file, "the program")
     program = ControllerProgram(language="RAPID", files={"mod": lines}, paths={"mod": source})
+    declared, tools, wobjs = _declarations(lines, source)
+    targets: dict[str, Target] = {}
+    for index, line in enumerate(lines):
+        code = _code(line)
+        if _STRUCTURE.match(code) or _DECLARATION.match(code):
+            continue
+        move = _MOVE.match(code)
+        if not move:
+            refused = _REFUSED.match(code)
+            if refused:
+                raise InputError(
+                    f"'{refused.group(1)}' is not supported: it moves the robot in a way this reader cannot follow (docs/controllers.md)",
+                    source=source, line=index + 1, column=str(refused.start(1) + 1),
+                )
+            program.unsupported += 1
+            continue
+        program.motions += 1
+        _add_move_targets(move, code, index + 1, source, (declared, tools, wobjs), targets, program)
+    program.targets = list(targets.values())
+    set_rotations(program.targets, quaternion_rotation)
+    return program
+
+
+def _declarations(lines: list[str], source: str) -> tuple[dict[str, tuple], dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """The module's target declarations, and its tools and work objects as poses (tool0 and wobj0 included)."""
     declared: dict[str, tuple] = {}
     tools = {"TOOL0": IDENTITY}
     wobjs = {"WOBJ0": IDENTITY}
@@ -193,61 +218,48 @@ def read_rapid(path: str | PathLike[str]) -> ControllerProgram:
             wobjs[name.upper()] = compose(_pose(node[3], f"{name}'s uframe", source, index + 1), _pose(node[4], f"{name}'s oframe", source, index + 1))
         else:
             declared[name.upper()] = (kind, node, index, match.start(3) + 1, name)
-    targets: dict[str, Target] = {}
-    for index, line in enumerate(lines):
-        number = index + 1
-        code = _code(line)
-        if _STRUCTURE.match(code) or _DECLARATION.match(code):
-            continue
-        move = _MOVE.match(code)
-        if not move:
-            refused = _REFUSED.match(code)
-            if refused:
+    return declared, tools, wobjs
+
+
+def _add_move_targets(move: re.Match, code: str, number: int, source: str, frames: tuple, targets: dict[str, Target],
+                      program: ControllerProgram) -> None:
+    """Check one move instruction and add the targets it moves to (once each, with the tool and work object of the move)."""
+    declared, tools, wobjs = frames
+    verb = move.group(1)
+    positional, options = _arguments(move.group(2))
+    wanted = {"movec": 2}.get(verb.lower(), 1)
+    if len(positional) < wanted + 3:
+        raise InputError(f"{verb} needs {'a circle point, an end point' if wanted == 2 else 'a target'}, a speed, a zone and a tool", source=source, line=number)
+    tool_name = positional[wanted + 2]
+    if tool_name.upper() not in tools:
+        raise InputError(f"tool '{tool_name}' is not declared in this module (or tool0)", source=source, line=number, column=str(code.find(tool_name) + 1))
+    wobj_name = options.get("WOBJ", "wobj0")
+    if wobj_name.upper() not in wobjs:
+        raise InputError(
+            f"work object '{wobj_name}' is not declared in this module: the target's frame is unknown (declare the wobjdata here)",
+            source=source, line=number, column=str(code.find(wobj_name) + 1),
+        )
+    for name_text in positional[:wanted]:
+        column = code.find(name_text) + 1
+        if name_text.startswith("[") or "(" in name_text:
+            raise InputError("an inline target or a function of one (Offs, RelTool) is not supported: declare the target and move to its name",
+                             source=source, line=number, column=str(column))
+        key = name_text.upper()
+        kind = declared.get(key, ("",))[0]
+        if verb.lower() == "moveabsj" and kind != "jointtarget" or verb.lower() != "moveabsj" and kind != "robtarget":
+            wanted_kind = "jointtarget" if verb.lower() == "moveabsj" else "robtarget"
+            raise InputError(f"'{name_text}' is not a {wanted_kind} declared in this module", source=source, line=number, column=str(column))
+        tool, base = tools[tool_name.upper()], wobjs[wobj_name.upper()] if kind == "robtarget" else IDENTITY
+        if key in targets:
+            seen = targets[key]
+            if not (same_frame(seen.tool, tool) and same_frame(seen.base, base)):
                 raise InputError(
-                    f"'{refused.group(1)}' is not supported: it moves the robot in a way this reader cannot follow (docs/controllers.md)",
-                    source=source, line=number, column=str(refused.start(1) + 1),
+                    f"target {name_text} is moved to with tool {tool_name} and work object {wobj_name}, not the {seen.tool_name} and "
+                    f"{seen.base_name} of its first move: one declaration cannot carry two compensated poses; declare a target per frame",
+                    source=source, line=number, column=str(column),
                 )
-            program.unsupported += 1
             continue
-        program.motions += 1
-        verb = move.group(1)
-        positional, options = _arguments(move.group(2))
-        wanted = {"movec": 2}.get(verb.lower(), 1)
-        if len(positional) < wanted + 3:
-            raise InputError(f"{verb} needs {'a circle point, an end point' if wanted == 2 else 'a target'}, a speed, a zone and a tool", source=source, line=number)
-        tool_name = positional[wanted + 2]
-        if tool_name.upper() not in tools:
-            raise InputError(f"tool '{tool_name}' is not declared in this module (or tool0)", source=source, line=number, column=str(code.find(tool_name) + 1))
-        wobj_name = options.get("WOBJ", "wobj0")
-        if wobj_name.upper() not in wobjs:
-            raise InputError(
-                f"work object '{wobj_name}' is not declared in this module: the target's frame is unknown (declare the wobjdata here)",
-                source=source, line=number, column=str(code.find(wobj_name) + 1),
-            )
-        for name_text in positional[:wanted]:
-            column = code.find(name_text) + 1
-            if name_text.startswith("[") or "(" in name_text:
-                raise InputError("an inline target or a function of one (Offs, RelTool) is not supported: declare the target and move to its name",
-                                 source=source, line=number, column=str(column))
-            key = name_text.upper()
-            kind = declared.get(key, ("",))[0]
-            if verb.lower() == "moveabsj" and kind != "jointtarget" or verb.lower() != "moveabsj" and kind != "robtarget":
-                wanted_kind = "jointtarget" if verb.lower() == "moveabsj" else "robtarget"
-                raise InputError(f"'{name_text}' is not a {wanted_kind} declared in this module", source=source, line=number, column=str(column))
-            tool, base = tools[tool_name.upper()], wobjs[wobj_name.upper()] if kind == "robtarget" else IDENTITY
-            if key in targets:
-                seen = targets[key]
-                if not (same_frame(seen.tool, tool) and same_frame(seen.base, base)):
-                    raise InputError(
-                        f"target {name_text} is moved to with tool {tool_name} and work object {wobj_name}, not the {seen.tool_name} and "
-                        f"{seen.base_name} of its first move: one declaration cannot carry two compensated poses; declare a target per frame",
-                        source=source, line=number, column=str(column),
-                    )
-                continue
-            targets[key] = _target(declared[key], source, tool, base, tool_name, wobj_name, program)
-    program.targets = list(targets.values())
-    set_rotations(program.targets, quaternion_rotation)
-    return program
+        targets[key] = _target(declared[key], source, tool, base, tool_name, wobj_name, program)
 
 
 def _arguments(text: str) -> tuple[list[str], dict[str, str]]:

@@ -184,22 +184,32 @@ def inverse_kinematics(
         wrong = converged & ~right
         if wrong.any():
             found[todo[wrong]] = classify(solved[wrong])
-    # A target no try reached in its class: tried from the nearest seeds of any class, to tell a pose out of
-    # reach from one only another configuration reaches.
-    lost = np.flatnonzero(~reached)
-    if lost.size:
-        anywhere = _nearest(origin[lost], rotation[lost], seed_poses.flange_origin, seed_poses.flange_rotation)
-        for attempt in range(TRIES):
-            todo = lost[~reached[lost]]
-            if not todo.size:
-                break
-            solved, converged = _solve(chain, rotation[todo], origin[todo], seeds[anywhere[np.searchsorted(lost, todo), attempt]])
-            solved = wrap_angles(robot, solved)
-            reached[todo[converged]] = True
-            if converged.any():
-                found[todo[converged]] = classify(solved[converged])
+    _retry_in_any_class(chain, robot, (rotation, origin), (seeds, seed_poses), classify, reached, found)
     found[kept] = -1
     return InverseSolution(q=q, reached=reached, kept=kept, found=found)
+
+
+def _retry_in_any_class(chain: BatchedChain, robot: Robot, targets: tuple[np.ndarray, np.ndarray], bank: tuple,
+                        classify: Callable[[np.ndarray], np.ndarray], reached: np.ndarray, found: np.ndarray) -> None:
+    """Try the targets no try reached in their class from the nearest seeds of any class (updating ``reached`` and ``found``).
+
+    This tells a pose out of reach from one only another configuration reaches.
+    """
+    rotation, origin = targets
+    seeds, seed_poses = bank
+    lost = np.flatnonzero(~reached)
+    if not lost.size:
+        return
+    anywhere = _nearest(origin[lost], rotation[lost], seed_poses.flange_origin, seed_poses.flange_rotation)
+    for attempt in range(TRIES):
+        todo = lost[~reached[lost]]
+        if not todo.size:
+            break
+        solved, converged = _solve(chain, rotation[todo], origin[todo], seeds[anywhere[np.searchsorted(lost, todo), attempt]])
+        solved = wrap_angles(robot, solved)
+        reached[todo[converged]] = True
+        if converged.any():
+            found[todo[converged]] = classify(solved[converged])
 
 
 def _nearest(origin: np.ndarray, rotation: np.ndarray, seed_origin: np.ndarray, seed_rotation: np.ndarray) -> np.ndarray:

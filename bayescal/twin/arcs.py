@@ -108,6 +108,18 @@ def simulate_markers(
     q2 = np.atleast_1d(np.asarray(q2, dtype=float))
     size = PLANTED[effect][0] if effect is not None and magnitude is None else magnitude
     positions = layout.positions(q2 * (1.0 + size) if effect == "joint_scale" else q2)
+    _plant(positions, layout, q2, effect, size)
+    names, angles, xyz = [], [], []
+    for name, exact in positions.items():
+        sd = sigma * size if effect == "closed_loop" and name == LEVER_MARKER else sigma
+        names += [name] * q2.size
+        angles.append(q2)
+        xyz.append(exact + sd * rng.standard_normal(exact.shape))
+    return MarkerPoints.from_arrays(np.array(names), np.concatenate(angles), np.vstack(xyz))
+
+
+def _plant(positions: dict[str, np.ndarray], layout: MarkerLayout, q2: np.ndarray, effect: str | None, size: float) -> None:
+    """Move the exact marker positions ``(n, 2)`` (m) in place by a geometric effect (the noise effects act later)."""
     lever = positions[LEVER_MARKER]
     if effect in ("pivot_motion", "cylinder_slip"):
         d = lever - layout.p0
@@ -133,10 +145,3 @@ def simulate_markers(
         for name, xy in positions.items():
             planar = np.column_stack([xy - layout.p0, np.zeros(q2.size)])
             positions[name] = layout.p0 + rotation.apply(planar)[:, :2]
-    names, angles, xyz = [], [], []
-    for name, exact in positions.items():
-        sd = sigma * size if effect == "closed_loop" and name == LEVER_MARKER else sigma
-        names += [name] * q2.size
-        angles.append(q2)
-        xyz.append(exact + sd * rng.standard_normal(exact.shape))
-    return MarkerPoints.from_arrays(np.array(names), np.concatenate(angles), np.vstack(xyz))
