@@ -6,6 +6,9 @@ uncertainty (wall and CPU time: cost should be linear in poses).  The naive
 method solves, at every pose and for every posterior draw, the unloaded and
 the loaded static equilibria of that draw's arm (:class:`ElasticArm`); it is
 timed on a few poses and draws and scaled to the same draws, and the ratio printed.
+Each program is also compensated, in the same run, by the previous code (:data:`PREVIOUS`: kinematics,
+Jacobians and gravity torques one Pinocchio call per pose, loaded from the repository's history by
+``previous.py``): both times, their ratio and the largest difference of the commands.
 Sizes can be given as arguments: ``python benchmarks/bench_compensate.py 1000 10000``.
 """
 
@@ -19,10 +22,13 @@ from pathlib import Path
 
 import numpy as np
 
+from previous import NoHistory, previous
 from smoke import SAMPLER, sized
 
 ROOT = Path(__file__).resolve().parents[1]
 
+PREVIOUS = "5b37cd4"
+"""The commit whose ``bayescal/compensation`` is the baseline: the last before the poses were batched."""
 NAIVE_POSES = sized(3, 1)
 NAIVE_DRAWS = sized(100, 2)
 
@@ -60,14 +66,25 @@ def main(sizes: list[int]) -> None:
         warnings.simplefilter("ignore")
         ElastostaticModel.from_cell(cell, sampler=elastostatic_sampler(**SAMPLER)).fit(campaign, 1).save(Path(folder) / "calibration.nc")
         calibration = load_calibration(Path(folder) / "calibration.nc", cell)
+    try:
+        before = previous("compensation", ("spread", "compensate"), PREVIOUS).compensate.compensate_program
+    except NoHistory as reason:
+        print(f"no baseline: {reason}")
+        before = None
     fast = {}
     for n in sizes:
         program = random_program(cell, n, np.random.default_rng(n))
         wall, cpu = time.perf_counter(), time.process_time()
-        compensate_program(program, calibration, cell)
+        commands = compensate_program(program, calibration, cell).commands
         wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
         fast[n] = cpu / n
         print(f"{n:6d} poses x {calibration.n_draws} draws: {wall:6.2f} s wall {cpu:6.2f} s CPU  ({1e3 * cpu / n:.3f} ms CPU per pose)")
+        if before is not None:
+            old = time.process_time()
+            previous_commands = before(program, calibration, cell).commands
+            old = time.process_time() - old
+            print(f"        previous code (a Pinocchio call per pose): {old:6.2f} s CPU, {old / cpu:4.2f}x the CPU; "
+                  f"commands within {np.max(np.abs(commands - previous_commands)):.1e} rad")
     naive = _naive_seconds_per_pose(cell, calibration, random_program(cell, NAIVE_POSES, np.random.default_rng(0)))
     print(f"naive loop over poses and draws: {naive:.2f} s CPU per pose (timed on {NAIVE_POSES} poses x {NAIVE_DRAWS} draws, scaled)")
     for n, per_pose in fast.items():

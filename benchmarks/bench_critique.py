@@ -8,18 +8,22 @@ wall seconds of each and their ratio; whether the two JSON payloads agree (every
 string and count equal, and the largest relative difference of their numbers); the smallest
 fraction of a column left unexplained by those before it in any batched fold (what
 ``compare.COLLINEAR_MARGIN`` guards); and the median wall and CPU seconds of the whole
-command, start-up included, beside a bare interpreter's.  The script stops when the payloads
+command, start-up included, beside a bare interpreter's and beside the command at
+:data:`PREVIOUS_COMMAND` (the repository's files at that commit, ``previous.py``'s
+``previous_tree``), whose JSON must be the same byte for byte.  The script stops when the payloads
 differ by more than ``AGREEMENT`` or in anything but their numbers.  One BLAS thread, as the
 command line sets.
 """
 
 from __future__ import annotations
 
+import json
 import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -28,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from bench_startup import command_times
-from previous import NoHistory, previous
+from previous import NoHistory, previous, previous_tree
 from smoke import sized
 
 import bayescal.critique.compare as compare
@@ -40,6 +44,10 @@ from bayescal.twin.simulator import DigitalTwin
 
 PREVIOUS = "f6f3e09"
 """The commit whose ``bayescal/critique/compare.py`` is the baseline: the last before the folds were batched."""
+
+PREVIOUS_COMMAND = "5b37cd4"
+"""The commit whose command line is the baseline of the command's time: the last before SciPy's ``stats`` was
+left out of the geometry critique's import and xarray out of the results' (start-up only: the same JSON)."""
 
 ROOT = Path(__file__).resolve().parents[1]
 REPEATS = sized(5, 1)
@@ -112,13 +120,36 @@ def main() -> None:
             raise SystemExit(f"the payloads' numbers differ by a relative {difference:.1e}, above {AGREEMENT:g}")
 
         python = sys.executable
-        for name, arguments in {
-            "python -c pass": [python, "-c", "pass"],
-            "bayescal critique CAMPAIGN --config data/kr270.toml --json": [
-                python, "-m", "bayescal", "critique", str(path), "--config", "data/kr270.toml", "--json"],
-        }.items():
+        command = [python, "-m", "bayescal", "critique", str(path), "--config", "data/kr270.toml", "--json"]
+        cases = {"python -c pass": [python, "-c", "pass"], "bayescal critique CAMPAIGN --config data/kr270.toml --json": command}
+        for name, arguments in cases.items():
             walls, cpu = command_times(arguments)
             print(f"  {name:58s} wall {statistics.median(walls):6.3f} s  CPU {cpu:6.3f} s")
+        _previous_command(command, cpu)
+
+
+def _previous_command(command: list[str], cpu: float) -> None:
+    """The command's time at :data:`PREVIOUS_COMMAND` beside today's ``cpu``, and whether the two print the same JSON."""
+    try:
+        with previous_tree(PREVIOUS_COMMAND) as before:
+            walls, old_cpu = command_times(command, cwd=before)
+            old, new = (subprocess.run(command, capture_output=True, cwd=folder).stdout for folder in (before, ROOT))
+    except NoHistory as reason:
+        print(f"  no baseline of the command: {reason}")
+        return
+    differing = _differing(json.loads(old), json.loads(new))
+    verdict = "byte for byte the same" if old == new else f"differs in {len(differing)} values, the first {differing[0] if differing else 'none'}"
+    print(f"  {'the same command at ' + PREVIOUS_COMMAND:58s} wall {statistics.median(walls):6.3f} s  CPU {old_cpu:6.3f} s "
+          f"({old_cpu / cpu:4.2f}x today's CPU); the JSON {verdict}")
+
+
+def _differing(a, b, path="") -> list[str]:
+    """Where two JSON payloads differ (other work since :data:`PREVIOUS_COMMAND` may change the critique's numbers)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return [p for k in a.keys() | b.keys() for p in (_differing(a.get(k), b.get(k), f"{path}.{k}"))]
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        return [p for i, (u, v) in enumerate(zip(a, b)) for p in _differing(u, v, f"{path}[{i}]")]
+    return [] if a == b else [path]
 
 
 if __name__ == "__main__":

@@ -1,8 +1,8 @@
 """``bayescal plan``'s searches against the previous code, in one run: the same plans, in a fraction of the time.
 
 For each case the designer of the package and the previous one
-(:data:`PREVIOUS`: the plan designer before batched equilibria, loaded from the repository's history by
-``previous.py``)
+(:data:`PREVIOUS`: the plan designer and the batched chain before this round's work on the search's overheads,
+loaded from the repository's history by ``previous.py``)
 design a plan from the same seed in this process, one after the other:
 
 * ``exact``: the default exact model, 5 × 3, 3 starts, the test-pose criterion (``bayescal plan --config data/kr270.toml``);
@@ -35,10 +35,18 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from previous import NoHistory, previous  # noqa: E402
 from smoke import SMOKE  # noqa: E402
 
-PREVIOUS = "f4e0a75"
-"""The commit whose ``bayescal/design`` is the baseline: the last before the searches were batched."""
-MODULES = ("criteria", "loads", "constraints", "optimise", "discriminate")
-"""The modules the batching replaced, in an order in which each imports only those before it."""
+PREVIOUS = "5b37cd4"
+"""The commit whose ``bayescal/design`` and ``bayescal/robot/batched.py`` are the baseline: the last before the
+feasibility checks, the criteria's masks, the exchange's pools and the chain's cross products lost their overheads.
+(Against the searches before batching, commit f4e0a75, docs/design.md.)"""
+MODULES = ("criteria", "linearisation", "loads", "constraints", "exchange", "refinement", "optimise", "discriminating_search", "discriminate")
+"""The design modules at :data:`PREVIOUS`, in an order in which each imports only those before it."""
+
+
+def _previous_design():
+    """``bayescal/design`` at :data:`PREVIOUS` on the batched chain at :data:`PREVIOUS`."""
+    previous("robot", ("batched",), PREVIOUS)
+    return previous("design", MODULES, PREVIOUS, redirect={"bayescal.robot.batched": "previous_robot.batched"})
 
 ROOT = Path(__file__).resolve().parents[1]
 SEED = 0
@@ -68,7 +76,7 @@ def _line(name: str, new: tuple, old: tuple, plans: tuple[np.ndarray, np.ndarray
 
 
 def plans(cell) -> None:
-    Previous = previous("design", MODULES, PREVIOUS).optimise.PlanDesigner
+    Previous = _previous_design().optimise.PlanDesigner
 
     from bayescal.design.optimise import PlanDesigner
 
@@ -79,7 +87,7 @@ def plans(cell) -> None:
 
 
 def discriminate(cell) -> None:
-    baseline = previous("design", MODULES, PREVIOUS)
+    baseline = _previous_design()
     previous_space, Previous = baseline.constraints.load_design_space, baseline.discriminate.DiscriminatingDesigner
 
     from bayescal.cell.plan import read_plan

@@ -31,12 +31,12 @@ def _cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def command_times(arguments: list[str]) -> tuple[list[float], float]:
-    """Wall seconds of each of ``REPEATS`` fresh runs of ``arguments`` and their median CPU seconds."""
+def command_times(arguments: list[str], cwd: Path = ROOT) -> tuple[list[float], float]:
+    """Wall seconds of each of ``REPEATS`` fresh runs of ``arguments`` in the folder ``cwd`` and their median CPU seconds."""
     walls, cpus = [], []
     for _ in range(REPEATS):
         began, cpu = time.perf_counter(), _cpu()
-        done = subprocess.run(arguments, capture_output=True, text=True, cwd=ROOT)
+        done = subprocess.run(arguments, capture_output=True, text=True, cwd=cwd)
         walls.append(time.perf_counter() - began)
         cpus.append(_cpu() - cpu)
         if done.returncode != 0:

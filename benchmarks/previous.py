@@ -4,15 +4,22 @@ A benchmark that times new code against the code it replaced loads the replaced 
 the repository's history (``git show REVISION:path``) instead of keeping a second copy of them
 in the tree: ``previous("design", ("criteria", "optimise"), revision)`` returns a package named
 ``previous_design`` whose modules are those of ``bayescal/design/`` at ``revision``, their
-imports of each other redirected to it; everything else they import is today's package.
+imports of each other redirected to it; everything else they import is today's package, unless
+``redirect`` sends it to another such package (``{"bayescal.robot.batched": "previous_robot.batched"}``).
+A benchmark of whole commands runs them in :func:`previous_tree`, the repository's files at that
+revision, beside the working tree.
 """
 
 from __future__ import annotations
 
+import io
 import subprocess
 import sys
+import tarfile
+import tempfile
 import types
-from collections.abc import Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -22,8 +29,11 @@ class NoHistory(RuntimeError):
     """The revision is not in this checkout (an export without ``.git``, or a shallow clone)."""
 
 
-def previous(subpackage: str, modules: Sequence[str], revision: str) -> types.ModuleType:
+def previous(subpackage: str, modules: Sequence[str], revision: str, redirect: Mapping[str, str] | None = None) -> types.ModuleType:
     """The ``modules`` of ``bayescal/<subpackage>/`` at ``revision`` as the package ``previous_<subpackage>``.
+
+    ``redirect`` maps other modules they import (``bayescal.robot.batched``) to modules loaded before by
+    :func:`previous` (``previous_robot.batched``).
 
     Raises
     ------
@@ -55,6 +65,30 @@ def previous(subpackage: str, modules: Sequence[str], revision: str) -> types.Mo
         text = sources[module]
         for other in modules:
             text = text.replace(f"from bayescal.{subpackage}.{other} import", f"from {name}.{other} import")
+        for module_name, replacement in (redirect or {}).items():
+            text = text.replace(f"from {module_name} import", f"from {replacement} import")
         loaded = sys.modules[f"{name}.{module}"]
         exec(compile(text, loaded.__file__, "exec"), loaded.__dict__)
     return package
+
+
+@contextmanager
+def previous_tree(revision: str) -> Iterator[Path]:
+    """A temporary folder holding the repository's files at ``revision`` (``git archive``), removed on exit.
+
+    ``python -m bayescal`` run with that folder as its working directory imports the package from it, not
+    the installed one: the command line as it was, on the same data.
+
+    Raises
+    ------
+    NoHistory
+        When git cannot archive ``revision``.
+    """
+    try:
+        archive = subprocess.run(["git", "archive", revision], cwd=ROOT, capture_output=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError) as error:
+        raise NoHistory(f"revision {revision} is not in this checkout ({error})") from None
+    with tempfile.TemporaryDirectory() as folder:
+        with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
+            tar.extractall(folder, filter="data")
+        yield Path(folder)

@@ -10,7 +10,9 @@ and turns the dual problem into one evaluation: at links ``λ`` the joint spring
 carry the known torque ``τ(λ) = -g(λ) - M_c(λ) e_c + J(λ)ᵀ w``, so the actuators
 must stand at ``q_c = λ - D(τ(λ))`` (eq 1 read backwards, ``D`` the joint
 deflection law).  The only solve is the unloaded equilibrium, Newton's method
-on the arm's weight alone; :func:`compensate_poses` gives both steps, and the
+on the arm's weight alone; :func:`compensate_poses` gives both steps, for all
+poses at once on the fit's engine (:class:`~bayescal.robot.batched.BatchedChain`: the
+kinematics, Jacobians and gravity torques of every pose as stacked arrays), and the
 tests check the loaded equilibrium at ``q_c`` (the full solve of
 :class:`~bayescal.robot.stiffness.ElasticArm`) lands on ``λ``.
 
@@ -30,6 +32,7 @@ from bayescal.compensation.results import CompensationResults
 from bayescal.compensation.budget import error_budget
 from bayescal.compensation.spread import designs
 from bayescal.inference.exact import scale_masses
+from bayescal.robot.batched import BatchedChain
 from bayescal.robot.compensator import Compensator
 from bayescal.robot.kinematics import Robot
 
@@ -45,13 +48,15 @@ def unloaded_links(
     """``(P, n)`` link angles ``q + θ`` (rad) of the arm at poses ``q`` under its weight and the compensator, no wrench.
 
     Newton's method (its chord form) on ``θ = k ∘ τ(q + θ)`` with ``τ = -g - M_c e_c`` (linear
-    joints of own compliances ``own`` ``(P, n)``, rad/(N·m)), all poses at once, converged to
-    :data:`EQUILIBRIUM_TOL`.  Also returns ``(P,)`` True where a pose did not converge (its links NaN).
+    joints of own compliances ``own`` ``(P, n)``, rad/(N·m)), all poses at once
+    (:class:`~bayescal.robot.batched.BatchedChain`), converged to :data:`EQUILIBRIUM_TOL`.  Also returns ``(P,)``
+    True where a pose did not converge (its links NaN).
     """
     P, n = q.shape
+    chain = BatchedChain.of(robot)
     # The derivative (gravity's Hessian term and the compensator's stiffness) is taken once, at q: the
     # deflections are small, so the chord steps converge about a thousandfold per step at a third of the cost.
-    derivative = -np.stack([robot.gravity_torque_derivative(qi) for qi in q])
+    derivative = -chain.gravity_torque(chain.poses(q))[1]
     if joint is not None:
         derivative[:, joint, joint] -= compensator.stiffness(q[:, joint])
     chord = np.eye(n) - own[:, :, None] * derivative
@@ -59,7 +64,7 @@ def unloaded_links(
     active = np.arange(P)
     for _ in range(max_iter):
         links = q[active] + theta[active]
-        torque = -np.stack([robot.gravity_torque(li) for li in links])
+        torque = -chain.gravity_torque(chain.poses(links))[0]
         if joint is not None:
             torque[:, joint] -= compensator.torque(links[:, joint])
         step = np.linalg.solve(chord[active], (own[active] * torque - theta[active])[..., None])[..., 0]
@@ -100,9 +105,12 @@ def compensate_poses(
         and ``(P,)`` True where the unloaded equilibrium was not found (NaN rows).
     """
     links, failed = unloaded_links(robot, q, own, compensator, joint)
-    torque = np.full_like(q, np.nan)
-    for p in np.flatnonzero(~failed):
-        torque[p] = robot.flange_jacobian(links[p]).T @ wrench[p] - robot.gravity_torque(links[p])
+    chain = BatchedChain.of(robot)
+    # A pose whose unloaded equilibrium failed has NaN links, and so NaN torques and commands.
+    poses = chain.poses(links)
+    linear, angular = chain.point_jacobian(poses, poses.flange_origin)
+    gravity, _ = chain.gravity_torque(poses)
+    torque = np.einsum("pjc,pc->pj", linear, wrench[:, :3]) + np.einsum("pjc,pc->pj", angular, wrench[:, 3:]) - gravity
     if joint is not None:
         torque[:, joint] -= compensator.torque(links[:, joint])
     return links - own * torque, links, failed
@@ -128,9 +136,10 @@ def compensate_program(
     """
     robot = scale_masses(cell.robot, calibration.gravity_scale) if calibration.gravity_scale != 1.0 else cell.robot
     joint = cell.compensated_joint
-    rotations = np.stack([robot.flange_pose(qi)[0] for qi in program.q])
-    wrench = program.flange_wrench(rotations)
-    design = designs(robot, program.q, program.tcp, wrench)
+    chain = BatchedChain.of(robot)
+    poses = chain.poses(program.q)
+    wrench = program.flange_wrench(poses.flange_rotation)
+    design = designs(chain, program.q, program.tcp, wrench, poses=poses)
     q_comp = program.q[:, joint] if joint is not None else np.zeros(len(program))
     budget = error_budget(calibration, design, q_comp, keep_spread=keep_spread)
     compensator = calibration.median_compensator()

@@ -15,8 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bayescal.robot.kinematics import Robot
-from bayescal.robot.stiffness import compliance_design
+from bayescal.robot.batched import BatchedChain, Poses
 
 __all__ = ["THREE_SIGMA", "designs", "deflection_draws", "error_quantiles"]
 
@@ -24,21 +23,27 @@ THREE_SIGMA = 0.9973
 """Two-sided probability of ±3σ of a normal distribution (the paper's interval)."""
 
 
-def designs(robot: Robot, q: np.ndarray, points: np.ndarray, wrenches: np.ndarray) -> np.ndarray:
-    """``(P, 3, n)`` matrices ``A`` of eq 31, one per pose.
+def designs(chain: BatchedChain, q: np.ndarray, points: np.ndarray, wrenches: np.ndarray, *, poses: Poses | None = None) -> np.ndarray:
+    """``(P, 3, n)`` matrices ``A`` of eq 31, one per pose, all poses at once.
 
     Parameters
     ----------
-    robot
-        The robot.
+    chain
+        The robot's batched chain (:meth:`BatchedChain.of <bayescal.robot.batched.BatchedChain.of>`).
     q
         ``(P, n)`` joint angles, rad.
     points
         ``(P, 3)`` tool points in the flange frame, m.
     wrenches
         ``(P, 6)`` wrenches at the flange origin, base axes, N and N·m.
+    poses
+        ``chain.poses(q)``, when already computed.
     """
-    return np.stack([compliance_design(robot, qi, pi, wi) for qi, pi, wi in zip(q, points, wrenches)])
+    poses = chain.poses(q) if poses is None else poses
+    flange_linear, flange_angular = chain.point_jacobian(poses, poses.flange_origin)
+    torques = np.einsum("pjc,pc->pj", flange_linear, wrenches[:, :3]) + np.einsum("pjc,pc->pj", flange_angular, wrenches[:, 3:])
+    linear, _ = chain.point_jacobian(poses, poses.points(points))
+    return np.swapaxes(linear, 1, 2) * torques[:, np.newaxis, :]
 
 
 def deflection_draws(design: np.ndarray, compliances: np.ndarray, varying: np.ndarray | None = None, joint: int | None = None) -> np.ndarray:

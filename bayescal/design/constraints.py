@@ -188,11 +188,16 @@ class Feasibility:
             return f"load {mass:g} kg outside the mass range {low:g} to {high:g} kg"
         return self.violation_under(q, [0.0, 0.0, -mass * self.cell.gravity])
 
-    def _within_limits(self, q: np.ndarray) -> str | None:
+    def _outside(self, q: np.ndarray) -> np.ndarray:
+        """Which joints of configurations ``q`` ``(..., nq)`` are beyond their limits (bool, the same shape)."""
         robot = self.cell.robot
-        if np.any(q < robot.lower - 1e-9) or np.any(q > robot.upper + 1e-9):
-            j = int(np.flatnonzero((q < robot.lower - 1e-9) | (q > robot.upper + 1e-9))[0])
-            return f"joint {robot.joint_names[j]} at {math.degrees(q[j]):.2f} deg is outside its limits"
+        return (q < robot.lower - 1e-9) | (q > robot.upper + 1e-9)
+
+    def _within_limits(self, q: np.ndarray) -> str | None:
+        outside = self._outside(q)
+        if outside.any():
+            j = int(np.flatnonzero(outside)[0])
+            return f"joint {self.cell.robot.joint_names[j]} at {math.degrees(q[j]):.2f} deg is outside its limits"
         return None
 
     def violation_under(self, q, force, couple=None) -> str | None:
@@ -217,8 +222,9 @@ class Feasibility:
         loads = np.concatenate([force, couple], axis=1)
         unique, which = np.unique(loads, axis=0, return_inverse=True)
         load_reasons = [self.cell.loading.force_violation(u[:3]) or self.cell.loading.couple_violation(u[3:]) for u in unique]
-        for i in range(len(q)):
-            reasons[i] = self._within_limits(q[i]) or load_reasons[which.ravel()[i]]
+        outside = self._outside(q).any(axis=1)
+        for i, w in enumerate(which.ravel()):
+            reasons[i] = (self._within_limits(q[i]) if outside[i] else None) or load_reasons[w]
         alive = np.array([reason is None for reason in reasons], dtype=bool)
         rows = np.flatnonzero(alive)
         if not rows.size:

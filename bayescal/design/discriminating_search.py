@@ -66,7 +66,9 @@ class _Exchange:
         size leaves it there too.
         """
         options = self._options(angle)
-        options = options[~np.isin(options, taken)]
+        if taken:
+            # a list's membership, not np.isin: a few options against a few taken, 31,128 times in the 5 × 12 search
+            options = options[[option not in taken for option in options.tolist()]]
         wanted = options[self.side[options] == (1.0 if slot % 2 == 0 else -1.0)]
         return wanted if wanted.size else options
 

@@ -13,15 +13,17 @@ import warnings
 from collections.abc import Callable, Mapping, Sequence
 from datetime import datetime, timezone
 from os import PathLike
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
-import xarray as xr
 
 from bayescal import __version__
 from bayescal.output import record_read
 from bayescal.sampling.diagnostics import diagnose
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 __all__ = ["posterior_tree", "summarize", "diagnostics", "converged", "sample_until_converged", "warn_if_unconverged", "ConvergenceWarning", "parameters_json", "save", "load", "read_posterior"]
 
@@ -76,6 +78,10 @@ def posterior_tree(
     missing = [name for name in draws if name not in units]
     if missing:
         raise ValueError(f"no unit given for {', '.join(missing)}")
+    # xarray is imported by the three functions that build or read a tree: a tenth of a second of start-up that the
+    # commands which only read results (critique, plan, simulate) do not pay.
+    import xarray as xr
+
     dims, coords = dict(dims or {}), dict(coords or {})
     groups = {"posterior": _dataset({name: np.asarray(value, dtype=float) for name, value in draws.items()}, ["chain", "draw"], dims, coords)}
     if observed:
@@ -91,6 +97,8 @@ def posterior_tree(
 def _dataset(
     variables: Mapping[str, np.ndarray], sample_dims: list[str], dims: Mapping[str, Sequence[str]], coords: Mapping[str, Sequence]
 ) -> xr.Dataset:
+    import xarray as xr
+
     data_vars = {}
     for name, value in variables.items():
         named = list(dims.get(name, []))
@@ -271,6 +279,8 @@ def load(path: str | PathLike[str]) -> xr.DataTree:
     An open file would stay shared by every tree read from the same path: the
     first of them to be garbage-collected closes it under the others.
     """
+    import xarray as xr
+
     record_read(path, "a posterior")
     with xr.open_datatree(path, engine="netcdf4") as tree:
         return tree.load()

@@ -1,6 +1,8 @@
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 import numpy as np
+import pandas as pd
+import pytest
 
 from bayescal.studies.parallel import seeded_map
 
@@ -24,13 +26,17 @@ def test_each_item_gets_its_own_stream_in_order():
     assert first_two == draws[:2]
 
 
-def test_a_study_on_a_dask_cluster_gives_the_process_pools_table(data_dir):
+@pytest.fixture(scope="module")
+def dask_executor():
+    """A ``concurrent.futures`` executor on a local dask.distributed cluster of two worker processes."""
+    distributed = pytest.importorskip("distributed", reason="the cluster extra (dask[distributed]) is not installed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as client:
+            yield client.get_executor()
+
+
+def test_a_study_on_a_dask_cluster_gives_the_process_pools_table(data_dir, dask_executor):
     """A plan study run on a local dask.distributed cluster (worker processes) equals the process pool's, seed for seed."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    import pytest
-
-    distributed = pytest.importorskip("distributed")
     from bayescal.cell.config import load_cell
     from bayescal.cell.plan import read_plan
     from bayescal.studies.plans import simulate_plan
@@ -39,8 +45,18 @@ def test_a_study_on_a_dask_cluster_gives_the_process_pools_table(data_dir):
     plan = read_plan(data_dir / "table3_plan.csv", cell.robot)
     with ProcessPoolExecutor(max_workers=2) as pool:
         pooled = simulate_plan(cell, plan, campaigns=4, seed=3, executor=pool)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        with distributed.Client(cluster) as client:
-            clustered = simulate_plan(cell, plan, campaigns=4, seed=3, executor=client.get_executor())
+    clustered = simulate_plan(cell, plan, campaigns=4, seed=3, executor=dask_executor)
     np.testing.assert_array_equal(clustered["errors"], pooled["errors"])
     np.testing.assert_array_equal(clustered["parameter_errors"], pooled["parameter_errors"])
+
+
+def test_the_q2_angle_study_on_a_dask_cluster_gives_the_serial_table(data_dir, dask_executor):
+    """The designer and its candidate set travel to the cluster's workers; the table is the serial one, seed for seed."""
+    from bayescal.cell.config import load_cell
+    from bayescal.studies.angles import q2_angle_study
+
+    cell = load_cell(data_dir / "kr270.toml")
+    options = dict(angles=[3, 4], per_angle=[1, 2], candidates_per_angle=2, seed=5)
+    with ThreadPoolExecutor(max_workers=1) as serial:
+        expected = q2_angle_study(cell, executor=serial, **options)
+    pd.testing.assert_frame_equal(q2_angle_study(cell, executor=dask_executor, **options), expected)

@@ -1,0 +1,133 @@
+"""``make demo`` step by step against the previous code, in one run: each command's time and the same files.
+
+The demo's commands are read from the Makefile's ``demo`` recipe and run as ``python -m bayescal``
+in two folders, alternately, ``REPEATS`` times each: a temporary one holding a link to the
+repository's ``data/`` (the package is the installed working tree's), and the repository's files at
+:data:`PREVIOUS` (``previous.py``'s :func:`~previous.previous_tree`), each writing its own
+``build/`` (the repository's own ``build/`` is left alone).  Printed: the median wall and CPU seconds (user + system) of every step and of the
+whole demo in each tree and their ratio; then which of the outputs that carry no time stamp
+(the campaign, the plan, the critique's JSON, the review's files) are byte for byte the same.
+CPU time is the steadier figure on a shared machine.  At the smoke size: the first two steps,
+once, with the working tree's package alone.
+"""
+
+from __future__ import annotations
+
+import filecmp
+import os
+import resource
+import shlex
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from previous import NoHistory, previous_tree
+from smoke import SMOKE, sized
+
+ROOT = Path(__file__).resolve().parents[1]
+PREVIOUS = "5b37cd4"
+"""The commit the demo is timed against: the last before the plan search, the critique's and the review's
+start-up and the compensation were made faster this round."""
+REPEATS = sized(3, 1)
+"""Runs of the demo in each tree; the medians damp the shared machine's noise."""
+COMPARED = ("campaign.csv", "plan.csv", "plan.json", "critique.json", "report")
+"""Outputs compared byte for byte (the posterior files carry their creation time)."""
+
+
+def demo_steps() -> list[tuple[list[str], str | None]]:
+    """The ``demo`` recipe of the Makefile: each command's arguments after ``bayescal`` and the file its stdout goes to."""
+    lines = (ROOT / "Makefile").read_text().splitlines()
+    recipe, started = [], False
+    for line in lines:
+        if line.startswith("demo:"):
+            started = True
+        elif started and line.startswith("\t"):
+            recipe.append(line.strip())
+        elif started:
+            break
+    commands = " ".join(recipe).replace("\\ ", " ").split("$(BIN)/bayescal ")[1:]
+    steps = []
+    for command in commands:
+        words = shlex.split(command)
+        output = words[words.index(">") + 1] if ">" in words else None
+        steps.append((words[: words.index(">")] if output else words, output))
+    return steps
+
+
+def _cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def run_demo(tree: Path, steps) -> list[tuple[float, float]]:
+    """Wall and CPU seconds of each step of the demo run in the folder ``tree`` (into its ``build/``)."""
+    (tree / "build").mkdir(exist_ok=True)
+    times = []
+    environment = os.environ | {"OPENBLAS_NUM_THREADS": "1"}
+    for arguments, output in steps:
+        began, cpu = time.perf_counter(), _cpu()
+        with open(tree / output, "w") if output else open(os.devnull, "w") as stdout:
+            done = subprocess.run([sys.executable, "-m", "bayescal", *arguments], cwd=tree, stdout=stdout, stderr=subprocess.PIPE,
+                                  text=True, env=environment)
+        if done.returncode != 0:
+            raise SystemExit(f"bayescal {' '.join(arguments)} failed in {tree}: {done.stderr.strip().splitlines()[-1]}")
+        times.append((time.perf_counter() - began, _cpu() - cpu))
+    return times
+
+
+def _same(a: Path, b: Path) -> bool:
+    if a.is_dir():
+        comparison = filecmp.dircmp(a, b)
+        return not (comparison.left_only or comparison.right_only) and all(
+            filecmp.cmp(a / name, b / name, shallow=False) for name in comparison.common_files
+        )
+    return filecmp.cmp(a, b, shallow=False)
+
+
+def _medians(runs: list[list[tuple[float, float]]]) -> list[tuple[float, float]]:
+    return [(statistics.median(r[k][0] for r in runs), statistics.median(r[k][1] for r in runs)) for k in range(len(runs[0]))]
+
+
+def compare(steps, trees: dict[str, Path]) -> None:
+    """Time the demo in the two ``trees`` (the current one first), alternately, and compare their outputs."""
+    runs = {name: [] for name in trees}
+    for _ in range(REPEATS):
+        for name, tree in trees.items():
+            runs[name].append(run_demo(tree, steps))
+    (now, now_tree), (before, before_tree) = trees.items()
+    new, old = _medians(runs[now]), _medians(runs[before])
+    print(f"make demo, medians of {REPEATS} (wall, CPU seconds), {now} against {before}:")
+    for (arguments, _), (wall, cpu), (old_wall, old_cpu) in zip(steps, new, old):
+        print(f"  {arguments[0]:10s} {wall:6.2f} s wall {cpu:6.2f} s CPU   before {old_wall:6.2f} s wall {old_cpu:6.2f} s CPU   "
+              f"{old_cpu / cpu:4.2f}x the CPU")
+    total = [sum(t[k] for t in new) for k in (0, 1)]
+    old_total = [sum(t[k] for t in old) for k in (0, 1)]
+    print(f"  {'all':10s} {total[0]:6.2f} s wall {total[1]:6.2f} s CPU   before {old_total[0]:6.2f} s wall {old_total[1]:6.2f} s CPU   "
+          f"{old_total[1] / total[1]:4.2f}x the CPU")
+    for name in COMPARED:
+        same = _same(now_tree / "build" / name, before_tree / "build" / name)
+        print(f"  build/{name}: {'the same, byte for byte' if same else 'DIFFERENT'}")
+
+
+def main() -> None:
+    print(f"load average (1, 5, 15 min): {' '.join(f'{x:.1f}' for x in os.getloadavg())} on {os.cpu_count()} cores")
+    steps = demo_steps()
+    with tempfile.TemporaryDirectory() as folder:
+        now = Path(folder)
+        (now / "data").symlink_to(ROOT / "data")
+        if SMOKE:
+            for (arguments, _), (wall, cpu) in zip(steps, run_demo(now, steps[:2])):
+                print(f"  {arguments[0]:10s} {wall:6.2f} s wall {cpu:6.2f} s CPU")
+            return
+        try:
+            with previous_tree(PREVIOUS) as before:
+                compare(steps, {"now": now, PREVIOUS: before})
+        except NoHistory as reason:
+            print(f"no baseline: {reason}")
+
+
+if __name__ == "__main__":
+    main()
