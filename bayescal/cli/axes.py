@@ -75,15 +75,18 @@ def _registration_text(registration) -> str:
     """A readable table of the axes and frames of a :class:`~bayescal.registration.register.Registration`,
     what was left out or is missing, and a warning for each joint whose arcs scatter beyond the tracker's law."""
     lines = [f"Joint axes in the tracker frame from {registration.source}", "",
-             f"{'joint':>5} {'direction':>32} {'sd mrad':>9} {'point mm':>32} {'sd mm':>9} {'rms mm':>8} "
-             f"{'χ²/dof':>8} {'excess':>7}"]
+             f"{'joint':>5} {'direction':>32} {'sd mrad':>9} {'±3σ mrad':>9} {'point mm':>32} {'sd mm':>9} {'±3σ mm':>9} "
+             f"{'dof':>5} {'rms mm':>8} {'χ²/dof':>8} {'excess':>7}"]
     for j, fit in registration.axes.items():
         direction = " ".join(f"{v:10.6f}" for v in fit.direction)
         point = " ".join(f"{v / MM:10.2f}" for v in fit.point)
-        lines.append(f"{j + 1:>5} {direction:>32} {fit.direction_sd * 1e3:9.4g} {point:>32} {fit.point_sd / MM:9.4g} "
-                     f"{fit.residual_rms / MM:8.4f} {fit.chi2_per_dof:8.3g} {fit.excess:7.3g}")
-    lines.append("(χ²/dof against the tracker's law; excess: the noise learned from the arcs over that law, "
-                 "by which the sds are widened at least; more where one angle's readings share an error)")
+        dof, half = min(fit.direction_dof, fit.point_dof), fit.half_widths()
+        lines.append(f"{j + 1:>5} {direction:>32} {fit.direction_sd * 1e3:9.4g} {half['direction_mrad']['3']:9.4g} {point:>32} "
+                     f"{fit.point_sd / MM:9.4g} {half['point_mm']['3']:9.4g} {dof:5.2g} {fit.residual_rms / MM:8.4f} "
+                     f"{fit.chi2_per_dof:8.3g} {fit.excess:7.3g}")
+    lines.append("(sd: clustered by swept angle; ±3σ: the half-width of the interval with the "
+                 "normal's ±3σ coverage, 99.7 %, from Student's t with the sd's degrees of freedom, dof, the smaller of "
+                 "direction's and point's; χ²/dof against the tracker's law; excess: the noise learned from the arcs over that law)")
     excluded = registration.excluded
     if excluded["joints"] or excluded["markers"]:
         left = [f"the sweep{'s' if len(excluded['joints']) > 1 else ''} of joint{'s' if len(excluded['joints']) > 1 else ''} "
@@ -97,8 +100,8 @@ def _registration_text(registration) -> str:
         lines.append(f"warning: the arcs of joint{'s' if len(beyond) > 1 else ''} {', '.join(str(j + 1) for j in beyond)} "
                      f"scatter {size} times the tracker's law, beyond its chance (χ²/dof above): the cell adds error its "
                      "tracker's datasheet does not (the reflectors' seating, the joint's wobble and transmission error, air); "
-                     "the noise is learned from the arcs and the sds above are widened by the excess at least, and so are the frames' "
-                     "built from them; --critique says whether an effect of the joint explains it")
+                     "the sds above follow the scatter, clustered by swept angle, and so do the frames' built from them; "
+                     "--critique says whether an effect of the joint explains it")
     for j, why in registration.left_out.items():
         lines.append(f"joint {j + 1}: no axis: the sweep {why}")
     if registration.missing:
@@ -110,6 +113,9 @@ def _registration_text(registration) -> str:
         lines.append("t [mm] " + " ".join(f"{v:10.3f}" for v in data["translation_mm"])
                      + "   sd [mm] " + " ".join(f"{v:.4g}" for v in data["translation_sd_mm"]))
         lines.append("rotation sd [mrad] " + " ".join(f"{v:.4g}" for v in data["rotation_sd_mrad"]))
+        if "rotation_dof" in data:
+            lines.append("±3σ (99.7 %, Student's t) [mrad] " + " ".join(f"{v:.4g}" for v in data["rotation_half_width_mrad"]["3"])
+                         + "   [mm] " + " ".join(f"{v:.4g}" for v in data["translation_half_width_mm"]["3"]))
         lines.append(f"not fixed by the sweeps: {frame.from_nominal}")
     return "\n".join(lines)
 

@@ -5,7 +5,7 @@ with the joint angle known: eq 10 of Klimchik et al. in 3D, as in
 :func:`bayescal.geometry.arcs.known_angle_fit`, but with all reflectors sharing
 one axis.  Reading ``i`` of reflector ``k`` is modelled as
 
-    p_i = c + h_k a + r_k (cos(q_i + φ_k) e1 + sin(q_i + φ_k) e2) + ε_i,   ε_i ~ N(0, (s σ(p_i))² I),
+    p_i = c + h_k a + r_k (cos(q_i + φ_k) e1 + sin(q_i + φ_k) e2) + ε_i,   ε_i ~ N(0, σ(p_i)² I) at least,
 
 with ``a`` the unit axis (right-handed with increasing ``q``), ``c`` the point on
 it nearest the tracker origin, ``e1, e2`` a fixed orthonormal pair
@@ -15,27 +15,19 @@ reflector (reflectors sit at different azimuths, so each has its own phase).
 **The noise is learned.**  ``σ(p)`` is the tracker's distance-dependent law (the
 cell's ``[tracker]``); a real cell scatters more than its tracker's datasheet
 (the reflector's seating, the joint's wobble and transmission error, air), so the
-joint's arcs carry an excess ``s ≥ 1`` over it.  The prior takes the datasheet as a
-lower bound (``s`` uniform in log above 1); ``s`` is its restricted estimate
-``max(1, χ²/dof)^½``, which leaves the weighted least-squares axis as it is and
-scales its Laplace (Gauss-Newton) covariance by ``s²``: the axis's sd follows the
-scatter the arcs show.  One excess per joint, not per reflector: per reflector
-(about 13 degrees of freedom each) the ±2σ/±3σ intervals covered 92.9/98.8 % on
-60 files of the independent cell generator, pooled 93.3/99.4 %.
+joint's arcs carry an excess ``s = max(1, χ²/dof)^½`` over it, one per joint, which
+:func:`span_needed` and the output use.
 
-**The readings of one angle share errors.**  The joint's wobble and transmission
-error at an angle move all its reflectors together, which a noise independent per
-reading does not describe.  A cluster-robust (sandwich) covariance, the readings
-clustered by the swept angle (:func:`_clustered`, bias-reduced for the sweep's few
-angles), measures the parameters' variance whatever the errors one angle shares.
-The covariance reported is, in every direction of the parameters, the larger of
-it and the Laplace one with the learned excess (:func:`_at_least`): the excess
-stays a lower bound of every sd.  On 300 files of the independent cell generator
-(noise 3-10 times the tracker's law) the ±1/2/3σ intervals of the axes and the
-base frame covered 70.0/94.1/99.0 % instead of 62.6/90.8/98.3 % with the excess
-alone.  The price: where the readings are independent, the sandwich's own noise
-(6-9 angles a sweep) widens the sds by 13 % in the median, and the intervals cover
-78.9/98.1/100 % (docs/registration.md).
+**The readings of one angle share errors** (the joint's wobble and transmission
+error there), so the covariance is clustered by swept angle
+(:mod:`bayescal.registration.robust`: bias-reduced, with its small-sample degrees
+of freedom); the Laplace one at the tracker's law stands only in a direction the
+sandwich does not see (a sweep of fewer angles than the axis has parameters).
+With a sweep's 5-12 angles the sandwich is noisy and a component's error over its
+sd has Student-t tails: the intervals with the normal's ±1/2/3σ coverage are
+``±t_ν(Φ(k))`` sd (:meth:`AxisFit.half_widths`), ``ν`` Bell and McCaffrey's
+(about 3.4 with 7 angles).  Measured in docs/registration.md, on the independent
+cell generator (noise 3-10 times the law) and on the twin's sweeps at the law.
 
 **A label is judged by evidence.**  A reflector is called mislabelled only when
 relabelling some readings (the reflectors' names permuted at one angle, or one
@@ -62,10 +54,11 @@ from scipy.optimize import least_squares
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError
 from bayescal.geometry.arcs import known_angle_fit
+from bayescal.registration.robust import clustered_covariance, combined_dof, interval_factor, sandwich_dof, unseen_at_floor
 from bayescal.registration.sweeps import Sweeps
 from bayescal.units import DEG, MM
 
-__all__ = ["AxisFit", "AxisStart", "axis_start", "fit_axis", "relabel_evidence", "span_needed", "LABEL_GAIN", "MIN_BENDING", "SCATTER_LEVEL"]
+__all__ = ["AxisFit", "INTERVAL_NOTE", "AxisStart", "axis_start", "fit_axis", "relabel_evidence", "span_needed", "LABEL_GAIN", "MIN_BENDING", "SCATTER_LEVEL"]
 
 LABEL_GAIN = 25.0
 """Nats by which relabelling some readings must explain a sweep better before a reflector is called mislabelled:
@@ -87,11 +80,18 @@ _REFITTED = 3
 """Relabellings refitted at each step of the search, those that fit best at the current parameters.  Measured on 80
 files of the independent cell generator: the same gains as refitting every permutation of every angle, at 0.26
 instead of 3.2 s per file."""
-_LEVERAGE_FLOOR = 1e-9
-"""Smallest eigenvalue of ``I - H_gg`` (dimensionless) taken as a residual direction: below it, round-off of a
-direction the fit reproduces exactly."""
 _SAME_ANGLE = 1e-6 * DEG
 """Angles closer than this (rad) are one angle of the sweep: below any controller's resolution."""
+
+
+INTERVAL_NOTE = ("±k sd: the sd times Student's t quantile at the normal's ±k sd coverage (68.3 / 95.4 / 99.7 %) with "
+                 "the sd's degrees of freedom (dof; null: a normal's)")
+"""How the registration's intervals are made, as its output says."""
+
+
+def _finite_or_none(value: float) -> float | None:
+    """``value``, or None for infinity (which JSON cannot hold)."""
+    return float(value) if np.isfinite(value) else None
 
 
 @dataclass(frozen=True)
@@ -107,8 +107,8 @@ class AxisFit:
     point
         (3,) point of the axis nearest the tracker origin, m.
     cov
-        (6, 6) posterior covariance of ``[direction, point]`` (rank 4), m and 1: in every direction the larger
-        of the Laplace one with the learned excess and the one clustered by swept angle.
+        (6, 6) covariance of ``[direction, point]`` (rank 4), m and 1: the one clustered by swept angle
+        (``sandwich``), the Laplace one at the tracker's law in any direction the sandwich does not see.
     reflectors
         Per reflector: ``radius_mm``, ``height_mm`` (along the axis from ``point``),
         ``phase_deg``, ``rms_mm``, ``z_rms`` (rms residual over the tracker's law).
@@ -118,6 +118,11 @@ class AxisFit:
         Sum of squared residuals over the tracker's law (not the learned noise).
     dof
         Degrees of freedom: ``3n`` minus the parameters.
+    sandwich
+        (6, 6) the covariance clustered by swept angle (:func:`~bayescal.registration.robust.clustered_covariance`).
+    dof_kernel
+        (G, 3n, 6) its degrees-of-freedom kernel for contrasts of ``[direction, point]``
+        (:func:`~bayescal.registration.robust.sandwich_dof`), G the swept angles.
     """
 
     joint: int
@@ -128,6 +133,40 @@ class AxisFit:
     residual_rms: float
     chi2: float
     dof: int
+    sandwich: np.ndarray
+    dof_kernel: np.ndarray
+
+    def interval_dof(self, contrast: np.ndarray) -> float:
+        """Degrees of freedom of the sd of ``contrast @ [direction, point]`` (``contrast`` (6,)): the sandwich's, by
+        Welch and Satterthwaite where the tracker's law stands in for it (``inf`` where the law alone sets the sd)."""
+        part = float(contrast @ self.sandwich @ contrast)
+        return combined_dof(float(contrast @ self.cov @ contrast), [(part, sandwich_dof(self.dof_kernel, contrast))])
+
+    def _across_dof(self, block: slice) -> float:
+        """The smaller degrees of freedom of the two principal components of ``block`` of ``cov`` (across the axis)."""
+        values, vectors = np.linalg.eigh(self.cov[block, block])
+        dofs = []
+        for v in vectors[:, values > values.max() * 1e-9].T:
+            contrast = np.zeros(6)
+            contrast[block] = v
+            dofs.append(self.interval_dof(contrast))
+        return min(dofs)
+
+    @property
+    def direction_dof(self) -> float:
+        """Degrees of freedom of the direction's sd (the smaller of its two components'): its intervals' t quantiles."""
+        return self._across_dof(slice(0, 3))
+
+    @property
+    def point_dof(self) -> float:
+        """Degrees of freedom of the point's sd across the axis (the smaller of its two components')."""
+        return self._across_dof(slice(3, 6))
+
+    def half_widths(self) -> dict[str, dict[str, float]]:
+        """Half-widths of the intervals with the normal's ±1/2/3 sd coverage, from the rms sds and Student-t
+        quantiles at :attr:`direction_dof` and :attr:`point_dof`: ``{"direction_mrad": {"1": …}, "point_mm": …}``."""
+        return {"direction_mrad": {str(k): float(interval_factor(k, self.direction_dof) * self.direction_sd * 1e3) for k in (1, 2, 3)},
+                "point_mm": {str(k): float(interval_factor(k, self.point_dof) * self.point_sd / MM) for k in (1, 2, 3)}}
 
     @property
     def direction_sd(self) -> float:
@@ -173,7 +212,8 @@ class AxisFit:
             "chi2_per_dof": self.chi2_per_dof,
             "scatter_over_tracker": self.scatter,
             "excess_over_tracker": self.excess,
-
+            "direction_dof": self.direction_dof,
+            "point_dof": self.point_dof,
         }])
 
     def diagnostics(self) -> pd.DataFrame:
@@ -195,7 +235,11 @@ class AxisFit:
             "dof": self.dof,
             "scatter_over_tracker": self.scatter,
             "excess_over_tracker": self.excess,
-
+            # JSON has no infinity: null is a normal's interval (the tracker's law alone sets the sd).
+            "direction_dof": _finite_or_none(self.direction_dof),
+            "point_dof": _finite_or_none(self.point_dof),
+            "half_width": self.half_widths(),
+            "interval": INTERVAL_NOTE,
             "reflectors": self.reflectors.to_dict(orient="records"),
         }
 
@@ -416,33 +460,6 @@ def _angle_clusters(q: np.ndarray) -> np.ndarray:
     return np.unique(np.round(q / _SAME_ANGLE).astype(np.int64), return_inverse=True)[1]
 
 
-def _clustered(fit, bread: np.ndarray, cluster: np.ndarray) -> np.ndarray:
-    """(p, p) cluster-robust covariance of the least-squares parameters, readings clustered by ``cluster`` (n,).
-
-    The sandwich ``B (Σ_g J_gᵀ A_g r_g r_gᵀ A_g J_g) B``, ``B = (JᵀJ)⁻¹``, of the whitened Jacobian ``J`` and residuals
-    ``r``, with Bell and McCaffrey's bias-reduced linearisation ``A_g = (I - H_gg)^-½`` (``H_gg`` the cluster's
-    block of the hat matrix): exact in expectation for independent noise of the stated law, which a sweep's few
-    clusters (6-7 angles) need, since the plain sandwich's residuals are shrunk by the fit.
-    """
-    J, r = fit.jac, fit.fun
-    rows = np.repeat(cluster, 3)
-    meat = np.zeros_like(bread)
-    for g in np.unique(rows):
-        Jg = J[rows == g]
-        values, vectors = np.linalg.eigh(np.eye(Jg.shape[0]) - Jg @ bread @ Jg.T)
-        # A cluster the model fits exactly (leverage 1) carries no information on its own error: left out.
-        shrink = vectors @ np.diag(np.where(values > _LEVERAGE_FLOOR, values, np.inf) ** -0.5) @ vectors.T
-        score = Jg.T @ shrink @ r[rows == g]
-        meat += np.outer(score, score)
-    return bread @ meat @ bread
-
-
-def _at_least(cov: np.ndarray, floor: np.ndarray) -> np.ndarray:
-    """``floor`` plus the positive part of ``cov - floor``: a covariance no smaller than either in any direction."""
-    values, vectors = np.linalg.eigh(cov - floor)
-    return floor + vectors @ np.diag(np.clip(values, 0.0, None)) @ vectors.T
-
-
 def _result(fit, joint: int, start: AxisStart, sigma: np.ndarray) -> AxisFit:
     """Package the optimum: the covariance (in every direction the larger of the Laplace one with the learned excess
     and the one clustered by angle) pushed to (direction, point), and the per-reflector residuals."""
@@ -456,14 +473,16 @@ def _result(fit, joint: int, start: AxisStart, sigma: np.ndarray) -> AxisFit:
                      "rms_mm": float(np.sqrt(np.mean(np.sum(residual[index == k] ** 2, axis=1)))) / MM,
                      "z_rms": float(np.sqrt(np.mean(z[index == k] ** 2)))})
     chi2, dof = float(np.sum(z**2)), fit.fun.size - fit.x.size
-    excess2 = max(1.0, chi2 / max(dof, 1))
     bread = np.linalg.pinv(fit.jac.T @ fit.jac)
-    cov_x = _at_least(_clustered(fit, bread, _angle_clusters(start.q)), excess2 * bread)[:4, :4]
+    sandwich, kernel = clustered_covariance(fit.jac, fit.fun, bread, _angle_clusters(start.q))
     step, J = 1e-7, np.empty((6, 4))
     base = np.concatenate(_unpack(fit.x[:4], *start.frame))
     for i in range(4):
         dx = fit.x[:4].copy()
         dx[i] += step
         J[:, i] = (np.concatenate(_unpack(dx, *start.frame)) - base) / step
-    return AxisFit(joint, base[:3], base[3:], J @ cov_x @ J.T, pd.DataFrame(rows),
-                   float(np.sqrt(np.mean(np.sum(residual**2, axis=1)))), chi2, dof)
+    # The sandwich alone, with its degrees of freedom: a floor at the tracker's law, where that law is the truth,
+    # would widen the intervals (docs/registration.md); the law stands only where the sandwich sees nothing.
+    cov = J @ unseen_at_floor(sandwich[:4, :4], bread[:4, :4]) @ J.T
+    return AxisFit(joint, base[:3], base[3:], cov, pd.DataFrame(rows), float(np.sqrt(np.mean(np.sum(residual**2, axis=1)))),
+                   chi2, dof, J @ sandwich[:4, :4] @ J.T, kernel[:, :, :4] @ J.T)

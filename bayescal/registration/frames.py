@@ -14,9 +14,11 @@ Two frames, each as ``p_tracker = R p_frame + t``:
   (the frame's turn about axis 1 is that of the home angle ``q1``): both come
   from the URDF's nominal geometry.
 
-Uncertainty by sampling the axes' Gaussian posteriors (:class:`AxisFit.cov`):
+Uncertainty by sampling Gaussians with the axes' covariances (:class:`AxisFit.cov`):
 each draw rebuilds the frames; the rotation's spread is that of the rotation
-vector of ``R_draw R̂ᵀ``.
+vector of ``R_draw R̂ᵀ``.  Each component's degrees of freedom are Welch and
+Satterthwaite's over the two axes' sandwiches, the component linearised in the
+axes (:func:`_component_dof`); its intervals are Student-t's at them.
 """
 
 from __future__ import annotations
@@ -27,7 +29,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bayescal.errors import InputError
-from bayescal.registration.axes import AxisFit
+from bayescal.registration.axes import INTERVAL_NOTE, AxisFit
+from bayescal.registration.robust import combined_dof, interval_factor, sandwich_dof
 from bayescal.robot.kinematics import Robot
 from bayescal.units import MM
 
@@ -55,6 +58,9 @@ class Frame:
         (3, 3) covariance of the translation, m².
     from_nominal
         What the sweeps cannot fix and where it comes from instead.
+    rotation_dof, translation_dof
+        (3,) degrees of freedom of each component's sd (``inf``: a normal's), from which its intervals' Student-t
+        quantiles come; None when not known (a file written before they were).
     """
 
     name: str
@@ -63,6 +69,8 @@ class Frame:
     rotation_cov: np.ndarray
     translation_cov: np.ndarray
     from_nominal: str
+    rotation_dof: np.ndarray | None = None
+    translation_dof: np.ndarray | None = None
 
     def from_tracker(self, points) -> np.ndarray:
         """(..., 3) tracker-frame points, m -> this frame, m (``Rᵀ (p - t)``)."""
@@ -78,7 +86,20 @@ class Frame:
             "rotation_cov_mrad2": (self.rotation_cov * 1e6).tolist(),
             "translation_cov_mm2": (self.translation_cov / MM**2).tolist(),
             "from_nominal": self.from_nominal,
+            **self._intervals(),
         }
+
+    def _intervals(self) -> dict:
+        """Each component's degrees of freedom (null: a normal's) and half-widths at the normal's ±1/2/3 sd coverage."""
+        if self.rotation_dof is None or self.translation_dof is None:
+            return {}
+        out = {"interval": INTERVAL_NOTE}
+        for key, dof, sd in (("rotation", self.rotation_dof, np.sqrt(np.diag(self.rotation_cov)) * 1e3),
+                             ("translation", self.translation_dof, np.sqrt(np.diag(self.translation_cov)) / MM)):
+            unit = "mrad" if key == "rotation" else "mm"
+            out[f"{key}_dof"] = [float(v) if np.isfinite(v) else None for v in dof]
+            out[f"{key}_half_width_{unit}"] = {str(k): (interval_factor(k, dof) * sd).tolist() for k in (1, 2, 3)}
+        return out
 
 
 def common_perpendicular(a1, c1, a2, c2) -> tuple[np.ndarray, np.ndarray]:
@@ -155,7 +176,8 @@ def draw_axis(fit: AxisFit, rng: np.random.Generator, n: int) -> tuple[np.ndarra
 
 
 def frames_with_uncertainty(first: AxisFit, second: AxisFit, nominal, rng: np.random.Generator, draws: int = 400) -> list[Frame]:
-    """The paper and base frames from the axes of joints 1 and 2, with covariances from ``draws`` draws of the axes."""
+    """The paper and base frames from the axes of joints 1 and 2, with covariances from ``draws`` draws of the axes
+    and each component's degrees of freedom."""
     a1, c1, a2, c2 = first.direction, first.point, second.direction, second.point
     estimates = {"paper": paper_frame(a1, c1, a2, c2), "base": base_frame(a1, c1, a2, c2, nominal)}
     d1, d2 = draw_axis(first, rng, draws), draw_axis(second, rng, draws)
@@ -172,5 +194,38 @@ def frames_with_uncertainty(first: AxisFit, second: AxisFit, nominal, rng: np.ra
             Rk, tk = paper_frame(*args) if name == "paper" else base_frame(*args, nominal)
             rotations.append(Rotation.from_matrix(Rk @ R.T).as_rotvec())
             translations.append(tk)
-        frames.append(Frame(name, R, t, np.cov(np.array(rotations).T), np.cov(np.array(translations).T), notes[name]))
+        rotation_dof, translation_dof = np.split(_component_dof(first, second, nominal, name, R), 2)
+        frames.append(Frame(name, R, t, np.cov(np.array(rotations).T), np.cov(np.array(translations).T), notes[name],
+                            rotation_dof, translation_dof))
     return frames
+
+
+_STEP = 1e-7
+"""Finite-difference step of an axis's direction (1) and point (m) in :func:`_component_dof`: the frame's
+components are smooth in them, and 1e-7 of a metre-long lever is far above round-off and far below any sd."""
+
+
+def _component_dof(first: AxisFit, second: AxisFit, nominal, name: str, R: np.ndarray) -> np.ndarray:
+    """(6,) degrees of freedom of the frame's rotation (3) and translation (3) sds: Welch and Satterthwaite's over
+    the two axes' sandwiches, each component linearised in the axes' ``[direction, point]``."""
+    def components(fits) -> np.ndarray:
+        (a1, c1), (a2, c2) = [(f[:3] / np.linalg.norm(f[:3]), f[3:] - (f[3:] @ f[:3]) * f[:3] / (f[:3] @ f[:3])) for f in fits]
+        Rk, tk = paper_frame(a1, c1, a2, c2) if name == "paper" else base_frame(a1, c1, a2, c2, nominal)
+        return np.concatenate([Rotation.from_matrix(Rk @ R.T).as_rotvec(), tk])
+
+    x = [np.concatenate([fit.direction, fit.point]) for fit in (first, second)]
+    centre = components(x)
+    gradients = []
+    for i in range(2):
+        g = np.empty((6, 6))
+        for k in range(6):
+            moved = [v.copy() for v in x]
+            moved[i][k] += _STEP
+            g[:, k] = (components(moved) - centre) / _STEP
+        gradients.append(g)
+    dof = np.empty(6)
+    for m in range(6):
+        fits = [(fit, gradients[i][m]) for i, fit in enumerate((first, second))]
+        variance = sum(float(g @ fit.cov @ g) for fit, g in fits)
+        dof[m] = combined_dof(variance, [(float(g @ fit.sandwich @ g), sandwich_dof(fit.dof_kernel, g)) for fit, g in fits])
+    return dof

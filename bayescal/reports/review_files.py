@@ -300,11 +300,17 @@ def _axes_table(axes: Mapping[str, Mapping]) -> tuple[pd.DataFrame, pd.DataFrame
         direction_sd = _number(axis.get("direction_sd_mrad")) * 1e-3
         point_sd = _number(axis.get("point_sd_mm"))
         chi2 = axis["chi2"] / axis["dof"] if finite_number(axis.get("chi2")) and axis.get("dof") else None
+        half = axis.get("half_width") if isinstance(axis.get("half_width"), Mapping) else {}
         row = {
             **{f"a{c}": (v, direction_sd) for c, v in zip("xyz", axis.get("direction", []))},
             "direction sd (mrad)": (axis.get("direction_sd_mrad"), _number(axis.get("direction_sd_mrad"))),
             **{f"{c} (mm)": (v, point_sd) for c, v in zip("xyz", axis.get("point_mm", []))},
             "point sd (mm)": (axis.get("point_sd_mm"), point_sd),
+            # The half-widths of the Student-t intervals covering as the normal's ±3 sd, to their sd's digits (a
+            # file written before they were has none).
+            **({"direction ±3σ (mrad)": (half.get("direction_mrad", {}).get("3"), _number(axis.get("direction_sd_mrad"))),
+                "point ±3σ (mm)": (half.get("point_mm", {}).get("3"), point_sd),
+                "dof": (_smaller(axis.get("direction_dof"), axis.get("point_dof")), fixed(1))} if half else {}),
             "arc rms (mm)": (axis.get("rms_mm"), fixed(3)),
             "χ²/dof": (chi2, fixed(2)),
         }
@@ -336,6 +342,12 @@ def _frames_table(frames: Mapping[str, Mapping]) -> tuple[pd.DataFrame, pd.DataF
 
 def _number(value) -> float:
     return float(value) if finite_number(value) else math.nan
+
+
+def _smaller(*dofs) -> float | None:
+    """The smaller of an axis's degrees of freedom (null in its file: a normal's, infinite); None when it has none."""
+    known = [v for v in dofs if finite_number(v)]
+    return min(known) if known else None
 
 
 def _text(value, how, *, sd_column: bool) -> str:

@@ -7,8 +7,9 @@ wobble, transmission error, readings dropped), joints 1 and 2 of the cell's robo
 swept from :data:`HOME_DEG`, the tracker placed and turned at random.
 
 * :func:`coverage_study`: each file registered; every component's error over its
-  posterior sd (axes 1 and 2 across the axis, the base frame's rotation and
-  translation), to compare with the normal's ±1/2/3σ shares.
+  sd and the sd's degrees of freedom (axes 1 and 2 across the axis, the base
+  frame's rotation and translation); :func:`coverage` the share within the
+  Student-t intervals with the normal's ±1/2/3σ coverage.
 * :func:`label_study`: each file twice, as generated and with two reflectors'
   names swapped at one angle of one joint (a real mislabel); the label check's
   gain (nats) on each, to compare with :data:`~bayescal.registration.axes.LABEL_GAIN`.
@@ -28,6 +29,7 @@ from scipy.spatial.transform import Rotation
 from bayescal.cell.config import Cell
 from bayescal.registration.axes import _solve, axis_start, relabel_evidence
 from bayescal.registration.register import register
+from bayescal.registration.robust import interval_factor
 from bayescal.registration.sweeps import Sweeps
 from bayescal.studies.parallel import seeded_map
 from bayescal.twin.independent.cell_sweeps import cell_sweeps, swap_labels
@@ -53,34 +55,43 @@ def _across(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return b1, np.cross(a, b1)
 
 
-def _coverage_one(index: int, rng: np.random.Generator, *, cell: Cell, draws: int) -> dict:
-    generated = cell_sweeps(cell, rng, home_deg=HOME_DEG)
+def _coverage_one(index: int, rng: np.random.Generator, *, cell: Cell, draws: int, angles: int) -> dict:
+    generated = cell_sweeps(cell, rng, home_deg=HOME_DEG, angles=angles)
     registration = register(_as_sweeps(generated.table), cell, rng=rng, draws=draws)
     row = {"seed": index, "noise_factor": generated.noise_factor}
     for j, (a, c) in generated.axes.items():
         fit = registration.axes[j]
         row[f"excess_{j + 1}"] = fit.excess
         for k, b in enumerate(_across(a)):
-            row[f"z_direction_{j + 1}{k}"] = b @ (fit.direction - a) / np.sqrt(b @ fit.cov[:3, :3] @ b)
             # The nearest point moves along the axis too when the axis tilts: compared across the axis only.
-            row[f"z_point_{j + 1}{k}"] = b @ (fit.point - c) / np.sqrt(b @ fit.cov[3:, 3:] @ b)
+            for name, error, block in (("direction", fit.direction - a, slice(0, 3)), ("point", fit.point - c, slice(3, 6))):
+                contrast = np.zeros(6)
+                contrast[block] = b
+                row[f"z_{name}_{j + 1}{k}"] = b @ error / np.sqrt(contrast @ fit.cov @ contrast)
+                row[f"dof_{name}_{j + 1}{k}"] = fit.interval_dof(contrast)
     frame = registration.frames["base"]
     R, t = generated.base
     turn = Rotation.from_matrix(frame.rotation @ R.T).as_rotvec() / np.sqrt(np.diag(frame.rotation_cov))
     shift = (frame.translation - t) / np.sqrt(np.diag(frame.translation_cov))
-    row |= {f"z_rotation_{c}": v for c, v in zip("xyz", turn)} | {f"z_translation_{c}": v for c, v in zip("xyz", shift)}
+    for name, z, dof in (("rotation", turn, frame.rotation_dof), ("translation", shift, frame.translation_dof)):
+        row |= {f"z_{name}_{c}": v for c, v in zip("xyz", z)} | {f"dof_{name}_{c}": v for c, v in zip("xyz", dof)}
     return row
 
 
-def coverage_study(cell: Cell, files: int, seed: int = 2026, *, draws: int = 400, executor: Executor | None = None) -> pd.DataFrame:
-    """One row per generated file: its noise factor, each joint's learned excess and every component's standardised error."""
-    return pd.DataFrame(seeded_map(_coverage_one, range(files), seed, executor=executor, cell=cell, draws=draws))
+def coverage_study(cell: Cell, files: int, seed: int = 2026, *, draws: int = 400, angles: int = 7,
+                   executor: Executor | None = None) -> pd.DataFrame:
+    """One row per generated file (``angles`` a sweep): its noise factor, each joint's learned excess, every component's
+    standardised error (``z_…``) and its sd's degrees of freedom (``dof_…``)."""
+    return pd.DataFrame(seeded_map(_coverage_one, range(files), seed, executor=executor, cell=cell, draws=draws, angles=angles))
 
 
-def coverage(table: pd.DataFrame, group: str) -> dict[int, float]:
-    """Share of the standardised errors of the components whose column starts with ``z_`` + ``group`` within ±1/2/3 sd."""
-    z = np.abs(table[[c for c in table.columns if c.startswith(f"z_{group}")]].to_numpy().ravel())
-    return {k: float(np.mean(z < k)) for k in (1, 2, 3)}
+def coverage(table: pd.DataFrame, group: str, *, student: bool = True) -> dict[int, float]:
+    """Share of the components whose column starts with ``z_`` + ``group`` within their intervals with the normal's
+    ±1/2/3 sd coverage: Student-t at each one's ``dof_`` column, or the normal's (``student=False``)."""
+    columns = [c for c in table.columns if c.startswith(f"z_{group}")]
+    z = np.abs(table[columns].to_numpy().ravel())
+    dof = table[["dof_" + c[2:] for c in columns]].to_numpy().ravel() if student else np.full(z.size, np.inf)
+    return {k: float(np.mean(z < interval_factor(k, dof))) for k in (1, 2, 3)}
 
 
 def _gain(table: pd.DataFrame, joint: int, cell: Cell) -> float:

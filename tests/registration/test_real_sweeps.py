@@ -28,10 +28,13 @@ def test_real_scatter_is_learned_not_refused(registration):
     # Measured: 2.94, 6.66, 2.44, 3.40, 2.42 times the KR-270 cell's tracker law.
     assert all(2.0 < e < 8.0 for e in excess.values()), excess
     assert all(fit.beyond_tracker for fit in registration.axes.values())
-    # Joint 1's direction sd is 0.033 mrad from the tracker's law alone; it follows the scatter, at least by the
-    # excess, more where the readings of one angle share an error: measured 0.1047 mrad, 1.07 times 0.033 × excess.
-    assert registration.axes[0].direction_sd * 1e3 >= 0.033 * excess[1] * 0.99
-    assert registration.axes[0].direction_sd * 1e3 == pytest.approx(0.1047, rel=0.02)
+    # Joint 1's direction sd, clustered by swept angle, is measured 0.0744 mrad (0.033 mrad from the tracker's law
+    # alone) with 2.2 degrees of freedom (six angles), so the interval with the normal's ±3 sd coverage is ±1.14 mrad,
+    # Student's t quantile 15.3 sd.
+    first = registration.axes[0]
+    assert first.direction_sd * 1e3 == pytest.approx(0.0744, rel=0.02)
+    assert first.direction_dof == pytest.approx(2.22, abs=0.05)
+    assert first.half_widths()["direction_mrad"]["3"] == pytest.approx(1.138, rel=0.02)
 
 
 def test_without_joint_2_the_missing_sweep_is_named(registration):

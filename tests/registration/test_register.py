@@ -11,6 +11,7 @@ from scipy.stats import norm
 from bayescal.errors import InputError
 from bayescal.registration import read_frame, read_sweeps, register
 from bayescal.registration.frames import paper_frame, urdf_axes
+from bayescal.registration.robust import interval_factor
 from bayescal.twin.sweeps import random_placement, simulate_sweeps
 from bayescal.units import DEG
 
@@ -34,31 +35,34 @@ def _truth(cell, placement):
     return lines, {"paper": (R @ Rp, placement.to_tracker(tp[None])[0]), "base": (R, placement.to_tracker(np.zeros((1, 3)))[0])}
 
 
-def _standardised_errors(cell, placement, registration) -> np.ndarray:
-    """Each estimated component's error over its posterior sd: axes 1-2 across the axis, frames' rotation and translation."""
+def _standardised_errors(cell, placement, registration) -> tuple[np.ndarray, np.ndarray]:
+    """Each estimated component's error over its sd, and the sd's degrees of freedom: axes 1-2 across the axis,
+    frames' rotation and translation."""
     lines, frames = _truth(cell, placement)
-    z = []
+    z, dof = [], []
     for j, (a, c) in enumerate(lines):
         fit = registration.axes[j]
         seed = np.eye(3)[int(np.argmin(np.abs(a)))]
         b1 = np.cross(a, seed) / np.linalg.norm(np.cross(a, seed))
         for b in (b1, np.cross(a, b1)):
-            z.append(b @ (fit.direction - a) / np.sqrt(b @ fit.cov[:3, :3] @ b))
             # The nearest point moves along the axis too when the axis tilts: compare across the axis only.
-            z.append(b @ (fit.point - c) / np.sqrt(b @ fit.cov[3:, 3:] @ b))
+            for error, contrast in ((fit.direction - a, np.r_[b, 0, 0, 0]), (fit.point - c, np.r_[0, 0, 0, b])):
+                z.append(b @ error / np.sqrt(contrast @ fit.cov @ contrast))
+                dof.append(fit.interval_dof(contrast))
     for name, (R, t) in frames.items():
         frame = registration.frames[name]
         z += list(Rotation.from_matrix(frame.rotation @ R.T).as_rotvec() / np.sqrt(np.diag(frame.rotation_cov)))
         z += list((frame.translation - t) / np.sqrt(np.diag(frame.translation_cov)))
-    return np.array(z)
+        dof += list(frame.rotation_dof) + list(frame.translation_dof)
+    return np.array(z), np.array(dof)
 
 
 def test_axes_and_frames_recovered_within_their_uncertainty(cell, tmp_path):
     rng = np.random.default_rng(11)
     for k in range(3):
         placement, registration = _registration(cell, rng, tmp_path, f"s{k}.csv")
-        z = _standardised_errors(cell, placement, registration)
-        assert np.all(np.abs(z) < 4.5), z
+        z, dof = _standardised_errors(cell, placement, registration)
+        assert np.all(np.abs(z) < interval_factor(4.5, dof)), (z, dof)
         lines, frames = _truth(cell, placement)
         assert np.linalg.norm(registration.frames["base"].translation - frames["base"][1]) < 1e-3  # m
         assert registration.axes[0].residual_rms < 0.2e-3
@@ -92,12 +96,12 @@ def test_sweeps_from_different_home_poses_are_refused(cell, tmp_path):
 def test_registration_coverage_over_200_simulated_registrations(cell, tmp_path):
     """±1/2/3 sd coverage of every component (axes 1-2 across the axis, both frames), tracker placed and turned at random."""
     rng = np.random.default_rng(2026)
-    z = np.array([_standardised_errors(cell, *_registration(cell, rng, tmp_path, f"s{k}.csv")) for k in range(200)])
+    z, dof = np.array([_standardised_errors(cell, *_registration(cell, rng, tmp_path, f"s{k}.csv")) for k in range(200)]).transpose(1, 0, 2)
     for k in (1, 2, 3):
         nominal = 2 * norm.cdf(k) - 1
         # Components of one registration are correlated: binomial sd over the 200 registrations, 4 sd allowed.
         tolerance = 4 * np.sqrt(nominal * (1 - nominal) / 200)
-        covered = np.mean(np.abs(z) < k, axis=0)
+        covered = np.mean(np.abs(z) < interval_factor(k, dof), axis=0)
         assert abs(np.mean(covered) - nominal) < tolerance / 2, (k, np.mean(covered))
         assert np.all(np.abs(covered - nominal) < tolerance), (k, covered)
 

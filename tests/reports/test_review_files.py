@@ -40,3 +40,13 @@ def test_the_registration_rounds_each_coordinate_to_its_own_sd_and_keeps_the_num
     reflector = _rows(page, "Arc residuals")[0]
     assert reflector[2:] == ["-1711.648", "1754.010", "-2.760", "0.052", "1.05"]
     assert page.numbers["registration"]["axes"]["1"]["x (mm)"] == -1850.879969
+
+
+def test_the_registration_shows_each_axis_s_student_t_interval_and_degrees_of_freedom():
+    axis = {**REGISTRATION["axes"]["1"], "direction_dof": 3.4, "point_dof": 2.9,
+            "half_width": {"direction_mrad": {"3": 0.6531}, "point_mm": {"3": 2.2427}}}
+    page = Page("T")
+    registration_section(page, {**REGISTRATION, "axes": {"1": axis}}, "reg.json")
+    row = _rows(page, "Joint axes")[0]
+    # ±3σ half-widths to the digits of their sds (0.083 mrad, 0.23 mm), the smaller degrees of freedom to 0.1.
+    assert row[9:12] == ["0.653", "2.24", "2.9"]
