@@ -23,30 +23,60 @@ def add_parser(subparsers) -> None:
     parser.add_argument("positions", metavar="POSITIONS.csv", help="q1_deg..qn_deg (the cell's commanded joints), marker, x_mm, y_mm, z_mm")
     parser.add_argument("--config", required=True, metavar="CELL.toml", help="cell of measured points: URDF, joints, markers, base, priors")
     # Checked in run: the rungs' module imports Pinocchio, which the parser of every command would then pay for.
-    parser.add_argument("--model", default="full", help="the rung of the ladder to fit (docs/kinematics.md lists them; default full)")
+    parser.add_argument("--model", help="the rung of the ladder to fit (docs/kinematics.md lists them; default full, geometry with --elastic)")
     parser.add_argument("-o", "--output", metavar="CALIBRATION.nc", help="write the posterior (NetCDF) for `bayescal predict`")
+    parser.add_argument("--elastic", metavar="POSTERIOR.nc",
+                        help="take the arm's deflection from an elastostatic calibration (`bayescal calibrate --posterior`), "
+                        "its spring and masses refined, instead of the rung's own masses (a rigid --model; default geometry)")
+    parser.add_argument("--elastic-config", metavar="CELL.toml", help="the elastostatic cell of --elastic (robot, compensator, tool)")
     add_common_options(parser)
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.errors import InputError
-    from bayescal.kinematics import RUNGS, KinematicCalibration, load_points_cell, read_positions
+    from bayescal.kinematics import EXTENSIONS, RUNGS, KinematicCalibration, load_points_cell, read_positions
     from bayescal.output import guard_outputs, write_atomically
 
-    if args.model not in RUNGS:
-        raise InputError(f"expected one of {', '.join(RUNGS)}, got '{args.model}'", source="--model")
+    rung = args.model or ("full" if args.elastic is None else "geometry")
+    if rung not in RUNGS + EXTENSIONS:
+        raise InputError(f"expected one of {', '.join(RUNGS + EXTENSIONS)}, got '{rung}'", source="--model")
+    if (args.elastic is None) != (args.elastic_config is None):
+        raise InputError("give --elastic and --elastic-config together", source="--elastic" if args.elastic is None else "--elastic-config")
+    if args.elastic is not None and args.output is not None:
+        raise InputError("not with --elastic: `bayescal predict` reads the points model's own rungs only (use the Python "
+                         "API, bayescal.kinematics.elastic, to predict with the elastostatic deflection)", source="-o")
     inputs = {"the positions": args.positions, "the config": args.config}
+    if args.elastic is not None:
+        inputs |= {"the elastostatic calibration": args.elastic, "the elastostatic cell": args.elastic_config}
     guard_outputs(inputs, files={"-o": args.output})
     cell = load_points_cell(args.config)
     guard_outputs(inputs | {"the robot URDF": cell.tree.source}, files={"-o": args.output})
     positions = read_positions(args.positions, cell)
-    results = KinematicCalibration(cell, args.model).fit(positions)
+    if args.elastic is None:
+        results = KinematicCalibration(cell, rung).fit(positions)
+    else:
+        results = _elastic_fit(args, cell, positions, rung)
     if args.output is not None:
         write_atomically("-o", args.output, results.save)
     payload = results.to_json()
     text = _text(results) + (f"\nwrote {args.output}" if args.output else "")
     return CommandOutput(payload=payload, text=text)
+
+
+def _elastic_fit(args: argparse.Namespace, cell, positions, rung: str):
+    """The rigid rung with the deflection of the elastostatic calibration ``--elastic`` (:mod:`bayescal.kinematics.elastic`)."""
+    from bayescal.cell.config import load_cell
+    from bayescal.compensation.calibration import load_calibration
+    from bayescal.errors import InputError
+    from bayescal.kinematics.elastic import RIGID_RUNGS, ElasticKinematicCalibration
+
+    if rung not in RIGID_RUNGS:
+        raise InputError(f"with --elastic the rung is rigid (the elastostatic calibration gives the deflection): one of "
+                         f"{', '.join(RIGID_RUNGS)}, got '{rung}'", source="--model")
+    elastic_cell = load_cell(args.elastic_config)
+    calibration = load_calibration(args.elastic, elastic_cell)
+    return ElasticKinematicCalibration.from_calibration(elastic_cell, cell, calibration, rung).fit(positions)
 
 
 def _text(results) -> str:
@@ -58,6 +88,10 @@ def _text(results) -> str:
         f"residual error per marker: mean {d['error_mean_mm']:.2f} mm, sd {d['error_sd_mm']:.2f}, max {d['error_max_mm']:.2f} "
         f"(in sample; `bayescal critique` scores it held out)",
         f"model error learned from the data: {d['model_error_sd_mm']:.3f} mm per coordinate, on top of the tracker's noise",
+    ] + ([] if "K_c_N_per_mm" not in d else [
+        f"the spring, refined from the elastostatic calibration's: K_c = {d['K_c_N_per_mm'][0]:.1f} ± {d['K_c_N_per_mm'][1]:.1f} N/mm, "
+        f"s0 = {d['s0_mm'][0]:.1f} ± {d['s0_mm'][1]:.1f} mm",
+    ]) + [
         f"{'parameter':<34}{'unit':>12}{'mean':>12}{'sd':>10}{'prior sd':>10}",
     ]
     for name, row in table.iterrows():

@@ -26,9 +26,10 @@ import pinocchio as pin
 from bayescal.cell.cellfile import CellFileReader, read_cell_file
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError
+from bayescal.kinematics.axes import joints_about_z
 from bayescal.kinematics.tree import BatchedTree
 from bayescal.output import record_read
-from bayescal.units import DEG, MM, URAD_PER_NM
+from bayescal.units import DEG, MM, UM, URAD_PER_NM
 
 __all__ = ["Marker", "PointsCell", "Priors", "is_points_cell", "load_points_cell"]
 
@@ -53,6 +54,10 @@ class Priors:
     transversal_compliance: float = 1000 * URAD_PER_NM
     mass_fraction: float = 0.5
     com: float = 100 * MM
+    # The base's (extension ``base-elastic``): under 100 N·m a turn of 0.1 rad and a shift of 0.1 m, far beyond any
+    # platform (Justin's: tens of μrad/(N·m) and μm/(N·m)).
+    base_compliance: float = 1000 * URAD_PER_NM
+    base_shift: float = 1000 * UM
 
 
 _PRIOR_KEYS = {
@@ -68,6 +73,8 @@ _PRIOR_KEYS = {
     "transversal_compliance_sd_urad_per_Nm": ("transversal_compliance", URAD_PER_NM, "μrad/(N·m)"),
     "mass_sd_fraction": ("mass_fraction", 1.0, "a fraction of the URDF's mass"),
     "com_sd_mm": ("com", MM, "mm"),
+    "base_compliance_sd_urad_per_Nm": ("base_compliance", URAD_PER_NM, "μrad/(N·m)"),
+    "base_shift_sd_um_per_Nm": ("base_shift", UM, "μm/(N·m)"),
 }
 """Each ``[priors]`` key: the :class:`Priors` field it sets, its unit's SI value and the unit's name."""
 
@@ -166,6 +173,8 @@ def load_points_cell(path: str | PathLike[str]) -> PointsCell:
         model = pin.buildModelFromUrdf(str(urdf))
     except (RuntimeError, ValueError) as exc:
         raise InputError(f"cannot read the URDF ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})", source=str(urdf)) from None
+    # An industrial URDF turns its joints about x, y or -z: the calibration's corrections live where each axis is z.
+    model = joints_about_z(model)
     tree = BatchedTree(model, source=str(urdf))
     commanded = _commanded(reader, tree)
     coupling = _coupling(reader, tree, commanded)

@@ -44,13 +44,17 @@ class KinematicCalibration:
     cell
         The cell of measured points.
     rung
-        One of :data:`bayescal.kinematics.model.RUNGS`.
+        One of :data:`bayescal.kinematics.model.RUNGS` or :data:`~bayescal.kinematics.model.EXTENSIONS`.
     without
         Parameter groups left out (:data:`~bayescal.kinematics.model.GROUPS`).
+    model
+        A model with :class:`~bayescal.kinematics.model.PointModel`'s parameters, priors and ``predict``
+        to fit instead of the rung's (one whose elastic part is an elastostatic model's,
+        :mod:`bayescal.kinematics.elastic`); ``cell``, ``rung`` and ``without`` are then unused.
     """
 
-    def __init__(self, cell: PointsCell, rung: str = "full", *, without: tuple[str, ...] = ()) -> None:
-        self.model = PointModel(cell, rung, without=without)
+    def __init__(self, cell: PointsCell, rung: str = "full", *, without: tuple[str, ...] = (), model: PointModel | None = None) -> None:
+        self.model = PointModel(cell, rung, without=without) if model is None else model
 
     def fit(self, positions: Positions, *, start: KinematicResults | None = None) -> KinematicResults:
         """The posterior given ``positions`` (:class:`~bayescal.kinematics.positions.Positions`).

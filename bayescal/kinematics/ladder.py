@@ -1,11 +1,13 @@
 """The model ladder on measured points: each rung fitted, scored on held-out configurations, the gain of each step.
 
 :class:`ModelLadder` fits every rung of :data:`~bayescal.kinematics.model.RUNGS`
-and each leave-one-group-out model of the last, with k-fold cross-validation by
-configuration (no fold's configurations are seen by its fit), and scores each on
-the held-out markers: the distance to the predicted position (mm), the coverage of
-the 95 % predictive ellipsoid, and the log predictive density (the k-fold ELPD,
-nats, with its standard error over configurations).  A step up the ladder is
+and :data:`~bayescal.kinematics.model.EXTENSIONS`, and each leave-one-group-out
+model of ``full`` (the published model, whose table it is compared with), with
+k-fold cross-validation by configuration (no fold's configurations are seen by
+its fit), and scores each on the held-out markers: the distance to the predicted
+position (mm), the coverage of the 95 % predictive ellipsoid, and the log
+predictive density (the k-fold ELPD, nats, with its standard error over
+configurations).  A step up the ladder is
 named as what the data call for when its ELPD gain exceeds :data:`DECISIVE_SE`
 standard errors of the paired difference: the extension explains what the rung
 below gets wrong on configurations it has not seen.
@@ -20,7 +22,7 @@ import pandas as pd
 
 from bayescal.kinematics.cell import PointsCell
 from bayescal.kinematics.fit import KinematicCalibration
-from bayescal.kinematics.model import GROUPS, RUNGS
+from bayescal.kinematics.model import EXTENSIONS, GROUPS, RUNGS, PointModel
 from bayescal.kinematics.positions import Positions
 from bayescal.kinematics.results import KinematicResults
 
@@ -103,12 +105,12 @@ class LadderFindings:
     def text(self) -> str:
         """The findings as the terminal shows them."""
         lines = [f"model ladder, {self.folds}-fold cross-validation by configuration (held-out errors, mm; published beside):"]
-        header = f"{'model':<14}{'mean':>7}{'sd':>7}{'max':>8}{'in-sample':>11}{'ELPD':>11}{'± SE':>8}{'cover95':>9}{'paper mean/sd/max':>22}"
+        header = f"{'model':<16}{'mean':>7}{'sd':>7}{'max':>8}{'in-sample':>11}{'ELPD':>11}{'± SE':>8}{'cover95':>9}{'paper mean/sd/max':>22}"
         lines.append(header)
         for name, r in self.rungs.iterrows():
             paper = PUBLISHED.get(name)
             paper_text = "" if paper is None else f"{paper[0]:.2f}/{paper[1]:.2f}/{paper[2]:.2f}"
-            lines.append(f"{name:<14}{r.mean_mm:>7.2f}{r.sd_mm:>7.2f}{r.max_mm:>8.2f}{r.in_sample_mean_mm:>11.2f}{r.elpd:>11.0f}"
+            lines.append(f"{name:<16}{r.mean_mm:>7.2f}{r.sd_mm:>7.2f}{r.max_mm:>8.2f}{r.in_sample_mean_mm:>11.2f}{r.elpd:>11.0f}"
                          f"{r.elpd_se:>8.0f}{r.coverage_95:>9.3f}{paper_text:>22}")
         lines.append("steps up the ladder (held-out ELPD gain ± SE of the paired difference):")
         for s in self.steps:
@@ -134,14 +136,15 @@ class ModelLadder:
     folds
         Number of folds of the cross-validation by configuration (at least 2).
     rungs
-        The rungs to fit, in order (default all of :data:`RUNGS`).
+        The rungs to fit, in order (default all of :data:`RUNGS` and :data:`EXTENSIONS`).
     leave_out
-        Whether to fit the full model without each of its groups.
+        Whether to fit the full model (the last rung when ``full`` is not fitted) without each of its groups.
     seed
         Seed of the folds' random assignment.
     """
 
-    def __init__(self, cell: PointsCell, *, folds: int = 10, rungs: tuple[str, ...] = RUNGS, leave_out: bool = True, seed: int = 0) -> None:
+    def __init__(self, cell: PointsCell, *, folds: int = 10, rungs: tuple[str, ...] = RUNGS + EXTENSIONS, leave_out: bool = True,
+                 seed: int = 0) -> None:
         if folds < 2:
             raise ValueError(f"folds must be at least 2, got {folds}")
         self.cell, self.folds, self.rungs, self.leave_out, self.seed = cell, folds, tuple(rungs), leave_out, seed
@@ -153,13 +156,14 @@ class ModelLadder:
             raise ValueError(f"{n} configurations cannot be split into {self.folds} folds")
         assignment = np.random.default_rng(self.seed).permutation(n) % self.folds
         scores, fits = {}, {}
-        for rung in self.rungs:
+        rungs = self._rungs()
+        for rung in rungs:
             fits[rung] = KinematicCalibration(self.cell, rung).fit(positions)
             scores[rung] = self._score(rung, (), positions, assignment, fits[rung])
         rows = pd.DataFrame({rung: s.row() for rung, s in scores.items()}).T
         rows.index.name = "model"
         steps = []
-        for lower, upper in zip(self.rungs, self.rungs[1:]):
+        for lower, upper in zip(rungs, rungs[1:]):
             gain = scores[upper].log_density - scores[lower].log_density
             se = float(np.sqrt(n) * gain.std())
             steps.append({"from": lower, "to": upper, "adds": sorted(set(GROUPS[upper]) - set(GROUPS[lower])),
@@ -167,7 +171,7 @@ class ModelLadder:
                           "error_change_mm": float((scores[upper].errors.mean() - scores[lower].errors.mean()) * 1e3),
                           "named": bool(gain.sum() > DECISIVE_SE * se)})
         without = {}
-        top = self.rungs[-1]
+        top = "full" if "full" in rungs else rungs[-1]
         if self.leave_out:
             for group in GROUPS[top]:
                 if group == "frames":
@@ -178,6 +182,11 @@ class ModelLadder:
         table = pd.DataFrame(without).T
         table.index.name = "without"
         return LadderFindings(rungs=rows, steps=steps, without=table, folds=self.folds, verdict=_verdict(steps, rows))
+
+    def _rungs(self) -> tuple[str, ...]:
+        """The rungs to fit: an extension that adds no parameter on this cell (no coupling law to make mutual) is left out."""
+        sizes = {rung: PointModel(self.cell, rung).size for rung in self.rungs}
+        return tuple(r for i, r in enumerate(self.rungs) if i == 0 or r not in EXTENSIONS or sizes[r] > sizes[self.rungs[i - 1]])
 
     def _score(self, rung: str, without: tuple[str, ...], positions: Positions, assignment: np.ndarray,
                whole: KinematicResults) -> Scores:

@@ -33,6 +33,23 @@ def test_kinematics_then_predict_in_the_given_order(tmp_path, small_campaign, ca
     assert (predicted[["x_sd_mm", "y_sd_mm", "z_sd_mm"]] > 0).all().all()
 
 
+def test_an_extension_rung_fits_saves_and_predicts(tmp_path, small_campaign, capsys):
+    """``--model coupled-elastic`` (beyond the published ladder) writes a calibration that ``predict`` reads back."""
+    calibration = tmp_path / "cal.nc"
+    assert main(["kinematics", str(small_campaign), "--config", str(JUSTIN_CELL), "--model", "coupled-elastic", "-o", str(calibration),
+                 "--json"]) == 0
+    import json
+
+    names = [row["parameter"] for row in json.loads(capsys.readouterr().out)["parameters"]]
+    assert "base.shift_x_per_My" in names and "torso3_joint.k_theta.torso4_joint" in names
+    asked = tmp_path / "asked.csv"
+    pd.read_csv(small_campaign).drop(columns=["x_mm", "y_mm", "z_mm"]).to_csv(asked, index=False)
+    out = tmp_path / "predicted.csv"
+    assert main(["predict", str(asked), "--calibration", str(calibration), "--config", str(JUSTIN_CELL), "-o", str(out)]) == 0
+    predicted = pd.read_csv(out)[["x_mm", "y_mm", "z_mm"]].to_numpy()
+    assert np.abs(predicted - pd.read_csv(small_campaign)[["x_mm", "y_mm", "z_mm"]].to_numpy()).max() < 2.0
+
+
 def _edit(source, target, change):
     frame = change(pd.read_csv(source))
     frame.to_csv(target, index=False)

@@ -44,6 +44,24 @@ def test_independent_generator_held_out_coverage(justin):
     assert np.linalg.norm(residual, axis=-1).mean() < 1e-3
 
 
+def test_extensions_find_nothing_in_a_world_without_their_effects(justin):
+    """The independent generator's world has a rigid base and no coupled compliance: the extensions' parameters come
+    out within 3 sds of zero (measured: within 1.2) and the held-out predictions are the full model's."""
+    rng = np.random.default_rng(11)
+    world = independent.draw_world(rng)
+    joints = independent.configurations(rng, 260)
+    xyz = independent.marker_positions(world, joints, noise_rng=rng)
+    train, test = np.arange(200), np.arange(200, 260)
+    errors = {}
+    for rung in ("full", "coupled-elastic"):
+        results = KinematicCalibration(justin, rung).fit(_positions(joints[train], xyz[train]))
+        errors[rung] = np.linalg.norm(xyz[test] - results.predict(joints[test])[0], axis=-1).mean()
+    added = np.array([p.group in ("k_base", "k_coupled") for p in results.model.parameters])
+    assert added.sum() == 11
+    assert np.all(np.abs(results.mean[added] / results.sd[added]) < 3)
+    assert abs(errors["coupled-elastic"] / errors["full"] - 1) < 0.01
+
+
 def test_the_ladder_names_the_steps_an_independent_world_calls_for(justin):
     """On the independent generator's world (its own DH errors and self-weight elasticity), held out in 3 folds:
     each rung up to the joint-elastic one predicts better, the step is named, and the findings render as JSON."""
@@ -61,3 +79,16 @@ def test_the_ladder_names_the_steps_an_independent_world_calls_for(justin):
     assert findings.steps[0]["named"] and findings.steps[0]["elpd_gain"] > 2 * findings.steps[0]["elpd_gain_se"]
     payload = json.loads(json.dumps(findings.to_json()))
     assert payload["kind"] == LADDER_KIND and payload["published"]["rungs_mean_sd_max_mm"]["full"] == [3.12, 1.71, 8.23]
+
+
+def test_the_ladder_leaves_out_an_extension_that_adds_nothing(justin):
+    """Without a coupling law there is no mutual compliance to add: ``coupled-elastic`` is not fitted."""
+    from dataclasses import replace
+
+    from bayescal.kinematics.ladder import ModelLadder
+
+    coupling = justin.coupling.copy()
+    coupling[justin.tree.idx_q[justin.tree.names.index("torso4_joint")]] = 0.0
+    rungs = ("full", "base-elastic", "coupled-elastic")
+    assert ModelLadder(justin, rungs=rungs)._rungs() == rungs
+    assert ModelLadder(replace(justin, coupling=coupling), rungs=rungs)._rungs() == rungs[:2]
