@@ -8,9 +8,9 @@ configurations its fit did not see.
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
 
 from bayescal.critique.compare import CrossValidation
+from bayescal.critique.kolmogorov import ks_uniform
 from bayescal.units import MM
 
 __all__ = ["standardised_residuals", "pit_uniformity", "residual_summary", "OUTLIER_Z"]
@@ -32,8 +32,8 @@ def pit_uniformity(cv: CrossValidation) -> dict:
     the held-out configuration's fit), so the p-value is a guide, not a test at its
     nominal level; the critique's verdict rests on the ELPD comparison.
     """
-    result = stats.kstest(cv.pit, "uniform")
-    return {"ks_statistic": float(result.statistic), "p_value": float(result.pvalue)}
+    statistic, p_value = ks_uniform(cv.pit)
+    return {"ks_statistic": statistic, "p_value": p_value}
 
 
 def residual_summary(y: np.ndarray, cv: CrossValidation, rows_per_equation: np.ndarray) -> dict:

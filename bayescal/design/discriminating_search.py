@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bayescal.design.separation import separation
+from bayescal.design.separation import ranked_separation, separation
 from bayescal.errors import InputError
 
 __all__ = ["MAX_PASSES"]
@@ -45,10 +45,11 @@ class _Exchange:
     _by_angle: dict = field(default_factory=dict, init=False)
     _filled: dict = field(default_factory=dict, init=False)
 
-    def score(self, fixed: list[int], candidates: np.ndarray) -> np.ndarray:
-        """(P,) the worse separation (nats) of the plan ``fixed`` with each of the P ``candidates`` added."""
+    def score(self, fixed: list[int], candidates: np.ndarray, separated=separation) -> np.ndarray:
+        """(P,) the worse separation (nats) of the plan ``fixed`` with each of the P ``candidates`` added, by ``separated``
+        (:func:`~bayescal.design.separation.ranked_separation` to rank them)."""
         total = self.information[np.asarray(fixed, dtype=int)].sum(axis=0) + self.information[np.asarray(candidates, dtype=int)]
-        return separation(total, self.blocks, *self.beta).min(axis=-1)
+        return separated(total, self.blocks, *self.beta).min(axis=-1)
 
     def value(self, chosen: list[int]) -> float:
         return float(self.score(chosen[:-1], chosen[-1:])[0])
@@ -109,9 +110,11 @@ class _Exchange:
                     if not pool.size:
                         continue
                     rest = _flat(groups[:g]) + members[:slot] + members[slot + 1 :] + _flat(groups[g + 1 :])
-                    scores = self.score(rest, pool)
+                    scores = self.score(rest, pool, ranked_separation)
                     if scores.max() > current * (1 + 1e-9):
-                        members[slot], current, improved = int(pool[np.argmax(scores)]), float(scores.max()), True
+                        members[slot], improved = int(pool[np.argmax(scores)]), True
+                        # kept: separation()'s value of this plan, not the ranking's, as the fills' (the starts are compared by it)
+                        current = float(self.score(rest, [members[slot]])[0])
                 moved = self._move(groups, chosen_angles, g, current)
                 if moved is not None:
                     chosen_angles[g], groups[g], current, improved = moved[0], moved[1], moved[2], True
@@ -145,10 +148,13 @@ class _Exchange:
         partial = np.repeat(self.information[np.asarray(fixed, dtype=int)].sum(axis=0)[np.newaxis], len(angles), axis=0)
         for slot in range(per_angle):
             pools = [self._slot_pool(angle, slot, chosen) for angle, chosen in zip(angles, members)]
-            sizes = [len(pool) for pool in pools]
-            label = np.repeat(np.arange(len(angles)), sizes)
-            scores = separation(partial[label] + self.information[np.concatenate(pools)], self.blocks, *self.beta).min(axis=-1)
-            starts = np.concatenate([[0], np.cumsum(sizes)])
+            starts = np.concatenate([[0], np.cumsum([len(pool) for pool in pools])])
+            # each angle's sum added in place to its candidates' information: the same sums as gathering a copy of
+            # it per candidate first, in a quarter of the time
+            total = self.information[np.concatenate(pools)]
+            for k in range(len(angles)):
+                total[starts[k] : starts[k + 1]] += partial[k]
+            scores = ranked_separation(total, self.blocks, *self.beta).min(axis=-1)
             for k, pool in enumerate(pools):
                 choice = int(pool[np.argmax(scores[starts[k] : starts[k + 1]])])
                 members[k].append(choice)

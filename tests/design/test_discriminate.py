@@ -8,7 +8,7 @@ import pytest
 from bayescal.design.constraints import load_design_space
 from bayescal.design.discriminate import DiscriminatingDesigner
 from bayescal.design.discriminating_search import _Exchange
-from bayescal.design.separation import expected_z, separation, shares
+from bayescal.design.separation import expected_z, ranked_separation, separation, shares
 from bayescal.design.optimise import PlanDesigner
 from bayescal.errors import InputError
 
@@ -35,6 +35,23 @@ def test_the_configurations_shares_add_up_to_the_separation():
     blocks = (slice(0, 2), slice(2, 3), slice(3, 4))
     beta = (np.array([0.7]), np.array([-1.2]))
     assert 0.5 * shares(per, blocks, *beta).sum(axis=-1) == pytest.approx(separation(per.sum(axis=0), blocks, *beta), rel=1e-9)
+
+
+RANKED_AGREEMENT = 1e-13
+"""Relative difference allowed between the separations a search ranks by and those it keeps: the sums of ``vᵀ M v`` in
+another order (measured: at most 4.4e-15 on 1,000 random plans of the discriminating search's 24 columns)."""
+
+
+def test_the_ranked_separations_are_the_separations_to_rounding():
+    rng = np.random.default_rng(2)
+    Z = rng.normal(size=(200, 30, 24))
+    information = np.swapaxes(Z, 1, 2) @ Z
+    blocks = (slice(0, 6), slice(6, 18), slice(18, 24))
+    for scale in (1.0, 1e3):
+        beta = (rng.normal(size=12) * scale, rng.normal(size=6))
+        kept, ranked = separation(information, blocks, *beta), ranked_separation(information, blocks, *beta)
+        assert np.all(kept > 1.0)
+        np.testing.assert_allclose(ranked, kept, rtol=RANKED_AGREEMENT, atol=0)
 
 
 def test_a_separation_in_one_configuration_is_expected_within_its_own_standard_error_and_the_same_spread_far_clear_of_it():
