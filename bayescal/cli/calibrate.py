@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import textwrap
 
 from bayescal.jsonsafe import json_safe
 
 from ._command import CommandOutput, add_common_options, check_output, whole_number, write_atomically
+from ._nests import add_nests_option, nests_lines, read_nests_in_base
 from ._registered import add_registration_option, read_campaign_in_base, registration_lines
 
 __all__ = ["add_parser", "run"]
@@ -45,6 +47,7 @@ def add_parser(subparsers) -> None:
               "emcee, run again up to 3 times while R-hat or ESS fall short: collapsed hands over to gibbs, which doubles its draws)"),
     )
     add_registration_option(parser, "the campaign's positions")
+    add_nests_option(parser)
     add_common_options(parser)
     parser.set_defaults(run=run)
 
@@ -63,7 +66,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.compensation.testpose import predict_cell_test_pose
 
     inputs = {"the campaign": args.campaign, "the config": args.config, "the --geometry posterior": args.geometry,
-              "the --registration file": args.registration}
+              "the --registration file": args.registration, "the --nests file": args.nests}
     check_output("--posterior", args.posterior, inputs)
     cell = load_cell(args.config)
     check_output("--posterior", args.posterior, inputs | {"the robot URDF": cell.robot.source})
@@ -74,6 +77,13 @@ def run(args: argparse.Namespace) -> CommandOutput:
         raise InputError("--geometry: the config has no [compensator], so there is no compensator geometry to propagate", source=args.config)
     geometry = posterior_geometry(args.geometry, cell.compensator) if args.geometry else None
     campaign, cell, transfer = read_campaign_in_base(args, args.campaign, cell)
+    nests, drift = read_nests_in_base(args, campaign), None
+    if nests is not None:
+        from bayescal.registration.nest_drift import fit_nest_drift
+
+        track = fit_nest_drift(nests, cell.tracker)
+        drift = track.to_json(campaign)
+        campaign = track.remove(campaign)
     model = ElastostaticModel.from_cell(
         cell,
         geometry,
@@ -88,6 +98,9 @@ def run(args: argparse.Namespace) -> CommandOutput:
         test_pose = predict_cell_test_pose(results, cell)
     except EquilibriumError as exc:
         raise InputError(f"the exact model found no static equilibrium ({exc}); try --model linear", source=args.campaign) from None
+    if drift is not None:
+        # the posterior file says what was taken out of the campaign it was fitted to
+        results.tree.attrs["nest_drift"] = json.dumps({"file": args.nests} | drift)
     if args.posterior:
         write_atomically("--posterior", args.posterior, results.save)
 
@@ -95,7 +108,10 @@ def run(args: argparse.Namespace) -> CommandOutput:
     payload["diagnostics"]["seed"] = args.seed
     if transfer is not None:
         payload["registration"] = {"source": args.registration} | transfer.to_json()
-    text = "\n".join([_text(results, test_pose, args, cell.reference), *registration_lines(transfer, args.registration)])
+    if drift is not None:
+        payload["drift"] = {"file": args.nests} | drift
+    text = "\n".join([_text(results, test_pose, args, cell.reference), *registration_lines(transfer, args.registration),
+                      *nests_lines(drift)])
     return CommandOutput(payload=json_safe(payload), text=text)
 
 

@@ -11,6 +11,7 @@ import textwrap
 from bayescal.output import guard_outputs, write_folder
 
 from ._command import CommandOutput, add_common_options, whole_number
+from ._nests import add_nests_option, nests_lines, read_nests_in_base
 from ._registered import add_registration_option, read_arcs_in_paper_frame, read_campaign_in_base, registration_lines
 
 __all__ = ["add_parser", "run"]
@@ -41,7 +42,8 @@ def add_parser(subparsers) -> None:
         help="criticise the classical VJM model on a campaign: misfit, likely cause, held-out gain",
         description=(
             "Compare the classical serial VJM model (constant joint compliances, eq 30) with its extensions "
-            f"({CATALOGUES}; drift only where the campaign's repeated readings can show it) by their "
+            f"({CATALOGUES}; drift only where the campaign's repeated readings can show it, and measured and removed "
+            "instead with --nests) by their "
             "predictive density on held-out configurations, name the causes whose gain is clear of its "
             "uncertainty, and report the gain. With --geometry, criticise the planar two-step compensator-geometry "
             "model on tracker arcs instead ({geometry}; held-out joint angles)."
@@ -62,6 +64,7 @@ def add_parser(subparsers) -> None:
                         help="on a positions file (a cell with [markers]): folds of the cross-validation by configuration (default 10)")
     parser.add_argument("--figures", metavar="DIR", help="write the figures into this folder: held-out residuals and LOO-PIT (with --geometry: held-out residuals per marker)")
     add_registration_option(parser, "the campaign's positions (or the --geometry points, with z_mm)")
+    add_nests_option(parser)
     add_common_options(parser)
     parser.set_defaults(run=run)
 
@@ -72,8 +75,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.errors import InputError
 
     if args.geometry is not None:
-        if args.campaign is not None or args.config is not None:
-            raise InputError("--geometry takes the points file only: drop the campaign and --config", source="--geometry")
+        if args.campaign is not None or args.config is not None or args.nests is not None:
+            raise InputError("--geometry takes the points file only: drop the campaign, --config and --nests", source="--geometry")
         return _run_geometry(args)
     if args.campaign is None or args.config is None:
         raise InputError("expected a campaign CSV and --config CELL.toml, or --geometry POINTS.csv")
@@ -86,12 +89,13 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.critique import Critique
     from bayescal.critique.figures import FIGURES, write_figures
 
-    inputs = {"the campaign": args.campaign, "the config": args.config, "the --registration file": args.registration}
+    inputs = {"the campaign": args.campaign, "the config": args.config, "the --registration file": args.registration,
+              "the --nests file": args.nests}
     guard_outputs(inputs, folders={"--figures": (args.figures, FIGURES)})
     cell = load_cell(args.config)
     guard_outputs(inputs | {"the robot URDF": cell.robot.source}, folders={"--figures": (args.figures, FIGURES)})
     campaign, cell, transfer = read_campaign_in_base(args, args.campaign, cell)
-    results = Critique(cell).run(campaign, np.random.default_rng(args.seed))
+    results = Critique(cell).run(campaign, np.random.default_rng(args.seed), nests=read_nests_in_base(args, campaign))
     figures = []
     if args.figures is not None:
         figures = [str(path) for path in write_folder("--figures", args.figures, lambda folder: write_figures(results, folder))]
@@ -110,8 +114,9 @@ def _run_ladder(args: argparse.Namespace) -> CommandOutput:
     from bayescal.kinematics import load_points_cell, read_positions
     from bayescal.kinematics.ladder import ModelLadder
 
-    if args.figures is not None or args.registration is not None:
-        raise InputError("on a positions file the critique takes --config, --folds and --json only", source="--figures" if args.figures else "--registration")
+    if args.figures is not None or args.registration is not None or args.nests is not None:
+        given = next(flag for flag, value in (("--figures", args.figures), ("--registration", args.registration), ("--nests", args.nests)) if value is not None)
+        raise InputError("on a positions file the critique takes --config, --folds and --json only", source=given)
     cell = load_points_cell(args.config)
     positions = read_positions(args.campaign, cell)
     if len(positions) < args.folds:
@@ -221,7 +226,9 @@ def _text(results, figures: list[str]) -> str:
                 if {cause, other} <= plannable
             ]
     drift = results.drift
-    if drift.get("testable"):
+    if drift.get("source") == "reference nests":
+        lines += nests_lines(drift)
+    elif drift.get("testable"):
         rate = ", ".join(f"{v:+.3f}" for v in drift["translation_mm_per_h"])
         lines.append(
             f"drift from {drift['evidence']}: ({rate}) mm/h, {1000 * drift['deflection_rms_mm']:.1f} μm rms in the deflections"

@@ -60,6 +60,12 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--starts", type=whole_number(1), default=None, help="random starts of the exchange algorithm (default 3)")
     parser.add_argument("-o", "--output", help="plan CSV to write")
     parser.add_argument("--evaluate", metavar="PLAN.csv", help="score this plan instead of designing one")
+    parser.add_argument(
+        "--nests", type=whole_number(1), metavar="K",
+        help="say in the plan where to read the reference nests: a column read_nests, 1 at every K-th configuration (read "
+        "every nest while its load hangs and after it is removed, at each repeat), so that `calibrate --nests` can "
+        "measure the tracker's drift; K = 1 reads them every 5-8 min at a hanging mass's pace",
+    )
     add_common_options(parser)
     parser.set_defaults(run=run)
 
@@ -164,8 +170,8 @@ def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFr
             )
         design = designer.optimise(args.angles, args.per_angle, args.criterion, rng=args.seed, starts=starts, progress=not args.json)
         comments = (_command(args, starts),)
-        write_atomically("--output", args.output, lambda path: design.save(path, comments=comments))
-        payload = design.to_json() | {"output": str(args.output)}
+        write_atomically("--output", args.output, lambda path: _save(design, path, comments, args.nests))
+        payload = design.to_json() | {"output": str(args.output)} | ({} if args.nests is None else {"read_nests_every": args.nests})
         table = design.summary()
     return payload, table
 
@@ -209,6 +215,15 @@ def _discriminate(args: argparse.Namespace, cell) -> CommandOutput:
     return CommandOutput(payload=payload, text="\n".join(lines))
 
 
+def _save(design, path, comments: tuple[str, ...], nests_every: int | None) -> None:
+    """Write the designed plan, with the column of the configurations at which to read the reference nests when asked."""
+    from bayescal.cell.nests import add_nest_column
+
+    design.save(path, comments=comments)
+    if nests_every is not None:
+        add_nest_column(path, nests_every)
+
+
 def _command(args: argparse.Namespace, starts: int) -> str:
     """The command line that makes this plan again, every option that shapes it spelt out."""
     words = [
@@ -217,6 +232,8 @@ def _command(args: argparse.Namespace, starts: int) -> str:
     ]
     if args.mass_kg is not None:
         words.append(f"--mass-kg {args.mass_kg[0]:g} {args.mass_kg[1]:g}")
+    if args.nests is not None:
+        words.append(f"--nests {args.nests}")
     return " ".join(words)
 
 

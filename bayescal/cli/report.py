@@ -9,6 +9,7 @@ from pathlib import Path
 from bayescal.output import guard_outputs, record_read, write_folder
 
 from ._command import CommandOutput, add_common_options
+from ._nests import add_nests_option, read_nests_in_base
 from ._registered import read_campaign_in_base
 from .paper_reports import add_options as add_paper_options, run_paper_reports
 
@@ -62,6 +63,7 @@ def add_parser(subparsers) -> None:
         help="registration from `bayescal axes -o`: shown on the page, and the --campaign is read in the tracker frame and moved into its base frame",
     )
     parser.add_argument("-o", "--output", metavar="FOLDER", help="report folder, created when missing (its parent must exist)")
+    add_nests_option(parser)
     add_paper_options(parser)
     add_common_options(parser)
     parser.set_defaults(run=run)
@@ -86,15 +88,19 @@ def run(args: argparse.Namespace) -> CommandOutput:
         "the --study file": args.study,
         "the --compensation file": args.compensation,
         "the --registration file": args.registration,
+        "the --nests file": args.nests,
     }
-    if not any(value for key, value in inputs.items() if key not in ("the campaign", "the config")):
+    if not any(value for key, value in inputs.items() if key not in ("the campaign", "the config", "the --nests file")):
         raise InputError("nothing to report: give --geometry, --calibration, --plan, --critique, --study, --compensation or "
                          "--registration", source="bayescal report")
     if args.calibration and not (args.campaign and args.config):
         raise InputError("--calibration needs the --campaign and the --config it was computed from", source="--calibration")
+    if args.nests and not args.calibration:
+        raise InputError("expected with --calibration and its --campaign: the drift the nests measure is removed from the campaign",
+                         source="--nests")
     for option, path in (("--geometry", args.geometry), ("--calibration", args.calibration), ("--campaign", args.campaign),
                          ("--config", args.config), ("--plan", args.plan), ("--critique", args.critique), ("--study", args.study),
-                         ("--compensation", args.compensation), ("--registration", args.registration)):
+                         ("--compensation", args.compensation), ("--registration", args.registration), ("--nests", args.nests)):
         if path and not Path(path).is_file():
             raise InputError(f"{path}: {'is a folder' if Path(path).is_dir() else 'file not found'}", source=option)
     from bayescal.reports.review import HTML_FILE, render_review
@@ -146,6 +152,13 @@ def _read_inputs(args: argparse.Namespace):
 
         sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
         campaign, cell, _ = read_campaign_in_base(args, args.campaign, cell)
+        nests = read_nests_in_base(args, campaign)
+        if nests is not None:
+            from bayescal.registration.nest_drift import fit_nest_drift
+
+            # the campaign as `calibrate --nests` fitted it: the drift the nests measure taken out
+            campaign = fit_nest_drift(nests, cell.tracker).remove(campaign)
+            sources["nests"] = args.nests
         from bayescal.inference.parameters import ParameterRegistry
 
         # A robot without a compensator has no per-angle compliances; the geometry's own 'R' tells the other kind apart.

@@ -47,8 +47,46 @@ def add_parser(subparsers) -> None:
         metavar="NAME[=MAGNITUDE]",
         help="plant an effect, repeatable",
     )
+    parser.add_argument(
+        "--kinematic-errors",
+        type=_scale_text,
+        default=0.0,
+        metavar="SCALE",
+        help="give the twin's robot kinematic errors drawn from the seed, SCALE times their realistic size (1: joint "
+        "offsets and twists 0.05 deg, lengths 0.5 mm, sd per component); default 0, the URDF's geometry",
+    )
+    parser.add_argument(
+        "--positions",
+        metavar="POSITIONS.csv",
+        help="also write the first repeat's unloaded readings as a positions file for `bayescal kinematics`",
+    )
+    parser.add_argument(
+        "--drift", type=_scale_text, metavar="MM_PER_H",
+        help="the tracker's frame drifts at this rate (mm/h; bayescal.twin.drift): a steady translation and turn and a "
+        "random walk; the campaign then carries its reading times t0_s, t1_s",
+    )
+    parser.add_argument(
+        "--order", choices=("together", "passes"), default="together",
+        help="together (default): a configuration's repeats one after another; passes: the plan measured once per "
+        "repeat, so that each configuration's repeats lie a pass apart in time (the campaign then carries its times)",
+    )
+    parser.add_argument(
+        "--nests", metavar="NESTS.csv",
+        help="also write the readings of the twin's reference nests (nest, t_s, x_mm, y_mm, z_mm), read before the "
+        "first configuration, and while each load is hung and after it is removed at the configurations the plan's "
+        "read_nests column marks (all without it); the campaign then carries its times",
+    )
     add_common_options(parser)
     parser.set_defaults(run=run)
+
+
+def _scale_text(text: str) -> float:
+    """A plain decimal number >= 0."""
+    from bayescal.tables import is_plain_number
+
+    if not is_plain_number(text) or float(text) < 0:
+        raise argparse.ArgumentTypeError(f"expected a plain decimal number >= 0, got '{text}'")
+    return float(text)
 
 
 def _effect_text(text: str) -> str:
@@ -61,6 +99,18 @@ def _effect_text(text: str) -> str:
     return text
 
 
+def _kinematic_errors(args: argparse.Namespace, robot):
+    """The errors ``--kinematic-errors`` gives the twin's robot, or None: drawn from a stream of their own, so that
+    the same seed reads the same noise with and without them."""
+    if args.kinematic_errors == 0:
+        return None
+    import numpy as np
+
+    from bayescal.twin.kinematic_errors import KINEMATIC_ERRORS_STREAM, KinematicErrors
+
+    return KinematicErrors.draw(robot, np.random.default_rng([args.seed, KINEMATIC_ERRORS_STREAM]), scale=args.kinematic_errors)
+
+
 def run(args: argparse.Namespace) -> CommandOutput:
     from functools import partial
 
@@ -71,11 +121,18 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.cell.plan import read_plan
     from bayescal.errors import InputError
     from bayescal.twin.effects import parse_effect
+    from bayescal.twin.kinematic_errors import with_kinematic_errors
+    from bayescal.cell.nests import read_nest_column
+    from bayescal.twin.drift import TrackerDrift
     from bayescal.twin.simulator import DigitalTwin
     from bayescal.units import MM, UM
 
     inputs = {"the plan": args.plan, "the config": args.config}
     check_output("-o", args.output, inputs)
+    if args.positions is not None:
+        check_output("--positions", args.positions, inputs | {"the campaign": args.output})
+    if args.nests is not None:
+        check_output("--nests", args.nests, inputs | {"the campaign": args.output, "the --positions file": args.positions})
     effects = [parse_effect(text, source="--effect") for text in args.effect]
     names = [effect.name for effect in effects]
     if len(set(names)) < len(names):
@@ -84,9 +141,17 @@ def run(args: argparse.Namespace) -> CommandOutput:
     cell = load_cell(args.config)
     check_output("-o", args.output, inputs | {"the robot URDF": cell.robot.source})
     plan = read_plan(args.plan, cell.robot, max_load_kg=cell.max_force / cell.gravity, loading=cell.loading)
-    twin = DigitalTwin(cell, effects)
+    errors = _kinematic_errors(args, cell.robot)
+    drift = None if args.drift is None else TrackerDrift(args.drift)
+    passes = args.order == "passes"
+    twin = DigitalTwin(cell if errors is None else with_kinematic_errors(cell, errors), effects, drift=drift, passes=passes)
+    nests = None
     try:
-        campaign = twin.simulate(plan, args.repeats, np.random.default_rng(args.seed))
+        if args.nests is None and not passes:
+            campaign = twin.simulate(plan, args.repeats, np.random.default_rng(args.seed))
+        else:
+            campaign, nests = twin.simulate_with_nests(plan, args.repeats, np.random.default_rng(args.seed), read_nest_column(args.plan))
+            nests = nests if args.nests is not None else None
     except InputError as error:
         if not effects:
             raise
@@ -99,13 +164,24 @@ def run(args: argparse.Namespace) -> CommandOutput:
             column=error.column,
         ) from None
 
-    planted = [effect.describe() for effect in twin.effects]
+    planted = [effect.describe() for effect in twin.effects] + ([] if drift is None else [drift.describe()])
     comments = [
         f"simulated by bayescal simulate --plan {args.plan} --config {args.config} --repeats {args.repeats} --seed {args.seed}",
         f"effects: {', '.join(planted) if planted else 'none'}; compensator {'on' if twin.arm.compensator else 'off'}",
         "wrench at the flange origin in base axes; positions in the base frame, 0 unloaded, 1 loaded",
     ]
+    if errors is not None:
+        comments += [f"kinematic errors (scale {args.kinematic_errors:g}), per joint tx_mm ty_mm tz_mm rx_deg ry_deg rz_deg "
+                     "in the frame where its axis is z:"] + [f"  {name}: " + " ".join(f"{v:+.4f}" for v in row) for name, row in errors.summary().iterrows()]
     write_atomically("-o", args.output, partial(write_campaign, campaign, comments=comments))
+    if args.positions is not None:
+        from bayescal.kinematics.from_campaign import write_positions
+
+        write_atomically("--positions", args.positions, partial(write_positions, campaign=campaign, columns=cell.robot.position_columns,
+                                                                comments=tuple(comments[:1] + comments[3:])))
+    if nests is not None:
+        notes = (comments[0] + f" --nests {args.nests}", "reference nests fixed in the base frame; t_s on the campaign's clock")
+        write_atomically("--nests", args.nests, partial(nests.write, comments=notes))
 
     low, high = (sd / UM for sd in cell.tracker.sigma_range(campaign.p0, campaign.p1))
     deflection = float(np.linalg.norm(campaign.displacement, axis=1).max() / MM)
@@ -121,6 +197,10 @@ def run(args: argparse.Namespace) -> CommandOutput:
         "noise_sd_um": {"min": low, "max": high},
         "max_deflection_mm": deflection,
         "seed": args.seed,
+        "kinematic_errors": None if errors is None else {"scale": args.kinematic_errors, "joints": errors.summary().to_dict(orient="index")},
+        "positions": args.positions,
+        "drift_mm_per_h": None if drift is None else drift.magnitude,
+        "nests": None if nests is None else {"output": args.nests, "readings": len(nests), "nests": len(set(nests.name))},
     }
     text = "\n".join(
         [
@@ -130,5 +210,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
             f"tracker noise sd per coordinate: {low:.1f} to {high:.1f} um",
             f"largest marker deflection: {deflection:.3f} mm",
         ]
+        + ([] if errors is None else [f"kinematic errors: scale {args.kinematic_errors:g} of their realistic size (listed in the file's header)"])
+        + ([] if args.positions is None else [f"wrote {args.positions}: the first repeat's unloaded readings, for bayescal kinematics"])
+        + ([] if nests is None else [f"wrote {args.nests}: {len(nests)} readings of {len(set(nests.name))} reference nests"])
     )
     return CommandOutput(payload=payload, text=text)

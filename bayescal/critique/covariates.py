@@ -299,7 +299,9 @@ def campaign_rows(cell: Cell, campaign: Campaign) -> Rows:
         sagged = {int(c): predicted_pose(cell, campaign.q[i]) for c, i in zip(configs, first)}
         q = np.array([sagged[int(c)] for c in campaign.config])
     point = np.array([robot.point_in_flange(qi, p) for qi, p in zip(q, campaign.p0)])
-    sd = np.hypot(cell.tracker.sigma(campaign.p0), cell.tracker.sigma(campaign.p1))
+    # the tracker's two readings, and what the campaign's frame adds (a registration's or a removed drift's)
+    variance = cell.tracker.deflection_variance(campaign.p0, campaign.p1)
+    sd = np.sqrt(variance if campaign.added_variance is None else variance + campaign.added_variance)
     return _build(
         cell,
         q,

@@ -42,9 +42,11 @@ DISTINCT_TIME = 1.0
 HOUR = 3600.0
 MRAD = 1e-3
 MAKE_TESTABLE = (
-    "give the readings' times (t0_s, t1_s) and repeat configurations at times spread over the campaign "
-    "(read each configuration again later rather than back to back), so that a marker's readings of one "
-    "state taken apart in time show the tracker's drift"
+    "read two to four reference nests fixed around the cell every 5-15 min and give them with --nests "
+    "(nest, t_s, x_mm, y_mm, z_mm) with the readings' times (t0_s, t1_s), which measures the drift and removes it "
+    "(bayescal plan --nests K marks where to read them); "
+    "or give the times and repeat configurations at times spread over the campaign (read each configuration "
+    "again later rather than back to back), so that a marker's readings of one state taken apart in time show it"
 )
 """What to change in a campaign whose readings cannot show a drift."""
 

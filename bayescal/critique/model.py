@@ -32,6 +32,7 @@ import pandas as pd
 
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
+from bayescal.cell.nests import Nests, require_times
 from bayescal.critique.checks import residual_summary
 from bayescal.critique.compare import Comparison, CrossValidation, compare, cross_validate, fit
 from bayescal.critique.covariates import Rows, campaign_rows, pose_rows
@@ -44,6 +45,7 @@ from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.equations import check_campaign
 from bayescal.inference.identifiability import independent_columns
 from bayescal.inference.lack_of_fit import least_squares_lack_of_fit, line_of_sight, replicate_cells
+from bayescal.registration.nest_drift import fit_nest_drift
 from bayescal.robot.stiffness import EquilibriumError
 from bayescal.threads import one_blas_thread
 from bayescal.units import DEG, MM
@@ -98,8 +100,12 @@ class Critique:
         check_candidates(self.catalogue, CATALOGUE)
         check_candidates(self.probes, PROBES)
 
-    def run(self, campaign: Campaign, rng: np.random.Generator | int | None = None) -> CritiqueResults:
-        """Criticise the classical model on ``campaign``.
+    def run(self, campaign: Campaign, rng: np.random.Generator | int | None = None, nests: Nests | None = None) -> CritiqueResults:
+        """Criticise the classical model on ``campaign``; with ``nests``, after removing the drift they measure.
+
+        With reference-nest readings the tracker's drift is measured (:mod:`bayescal.registration.nest_drift`),
+        taken out of the readings with its uncertainty added to the deflections, and reported: it is then no
+        candidate.  ``nests`` needs the campaign's reading times.
 
         ``rng`` is accepted for the command line's ``--seed``; the critique itself is
         deterministic (closed-form predictive densities, no sampling).  BLAS runs on one
@@ -107,10 +113,16 @@ class Critique:
         equations are sums of a few hundred equations each: on the 2-core development machine
         the demo's critique took 0.4-1.6 s (four runs) with BLAS's default two threads, 0.15 s with one.
         """
+        measured = None
+        if nests is not None:
+            require_times(campaign.times, campaign.source, "nests", nests)
+            track = fit_nest_drift(nests, self.cell.tracker)
+            measured = track.to_json(campaign) | {"testable": True, "candidate": False}
+            campaign = track.remove(campaign)
         with one_blas_thread():
-            return self._run(campaign)
+            return self._run(campaign, measured)
 
-    def _run(self, campaign: Campaign) -> CritiqueResults:
+    def _run(self, campaign: Campaign, measured: dict | None = None) -> CritiqueResults:
         n_configs = np.unique(campaign.config).size
         if n_configs < MIN_CONFIGURATIONS:
             raise InputError(
@@ -145,7 +157,8 @@ class Critique:
         steps: list[dict[str, Comparison]] = []
         history = [(model, current)]
         # without readings that can show a drift, a drift fitted to the deflections would be a catch-all
-        remaining = [CATALOGUE[name] for name in self.catalogue if name != "drift" or drift.testable]
+        # measured drift is removed already, not a candidate
+        remaining = [CATALOGUE[name] for name in self.catalogue if name != "drift" or (drift.testable and measured is None)]
         while remaining:
             trials = {e.name: _best_variant(e, model, validate) for e in remaining}
             evidence = {name: compare(current, cv) for name, (_, cv) in trials.items()}
@@ -198,7 +211,7 @@ class Critique:
             contested_by={cause: others for cause, others in contested.items() if others},
             settings={e.name: e.reading(rows) for e in model.extensions if e.setting is not None},
             importance=importance,
-            drift=_drift_report(drift, rows, "drift" in self.catalogue),
+            drift=measured or _drift_report(drift, rows, "drift" in self.catalogue),
         )
 
     def discriminate(self, campaign: Campaign, a: str, b: str) -> Comparison:

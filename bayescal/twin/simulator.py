@@ -18,12 +18,15 @@ and its readings drawn in one call, in the order one configuration after another
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from functools import cached_property
 
 import numpy as np
 
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
+from bayescal.cell.nests import Nests
+from bayescal.twin.drift import NESTS, TrackerDrift, nest_times, reading_times
 from bayescal.twin.effects import EFFECTS, Effect
 from bayescal.errors import InputError
 from bayescal.cell.plan import Plan, prismatic_flags
@@ -43,15 +46,22 @@ class DigitalTwin:
     effects
         Effects to plant, at most one of each kind.  The cell's compensator is on
         unless a ``compensator`` effect with magnitude 0 removes it.
+    drift
+        The tracker's drift in time (:mod:`bayescal.twin.drift`); its campaigns then carry their reading times.
+    passes
+        Timed campaigns measure the plan once per repeat (a configuration's repeats a pass apart), not a
+        configuration's repeats one after another.
     """
 
-    def __init__(self, cell: Cell, effects: Sequence[Effect] = ()) -> None:
+    def __init__(self, cell: Cell, effects: Sequence[Effect] = (), drift: TrackerDrift | None = None, passes: bool = False) -> None:
         names = [effect.name for effect in effects]
         for name in names:
             if names.count(name) > 1:
                 raise ValueError(f"effect '{name}' is given more than once")
         order = list(EFFECTS)
         self.cell = cell
+        self.drift = drift
+        self.passes = passes
         self.effects = tuple(sorted(effects, key=lambda effect: order.index(effect.name)))
         compensator = cell.compensator
         law = LinearJoints(cell.compliances)
@@ -121,7 +131,34 @@ class DigitalTwin:
         Rows are ordered by configuration, repeat and marker; each repeat reads both
         states with fresh tracker noise.  The wrench recorded is the load referred to
         the flange origin with the arm at its commanded angles (:meth:`Plan.wrenches`).
+        With a drift, the rows carry their reading times and the drift moves them.
         """
+        campaign = self._simulate(plan, repeats, rng)
+        return campaign if self.drift is None else self._timed(campaign, repeats, rng)[0]
+
+    def simulate_with_nests(self, plan: Plan, repeats: int, rng: np.random.Generator, at: np.ndarray | None = None) -> tuple[Campaign, Nests]:
+        """A timed campaign (:meth:`simulate`) and the readings of the reference nests of :data:`~bayescal.twin.drift.NESTS`
+        at the pace of :data:`~bayescal.twin.drift.TIMELINE`, both moved by the one drift (if any) of the campaign.
+        ``at``: (configurations,) bool, where the nests are read (a plan's ``read_nests``); None: at every one."""
+        return self._timed(self._simulate(plan, repeats, rng), repeats, rng, at)
+
+    def _timed(self, campaign: Campaign, repeats: int, rng: np.random.Generator, at: np.ndarray | None = None) -> tuple[Campaign, Nests]:
+        """The campaign stamped with its times and the nests read, with fresh noise, then both drifted."""
+        n_markers = len(self.marker_names)
+        times = reading_times(len(campaign) // (repeats * n_markers), repeats, n_markers, self.passes)
+        visits = nest_times(times, len(NESTS), at)
+        names = np.tile(np.array(list(NESTS)), len(visits))
+        points = np.tile(np.array(list(NESTS.values())), (len(visits), 1))
+        nests = self.cell.tracker.measure(points, rng)
+        flat = times.reshape(-1, 2)
+        readings = np.concatenate([campaign.p0, campaign.p1, nests])
+        if self.drift is not None:
+            readings = self.drift.apply(readings, np.concatenate([flat[:, 0], flat[:, 1], visits.ravel()]), self.cell.tracker.position, rng)
+        n = len(campaign)
+        timed = replace(campaign, p0=readings[:n], p1=readings[n : 2 * n], times=flat)
+        return timed, Nests(names, visits.ravel(), readings[2 * n :], np.zeros(len(names), dtype=int), "simulated")
+
+    def _simulate(self, plan: Plan, repeats: int, rng: np.random.Generator) -> Campaign:
         if repeats < 1:
             raise ValueError(f"expected at least 1 repeat, got {repeats}")
         q = np.asarray(plan.q, dtype=float)

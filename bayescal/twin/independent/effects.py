@@ -20,6 +20,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from bayescal.cell.config import Cell
+from bayescal.twin.independent.geometry import GeometryErrors
 from bayescal.twin.independent.noise import FrameDrift, LineOfSightJumps, ScaleError
 from bayescal.twin.independent.solver import SpringLinkage
 from bayescal.twin.independent.structure import ApproachPlay, GearPlay, KneeJoints, LinkBeams, RandomField, ToolMount, tube
@@ -57,6 +58,8 @@ class World:
         Marker positions, flange frame, m.
     knee, play, approach, beams, tool, field, jumps, drift, scale
         The planted effects' models, ``None`` when absent.
+    geometry : GeometryErrors or None
+        The joints' DH errors (:mod:`bayescal.twin.independent.geometry`); ``None``: the URDF's geometry.
     load_jitter : float
         Standard deviation (m, per axis) of the load point's shift each time the load is hung.
     field_force : float
@@ -77,6 +80,7 @@ class World:
     jumps: LineOfSightJumps | None = None
     drift: FrameDrift | None = None
     scale: ScaleError | None = None
+    geometry: GeometryErrors | None = None
     load_jitter: float = 0.0
     field_force: float = 1.0
 

@@ -21,15 +21,17 @@ import numpy as np
 import pandas as pd
 
 from bayescal.cell.campaign import Campaign
+from bayescal.cell.nests import Nests
 from bayescal.cell.config import Cell
 from bayescal.cell.plan import Plan
 from bayescal.errors import InputError
 from bayescal.twin.independent.effects import EFFECTS, World
+from bayescal.twin.independent.geometry import GeometryErrors
 from bayescal.twin.independent.noise import TrackerReadout
 from bayescal.twin.independent.solver import Load, SolverError, SpringLinkage, Statics, scaled_robot
 from bayescal.units import MM, N_PER_MM, URAD_PER_NM
 
-__all__ = ["IndependentGenerator", "Truth", "SPREADS", "TIMELINE"]
+__all__ = ["IndependentGenerator", "Truth", "SPREADS", "TIMELINE", "NESTS"]
 
 SPREADS = {
     "compliance": 0.15,
@@ -50,6 +52,11 @@ loaded one (hanging a load with a crane), from the loaded reading to the next re
 next configuration.  ESTIMATES of a campaign's pace: Table III's 15 configurations × 3 repeats
 take about 9 h."""
 
+NESTS = {"N1": (2.5, 0.0, 0.0), "N2": (-1.25, 2.165, 0.0), "N3": (-1.25, -2.165, 0.0)}
+"""Reference nests fixed on the floor (base frame, m): three 2.5 m from the base's axis, 120° apart.  ESTIMATES
+of a cell's layout, spread around it as the practice is; read, 20 s apart, while the load is hung and unhung
+(every 4-8 min of :data:`TIMELINE`)."""
+
 
 @dataclass(frozen=True, eq=False)
 class Truth:
@@ -68,6 +75,8 @@ class Truth:
         ``"adequate"`` with no effect, else the cause family or ``"unexplained"``.
     jumped : numpy.ndarray
         (N, 2) bool: which unloaded and loaded readings jumped (outliers).
+    nests : Nests or None
+        The reference nests' readings, when asked for.
     """
 
     world: World
@@ -75,6 +84,7 @@ class Truth:
     magnitude: float
     cause: str | None
     jumped: np.ndarray = field(repr=False)
+    nests: Nests | None = field(default=None, repr=False)
 
     @property
     def expected(self) -> str:
@@ -130,11 +140,17 @@ class IndependentGenerator:
     noise
         Add the tracker's random noise (False: exact readings, still with the planted
         readout effects; to measure what an effect changes).
+    kinematic_errors
+        Scale of the DH errors each world draws for its joints (:mod:`bayescal.twin.independent.geometry`,
+        1: their realistic size); 0, the default: the URDF's geometry, and no draw.
     """
 
     def __init__(
-        self, cell: Cell, rng: np.random.Generator, *, truth: str = "drawn", isotropic: bool = False, noise: bool = True
+        self, cell: Cell, rng: np.random.Generator, *, truth: str = "drawn", isotropic: bool = False, noise: bool = True,
+        kinematic_errors: float = 0.0,
     ) -> None:
+        if not (np.isfinite(kinematic_errors) and kinematic_errors >= 0):
+            raise InputError(f"kinematic_errors must be a finite number >= 0, got {kinematic_errors}", column="kinematic_errors")
         if truth not in ("drawn", "config"):
             raise InputError(f"truth must be 'drawn' or 'config', got {truth!r}", column="truth")
         self.cell = cell
@@ -142,6 +158,7 @@ class IndependentGenerator:
         self.truth = truth
         self.readout = TrackerReadout(cell.tracker, isotropic=isotropic)
         self.noise = noise
+        self.kinematic_errors = kinematic_errors
 
     def world(self, effect: str | None = None, magnitude: float = 1.0) -> World:
         """A world drawn for one campaign, with ``effect`` planted at ``magnitude`` times its default."""
@@ -153,6 +170,8 @@ class IndependentGenerator:
         world = World(cell.compliances.copy(), linkage, 1.0, cell.load_point.copy(), dict(cell.markers))
         if self.truth == "drawn":
             world = self._drawn(world)
+        if self.kinematic_errors > 0:
+            world = replace(world, geometry=GeometryErrors.draw(cell.robot.nq, rng, self.kinematic_errors))
         if effect is None:
             return world
         if effect not in EFFECTS:
@@ -185,12 +204,15 @@ class IndependentGenerator:
         )
 
     def simulate(
-        self, plan: Plan, repeats: int = 3, effect: str | None = None, magnitude: float = 1.0, *, world: World | None = None
+        self, plan: Plan, repeats: int = 3, effect: str | None = None, magnitude: float = 1.0, *, world: World | None = None,
+        nests: bool = False,
     ) -> tuple[Campaign, Truth]:
         """A campaign of ``plan`` with ``repeats`` unloaded/loaded readings per configuration.
 
         ``world``: a world from :meth:`world` to measure again (one truth on several plans);
-        by default one is drawn with ``effect`` planted at ``magnitude``.
+        by default one is drawn with ``effect`` planted at ``magnitude``.  ``nests``: also read the
+        reference nests of :data:`NESTS` before the first configuration and after every repeat's unloaded and loaded
+        readings (:attr:`Truth.nests`), after the campaign's readings so that the campaign is the same without them.
 
         Returns
         -------
@@ -226,8 +248,22 @@ class IndependentGenerator:
             load_point=np.tile(world.load_point, (len(config), 1)),
             times=times.reshape(-1, 2),
         )
-        truth = Truth(world, effect, magnitude, EFFECTS[effect].cause if effect else None, jumped.reshape(-1, 2))
+        truth = Truth(world, effect, magnitude, EFFECTS[effect].cause if effect else None, jumped.reshape(-1, 2),
+                      self._nests(world, times.reshape(len(keys), -1, 2)) if nests else None)
         return campaign, truth
+
+    def _nests(self, world: World, times: np.ndarray) -> Nests:
+        """The nests of :data:`NESTS` read one after another before the first repeat's readings and after each
+        repeat's unloaded and loaded ones (``times``: (repeats, markers, 2) s, in campaign order), through the same
+        readout as the markers."""
+        names = list(NESTS)
+        spacing = TIMELINE["marker"] * np.arange(1, len(names) + 1)
+        starts = np.concatenate([[times[0, 0, 0] - spacing[-1] - TIMELINE["marker"]], times[:, -1, :].ravel()])
+        visit_times = (starts[:, None] + spacing).ravel()
+        points = np.tile(np.array(list(NESTS.values())), (len(starts), 1))
+        readings, _ = self._read(world, points, visit_times)
+        return Nests(np.tile(np.array(names), len(starts)), visit_times, readings, np.zeros(len(points), dtype=int),
+                     "<independent generator>")
 
     def _true_positions(self, world: World, plan: Plan, repeats: int):
         """True marker positions (rows, 2, 3) m, reading times (rows, 2) s, (config, repeat) keys and (M, 6) wrenches.
@@ -236,7 +272,7 @@ class IndependentGenerator:
         axis is unloaded, loaded.
         """
         cell = self.cell
-        robot = scaled_robot(cell.robot, world.mass_scale)
+        robot = scaled_robot(cell.robot if world.geometry is None else world.geometry.robot(cell.robot), world.mass_scale)
         statics = Statics(robot, world.joint_law(), world.linkage)
         markers = np.array(list(world.markers.values()))
         offsets = TIMELINE["marker"] * np.arange(len(markers))
