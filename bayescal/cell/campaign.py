@@ -248,7 +248,6 @@ def read_campaign(
     """
     source = str(path)
     layout = _joint_layout(Path(path), cell)
-    joint_columns, n_joints = list(layout.columns), len(layout.columns)
     prismatic = ~layout.revolute
     frame, q = _read_frame(path, layout)
     if markers is not None:
@@ -258,15 +257,8 @@ def read_campaign(
     timed = _all_or_none(frame, TIME_COLUMNS, "the reading times", source)
     if timed:
         _check_times(frame, source)
-    shared = joint_columns + list(WRENCH_COLUMNS) + given
-    values = frame[shared].to_numpy(dtype=float)
     config = frame["config"].to_numpy(dtype=int)
-    firsts = _configuration_rows(frame, values, shared, config, source)
-    if cell is not None:
-        check_wrench(cell, values[firsts, n_joints : n_joints + len(WRENCH_COLUMNS)], frame.index[firsts], source)
-        if given:
-            check_tool_points(cell.robot, values[firsts, -3:] * MM, frame.index[firsts], LOAD_POINT_COLUMNS, source)
-
+    _check_configurations(frame, list(layout.columns), given, cell, source)
     positions = _positions(frame, to_base, source)
     if cell is not None:
         check_deflection(frame[list(WRENCH_COLUMNS)].to_numpy(dtype=float), positions, frame.index.to_numpy(dtype=int), source)
@@ -284,6 +276,19 @@ def read_campaign(
         prismatic=prismatic if prismatic.any() else None,
         times=frame[list(TIME_COLUMNS)].to_numpy(dtype=float) if timed else None,
     )
+
+
+def _check_configurations(frame: pd.DataFrame, joint_columns: list[str], given: list[str], cell: Cell | None, source: str) -> None:
+    """The rows of each configuration agree on its joints, wrench and load point; with ``cell``, the wrench is one
+    the arm can carry and the load point within its reach."""
+    n_joints = len(joint_columns)
+    shared = joint_columns + list(WRENCH_COLUMNS) + given
+    values = frame[shared].to_numpy(dtype=float)
+    firsts = _configuration_rows(frame, values, shared, frame["config"].to_numpy(dtype=int), source)
+    if cell is not None:
+        check_wrench(cell, values[firsts, n_joints : n_joints + len(WRENCH_COLUMNS)], frame.index[firsts], source)
+        if given:
+            check_tool_points(cell.robot, values[firsts, -3:] * MM, frame.index[firsts], LOAD_POINT_COLUMNS, source)
 
 
 def _read_frame(path: str | PathLike[str], layout: JointLayout) -> tuple[pd.DataFrame, np.ndarray]:

@@ -269,18 +269,8 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     if "payload_kg" in reader.table("robot"):
         payload = reader.number("robot", "payload_kg", unit="kg", positive=True)
 
-    compliances = per_joint(reader, robot, "joints", ("k_urad_per_Nm", "k_um_per_N"), (URAD_PER_NM, UM_PER_N))
-    if np.any(compliances <= 0):
-        reader.fail("expected positive joint compliances in μrad/(N·m) (revolute) and μm/N (prismatic)", "joints")
+    compliances, log_sd = _read_compliances(reader, robot)
     compensator, compensator_joint = read_compensator(reader, robot)
-    log_sd = reader.number("joints", "k_log_sd", unit="log units", positive=True, default=DEFAULT_COMPLIANCE_LOG_SD)
-    if log_sd > MAX_COMPLIANCE_LOG_SD:
-        reader.fail(
-            f"expected a log-sd of at most {MAX_COMPLIANCE_LOG_SD:g} (a factor exp(3 × {MAX_COMPLIANCE_LOG_SD:g}) at ±3σ), "
-            f"got {log_sd:g}: is it a relative sd in % or a compliance?",
-            "joints",
-            "k_log_sd",
-        )
 
     load_point, markers = _read_tool(reader)
     tracker = _read_tracker(reader)
@@ -288,12 +278,7 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     load_mass = reader.number("load", "mass_kg", unit="kg", positive=True)
     gravity = reader.number("load", "gravity_m_per_s2", unit="m/s²", positive=True, default=9.80665)
 
-    test_q = per_joint(reader, robot, "test_pose", ("q_deg", "q_mm"), (DEG, MM))
-    try:
-        robot.check_limits(test_q)
-    except InputError as error:
-        reader.fail(error.what, "test_pose", "q_mm" if error.column.endswith("_mm") else "q_deg")
-
+    test_q = _read_test_pose_q(reader, robot)
     test_wrench = reader.vector("test_pose", "wrench_N_Nm", 6, unit="N and N·m")
     cell = Cell(
         design=_design_limits(reader),
@@ -317,16 +302,47 @@ def load_cell(path: str | PathLike[str]) -> Cell:
         compliance_log_sd=log_sd,
         compliance_log_sd_source=f"{source} [joints] k_log_sd" if "k_log_sd" in reader.table("joints") else "default",
     )
-    force = float(np.linalg.norm(test_wrench[:3]))
+    _check_test_force(reader, cell)
+    _check_loads(reader, cell)
+    return cell
+
+
+def _read_test_pose_q(reader: CellFileReader, robot) -> np.ndarray:
+    """The test pose's joints ``(nq,)`` (SI), within the robot's limits."""
+    test_q = per_joint(reader, robot, "test_pose", ("q_deg", "q_mm"), (DEG, MM))
+    try:
+        robot.check_limits(test_q)
+    except InputError as error:
+        reader.fail(error.what, "test_pose", "q_mm" if error.column.endswith("_mm") else "q_deg")
+    return test_q
+
+
+def _check_test_force(reader: CellFileReader, cell: Cell) -> None:
+    """The test pose's force is one the robot can plausibly hold (else the wrench is likely in another unit)."""
+    force = float(np.linalg.norm(cell.test_wrench[:3]))
     if force > cell.max_force:
         reader.fail(
             f"a force of {force:.4g} N is more than the {cell.max_force:.0f} N the robot can plausibly hold "
-            f"({OVERLOAD_FACTOR:g} x the weight of {cell.capacity_weight / gravity:g} kg): is the wrench in another unit?",
+            f"({OVERLOAD_FACTOR:g} x the weight of {cell.capacity_weight / cell.gravity:g} kg): is the wrench in another unit?",
             "test_pose",
             "wrench_N_Nm",
         )
-    _check_loads(reader, cell)
-    return cell
+
+
+def _read_compliances(reader: CellFileReader, robot) -> tuple[np.ndarray, float]:
+    """The ``[joints]`` compliances ``(nq,)`` (SI) and the log-sd of their prior."""
+    compliances = per_joint(reader, robot, "joints", ("k_urad_per_Nm", "k_um_per_N"), (URAD_PER_NM, UM_PER_N))
+    if np.any(compliances <= 0):
+        reader.fail("expected positive joint compliances in μrad/(N·m) (revolute) and μm/N (prismatic)", "joints")
+    log_sd = reader.number("joints", "k_log_sd", unit="log units", positive=True, default=DEFAULT_COMPLIANCE_LOG_SD)
+    if log_sd > MAX_COMPLIANCE_LOG_SD:
+        reader.fail(
+            f"expected a log-sd of at most {MAX_COMPLIANCE_LOG_SD:g} (a factor exp(3 × {MAX_COMPLIANCE_LOG_SD:g}) at ±3σ), "
+            f"got {log_sd:g}: is it a relative sd in % or a compliance?",
+            "joints",
+            "k_log_sd",
+        )
+    return compliances, log_sd
 
 
 def _check_loads(reader: CellFileReader, cell: Cell) -> None:
