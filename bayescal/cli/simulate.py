@@ -112,20 +112,10 @@ def _kinematic_errors(args: argparse.Namespace, robot):
 
 
 def run(args: argparse.Namespace) -> CommandOutput:
-    from functools import partial
-
-    import numpy as np
-
-    from bayescal.cell.campaign import write_campaign
     from bayescal.cell.config import load_cell
     from bayescal.cell.plan import read_plan
     from bayescal.errors import InputError
     from bayescal.twin.effects import parse_effect
-    from bayescal.twin.kinematic_errors import with_kinematic_errors
-    from bayescal.cell.nests import read_nest_column
-    from bayescal.twin.drift import TrackerDrift
-    from bayescal.twin.simulator import DigitalTwin
-    from bayescal.units import MM, UM
 
     inputs = {"the plan": args.plan, "the config": args.config}
     check_output("-o", args.output, inputs)
@@ -142,16 +132,38 @@ def run(args: argparse.Namespace) -> CommandOutput:
     check_output("-o", args.output, inputs | {"the robot URDF": cell.robot.source})
     plan = read_plan(args.plan, cell.robot, max_load_kg=cell.max_force / cell.gravity, loading=cell.loading)
     errors = _kinematic_errors(args, cell.robot)
+    twin, campaign, nests = _simulated(args, cell, plan, effects, errors)
+    planted = [effect.describe() for effect in twin.effects] + ([] if twin.drift is None else [twin.drift.describe()])
+    comments = [
+        f"simulated by bayescal simulate --plan {args.plan} --config {args.config} --repeats {args.repeats} --seed {args.seed}",
+        f"effects: {', '.join(planted) if planted else 'none'}; compensator {'on' if twin.arm.compensator else 'off'}",
+        "wrench at the flange origin in base axes; positions in the base frame, 0 unloaded, 1 loaded",
+    ]
+    if errors is not None:
+        comments += [f"kinematic errors (scale {args.kinematic_errors:g}), per joint tx_mm ty_mm tz_mm rx_deg ry_deg rz_deg "
+                     "in the frame where its axis is z:"] + [f"  {name}: " + " ".join(f"{v:+.4f}" for v in row) for name, row in errors.summary().iterrows()]
+    _write(args, cell, campaign, nests, comments)
+    return _summary(args, cell, plan, twin, campaign, nests, errors, planted)
+
+
+def _simulated(args: argparse.Namespace, cell, plan, effects: list, errors):
+    """The twin (with the kinematic errors, effects and drift asked for), its campaign and, when asked, its nest readings."""
+    import numpy as np
+
+    from bayescal.cell.nests import read_nest_column
+    from bayescal.errors import InputError
+    from bayescal.twin.drift import TrackerDrift
+    from bayescal.twin.kinematic_errors import with_kinematic_errors
+    from bayescal.twin.simulator import DigitalTwin
+
     drift = None if args.drift is None else TrackerDrift(args.drift)
     passes = args.order == "passes"
     twin = DigitalTwin(cell if errors is None else with_kinematic_errors(cell, errors), effects, drift=drift, passes=passes)
-    nests = None
     try:
         if args.nests is None and not passes:
-            campaign = twin.simulate(plan, args.repeats, np.random.default_rng(args.seed))
-        else:
-            campaign, nests = twin.simulate_with_nests(plan, args.repeats, np.random.default_rng(args.seed), read_nest_column(args.plan))
-            nests = nests if args.nests is not None else None
+            return twin, twin.simulate(plan, args.repeats, np.random.default_rng(args.seed)), None
+        campaign, nests = twin.simulate_with_nests(plan, args.repeats, np.random.default_rng(args.seed), read_nest_column(args.plan))
+        return twin, campaign, nests if args.nests is not None else None
     except InputError as error:
         if not effects:
             raise
@@ -164,15 +176,13 @@ def run(args: argparse.Namespace) -> CommandOutput:
             column=error.column,
         ) from None
 
-    planted = [effect.describe() for effect in twin.effects] + ([] if drift is None else [drift.describe()])
-    comments = [
-        f"simulated by bayescal simulate --plan {args.plan} --config {args.config} --repeats {args.repeats} --seed {args.seed}",
-        f"effects: {', '.join(planted) if planted else 'none'}; compensator {'on' if twin.arm.compensator else 'off'}",
-        "wrench at the flange origin in base axes; positions in the base frame, 0 unloaded, 1 loaded",
-    ]
-    if errors is not None:
-        comments += [f"kinematic errors (scale {args.kinematic_errors:g}), per joint tx_mm ty_mm tz_mm rx_deg ry_deg rz_deg "
-                     "in the frame where its axis is z:"] + [f"  {name}: " + " ".join(f"{v:+.4f}" for v in row) for name, row in errors.summary().iterrows()]
+
+def _write(args: argparse.Namespace, cell, campaign, nests, comments: list[str]) -> None:
+    """The campaign, and the positions and nests files when asked for, each written whole or not at all."""
+    from functools import partial
+
+    from bayescal.cell.campaign import write_campaign
+
     write_atomically("-o", args.output, partial(write_campaign, campaign, comments=comments))
     if args.positions is not None:
         from bayescal.kinematics.from_campaign import write_positions
@@ -183,8 +193,16 @@ def run(args: argparse.Namespace) -> CommandOutput:
         notes = (comments[0] + f" --nests {args.nests}", "reference nests fixed in the base frame; t_s on the campaign's clock")
         write_atomically("--nests", args.nests, partial(nests.write, comments=notes))
 
+
+def _summary(args: argparse.Namespace, cell, plan, twin, campaign, nests, errors, planted: list[str]) -> CommandOutput:
+    """What was written, as JSON and as text."""
+    import numpy as np
+
+    from bayescal.units import MM, UM
+
     low, high = (sd / UM for sd in cell.tracker.sigma_range(campaign.p0, campaign.p1))
     deflection = float(np.linalg.norm(campaign.displacement, axis=1).max() / MM)
+    drift = twin.drift
     payload = {
         "output": args.output,
         "rows": len(campaign),
