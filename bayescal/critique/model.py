@@ -123,17 +123,7 @@ class Critique:
             return self._run(campaign, measured)
 
     def _run(self, campaign: Campaign, measured: dict | None = None) -> CritiqueResults:
-        n_configs = np.unique(campaign.config).size
-        if n_configs < MIN_CONFIGURATIONS:
-            raise InputError(
-                f"the critique compares models on held-out configurations and needs at least {MIN_CONFIGURATIONS}, got {n_configs}",
-                source=campaign.source,
-            )
-        if campaign.q.shape[1] != self.cell.robot.nq:
-            raise InputError(
-                f"the campaign has {campaign.q.shape[1]} joint angles per row, the cell's robot {self.cell.robot.nq}",
-                source=campaign.source,
-            )
+        n_configs = self._checked_size(campaign)
         rows = campaign_rows(self.cell, campaign)
         # markers located on the tool at the measured unloaded pose, so that a sagging arm is no mislabelled marker
         check_campaign(self.cell.robot, campaign, rows.point, hanging_only=self.cell.loading.hanging_only)
@@ -148,33 +138,13 @@ class Critique:
         def fitted(model: _Model, cv: CrossValidation) -> np.ndarray:
             return cv.full.predict(model.design(rows, self.cell)[:, cv.columns])
 
-        model = _Model(())
-        base = current = validate(model)
+        base = validate(_Model(()))
         drift = drift_evidence(rows, self.cell)
-        causes: list[str] = []
-        tied: dict[str, list[str]] = {}
-        contested: dict[str, list[str]] = {}
-        steps: list[dict[str, Comparison]] = []
-        history = [(model, current)]
-        # without readings that can show a drift, a drift fitted to the deflections would be a catch-all
+        # without readings that can show a drift, a drift fitted to the deflections would be a catch-all;
         # measured drift is removed already, not a candidate
         remaining = [CATALOGUE[name] for name in self.catalogue if name != "drift" or (drift.testable and measured is None)]
-        while remaining:
-            trials = {e.name: _best_variant(e, model, validate) for e in remaining}
-            evidence = {name: compare(current, cv) for name, (_, cv) in trials.items()}
-            steps.append(evidence)
-            best = strongest(evidence)
-            if best is None:
-                break
-            noise = current.full.level[group] * scale
-            tied[best], contested[best] = _rivals(
-                best, trials, evidence, lambda name: fitted(model.plus(trials[name][0]), trials[name][1]), noise
-            )
-            extension, current = trials[best]
-            model = model.plus(extension)
-            causes.append(best)
-            history.append((model, current))
-            remaining = [e for e in remaining if e.name != best]
+        search = _greedy_search(base, remaining, validate, fitted, lambda cv: cv.full.level[group] * scale)
+        model, current, causes = search.model, search.current, search.causes
         probes = {name: compare(current, validate(model.plus(PROBES[name]))) for name in self.probes}
         covariate = strongest(probes, decisive=False)
         misfit = least_squares_lack_of_fit(
@@ -190,11 +160,11 @@ class Critique:
         if covariate is not None or unmatched:
             causes.append(UNEXPLAINED)
         equation_rows = np.repeat(np.arange(len(rows)), 3)
-        importance = self._importance(history, rows, y, scale, group, equation_rows)
+        importance = self._importance(search.history, rows, y, scale, group, equation_rows)
         return CritiqueResults(
             causes=causes,
             unexplained_covariate=covariate,
-            steps=steps,
+            steps=search.steps,
             probes=probes,
             base=base,
             final=current,
@@ -207,12 +177,27 @@ class Critique:
             residuals=_residual_table(rows, y, base, current),
             source=campaign.source,
             lack_of_fit=misfit,
-            tied_with={cause: others for cause, others in tied.items() if others},
-            contested_by={cause: others for cause, others in contested.items() if others},
+            tied_with={cause: others for cause, others in search.tied.items() if others},
+            contested_by={cause: others for cause, others in search.contested.items() if others},
             settings={e.name: e.reading(rows) for e in model.extensions if e.setting is not None},
             importance=importance,
             drift=measured or _drift_report(drift, rows, "drift" in self.catalogue),
         )
+
+    def _checked_size(self, campaign: Campaign) -> int:
+        """The campaign's number of configurations, refusing too few of them or joints that are not the robot's."""
+        n_configs = np.unique(campaign.config).size
+        if n_configs < MIN_CONFIGURATIONS:
+            raise InputError(
+                f"the critique compares models on held-out configurations and needs at least {MIN_CONFIGURATIONS}, got {n_configs}",
+                source=campaign.source,
+            )
+        if campaign.q.shape[1] != self.cell.robot.nq:
+            raise InputError(
+                f"the campaign has {campaign.q.shape[1]} joint angles per row, the cell's robot {self.cell.robot.nq}",
+                source=campaign.source,
+            )
+        return n_configs
 
     def discriminate(self, campaign: Campaign, a: str, b: str) -> Comparison:
         """Held-out comparison of the classical model plus ``b`` against it plus ``a`` on ``campaign``.
@@ -312,6 +297,43 @@ class Critique:
                 "matters": bool(moved > uncertainty or explained > uncertainty),
             }
         return out
+
+
+@dataclass
+class _Search:
+    """The greedy search's end: the final model and its held-out scores, the causes in order, each cause's ties and
+    contests, every step's evidence and the models along the way."""
+
+    model: _Model
+    current: CrossValidation
+    causes: list[str]
+    tied: dict[str, list[str]]
+    contested: dict[str, list[str]]
+    steps: list[dict[str, Comparison]]
+    history: list[tuple[_Model, CrossValidation]]
+
+
+def _greedy_search(base: CrossValidation, remaining: list[Extension], validate: Callable[[_Model], CrossValidation],
+                   fitted: Callable[[_Model, CrossValidation], np.ndarray], noise_of: Callable[[CrossValidation], np.ndarray]) -> _Search:
+    """Add the strongest candidate while one passes the rule, each on top of those before."""
+    search = _Search(_Model(()), base, [], {}, {}, [], [(_Model(()), base)])
+    while remaining:
+        model, current = search.model, search.current
+        trials = {e.name: _best_variant(e, model, validate) for e in remaining}
+        evidence = {name: compare(current, cv) for name, (_, cv) in trials.items()}
+        search.steps.append(evidence)
+        best = strongest(evidence)
+        if best is None:
+            break
+        search.tied[best], search.contested[best] = _rivals(
+            best, trials, evidence, lambda name: fitted(model.plus(trials[name][0]), trials[name][1]), noise_of(current)
+        )
+        extension, search.current = trials[best]
+        search.model = model.plus(extension)
+        search.causes.append(best)
+        search.history.append((search.model, search.current))
+        remaining = [e for e in remaining if e.name != best]
+    return search
 
 
 def _best_variant(extension: Extension, model: _Model, validate: Callable[[_Model], CrossValidation]) -> tuple[Extension, CrossValidation]:
