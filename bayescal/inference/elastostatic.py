@@ -42,11 +42,11 @@ from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError, NotIdentifiableWarning
-from bayescal.inference.closedform import ClosedForm, check_regression, closed_form
+from bayescal.inference.closedform import ClosedForm, closed_form
 from bayescal.inference.equations import HANGING_ONLY_REASON, DeflectionEquations, check_campaign, check_load_point, deflection_equations
 from bayescal.inference.exact import SETTLED_SD, UNCONVERGED_SD, ExactCorrection, moved_point
-from bayescal.inference.fit_checks import calibration_lack_of_fit, check_determined, check_scale, practical_identifiability, residual_chi2
-from bayescal.inference.identifiability import Identifiability, analyse, grouped, label_angle
+from bayescal.inference.fit_checks import calibration_lack_of_fit, campaign_identifiability, check_scale, practical_identifiability, residual_chi2, unresolved_columns
+from bayescal.inference.identifiability import Identifiability, grouped, label_angle
 from bayescal.inference.posterior import posterior_density, sample_posterior, sampler_coordinates
 from bayescal.inference.priors import GeometryPrior, config_geometry
 from bayescal.inference.results import LINEARISATION_ATTRS, ElastostaticDraws, ElastostaticResults
@@ -230,20 +230,13 @@ class ElastostaticModel:
         check_campaign(self.robot, campaign, points, hanging_only=self.hanging_only)
         if announce:
             check_load_point(self.robot, campaign, self.load_point)
-        configs = np.unique(campaign.config, return_index=True)[1]
-        ident = analyse(
-            equations.whitened().per_angle_design(),
-            equations.per_angle_columns(),
-            equations.compensated_angles,
-            torque[configs],
-            equations.angle[3 * configs],
-            equations.prismatic,
-        )
-        if self.hanging_only and "k1" in ident.reasons:
-            ident.reasons["k1"] += f"; {HANGING_ONLY_REASON}"
-        if ident.compensator:
-            ident = check_regression(ident, equations.per_angle_columns(), equations.compensated_angles, self._geometry_mean)
-        check_determined(campaign, equations, ident)
+        ident = campaign_identifiability(campaign, equations, torque, self._geometry_mean, self.hanging_only)
+        linear_cf = closed_form(equations.whitened(), ident, self._geometry_mean)
+        check_scale(campaign, linear_cf, self.nominal_compliances)
+        unresolved = unresolved_columns(linear_cf, ident, self.nominal_compliances)
+        if unresolved:
+            ident = campaign_identifiability(campaign, equations, torque, self._geometry_mean, self.hanging_only, unresolved)
+            linear_cf = closed_form(equations.whitened(), ident, self._geometry_mean)
         if announce:
             # A limit of the cell, not of the campaign: recorded in k1's reason, said once by `bayescal plan`.
             cell_limit = {k for k, v in ident.reasons.items() if v.endswith(HANGING_ONLY_REASON)}
@@ -256,8 +249,6 @@ class ElastostaticModel:
                     UserWarning,
                     stacklevel=3,
                 )
-        linear_cf = closed_form(equations.whitened(), ident, self._geometry_mean)
-        check_scale(campaign, linear_cf, self.nominal_compliances)
         prepared = _Prepared(equations, ident, linear_cf, np.zeros(equations.n), linear_cf, 0, linear_cf)
         return self._relinearised(campaign, prepared, point) if self.model == "exact" else prepared
 

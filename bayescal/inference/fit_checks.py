@@ -18,19 +18,25 @@ import pandas as pd
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError
-from bayescal.inference.closedform import ClosedForm
-from bayescal.inference.equations import DeflectionEquations, deflection_noise
-from bayescal.inference.identifiability import Identifiability, label_angle, practical_reasons
+from bayescal.inference.closedform import ClosedForm, check_regression
+from bayescal.inference.equations import HANGING_ONLY_REASON, DeflectionEquations, deflection_noise
+from bayescal.inference.identifiability import Identifiability, analyse, label_angle, practical_reasons
 from bayescal.inference.lack_of_fit import LackOfFit, least_squares_lack_of_fit, line_of_sight, replicate_cells
 from bayescal.inference.priors import GeometryPrior
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.units import MM, N_PER_MM, URAD_PER_NM
 
-__all__ = ["check_determined", "check_scale", "residual_chi2", "calibration_lack_of_fit", "practical_identifiability"]
+__all__ = ["campaign_identifiability", "check_determined", "check_scale", "unresolved_columns", "UNRESOLVED_RATIO", "residual_chi2", "calibration_lack_of_fit", "practical_identifiability"]
 
 IMPLAUSIBLE_RATIO = 100.0
 """Factor between the compliances a campaign implies and the config's beyond which the data are taken to be in
 another unit: joints of one robot model differ by tens of percent, a unit slip by 1000 (m, μm against mm)."""
+UNRESOLVED_RATIO = 1.0
+"""Closed-form sd of a compliance, as a multiple of the config's, beyond which the campaign does not resolve it: the data
+cannot tell the joint from a rigid one or from one twice as compliant.  A joint-1 placement tilted from the vertical lets a
+hanging load's force pass a little off joint 1's axis: on the twin's Table III measured three times (seed 1) a tilt of 0.001 deg
+gives k1 an sd 170 times the config's k1, 0.05 deg 3.4 times, 0.5 deg 0.37 times, while the joints the loads do turn are
+resolved to 0.003-0.035 times theirs; kept, such a column's estimate is noise of either sign (k1 = -88 μrad/(N·m) at 0.001 deg)."""
 DETERMINED_FRACTION = 0.25
 """Closed-form sd, as a fraction of the estimate, under which a compliance counts in the unit check."""
 
@@ -164,3 +170,64 @@ def check_scale(campaign: Campaign, cf: ClosedForm, nominal: np.ndarray) -> None
     else:
         return
     raise InputError(f"the campaign's deflections imply {what}", source=campaign.source)
+
+
+def unresolved_columns(cf: ClosedForm, ident: Identifiability, nominal: np.ndarray) -> dict[int, str]:
+    """Per-angle columns kept by ``ident`` whose closed-form sd exceeds :data:`UNRESOLVED_RATIO` times the config's compliance.
+
+    Parameters
+    ----------
+    cf
+        The closed form (eq 33) on the columns ``ident`` keeps.
+    ident
+        What the design identifies structurally.
+    nominal
+        ``(nq,)`` the config's compliances (rad/(N·m); the compensated joint's ``1/K_theta2^0``).
+
+    Returns
+    -------
+    dict
+        Index into the per-angle columns → the reason, for :func:`~bayescal.inference.identifiability.analyse`.
+    """
+    sd = np.sqrt(np.diag(cf.cov))
+    unresolved = {}
+    for i, (joint, _), s in zip(np.flatnonzero(ident.identifiable), cf.columns, sd):
+        ratio = s / nominal[joint]
+        if ratio > UNRESOLVED_RATIO:
+            unresolved[int(i)] = (
+                f"the loads barely move joint {joint + 1}: the campaign resolves {ident.names[i]} only to "
+                f"±{ratio:.3g} times the config's value (1σ of the closed form, eq 37)"
+            )
+    return unresolved
+
+
+def campaign_identifiability(
+    campaign: Campaign,
+    equations: DeflectionEquations,
+    torque: np.ndarray,
+    geometry: np.ndarray | None,
+    hanging_only: bool,
+    unresolved: dict[int, str] | None = None,
+) -> Identifiability:
+    """What ``equations`` identify (:func:`~bayescal.inference.identifiability.analyse`), with the ``unresolved``
+    columns (:func:`unresolved_columns`) set apart, the eq 34 regressor checked, and refused when nothing is determined.
+
+    ``torque`` ``(N, nq)`` the loads' joint torques of every row (N·m); ``geometry`` the compensator's ``[L, a_x, a_y, phi]``
+    (m, rad; None without one); ``hanging_only`` the cell's end-effector hangs masses only (k1's reason says so).
+    """
+    configs = np.unique(campaign.config, return_index=True)[1]
+    ident = analyse(
+        equations.whitened().per_angle_design(),
+        equations.per_angle_columns(),
+        equations.compensated_angles,
+        torque[configs],
+        equations.angle[3 * configs],
+        equations.prismatic,
+        unresolved,
+    )
+    if hanging_only and "k1" in ident.reasons:
+        ident.reasons["k1"] += f"; {HANGING_ONLY_REASON}"
+    if ident.compensator:
+        ident = check_regression(ident, equations.per_angle_columns(), equations.compensated_angles, geometry)
+    check_determined(campaign, equations, ident)
+    return ident

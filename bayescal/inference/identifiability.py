@@ -145,6 +145,7 @@ def analyse(
     torque: np.ndarray,
     torque_angle: np.ndarray,
     prismatic: Sequence[bool] = (),
+    unresolved: Mapping[int, str] | None = None,
 ) -> Identifiability:
     """Rank, conditioning and identifiability of the per-angle design.
 
@@ -163,18 +164,16 @@ def analyse(
         ``(r,)`` angle index of each row of ``torque``.
     prismatic
         Which joints are prismatic; empty: all revolute.
+    unresolved
+        Column index → reason for columns the data resolve too poorly to keep
+        (:func:`~bayescal.inference.fit_checks.unresolved_columns`): not identifiable, whatever their norm.
     """
     names = [angle_label(q2[a], j) if a is not None else f"k{j + 1}" for j, a in columns]
     norms = np.linalg.norm(design, axis=0)
-    linear = np.zeros(torque.shape[1], dtype=bool)
-    linear[: len(prismatic)] = np.asarray(prismatic, dtype=bool)
-    # A revolute joint's torque is compared with the other torques only.
-    largest = {kind: float(np.abs(torque[:, linear == kind]).max(initial=0.0)) for kind in (False, True)}
-    reasons: dict[str, str] = {}
-    identifiable = norms > RANK_TOLERANCE * max(norms.max(initial=0.0), np.finfo(float).tiny)
-    for i, (joint, angle) in enumerate(columns):
-        if not identifiable[i]:
-            reasons[names[i]] = _unloaded_reason(joint, angle, q2, torque, torque_angle, largest[bool(linear[joint])], bool(linear[joint]))
+    identifiable, reasons = _vanishing(norms, names, columns, q2, torque, torque_angle, prismatic)
+    for i, reason in (unresolved or {}).items():
+        identifiable[i] = False
+        reasons[names[i]] = reason
 
     kept = np.flatnonzero(identifiable)
     scaled = design[:, kept] / norms[kept]
@@ -198,6 +197,20 @@ def analyse(
         reasons=reasons,
         compensator=compensator,
     )
+
+
+def _vanishing(norms, names, columns, q2, torque, torque_angle, prismatic) -> tuple[np.ndarray, dict[str, str]]:
+    """Which columns (of ``norms``) do not vanish, and the reason of each that does (arguments as :func:`analyse`'s)."""
+    linear = np.zeros(torque.shape[1], dtype=bool)
+    linear[: len(prismatic)] = np.asarray(prismatic, dtype=bool)
+    # A revolute joint's torque is compared with the other torques only.
+    largest = {kind: float(np.abs(torque[:, linear == kind]).max(initial=0.0)) for kind in (False, True)}
+    reasons: dict[str, str] = {}
+    identifiable = norms > RANK_TOLERANCE * max(norms.max(initial=0.0), np.finfo(float).tiny)
+    for i, (joint, angle) in enumerate(columns):
+        if not identifiable[i]:
+            reasons[names[i]] = _unloaded_reason(joint, angle, q2, torque, torque_angle, largest[bool(linear[joint])], bool(linear[joint]))
+    return identifiable, reasons
 
 
 def _drop_confounded(scaled: np.ndarray, kept: np.ndarray, rank: int, names: list[str], identifiable: np.ndarray, reasons: dict[str, str]) -> None:

@@ -111,9 +111,8 @@ def _identified(cell: Cell, points: PointsCell, campaign, results, seed: np.rand
     positions, *_ = campaign_positions(campaign, points)
     fit = ElasticKinematicCalibration.from_calibration(cell, points, calibration_from_tree(results.tree, cell)).fit(positions)
     corrections = fit.corrections()
-    # The first joint's placement shares its effect with the base's (the data fix their product, the priors the split),
-    # and calibrate refuses a campaign on a robot whose first axis leans off gravity by as little as 0.02 deg
-    # (k1 is then no longer structurally unidentifiable under hanging loads): the campaign's base frame is kept.
+    # The first joint's placement shares its effect with the base's (the data fix their product, the priors the split):
+    # the campaign's base frame is kept.  (Applied too, it moved k2..k5 a little closer still: docs/kinematics.md.)
     corrections[0] = 0.0
     identified = KinematicErrors(corrections, cell.robot.joint_names)
     return _fit(with_kinematic_errors(cell, identified), campaign, seed)
