@@ -28,7 +28,7 @@ from bayescal.errors import InputError
 from bayescal.tables import read_header, read_table
 from bayescal.units import MM
 
-__all__ = ["Nests", "read_nests", "NEST_COLUMNS", "require_times", "add_nest_column", "read_nest_column", "NEST_PLAN_COLUMN"]
+__all__ = ["Nests", "read_nests", "NEST_COLUMNS", "require_times", "nest_plan_column", "read_nest_column", "NEST_PLAN_COLUMN"]
 
 NEST_COLUMNS = ("nest", "t_s", "x_mm", "y_mm", "z_mm")
 NEST_PLAN_COLUMN = "read_nests"
@@ -127,16 +127,12 @@ def require_times(campaign_times: np.ndarray | None, campaign_source: str, optio
         )
 
 
-def add_nest_column(path: str | PathLike[str], every: int) -> None:
-    """Add :data:`NEST_PLAN_COLUMN` to the plan CSV at ``path``: 1 at configurations 1, 1 + ``every``, …, else 0,
-    with a note of when to read the nests there."""
-    lines = Path(path).read_text(encoding="utf-8").splitlines()
-    header = next(i for i, line in enumerate(lines) if line.strip() and not line.startswith("#"))
-    note = (f"# {NEST_PLAN_COLUMN} = 1: read every reference nest at this configuration while its load hangs and again after "
+def nest_plan_column(n_configurations: int, every: int) -> tuple[str, np.ndarray]:
+    """The plan's :data:`NEST_PLAN_COLUMN` ``(n_configurations,)``: 1 at configurations 1, 1 + ``every``, …, else 0;
+    and the note that says when to read the nests there."""
+    note = (f"{NEST_PLAN_COLUMN} = 1: read every reference nest at this configuration while its load hangs and again after "
             "it is removed, at each repeat; give the readings to calibrate and critique with --nests NESTS.csv")
-    out = lines[:header] + [note, lines[header] + f",{NEST_PLAN_COLUMN}"]
-    out += [line + f",{int(k % every == 0)}" for k, line in enumerate(lines[header + 1 :])]
-    Path(path).write_text("\n".join(out) + "\n", encoding="utf-8")
+    return note, (np.arange(n_configurations) % every == 0).astype(int)
 
 
 def read_nest_column(path: str | PathLike[str]) -> np.ndarray | None:

@@ -11,7 +11,7 @@ numbered 1, 2, … in file order; lines starting with ``#`` are provenance notes
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
@@ -223,8 +223,9 @@ def position_columns(n: int, prismatic: np.ndarray | None) -> tuple[list[str], n
     return [f"q{j + 1}_{'mm' if linear else 'deg'}" for j, linear in enumerate(flags)], np.where(flags, MM, DEG)
 
 
-def write_plan(plan: Plan, path: str | PathLike[str], *, comments: Sequence[str] = ()) -> None:
-    """Write ``plan`` in the format :func:`read_plan` reads; ``comments`` become leading ``#`` lines.
+def write_plan(plan: Plan, path: str | PathLike[str], *, comments: Sequence[str] = (), extra: Mapping[str, Sequence[int]] | None = None) -> None:
+    """Write ``plan`` in the format :func:`read_plan` reads; ``comments`` become leading ``#`` lines, ``extra``
+    integer columns (one value per configuration) follow the plan's own.
 
     Joint angles are written with 3 decimals in deg (about 17 μrad, far below the
     controllers' repeatability), prismatic joints' positions with 3 decimals in mm,
@@ -234,7 +235,8 @@ def write_plan(plan: Plan, path: str | PathLike[str], *, comments: Sequence[str]
     joints, scale = position_columns(plan.q.shape[1], plan.prismatic)
     columns = joints + ([] if plan.load_kg is None else ["load_kg"])
     columns += list(FORCE_COLUMNS) * (plan.force is not None) + list(COUPLE_COLUMNS) * (plan.couple is not None)
-    lines.append(",".join(columns))
+    extra = dict(extra or {})
+    lines.append(",".join(columns + list(extra)))
     for number, q in enumerate(plan.q):
         fields = [_decimal(value / unit, 3) for value, unit in zip(q, scale)]
         if plan.load_kg is not None:
@@ -242,7 +244,7 @@ def write_plan(plan: Plan, path: str | PathLike[str], *, comments: Sequence[str]
         for values in (plan.force, plan.couple):
             if values is not None:
                 fields += [_decimal(value, 1) for value in values[number]]
-        lines.append(",".join(fields))
+        lines.append(",".join(fields + [str(int(values[number])) for values in extra.values()]))
     Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 

@@ -217,11 +217,13 @@ def _discriminate(args: argparse.Namespace, cell) -> CommandOutput:
 
 def _save(design, path, comments: tuple[str, ...], nests_every: int | None) -> None:
     """Write the designed plan, with the column of the configurations at which to read the reference nests when asked."""
-    from bayescal.cell.nests import add_nest_column
+    from bayescal.cell.nests import NEST_PLAN_COLUMN, nest_plan_column
 
-    design.save(path, comments=comments)
-    if nests_every is not None:
-        add_nest_column(path, nests_every)
+    if nests_every is None:
+        design.save(path, comments=comments)
+        return
+    note, column = nest_plan_column(len(design.plan.q), nests_every)
+    design.save(path, comments=comments + (note,), extra={NEST_PLAN_COLUMN: column})
 
 
 def _command(args: argparse.Namespace, starts: int) -> str:

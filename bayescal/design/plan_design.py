@@ -100,8 +100,8 @@ class PlanDesign:
             "seed": self.seed,
         }
 
-    def save(self, path: str | PathLike[str], *, comments: tuple[str, ...] = ()) -> None:
-        """Write the plan in the format of ``data/table3_plan.csv``."""
+    def save(self, path: str | PathLike[str], *, comments: tuple[str, ...] = (), extra: dict[str, np.ndarray] | None = None) -> None:
+        """Write the plan in the format of ``data/table3_plan.csv``, with ``extra`` integer columns after its own."""
         rho0 = self.prediction.rho0
         note = (
             f"predicted rms error at the test pose after compensation {rho0 / MM:.5f} mm, everything counted "
@@ -109,7 +109,8 @@ class PlanDesign:
             if math.isfinite(rho0)
             else ""
         )
-        write_plan(self.plan, path, comments=(f"plan optimised for the {self.criterion} criterion, {self.repeats} repeats; {note}",) + tuple(comments))
+        write_plan(self.plan, path, comments=(f"plan optimised for the {self.criterion} criterion, {self.repeats} repeats; {note}",) + tuple(comments),
+                   extra=extra)
 
 
 @dataclass(frozen=True)

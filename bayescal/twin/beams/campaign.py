@@ -23,6 +23,7 @@ import numpy as np
 import pandas as pd
 
 from bayescal.errors import InputError
+from bayescal.output import record_read
 from bayescal.twin.beams.effects import OUTLIER_COUNT, OUTLIER_MM, check_effect, plant
 from bayescal.twin.beams.kr270 import kr270_class
 from bayescal.twin.beams.robot import Robot
@@ -41,6 +42,8 @@ _STREAMS = ("clock", "noise", "play", "outliers", "drift")
 def read_plan(plan: str | PathLike[str] | pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     """The plan's commanded joints (n, 6) rad and hanging masses (n,) kg, from a CSV (``#`` notes allowed) or a frame."""
     source = "plan" if isinstance(plan, pd.DataFrame) else str(plan)
+    if not isinstance(plan, pd.DataFrame):
+        record_read(plan, "the plan")
     frame = plan if isinstance(plan, pd.DataFrame) else pd.read_csv(plan, comment="#")
     for column in (*JOINT_COLUMNS, "load_kg"):
         if column not in frame.columns:
