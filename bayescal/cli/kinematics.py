@@ -24,7 +24,8 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--config", required=True, metavar="CELL.toml", help="cell of measured points: URDF, joints, markers, base, priors")
     # Checked in run: the rungs' module imports Pinocchio, which the parser of every command would then pay for.
     parser.add_argument("--model", help="the rung of the ladder to fit (docs/kinematics.md lists them; default full, geometry with --elastic)")
-    parser.add_argument("-o", "--output", metavar="CALIBRATION.nc", help="write the posterior (NetCDF) for `bayescal predict`")
+    parser.add_argument("-o", "--output", metavar="CALIBRATION.nc", help="write the posterior (NetCDF) for `bayescal predict` "
+                        "(with --elastic: and the deflection model, naming --elastic-config, which must stay unchanged)")
     parser.add_argument("--elastic", metavar="POSTERIOR.nc",
                         help="take the arm's deflection from an elastostatic calibration (`bayescal calibrate --posterior`), "
                         "its spring and masses refined, instead of the rung's own masses (a rigid --model; default geometry)")
@@ -43,9 +44,6 @@ def run(args: argparse.Namespace) -> CommandOutput:
         raise InputError(f"expected one of {', '.join(RUNGS + EXTENSIONS)}, got '{rung}'", source="--model")
     if (args.elastic is None) != (args.elastic_config is None):
         raise InputError("give --elastic and --elastic-config together", source="--elastic" if args.elastic is None else "--elastic-config")
-    if args.elastic is not None and args.output is not None:
-        raise InputError("not with --elastic: `bayescal predict` reads the points model's own rungs only (use the Python "
-                         "API, bayescal.kinematics.elastic, to predict with the elastostatic deflection)", source="-o")
     inputs = {"the positions": args.positions, "the config": args.config}
     if args.elastic is not None:
         inputs |= {"the elastostatic calibration": args.elastic, "the elastostatic cell": args.elastic_config}

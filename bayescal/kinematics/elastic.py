@@ -30,8 +30,10 @@ kinematic errors times the deflection (1 mrad of a few mm: a few μm).
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from functools import cached_property
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -44,7 +46,8 @@ from bayescal.kinematics.cell import PointsCell
 from bayescal.kinematics.fit import KinematicCalibration
 from bayescal.kinematics.model import Parameter, PointModel
 from bayescal.kinematics.positions import Positions
-from bayescal.kinematics.results import KinematicResults
+from bayescal.kinematics.results import KinematicResults, results_from_dataset
+from bayescal.output import record_read
 from bayescal.robot.batched import BatchedChain, equilibria
 from bayescal.robot.compensator import Compensator
 from bayescal.units import URAD_PER_NM
@@ -58,6 +61,9 @@ STEPS = {"K_c": 1e3, "K_c_s0": 1e2, "gravity_scale": 1e-2}
 """Finite-difference steps of the sag's derivatives (N/m, N, 1): 1 N/mm of a 100-300 N/mm spring, 100 N of a K_c·s0 of
 about 66 kN, 1 % of the masses.  The sag is linear in all three but for the spring's share of joint 2's stiffness
 (0.1 %, docs/twin.md) and the arm's deflected geometry."""
+
+REFINED = {"K_c": ("compensator", "N/mm", 1e3), "K_c_s0": ("compensator", "N", 1.0), "gravity_scale": ("masses", "1", 1.0)}
+"""Each refined parameter's group, edge unit and the unit's factor to SI (the parameter is named ``group.key``)."""
 
 LINEARISATIONS = 4
 """Refits about the last mode at most; the spring's values settle to 1e-3 of their sd in 2-3 on the twin."""
@@ -151,8 +157,7 @@ class ArmPointModel:
         self.rigid, self.deflection = rigid, deflection
         self.cell, self.rung, self.without = rigid.cell, rigid.rung, rigid.without
         self.keys = tuple(deflection.values())
-        units = {"K_c": ("compensator", "N/mm", 1e3), "K_c_s0": ("compensator", "N", 1.0), "gravity_scale": ("masses", "1", 1.0)}
-        extra = [Parameter(f"{units[k][0]}.{k}", units[k][0], units[k][1], units[k][2], prior_mean[k], prior_sd[k]) for k in self.keys]
+        extra = [Parameter(f"{REFINED[k][0]}.{k}", *REFINED[k], prior_mean[k], prior_sd[k]) for k in self.keys]
         self.parameters = rigid.parameters + tuple(extra)
         self.mean = np.array([p.mean for p in self.parameters])
         self.sd = np.array([p.sd for p in self.parameters])
@@ -299,4 +304,56 @@ class ElasticKinematicResults:
                                            "elastic": {"compliances_urad_per_Nm": (self.deflection.compliances / URAD_PER_NM).tolist()}}
 
     def save(self, path) -> None:
-        self.kinematic.save(path)
+        """Write the posterior as NetCDF, with the deflection model it was linearised on (:func:`elastic_results_from_dataset`).
+
+        The file holds the model's numbers (compliances, compensator, masses' scale: the elastostatic posterior's
+        medians, refined) so that it needs no posterior, and names the elastostatic cell (its path as given and its
+        SHA-256) for what numbers cannot carry: the URDF, the tool, the compensated joint.
+        """
+        point = self.kinematic.model.deflection
+        dataset = self.kinematic.dataset()
+        dataset.attrs |= {"elastic_cell": point.cell.source, "elastic_cell_sha256": _sha256(point.cell.source),
+                          "elastic_compliances_rad_per_Nm": point.compliances, "elastic_gravity_scale": point.gravity_scale}
+        if point.compensator is not None:
+            c = point.compensator
+            dataset.attrs["elastic_compensator_L_ax_ay_m_phi_rad_Kc_N_per_m_s0_m"] = np.array([c.L, c.a_x, c.a_y, c.phi, c.K_c, c.s0])
+        dataset.to_netcdf(path, engine="netcdf4")
+
+
+def _sha256(path: str) -> str:
+    record_read(path, "the elastostatic cell")
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def elastic_results_from_dataset(dataset, points: PointsCell, source: str) -> ElasticKinematicResults:
+    """The results :meth:`ElasticKinematicResults.save` wrote (``dataset``, read from ``source``) for ``points``.
+
+    Raises
+    ------
+    InputError
+        The elastostatic cell the file names is missing or has changed since.
+    """
+    from bayescal.cell.config import load_cell
+
+    cell_path = str(dataset.attrs["elastic_cell"])
+    if not Path(cell_path).is_file():
+        raise InputError(f"the elastostatic cell this calibration was made with, '{cell_path}', is missing (a relative "
+                         f"path is read from the folder `bayescal kinematics` ran in)", source=source)
+    if _sha256(cell_path) != dataset.attrs["elastic_cell_sha256"]:
+        raise InputError(f"the elastostatic cell this calibration was made with, '{cell_path}', has changed since "
+                         f"(its SHA-256 differs): run `bayescal kinematics` again", source=source)
+    cell = load_cell(cell_path)
+    values = dataset.attrs.get("elastic_compensator_L_ax_ay_m_phi_rad_Kc_N_per_m_s0_m")
+    deflection = ArmDeflection(cell, points, compliances=np.atleast_1d(dataset.attrs["elastic_compliances_rad_per_Nm"]),
+                               compensator=None if values is None else Compensator(*(float(v) for v in values)),
+                               gravity_scale=float(dataset.attrs["elastic_gravity_scale"]))
+    names = [str(n) for n in dataset["parameter"].values]
+    refined = {k: f"{REFINED[k][0]}.{k}" for k in deflection.values()}
+    absent = [name for name in refined.values() if name not in names]
+    if absent:
+        raise InputError(f"the calibration has no parameter '{absent[0]}' of its elastostatic model", source=source)
+    prior_mean, prior_sd = ({k: float(dataset[v].values[names.index(name)]) for k, name in refined.items()}
+                            for v in ("prior_mean", "prior_sd"))
+    model = ArmPointModel(PointModel(points, str(dataset.attrs["rung"])), deflection, prior_mean, prior_sd)
+    kinematic = results_from_dataset(dataset, model, source)
+    return ElasticKinematicResults(kinematic, model.refined(kinematic.mean))

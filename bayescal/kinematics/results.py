@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from os import PathLike
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -21,6 +22,9 @@ from bayescal.kinematics.cell import PointsCell
 from bayescal.kinematics.model import PointModel
 from bayescal.kinematics.positions import Positions
 from bayescal.output import record_read
+
+if TYPE_CHECKING:
+    from bayescal.kinematics.elastic import ElasticKinematicResults
 
 __all__ = ["KinematicResults", "load_kinematic_calibration", "IDENTIFIED_RATIO"]
 
@@ -146,22 +150,28 @@ class KinematicResults:
                 "not_identifiable": self.identifiability()}
 
     def save(self, path: str | PathLike[str]) -> None:
-        """Write the posterior as NetCDF: names, units, prior, mean and covariance (SI), the model error, the rung."""
+        """Write the posterior as NetCDF (:meth:`dataset`)."""
+        self.dataset().to_netcdf(path, engine="netcdf4")
+
+    def dataset(self):
+        """The posterior as an ``xarray.Dataset``: names, units, prior, mean and covariance (SI), the model error, the rung."""
         import xarray as xr
 
         names = list(self.model.names)
-        dataset = xr.Dataset(
+        return xr.Dataset(
             {"mean": ("parameter", self.mean), "prior_mean": ("parameter", self.model.mean), "prior_sd": ("parameter", self.model.sd),
              "covariance": (("parameter", "parameter_b"), self.covariance)},
             coords={"parameter": names, "parameter_b": names},
             attrs={"kind": KIND, "rung": self.model.rung, "without": ",".join(self.model.without), "model_sd_m": self.model_sd,
                    "cell": self.model.cell.source, "units": "SI (m, rad, rad/(N·m), kg, kg·m)"},
         )
-        dataset.to_netcdf(path, engine="netcdf4")
 
 
-def load_kinematic_calibration(path: str | PathLike[str], cell: PointsCell) -> KinematicResults:
+def load_kinematic_calibration(path: str | PathLike[str], cell: PointsCell) -> KinematicResults | ElasticKinematicResults:
     """Read a calibration written by :meth:`KinematicResults.save` for ``cell``.
+
+    A calibration on top of an elastostatic one (:meth:`~bayescal.kinematics.elastic.ElasticKinematicResults.save`)
+    is read as :class:`~bayescal.kinematics.elastic.ElasticKinematicResults`.
 
     Raises
     ------
@@ -179,12 +189,21 @@ def load_kinematic_calibration(path: str | PathLike[str], cell: PointsCell) -> K
         raise InputError(f"cannot read a kinematic calibration (NetCDF from `bayescal kinematics -o`): {exc}", source=source) from None
     if dataset.attrs.get("kind") != KIND:
         raise InputError("not a kinematic calibration (expected a file from `bayescal kinematics -o`)", source=source)
+    if "elastic_cell" in dataset.attrs:
+        # The elastic module builds on this one: importing it at the top would be circular.
+        from bayescal.kinematics.elastic import elastic_results_from_dataset
+
+        return elastic_results_from_dataset(dataset, cell, source)
     without = tuple(x for x in str(dataset.attrs.get("without", "")).split(",") if x)
-    model = PointModel(cell, str(dataset.attrs["rung"]), without=without)
+    return results_from_dataset(dataset, PointModel(cell, str(dataset.attrs["rung"]), without=without), source)
+
+
+def results_from_dataset(dataset, model, source: str) -> KinematicResults:
+    """The posterior of ``model`` a saved ``dataset`` (:meth:`KinematicResults.dataset`) holds, read from ``source``."""
     names = [str(n) for n in dataset["parameter"].values]
     if names != list(model.names):
         missing = next((n for n in model.names if n not in names), None) or next(n for n in names if n not in model.names)
         raise InputError(f"the calibration's parameters are not this cell's (first difference: '{missing}'); "
-                         f"was it made with another cell than {cell.source}?", source=source)
+                         f"was it made with another cell than {model.cell.source}?", source=source)
     return KinematicResults(model=model, mean=dataset["mean"].values, covariance=dataset["covariance"].values, information=None,
                             model_sd=float(dataset.attrs["model_sd_m"]), residuals=None, positions=None)

@@ -76,6 +76,3 @@ def test_elastic_needs_its_cell_and_a_rigid_rung(main, tmp_path, capsys, files):
     assert main(["kinematics", str(positions), "--config", files["points"], "--elastic", str(tmp_path / "x.nc"),
                  "--elastic-config", files["cell"], "--model", "full"]) == 2
     assert "--model: with --elastic the rung is rigid" in capsys.readouterr().err
-    assert main(["kinematics", str(positions), "--config", files["points"], "--elastic", str(tmp_path / "x.nc"),
-                 "--elastic-config", files["cell"], "-o", str(tmp_path / "k.nc")]) == 2
-    assert "-o: not with --elastic" in capsys.readouterr().err and not (tmp_path / "k.nc").exists()

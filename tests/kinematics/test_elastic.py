@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from bayescal.cell.config import load_cell
@@ -62,3 +64,69 @@ def test_table_iii_absolute_positions_identify_the_spring_and_the_errors(cell, p
         assert abs(mean - truth) < 3 * sd, truth
     assert spring["K_c"][1] < 5.0  # N/mm: the loaded-minus-unloaded campaign leaves ±100
     assert fit.kinematic.model_sd < 20e-6  # m; measured 10.8 μm on top of the tracker's 32-44
+
+
+@pytest.fixture(scope="module")
+def saved(tmp_path_factory, data_dir):
+    """A twin campaign with kinematic errors, calibrated, then fitted with ``--elastic`` and saved, on a copy of the cell."""
+    from bayescal.cli import main
+
+    folder = tmp_path_factory.mktemp("elasticio")
+    text = (data_dir / "kr270.toml").read_text()
+    text = text.replace('"robots/kr270.urdf"', f'"{(data_dir / "robots" / "kr270.urdf").as_posix()}"')
+    text = text.replace('"paper_reference.csv"', f'"{(data_dir / "paper_reference.csv").as_posix()}"')
+    files = {name: str(folder / name) for name in ("cell.toml", "campaign.csv", "positions.csv", "elastic.nc", "cal.nc")}
+    Path(files["cell.toml"]).write_text(text)
+    points = str(data_dir / "robots" / "kr270_points.toml")
+    assert main(["simulate", "--plan", str(data_dir / "table3_plan.csv"), "--config", files["cell.toml"], "--seed", "3",
+                 "--kinematic-errors", "1", "-o", files["campaign.csv"], "--positions", files["positions.csv"]]) == 0
+    assert main(["calibrate", files["campaign.csv"], "--config", files["cell.toml"], "--posterior", files["elastic.nc"]]) == 0
+    assert main(["kinematics", files["positions.csv"], "--config", points, "--elastic", files["elastic.nc"],
+                 "--elastic-config", files["cell.toml"], "-o", files["cal.nc"]]) == 0
+    return files | {"points": points}
+
+
+def test_predict_from_a_saved_elastic_calibration_is_the_fitted_ones(saved, tmp_path, capsys):
+    from bayescal.cli import main
+    from bayescal.compensation.calibration import load_calibration
+    from bayescal.kinematics import load_kinematic_calibration, read_positions
+
+    points = load_points_cell(saved["points"])
+    elastic_cell = load_cell(saved["cell.toml"])
+    positions = read_positions(saved["positions.csv"], points)
+    fitted = ElasticKinematicCalibration.from_calibration(elastic_cell, points, load_calibration(saved["elastic.nc"], elastic_cell)
+                                                          ).fit(positions)
+    loaded = load_kinematic_calibration(saved["cal.nc"], points)
+    mean, covariance = fitted.predict(positions.joints)
+    again, again_covariance = loaded.predict(positions.joints)
+    assert np.abs(again - mean).max() < 1e-9  # m
+    sd, again_sd = (np.sqrt(np.diagonal(c, axis1=-2, axis2=-1)) for c in (covariance, again_covariance))
+    assert np.abs(again_sd - sd).max() < 1e-9
+    assert np.abs(loaded.deflection(positions.joints) - fitted.deflection(positions.joints)).max() < 1e-9
+    asked = tmp_path / "asked.csv"
+    pd.read_csv(saved["positions.csv"], comment="#").drop(columns=["x_mm", "y_mm", "z_mm"]).to_csv(asked, index=False)
+    out = tmp_path / "predicted.csv"
+    assert main(["predict", str(asked), "--calibration", saved["cal.nc"], "--config", saved["points"], "-o", str(out)]) == 0
+    written = pd.read_csv(out)
+    # The file's rows are the configurations' markers in order; written to 1e-4 mm.
+    assert np.abs(written[["x_mm", "y_mm", "z_mm"]].to_numpy() - mean.reshape(-1, 3) * 1e3).max() < 0.6e-4
+    assert np.abs(written[["x_sd_mm", "y_sd_mm", "z_sd_mm"]].to_numpy() - sd.reshape(-1, 3) * 1e3).max() < 0.6e-4
+
+
+@pytest.mark.parametrize("change, expected", [
+    (lambda path: path.write_text(path.read_text() + "\n# edited\n"), "has changed since"),
+    (lambda path: path.rename(path.with_suffix(".moved")), "is missing"),
+])
+def test_a_changed_or_missing_elastostatic_cell_is_named(saved, tmp_path, capsys, change, expected):
+    from bayescal.cli import main
+
+    cell = tmp_path / "cell.toml"
+    cell.write_bytes(Path(saved["cell.toml"]).read_bytes())
+    calibration, out = tmp_path / "cal.nc", tmp_path / "predicted.csv"
+    assert main(["kinematics", saved["positions.csv"], "--config", saved["points"], "--elastic", saved["elastic.nc"],
+                 "--elastic-config", str(cell), "-o", str(calibration)]) == 0
+    capsys.readouterr()
+    change(cell)
+    assert main(["predict", saved["positions.csv"], "--calibration", str(calibration), "--config", saved["points"], "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert expected in err and str(cell) in err and len(err.splitlines()) == 1 and not out.exists()
