@@ -378,36 +378,36 @@ class PlanDesigner(Exchange, Refinement):
             For a request no plan can meet: an unknown criterion, more angles than the
             joint range allows, too few angles for the compensator, no feasible configuration.
         """
-        if candidates is None:
-            self.check_request(angles, per_angle, criterion, candidates_per_angle=candidates_per_angle)
-        else:
-            self._check_request(angles, per_angle, criterion)
         seed = rng if isinstance(rng, int) else None
         rng = np.random.default_rng(rng)
         if candidates is None:
+            self.check_request(angles, per_angle, criterion, candidates_per_angle=candidates_per_angle)
             candidates = self.candidates(rng, per_angle=candidates_per_angle, progress=progress)
-        grid, configurations, index, information, loads = candidates
-        available = [np.flatnonzero(index == g) for g in range(len(grid))]
-        usable = np.array([len(c) >= per_angle for c in available])
-        if np.count_nonzero(usable) < angles:
-            # No angle with that many: the configurations per angle are at fault, not the number of angles.
-            raise InputError(
-                f"only {np.count_nonzero(usable)} q2 angles have {per_angle} feasible configurations, {angles} requested",
-                source="angles" if usable.any() else "per_angle",
-            )
+        else:
+            self._check_request(angles, per_angle, criterion)
+        available, usable = _usable_angles(candidates[2], len(candidates[0]), angles, per_angle)
         bar = Progress(starts, f"plan: {criterion}", progress)
         best, scores = None, []
         for _ in range(starts):
-            groups = self._start(grid, usable, available, angles, per_angle, rng)
-            groups = self._exchange(groups, grid, usable, available, information, criterion)
-            chosen = [c for group in groups for c in group[1]]
-            q, load, score = self._refine(configurations[chosen], loads[chosen], angles, per_angle, criterion, rng, refine_steps)
+            q, load, score = self._one_start(candidates, available, usable, angles, per_angle, criterion, rng, refine_steps)
             scores.append(score)
             if best is None or score < best[2]:
                 best = (q, load, score)
             bar.step(best_text(best[2], criterion))
         bar.close()
-        plan = self._plan(best[0], best[1])
+        return self._design(self._plan(best[0], best[1]), criterion, scores, len(candidates[1]), seed)
+
+    def _one_start(self, candidates: tuple, available: list[np.ndarray], usable: np.ndarray, angles: int, per_angle: int,
+                   criterion: str, rng: np.random.Generator, refine_steps: int) -> tuple[np.ndarray, np.ndarray, float]:
+        """One random start: exchanged over the candidates, then refined; its joints, loads and criterion value."""
+        grid, configurations, _, information, loads = candidates
+        groups = self._start(grid, usable, available, angles, per_angle, rng)
+        groups = self._exchange(groups, grid, usable, available, information, criterion)
+        chosen = [c for group in groups for c in group[1]]
+        return self._refine(configurations[chosen], loads[chosen], angles, per_angle, criterion, rng, refine_steps)
+
+    def _design(self, plan, criterion: str, scores: list[float], n_candidates: int, seed: int | None) -> PlanDesign:
+        """The chosen plan with its predictions under both models and how the search found it."""
         return PlanDesign(
             plan=plan,
             criterion=criterion,
@@ -416,7 +416,7 @@ class PlanDesigner(Exchange, Refinement):
             model=self.model,
             repeats=self.repeats,
             starts=scores,
-            candidates=len(configurations),
+            candidates=n_candidates,
             seed=seed,
             plan_joint=self.cell.plan_joint,
         )
@@ -424,3 +424,16 @@ class PlanDesigner(Exchange, Refinement):
     def _separated(self, values: list[float]) -> bool:
         values = np.sort(values)
         return len(values) < 2 or bool(np.min(np.diff(values)) >= self.space.min_separation - 1e-12)
+
+
+def _usable_angles(index: np.ndarray, n_grid: int, angles: int, per_angle: int) -> tuple[list[np.ndarray], np.ndarray]:
+    """The candidates at each q2 of the grid and which q2 have ``per_angle`` of them, refusing fewer than ``angles`` such q2."""
+    available = [np.flatnonzero(index == g) for g in range(n_grid)]
+    usable = np.array([len(c) >= per_angle for c in available])
+    if np.count_nonzero(usable) < angles:
+        # No angle with that many: the configurations per angle are at fault, not the number of angles.
+        raise InputError(
+            f"only {np.count_nonzero(usable)} q2 angles have {per_angle} feasible configurations, {angles} requested",
+            source="angles" if usable.any() else "per_angle",
+        )
+    return available, usable
