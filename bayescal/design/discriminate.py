@@ -212,15 +212,7 @@ class DiscriminatingDesigner:
         """
         seed = rng if isinstance(rng, int) else None
         rng = np.random.default_rng(rng)
-        designer = PlanDesigner(self.cell, self.space, repeats=self.repeats, model="linear")
-        if angles < 1 or angles > designer.max_angles():
-            raise InputError(f"expected 1 to {designer.max_angles()} angles, got {angles}", source="angles")
-        if not 1 <= per_angle <= candidates_per_angle * MASS_LEVELS:
-            raise InputError(
-                f"expected 1 to {candidates_per_angle * MASS_LEVELS} configurations per q2 angle (the {candidates_per_angle} candidates "
-                f"the design draws at each, at {MASS_LEVELS} masses), got {per_angle}",
-                source="per_angle",
-            )
+        designer = self._checked_designer(angles, per_angle, candidates_per_angle)
         grid, configurations, index, _, _ = designer.candidates(rng, per_angle=candidates_per_angle)
         masses = np.linspace(*self.space.mass_range, MASS_LEVELS)
         markers = np.array(list(self.cell.markers.values()))
@@ -257,15 +249,34 @@ class DiscriminatingDesigner:
         plan = Plan(
             q=configurations[order // MASS_LEVELS], load_kg=masses[order % MASS_LEVELS], lines=np.zeros(len(order), dtype=int), source="optimised"
         )
+        return self._design_of(plan, information[order], tied, (blocks, beta), reached, pool.plan_joint, seed)
+
+    def _checked_designer(self, angles: int, per_angle: int, candidates_per_angle: int) -> PlanDesigner:
+        """The linear plan designer whose candidates the search draws from, refusing a request it cannot meet."""
+        designer = PlanDesigner(self.cell, self.space, repeats=self.repeats, model="linear")
+        if angles < 1 or angles > designer.max_angles():
+            raise InputError(f"expected 1 to {designer.max_angles()} angles, got {angles}", source="angles")
+        if not 1 <= per_angle <= candidates_per_angle * MASS_LEVELS:
+            raise InputError(
+                f"expected 1 to {candidates_per_angle * MASS_LEVELS} configurations per q2 angle (the {candidates_per_angle} candidates "
+                f"the design draws at each, at {MASS_LEVELS} masses), got {per_angle}",
+                source="per_angle",
+            )
+        return designer
+
+    def _design_of(self, plan: Plan, planned: np.ndarray, tied: np.ndarray, fitted: tuple, reached: list[float], plan_joint: int,
+                   seed: int | None) -> DiscriminatingDesign:
+        """The chosen plan with the separation it and the tied campaign give each pair of candidates."""
+        blocks, beta = fitted
         between = self.between
         return DiscriminatingDesign(
             plan=plan,
-            planned=_discrimination(between, information[order], blocks, beta),
+            planned=_discrimination(between, planned, blocks, beta),
             campaign=_discrimination(between, tied, blocks, beta),
             magnitudes={name: b.tolist() for name, b in zip(between, beta)},
             repeats=self.repeats,
             starts=reached,
-            plan_joint=pool.plan_joint,
+            plan_joint=plan_joint,
             seed=seed,
         )
 
