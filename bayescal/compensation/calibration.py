@@ -226,25 +226,7 @@ def calibration_from_tree(tree, cell: Cell, source: str = "the calibration") -> 
                 "log_sd": cell.compliance_log_sd,
                 "source": cell.compliance_log_sd_source,
             }
-    spring = geometry = None
-    if joint is not None:
-        if "K_c" not in posterior:
-            raise InputError(
-                "the calibration has no compensator model (K_c, s0: its campaign had fewer than three joint-2 angles); "
-                "the cell's compensated joint cannot be predicted at other angles",
-                source=source,
-            )
-        spring = np.column_stack([registry["K_c"].to_si(values("K_c")), registry["s0"].to_si(values("s0"))])
-        if "L" in posterior:
-            geometry = np.column_stack([p.to_si(values(p.name)) for p in GEOMETRY_PARAMETERS])
-        else:
-            c = cell.compensator
-            geometry = np.tile([c.L, c.a_x, c.a_y, c.phi], (size, 1))
-    elif "K_c" in posterior:
-        raise InputError(
-            f"the calibration has a compensator (K_c, s0) and the cell ({cell.source}) has none: it belongs to another cell",
-            source=source,
-        )
+    spring, geometry = _compensator_draws(posterior, values, cell, registry, size, source)
     gravity = float(values("gravity_scale").mean()) if "gravity_scale" in posterior else 1.0
     names = [f"k{j + 1}" for j in range(n)] + ["K_c", "s0"]
     return Calibration(
@@ -257,6 +239,31 @@ def calibration_from_tree(tree, cell: Cell, source: str = "the calibration") -> 
         source=source,
         priors=priors,
     )
+
+
+def _compensator_draws(posterior, values, cell: Cell, registry, size: int, source: str) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``(S, 2)`` the spring's ``K_c, s0`` draws and ``(S, 4)`` its geometry's (the cell's where the posterior has none), SI;
+    ``None, None`` for a cell without a compensator, refusing a calibration whose compensator is not the cell's."""
+    if cell.compensated_joint is not None:
+        if "K_c" not in posterior:
+            raise InputError(
+                "the calibration has no compensator model (K_c, s0: its campaign had fewer than three joint-2 angles); "
+                "the cell's compensated joint cannot be predicted at other angles",
+                source=source,
+            )
+        spring = np.column_stack([registry["K_c"].to_si(values("K_c")), registry["s0"].to_si(values("s0"))])
+        if "L" in posterior:
+            geometry = np.column_stack([p.to_si(values(p.name)) for p in GEOMETRY_PARAMETERS])
+        else:
+            c = cell.compensator
+            geometry = np.tile([c.L, c.a_x, c.a_y, c.phi], (size, 1))
+        return spring, geometry
+    if "K_c" in posterior:
+        raise InputError(
+            f"the calibration has a compensator (K_c, s0) and the cell ({cell.source}) has none: it belongs to another cell",
+            source=source,
+        )
+    return None, None
 
 
 def check_calibration_robot(tree, cell: Cell, source: str) -> None:
