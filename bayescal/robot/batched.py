@@ -365,19 +365,29 @@ def equilibria(
         When a linearised equilibrium is singular or a solve does not settle in ``max_iter`` iterations.
     """
     q = np.asarray(q, dtype=float)
-    n, nq = q.shape
-    k = np.broadcast_to(np.asarray(compliances, dtype=float), (n, nq))
+    joint_springs = _checked_springs(q, compliances, compensator, compensated_joint, gravity, springs)
+    return _solve_in_chunks(chain, q, _loads(chain, q, wrench, load_point), joint_springs, tol, max_iter)
+
+
+def _checked_springs(q: np.ndarray, compliances, compensator: Compensator | None, compensated_joint: int | None, gravity: bool,
+                     springs) -> _Springs:
+    """The joints' springs of :func:`equilibria`'s arguments, refusing non-positive compliances and a half-given compensator."""
+    k = np.broadcast_to(np.asarray(compliances, dtype=float), q.shape)
     if not np.all(np.isfinite(k) & (k > 0)):
         raise ValueError("joint compliances must be positive finite numbers in rad/(N·m)")
     if compensator is not None and compensated_joint is None:
         raise ValueError("a compensator needs compensated_joint, the index of the joint it acts on")
-    loads = _loads(chain, q, wrench, load_point)
     if springs is not None:
         if compensator is None:
             raise ValueError("springs replace a compensator's spring: give the compensator too")
-        springs = np.array(np.broadcast_to(np.asarray(springs, dtype=float), (n, 2)))
-    springs = _Springs(np.array(k), compensator, compensated_joint, gravity, springs)
-    result = np.empty((n, nq))
+        springs = np.array(np.broadcast_to(np.asarray(springs, dtype=float), (len(q), 2)))
+    return _Springs(np.array(k), compensator, compensated_joint, gravity, springs)
+
+
+def _solve_in_chunks(chain: BatchedChain, q: np.ndarray, loads, springs, tol: float, max_iter: int) -> np.ndarray:
+    """``(N, nq)`` the equilibria's deflections, :data:`CHUNK` configurations per Newton solve."""
+    n = len(q)
+    result = np.empty(q.shape)
     for start in range(0, n, CHUNK):
         part = np.arange(start, min(start + CHUNK, n))
         try:
