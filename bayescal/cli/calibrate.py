@@ -38,6 +38,11 @@ def add_parser(subparsers) -> None:
     )
     parser.add_argument("--noise", choices=("axis", "marker"), default="axis", help="unknown noise level per axis or per marker")
     parser.add_argument("--geometry", metavar="POSTERIOR.nc", help="geometry posterior from `bayescal geometry --posterior`")
+    parser.add_argument(
+        "--kinematics", metavar="KIN.nc",
+        help="compute the deflections on the robot geometry this kinematic calibration identified (`bayescal kinematics -o`): "
+             "its joint placement corrections, not its base or markers (docs/kinematics.md)",
+    )
     parser.add_argument("--posterior", metavar="OUT.nc", help="write the posterior as a NetCDF DataTree")
     parser.add_argument(
         "--draws",
@@ -66,9 +71,11 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.compensation.testpose import predict_cell_test_pose
 
     inputs = {"the campaign": args.campaign, "the config": args.config, "the --geometry posterior": args.geometry,
-              "the --registration file": args.registration, "the --nests file": args.nests}
+              "the --registration file": args.registration, "the --nests file": args.nests,
+              "the --kinematics calibration": args.kinematics}
     check_output("--posterior", args.posterior, inputs)
     cell = load_cell(args.config)
+    cell, identified = _on_identified_geometry(cell, args.kinematics) if args.kinematics else (cell, None)
     check_output("--posterior", args.posterior, inputs | {"the robot URDF": cell.robot.source})
     if args.geometry and not Path(args.geometry).is_file():
         what = "is a folder" if Path(args.geometry).is_dir() else "file not found"
@@ -106,13 +113,38 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
     payload = {"campaign": args.campaign} | results.to_json() | {"test_pose": test_pose.to_json()}
     payload["diagnostics"]["seed"] = args.seed
+    payload |= {"geometry": identified} if identified else {}
     if transfer is not None:
         payload["registration"] = {"source": args.registration} | transfer.to_json()
     if drift is not None:
         payload["drift"] = {"file": args.nests} | drift
-    text = "\n".join([_text(results, test_pose, args, cell.reference), *registration_lines(transfer, args.registration),
-                      *nests_lines(drift)])
+    text = "\n".join([*_geometry_lines(identified), _text(results, test_pose, args, cell.reference),
+                      *registration_lines(transfer, args.registration), *nests_lines(drift)])
     return CommandOutput(payload=json_safe(payload), text=text)
+
+
+def _on_identified_geometry(cell, path: str):
+    """``cell`` with its robot's joint placements corrected as the kinematic calibration at ``path`` identified, and the
+    JSON block that says so.
+
+    Only the joint placements move the deflections: the calibration's base placement (tracker to robot) does not
+    enter a campaign already in the robot's base frame, and the markers stay the cell's (the calibration's reflector
+    positions are those of its own points cell).
+    """
+    from bayescal.kinematics.results import read_joint_corrections
+    from bayescal.twin.kinematic_errors import KinematicErrors, with_kinematic_errors
+
+    corrections, corrected = read_joint_corrections(path, cell.robot.joint_names)
+    identified = with_kinematic_errors(cell, KinematicErrors(corrections, cell.robot.joint_names))
+    return identified, {"kinematics": path, "joints_corrected": list(corrected),
+                        "not_applied": ["the base placement in the tracker frame", "the reflector positions"]}
+
+
+def _geometry_lines(identified: dict | None) -> list[str]:
+    if identified is None:
+        return []
+    return [f"geometry: the one identified in {identified['kinematics']} (joint placements of "
+            f"{', '.join(identified['joints_corrected'])}; not applied: {' and '.join(identified['not_applied'])})"]
 
 
 def _text(results, test_pose, args, reference_file) -> str:
