@@ -66,6 +66,12 @@ def render_twin(findings: TwinFindings) -> dict[str, bytes]:
             _balance(f.balance),
             "",
         ]
+    out += _precision_section(f) + _effects_section(f)
+    return {REPORT_FILE: "\n".join(out).encode("utf-8")}
+
+
+def _precision_section(f: TwinFindings) -> list[str]:
+    """Eq 37's linear-model precision of the campaign beside Table IV."""
     rows = []
     for name, row in f.precision.iterrows():
         if math.isnan(row["sd"]):
@@ -75,7 +81,7 @@ def render_twin(findings: TwinFindings) -> dict[str, bytes]:
                 [name, f"{row['value']:g} {row['unit']}", f"{row['sd']:.3g}", f"{row['width_3sd_pct']:.2f}", _fmt(row["table_iv_pct"])]
             )
     ks, ratio = f.width_ratio
-    out += [
+    return [
         "## Linear-model precision (eq 37) against Table IV",
         "",
         "cov = (Bᵀ W B)⁻¹ with the eq-30 design of the whole campaign, W the inverse variance of each "
@@ -87,13 +93,17 @@ def render_twin(findings: TwinFindings) -> dict[str, bytes]:
         f"Geometric mean of the width ratios twin/Table IV over {', '.join(ks)}: {ratio:.2f}.",
         "",
     ]
-    out += [
+
+
+def _effects_section(f: TwinFindings) -> list[str]:
+    """What each planted effect does to the deflections and how much of it the refit cannot absorb."""
+    return [
         "## Planted effects at their default magnitudes",
         "",
         "Noiseless deflections with the effect minus those without it (first row: the nonlinear twin "
         "minus the linear model at the true parameters). The difference is refitted with the linearised "
         "identification model; what is left cannot be explained by joint compliances. Noncentrality = "
-        f"Σ r²/σ² over the {n} equations, the shift the effect causes in the χ² of the fit; the χ² spread "
+        f"Σ r²/σ² over the {f.n_equations} equations, the shift the effect causes in the χ² of the fit; the χ² spread "
         f"is sqrt(2n) = {f.chi2_spread:.1f}. Parameter shifts are the biases the refit absorbs (linearised; "
         "meaningless for K_c and s0, which the data cannot determine). `compensator=0` removes the compensator.",
         "",
@@ -103,7 +113,6 @@ def render_twin(findings: TwinFindings) -> dict[str, bytes]:
         ),
         "",
     ]
-    return {REPORT_FILE: "\n".join(out).encode("utf-8")}
 
 
 def _fmt(value: float) -> str:
