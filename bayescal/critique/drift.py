@@ -114,6 +114,20 @@ def _frame_motion(points: np.ndarray, times: np.ndarray, tracker: np.ndarray) ->
     return motion * times[:, np.newaxis, np.newaxis]
 
 
+def _after_first_unloaded(group: np.ndarray, state: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """``(R,)`` bool: every reading but each unloaded group's first in time.
+
+    A joint arriving at a configuration keeps the side of its play the move left it on; every later state
+    follows a loading and a joint's play returns to the same side each time: a configuration's first
+    unloaded reading is no repeat of its later ones (lost motion would pass for a drift).
+    """
+    first = np.zeros(group.size, dtype=bool)
+    for g in np.unique(group[state == 0]):
+        members = np.flatnonzero(group == g)
+        first[members[np.argmin(times[members])]] = True
+    return ~first
+
+
 def drift_evidence(rows: Rows, cell: Cell) -> DriftEvidence:
     """The six drift rates fitted to the campaign's readings of one state repeated in time (rows without times are ignored)."""
     tracker = np.asarray(cell.tracker.position, dtype=float)
@@ -126,14 +140,7 @@ def drift_evidence(rows: Rows, cell: Cell) -> DriftEvidence:
     state = np.repeat([0, 1], timed.sum())
     keys = np.stack([np.tile(rows.config[timed], 2), np.tile(np.unique(rows.marker, return_inverse=True)[1][timed], 2), state], axis=1)
     group = np.unique(keys, axis=0, return_inverse=True)[1].ravel()
-    # A joint arriving at a configuration keeps the side of its play the move left it on; every later state
-    # follows a loading and a joint's play returns to the same side each time: a configuration's first
-    # unloaded reading is no repeat of its later ones (lost motion would pass for a drift).
-    first = np.zeros(group.size, dtype=bool)
-    for g in np.unique(group[state == 0]):
-        members = np.flatnonzero(group == g)
-        first[members[np.argmin(times[members])]] = True
-    kept = ~first
+    kept = _after_first_unloaded(group, state, times)
     spread = np.array([np.ptp(times[kept & (group == g)]) if np.any(kept & (group == g)) else 0.0 for g in range(group.max() + 1)])
     useful = spread >= DISTINCT_TIME
     inside = useful[group] & kept

@@ -160,7 +160,6 @@ class Critique:
         if covariate is not None or unmatched:
             causes.append(UNEXPLAINED)
         equation_rows = np.repeat(np.arange(len(rows)), 3)
-        importance = self._importance(search.history, rows, y, scale, group, equation_rows)
         return CritiqueResults(
             causes=causes,
             unexplained_covariate=covariate,
@@ -180,7 +179,7 @@ class Critique:
             tied_with={cause: others for cause, others in search.tied.items() if others},
             contested_by={cause: others for cause, others in search.contested.items() if others},
             settings={e.name: e.reading(rows) for e in model.extensions if e.setting is not None},
-            importance=importance,
+            importance=self._importance(search.history, rows, y, scale, group, equation_rows),
             drift=measured or _drift_report(drift, rows, "drift" in self.catalogue),
         )
 
