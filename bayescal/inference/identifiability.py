@@ -273,6 +273,27 @@ def _unloaded_reason(joint: int, angle: int | None, q2, torque, torque_angle, la
     return f"the markers do not move when joint {joint + 1} turns{where}: the design column is zero"
 
 
+def _undetermined(row: pd.Series, prior: float | None) -> str | None:
+    """Why one parameter's posterior ``row`` leaves it undetermined (its ±3σ interval includes 0 under a flat prior,
+    or its sd is mostly its proper prior's), or None when the data determine it."""
+    mean, sd, unit = float(row["mean"]), float(row["sd"]), str(row["unit"])
+    # Rounded as every shown interval is: to the decimal of the second significant digit of its 3 sd.
+    places = max(0, 1 - math.floor(math.log10(3.0 * sd))) if sd > 0 and math.isfinite(sd) else 0
+    interval = f"[{row['lo3']:.{places}f}, {row['hi3']:.{places}f}] {unit}".rstrip()
+    if prior is None:
+        if 3.0 * sd < abs(mean):
+            return None
+        if mean:
+            return f"its ±3σ interval {interval} includes 0 (3 sd = {300.0 * sd / abs(mean):.0f} % of the mean)"
+        return f"its ±3σ interval {interval} is centred on 0"
+    if sd <= CONTRACTION_LIMIT * prior:
+        return None
+    return (
+        f"its posterior sd {sd:.4g} {unit} is {sd / prior:.2f} of its prior's {prior:.4g} {unit} "
+        f"(more than {CONTRACTION_LIMIT:g}): the posterior is mostly the prior"
+    )
+
+
 def practical_reasons(
     summary: pd.DataFrame,
     prior_sd: Mapping[str, float | None],
@@ -308,27 +329,9 @@ def practical_reasons(
     for name, prior in prior_sd.items():
         if name not in summary.index:
             continue
-        row = summary.loc[name]
-        mean, sd, unit = float(row["mean"]), float(row["sd"]), str(row["unit"])
-        # Rounded as every shown interval is: to the decimal of the second significant digit of its 3 sd.
-        places = max(0, 1 - math.floor(math.log10(3.0 * sd))) if sd > 0 and math.isfinite(sd) else 0
-        interval = f"[{row['lo3']:.{places}f}, {row['hi3']:.{places}f}] {unit}".rstrip()
-        if prior is None:
-            if 3.0 * sd < abs(mean):
-                continue
-            why = (
-                f"its ±3σ interval {interval} includes 0 (3 sd = {300.0 * sd / abs(mean):.0f} % of the mean)"
-                if mean
-                else f"its ±3σ interval {interval} is centred on 0"
-            )
-        else:
-            if sd <= CONTRACTION_LIMIT * prior:
-                continue
-            why = (
-                f"its posterior sd {sd:.4g} {unit} is {sd / prior:.2f} of its prior's {prior:.4g} {unit} "
-                f"(more than {CONTRACTION_LIMIT:g}): the posterior is mostly the prior"
-            )
-        reasons[name] = f"{context[name]}; {why}" if name in context else why
+        why = _undetermined(summary.loc[name], prior)
+        if why is not None:
+            reasons[name] = f"{context[name]}; {why}" if name in context else why
     for name, other in requires.items():
         if other in reasons and name in summary.index:
             why = f"{name} enters the model only through the product {name}·{other}, and {other} is not identifiable from these data"
