@@ -58,14 +58,11 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> CommandOutput:
-    from pathlib import Path
-
     import numpy as np
 
     from bayescal.cell.config import load_cell
     from bayescal.inference.elastostatic import EXTENSIONS, ElastostaticModel
     from bayescal.inference.samplers import elastostatic_sampler
-    from bayescal.inference.priors import posterior_geometry
     from bayescal.errors import InputError
     from bayescal.robot.stiffness import EquilibriumError
     from bayescal.compensation.testpose import predict_cell_test_pose
@@ -77,12 +74,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     cell = load_cell(args.config)
     cell, identified = _on_identified_geometry(cell, args.kinematics) if args.kinematics else (cell, None)
     check_output("--posterior", args.posterior, inputs | {"the robot URDF": cell.robot.source})
-    if args.geometry and not Path(args.geometry).is_file():
-        what = "is a folder" if Path(args.geometry).is_dir() else "file not found"
-        raise InputError(f"{what}; expected the NetCDF file `bayescal geometry --posterior` writes", source=args.geometry)
-    if args.geometry and cell.compensator is None:
-        raise InputError("--geometry: the config has no [compensator], so there is no compensator geometry to propagate", source=args.config)
-    geometry = posterior_geometry(args.geometry, cell.compensator) if args.geometry else None
+    geometry = _geometry_prior(args, cell) if args.geometry else None
     campaign, cell, transfer = read_campaign_in_base(args, args.campaign, cell)
     nests, drift = read_nests_in_base(args, campaign), None
     if nests is not None:
@@ -121,6 +113,21 @@ def run(args: argparse.Namespace) -> CommandOutput:
     text = "\n".join([*_geometry_lines(identified), _text(results, test_pose, args, cell.reference),
                       *registration_lines(transfer, args.registration), *nests_lines(drift)])
     return CommandOutput(payload=json_safe(payload), text=text)
+
+
+def _geometry_prior(args: argparse.Namespace, cell):
+    """The compensator geometry's posterior from ``--geometry``, as the prior of this fit."""
+    from pathlib import Path
+
+    from bayescal.errors import InputError
+    from bayescal.inference.priors import posterior_geometry
+
+    if not Path(args.geometry).is_file():
+        what = "is a folder" if Path(args.geometry).is_dir() else "file not found"
+        raise InputError(f"{what}; expected the NetCDF file `bayescal geometry --posterior` writes", source=args.geometry)
+    if cell.compensator is None:
+        raise InputError("--geometry: the config has no [compensator], so there is no compensator geometry to propagate", source=args.config)
+    return posterior_geometry(args.geometry, cell.compensator)
 
 
 def _on_identified_geometry(cell, path: str):
