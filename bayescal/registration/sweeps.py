@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from os import PathLike
 
 import numpy as np
+import pandas as pd
 
 from bayescal.cell.joint_tables import JointLayout, read_joint_table
 from bayescal.errors import InputError
@@ -71,6 +72,25 @@ class Sweeps:
         return Sweeps(self.joint[keep], self.q[keep], self.marker[keep], self.xyz[keep], self.line[keep], self.source)
 
 
+def _sweep_table(path: str | PathLike[str], robot: Robot | None) -> tuple[pd.DataFrame, np.ndarray, list[str]]:
+    """The sweep file's rows, its ``(R, m)`` joints (SI) and its joint columns: the robot's when given, else ``q1_deg … qm_deg``."""
+    columns = {"joint": "integer", "marker": "text", "x_mm": "number", "y_mm": "number", "z_mm": "number"}
+    position_units = {"x_mm": "mm", "y_mm": "mm", "z_mm": "mm"}
+    if robot is not None:
+        # An axis fit is geometry: angles beyond the URDF's limits (a sweep of ±360 deg where the URDF says ±350) are warned of, not refused.
+        frame, q = read_joint_table(
+            path, JointLayout.of(robot), columns, what="sweep file", units=position_units, span_in_degrees=False, limits_refuse=False
+        )
+        return frame, q, list(robot.position_columns)
+    q_columns = {f"q{k}_deg": "number" for k in range(1, MAX_JOINTS + 1)}
+    frame = read_table(path, columns, optional=q_columns, units=position_units | {c: "deg" for c in q_columns})
+    present = [c for c in q_columns if c in frame]
+    expected = [f"q{k}_deg" for k in range(1, len(present) + 1)]
+    if not present or present != expected:
+        raise InputError(f"expected joint-angle columns q1_deg … qm_deg without gaps, got {present or 'none'}", source=str(path), line=1)
+    return frame, frame[present].to_numpy() * DEG, present
+
+
 def read_sweeps(path: str | PathLike[str], robot: Robot | None = None) -> Sweeps:
     """Read a sweep file.
 
@@ -102,22 +122,7 @@ def read_sweeps(path: str | PathLike[str], robot: Robot | None = None) -> Sweeps
         angles.
     """
     source = str(path)
-    columns = {"joint": "integer", "marker": "text", "x_mm": "number", "y_mm": "number", "z_mm": "number"}
-    position_units = {"x_mm": "mm", "y_mm": "mm", "z_mm": "mm"}
-    if robot is not None:
-        # An axis fit is geometry: angles beyond the URDF's limits (a sweep of ±360 deg where the URDF says ±350) are warned of, not refused.
-        frame, q = read_joint_table(
-            path, JointLayout.of(robot), columns, what="sweep file", units=position_units, span_in_degrees=False, limits_refuse=False
-        )
-        present = list(robot.position_columns)
-    else:
-        q_columns = {f"q{k}_deg": "number" for k in range(1, MAX_JOINTS + 1)}
-        frame = read_table(path, columns, optional=q_columns, units=position_units | {c: "deg" for c in q_columns})
-        present = [c for c in q_columns if c in frame]
-        expected = [f"q{k}_deg" for k in range(1, len(present) + 1)]
-        if not present or present != expected:
-            raise InputError(f"expected joint-angle columns q1_deg … qm_deg without gaps, got {present or 'none'}", source=source, line=1)
-        q = frame[present].to_numpy() * DEG
+    frame, q, present = _sweep_table(path, robot)
     lines = frame.index.to_numpy()
     joint = frame["joint"].to_numpy(dtype=int)
     bad = np.flatnonzero((joint < 1) | (joint > len(present)))
