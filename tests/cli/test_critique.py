@@ -24,6 +24,20 @@ def run(capsys, argv):
     captured = capsys.readouterr()
     return status, captured.out, captured.err
 
+def _critique_of_twin(capsys, cell, plan, tmp_path, effect: str):
+    """The twin's Table III campaign (3 repeats, seed [3, 39]) with one planted effect, written and criticised: its path,
+    the exit status and the printed text."""
+    import numpy as np
+
+    from bayescal.twin.effects import parse_effect
+    from bayescal.twin.simulator import DigitalTwin
+
+    campaign = DigitalTwin(cell, [parse_effect(effect)]).simulate(plan, 3, np.random.default_rng(np.random.SeedSequence([3, 39])))
+    path = tmp_path / "campaign.csv"
+    write_campaign(campaign, path)
+    status, out, _ = run(capsys, [str(path), "--config", CONFIG])
+    return path, status, out
+
 
 def test_json_names_the_planted_cause_and_the_gain(capsys, campaign_files, tmp_path):
     status, out, _ = run(capsys, [str(campaign_files["backlash"]), "--config", CONFIG, "--json", "--figures", str(tmp_path)])
@@ -108,15 +122,7 @@ def test_geometry_bad_input_is_one_line_and_exit_2(capsys, tmp_path, argv, expec
 
 def test_a_tie_offers_the_plan_that_separates_that_pair_and_drift_says_how_to_become_testable(capsys, cell, plan, tmp_path):
     # the twin's Table III campaign whose nonlinear stiffness ties with backlash (their fitted deflections within the noise)
-    import numpy as np
-
-    from bayescal.twin.effects import parse_effect
-    from bayescal.twin.simulator import DigitalTwin
-
-    campaign = DigitalTwin(cell, [parse_effect("nonlinear_stiffness=0.3")]).simulate(plan, 3, np.random.default_rng(np.random.SeedSequence([3, 39])))
-    path = tmp_path / "tied.csv"
-    write_campaign(campaign, path)
-    status, out, _ = run(capsys, [str(path), "--config", CONFIG])
+    path, status, out = _critique_of_twin(capsys, cell, plan, tmp_path, "nonlinear_stiffness=0.3")
     assert status == 0
     assert "nonlinear_stiffness tied with backlash" in out
     assert f"--criterion discriminate --between nonlinear_stiffness,backlash --campaign {path}" in out
@@ -127,15 +133,7 @@ def test_a_tie_offers_the_plan_that_separates_that_pair_and_drift_says_how_to_be
 def test_a_detectable_cause_too_small_to_matter_is_said_so_in_the_verdict(capsys, cell, plan, tmp_path):
     # the twin's Table III campaign with 1 % gross readings (seed [3, 39]): the robust fit moves the test pose
     # by 3.0 μm against its sd of 5.4 μm
-    import numpy as np
-
-    from bayescal.twin.effects import parse_effect
-    from bayescal.twin.simulator import DigitalTwin
-
-    campaign = DigitalTwin(cell, [parse_effect("outliers=0.01")]).simulate(plan, 3, np.random.default_rng(np.random.SeedSequence([3, 39])))
-    path = tmp_path / "outliers.csv"
-    write_campaign(campaign, path)
-    status, out, _ = run(capsys, [str(path), "--config", CONFIG])
+    _, status, out = _critique_of_twin(capsys, cell, plan, tmp_path, "outliers=0.01")
     assert status == 0
     assert "verdict: misfit - causes in order of gain: outliers (outliers detectable but too small to matter at the test pose)" in out
     assert "outliers is detectable on held-out configurations but too small to matter" in out.replace("\n", " ")
