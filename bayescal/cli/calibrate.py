@@ -138,11 +138,13 @@ def _on_identified_geometry(cell, path: str):
     enter a campaign already in the robot's base frame, and the markers stay the cell's (the calibration's reflector
     positions are those of its own points cell).
     """
+    import dataclasses
+
+    from bayescal.kinematics.axes import corrected_robot
     from bayescal.kinematics.results import read_joint_corrections
-    from bayescal.twin.kinematic_errors import KinematicErrors, with_kinematic_errors
 
     corrections, corrected = read_joint_corrections(path, cell.robot.joint_names)
-    identified = with_kinematic_errors(cell, KinematicErrors(corrections, cell.robot.joint_names))
+    identified = dataclasses.replace(cell, robot=corrected_robot(cell.robot, corrections))
     return identified, {"kinematics": path, "joints_corrected": list(corrected),
                         "not_applied": ["the base placement in the tracker frame", "the reflector positions"]}
 

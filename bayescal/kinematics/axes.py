@@ -19,7 +19,9 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-__all__ = ["axis_frame", "joints_about_z"]
+from bayescal.robot.kinematics import Robot
+
+__all__ = ["axis_frame", "corrected_robot", "joints_about_z"]
 
 _UNIT_Z = np.array([0.0, 0.0, 1.0])
 
@@ -76,3 +78,20 @@ def joints_about_z(model: pin.Model) -> pin.Model:
                           turn.inverse().act(frame.inertia))
         out.addFrame(moved, False)
     return out
+
+
+def corrected_robot(robot: Robot, deltas: np.ndarray) -> Robot:
+    """A copy of ``robot`` with joint ``j``'s placement right-multiplied by ``exp(δ_j)``, ``δ_j = deltas[j - 1]``
+    ``(tx, ty, tz, rx, ry, rz)`` (m, rad) written in the frame where that joint's axis is z (:func:`axis_frame`).
+
+    The one way a joint placement correction is applied: by the twin to draw a robot that is not its URDF, and
+    by ``calibrate --kinematics`` to put a kinematic calibration's identified placements on the cell's robot.
+    """
+    if deltas.shape != (robot.nq, 6):
+        raise ValueError(f"expected corrections of shape ({robot.nq}, 6), got {deltas.shape}")
+    model = robot.model.copy()
+    axes = joint_axes(model)
+    for j in range(1, model.njoints):
+        turn = pin.SE3(axis_frame(axes[j]), np.zeros(3))
+        model.jointPlacements[j] = model.jointPlacements[j] * (turn * pin.exp6(pin.Motion(deltas[j - 1])) * turn.inverse())
+    return Robot(model, flange=robot.flange, source=robot.source)

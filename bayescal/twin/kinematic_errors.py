@@ -20,10 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-import pinocchio as pin
 
 from bayescal.cell.config import Cell
-from bayescal.kinematics.axes import axis_frame, joint_axes
+from bayescal.kinematics.axes import corrected_robot
 from bayescal.robot.kinematics import Robot
 from bayescal.units import DEG, MM
 
@@ -69,15 +68,7 @@ class KinematicErrors:
 
     def apply(self, robot: Robot) -> Robot:
         """A copy of ``robot`` with every joint's placement times its error (in the joint's axis frame)."""
-        if self.deltas.shape != (robot.nq, 6):
-            raise ValueError(f"expected errors of shape ({robot.nq}, 6), got {self.deltas.shape}")
-        model = robot.model.copy()
-        axes = joint_axes(model)
-        for j in range(1, model.njoints):
-            turn = pin.SE3(axis_frame(axes[j]), np.zeros(3))
-            error = turn * pin.exp6(pin.Motion(self.deltas[j - 1])) * turn.inverse()
-            model.jointPlacements[j] = model.jointPlacements[j] * error
-        return Robot(model, flange=robot.flange, source=robot.source)
+        return corrected_robot(robot, self.deltas)
 
     def summary(self) -> pd.DataFrame:
         """One row per joint: each component in mm or deg."""
