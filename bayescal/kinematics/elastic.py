@@ -65,6 +65,10 @@ about 66 kN, 1 % of the masses.  The sag is linear in all three but for the spri
 REFINED = {"K_c": ("compensator", "N/mm", 1e3), "K_c_s0": ("compensator", "N", 1.0), "gravity_scale": ("masses", "1", 1.0)}
 """Each refined parameter's group, edge unit and the unit's factor to SI (the parameter is named ``group.key``)."""
 
+COMPLIANCE_STEP = 1e-3
+"""Relative finite-difference step of a load's deflection in the compliances (it is linear in them but for the
+deflected geometry's share, below 1 %)."""
+
 LINEARISATIONS = 4
 """Refits about the last mode at most; the spring's values settle to 1e-3 of their sd in 2-3 on the twin."""
 
@@ -212,12 +216,17 @@ class ElasticKinematicCalibration:
         posterior's for the spring and the cell's ``mass_sd_fraction`` for the masses).
     rung
         One of :data:`RIGID_RUNGS`.
+    compliance_covariance
+        ``(nq, nq)`` the elastostatic posterior's covariance of the joint compliances (rad²/(N·m)²), carried to the
+        loaded predictions; None: the compliances taken as known.
     """
 
-    def __init__(self, points: PointsCell, deflection: ArmDeflection, prior_sd: dict[str, float], rung: str = "geometry") -> None:
+    def __init__(self, points: PointsCell, deflection: ArmDeflection, prior_sd: dict[str, float], rung: str = "geometry",
+                 compliance_covariance: np.ndarray | None = None) -> None:
         if rung not in RIGID_RUNGS:
             raise ValueError(f"rung must be one of {', '.join(RIGID_RUNGS)} (the elastostatic model gives the elastic part), got {rung!r}")
         self.points, self.deflection, self.prior_sd, self.rung = points, deflection, prior_sd, rung
+        self.compliance_covariance = compliance_covariance
 
     @classmethod
     def from_calibration(cls, cell: Cell, points: PointsCell, calibration: Calibration, rung: str = "geometry") -> ElasticKinematicCalibration:
@@ -225,7 +234,8 @@ class ElasticKinematicCalibration:
         deflection = ArmDeflection.from_calibration(cell, points, calibration)
         draws = calibration.spring
         spring = {} if draws is None else {"K_c": float(np.std(draws[:, 0])), "K_c_s0": float(np.std(draws[:, 0] * draws[:, 1]))}
-        return cls(points, deflection, spring | {"gravity_scale": points.priors.mass_fraction}, rung)
+        return cls(points, deflection, spring | {"gravity_scale": points.priors.mass_fraction}, rung,
+                   np.atleast_2d(np.cov(calibration.own, rowvar=False)))
 
     def fit(self, positions: Positions) -> ElasticKinematicResults:
         """The posterior given unloaded ``positions``: refitted about each mode until the spring and masses settle."""
@@ -239,29 +249,63 @@ class ElasticKinematicCalibration:
             results = KinematicCalibration(self.points, model=model).fit(positions, start=results)
             if moved.max() < 1e-3:
                 break
-        return ElasticKinematicResults(results, model.refined(results.mean))
+        return ElasticKinematicResults(results, model.refined(results.mean), self.compliance_covariance)
 
 
 @dataclass(frozen=True)
 class ElasticKinematicResults:
-    """The posterior (:attr:`kinematic`, rigid parameters then the spring's and the masses') and the refined elastostatic model."""
+    """The posterior (:attr:`kinematic`, rigid parameters then the spring's and the masses'), the refined elastostatic
+    model, and the elastostatic posterior's covariance of the joint compliances (``(nq, nq)``, rad²/(N·m)²; None: taken
+    as known)."""
 
     kinematic: KinematicResults
     deflection: ArmDeflection
+    compliance_covariance: np.ndarray | None = None
 
     def predict(self, joints: np.ndarray, wrenches: np.ndarray | None = None,
                 load_points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(N, M, 3)`` positions (m, tracker frame) and ``(N, M, 3, 3)`` predictive covariances under ``wrenches`` ``(N, 6)``
         at ``load_points`` (:meth:`ArmDeflection.__call__`).
 
-        The unloaded prediction and its covariance are the fitted model's (posterior, tracker, learned model error);
-        a load adds the refined elastostatic model's extra deflection, whose own spread (the compliances'
-        posterior, 0.2-2.3 % on the KR-270) is left out.
+        The unloaded prediction and its covariance are the fitted model's (posterior, tracker, learned model error).
+        A load adds the refined elastostatic model's extra deflection and its spread, linearised: in the refined
+        spring and masses through their posterior (with its correlations to the geometry), and in the joint
+        compliances through :attr:`compliance_covariance` (a separate calibration's, so independent of the rest).
         """
-        mean, covariance = self.kinematic.predict(joints)
-        if wrenches is not None:
-            mean = mean + self.deflection(joints, wrenches, load_points) - self.deflection(joints)
-        return mean, covariance
+        if wrenches is None:
+            return self.kinematic.predict(joints)
+        extra = self._load_deflection(self.deflection, joints, wrenches, load_points)
+        model = self.kinematic.model
+        refined = np.zeros(extra.shape + (model.size,))
+        for index, key in enumerate(model.keys, start=model.rigid.size):
+            moved = self.deflection.values()
+            moved[key] += STEPS[key]
+            refined[..., index] = (self._load_deflection(self.deflection.with_values(moved), joints, wrenches, load_points)
+                                   - extra) / STEPS[key]
+        mean, covariance = self.kinematic.predict(joints, added_jacobian=refined)
+        if self.compliance_covariance is not None:
+            compliances = self._compliance_jacobian(extra, joints, wrenches, load_points)
+            covariance = covariance + np.einsum("nmap,pq,nmbq->nmab", compliances, self.compliance_covariance, compliances,
+                                                optimize=True)
+        return mean + extra, covariance
+
+    @staticmethod
+    def _load_deflection(deflection: ArmDeflection, joints, wrenches, load_points) -> np.ndarray:
+        """``(N, M, 3)`` what the load adds to each marker's deflection (m)."""
+        return deflection(joints, wrenches, load_points) - deflection(joints)
+
+    def _compliance_jacobian(self, extra: np.ndarray, joints, wrenches, load_points) -> np.ndarray:
+        """``(N, M, 3, nq)`` the load's deflection's derivatives in the joint compliances (m per rad/(N·m))."""
+        base = self.deflection
+        columns = []
+        for j, value in enumerate(base.compliances):
+            step = COMPLIANCE_STEP * max(abs(value), 1e-8)
+            compliances = base.compliances.copy()
+            compliances[j] += step
+            moved = ArmDeflection(base.cell, base.points, compliances=compliances, compensator=base.compensator,
+                                  gravity_scale=base.gravity_scale)
+            columns.append((self._load_deflection(moved, joints, wrenches, load_points) - extra) / step)
+        return np.stack(columns, axis=-1)
 
     def spring(self) -> dict[str, tuple[float, float]] | None:
         """``K_c`` (N/mm) and ``s0`` (mm), each ``(mean, sd)``: ``s0 = K_c_s0 / K_c`` and its sd to first order; None without
@@ -306,14 +350,16 @@ class ElasticKinematicResults:
     def save(self, path) -> None:
         """Write the posterior as NetCDF, with the deflection model it was linearised on (:func:`elastic_results_from_dataset`).
 
-        The file holds the model's numbers (compliances, compensator, masses' scale: the elastostatic posterior's
-        medians, refined) so that it needs no posterior, and names the elastostatic cell (its path as given and its
+        The file holds the model's numbers (compliances and their posterior covariance, compensator, masses' scale:
+        the elastostatic posterior's medians, refined) so that it needs no posterior, and names the elastostatic cell (its path as given and its
         SHA-256) for what numbers cannot carry: the URDF, the tool, the compensated joint.
         """
         point = self.kinematic.model.deflection
         dataset = self.kinematic.dataset()
         dataset.attrs |= {"elastic_cell": point.cell.source, "elastic_cell_sha256": _sha256(point.cell.source),
                           "elastic_compliances_rad_per_Nm": point.compliances, "elastic_gravity_scale": point.gravity_scale}
+        if self.compliance_covariance is not None:
+            dataset.attrs["elastic_compliance_covariance_rad2_per_Nm2"] = self.compliance_covariance.ravel()
         if point.compensator is not None:
             c = point.compensator
             dataset.attrs["elastic_compensator_L_ax_ay_m_phi_rad_Kc_N_per_m_s0_m"] = np.array([c.L, c.a_x, c.a_y, c.phi, c.K_c, c.s0])
@@ -356,4 +402,7 @@ def elastic_results_from_dataset(dataset, points: PointsCell, source: str) -> El
                             for v in ("prior_mean", "prior_sd"))
     model = ArmPointModel(PointModel(points, str(dataset.attrs["rung"])), deflection, prior_mean, prior_sd)
     kinematic = results_from_dataset(dataset, model, source)
-    return ElasticKinematicResults(kinematic, model.refined(kinematic.mean))
+    covariance = dataset.attrs.get("elastic_compliance_covariance_rad2_per_Nm2")
+    if covariance is not None:
+        covariance = np.reshape(covariance, (len(deflection.compliances),) * 2)
+    return ElasticKinematicResults(kinematic, model.refined(kinematic.mean), covariance)

@@ -76,13 +76,16 @@ class KinematicResults:
         """``(N, M)`` the distance (m) between each measured and predicted marker."""
         return np.linalg.norm(self.residuals, axis=-1)
 
-    def predict(self, joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def predict(self, joints: np.ndarray, added_jacobian: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Marker positions of commanded configurations and their predictive covariance.
 
         Parameters
         ----------
         joints
             ``(N, n_commanded)`` commanded joint angles (rad).
+        added_jacobian
+            ``(N, M, 3, P)`` the derivatives in the parameters of a displacement the caller adds to the positions
+            (a load's deflection, m per SI unit): they join the model's in the posterior's part of the covariance.
 
         Returns
         -------
@@ -93,6 +96,8 @@ class KinematicResults:
         """
         cell = self.model.cell
         predicted, jacobian = self.model.predict(self.mean, cell.model_configuration(joints))
+        if added_jacobian is not None:
+            jacobian = jacobian + added_jacobian
         covariance = np.einsum("nmap,pq,nmbq->nmab", jacobian, self.covariance, jacobian, optimize=True)
         noise = cell.tracker.sigma(predicted) ** 2 + self.model_sd**2
         return predicted, covariance + noise[..., None, None] * np.eye(3)

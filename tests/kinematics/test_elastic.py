@@ -130,3 +130,35 @@ def test_a_changed_or_missing_elastostatic_cell_is_named(saved, tmp_path, capsys
     assert main(["predict", saved["positions.csv"], "--calibration", str(calibration), "--config", saved["points"], "-o", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert expected in err and str(cell) in err and len(err.splitlines()) == 1 and not out.exists()
+
+
+def test_a_loads_predictive_covariance_carries_the_compliances_posterior(saved):
+    """The loaded prediction's covariance adds the compliances' spread: the linearised term equals the spread of the
+    load's deflection over the elastostatic posterior's draws, and a saved calibration predicts the same."""
+    from bayescal.compensation.calibration import load_calibration
+    from bayescal.kinematics import load_kinematic_calibration
+    from bayescal.cell.campaign import read_campaign
+
+    points, elastic_cell = load_points_cell(saved["points"]), load_cell(saved["cell.toml"])
+    calibration = load_calibration(saved["elastic.nc"], elastic_cell)
+    positions, *_ = campaign_positions(read_campaign(saved["campaign.csv"], cell=elastic_cell), points)
+    fitted = ElasticKinematicCalibration.from_calibration(elastic_cell, points, calibration).fit(positions)
+    observed, wrenches, load_points = campaign_positions(read_campaign(saved["campaign.csv"], cell=elastic_cell), points, loaded=True)
+    mean, covariance = fitted.predict(observed.joints, wrenches, load_points)
+    _, without = dataclasses.replace(fitted, compliance_covariance=None).predict(observed.joints, wrenches, load_points)
+    added = covariance - without
+
+    base = fitted.deflection
+    draws = []
+    for own in calibration.own[:: max(1, calibration.n_draws // 400)]:
+        moved = ArmDeflection(base.cell, points, compliances=own, compensator=base.compensator, gravity_scale=base.gravity_scale)
+        draws.append(moved(observed.joints, wrenches, load_points) - moved(observed.joints))
+    spread = np.einsum("snma,snmb->nmab", *(2 * [np.asarray(draws) - np.mean(draws, axis=0)])) / (len(draws) - 1)
+    variances = np.diagonal(added, axis1=-2, axis2=-1)
+    largest = variances > 0.1 * variances.max()
+    ratio = variances[largest] / np.diagonal(spread, axis1=-2, axis2=-1)[largest]
+    assert np.all(np.abs(ratio - 1.0) < 0.25), ratio  # sampling error of ~400 draws and the linearisation
+    assert np.sqrt(variances.max()) > 5e-6  # m: worth carrying beside the tracker's tens of microns
+
+    again, again_covariance = load_kinematic_calibration(saved["cal.nc"], points).predict(observed.joints, wrenches, load_points)
+    assert np.abs(again - mean).max() < 1e-9 and np.abs(again_covariance - covariance).max() < 1e-15
