@@ -119,3 +119,13 @@ def test_the_help_texts_list_the_registries(command, capsys):
         assert all(f"{name}: {' '.join(effect.summary.split())}" in text for name, effect in EFFECTS.items())
     else:
         assert f"({', '.join(CATALOGUE)};" in text
+
+
+def test_the_sweep_critiques_candidates_table_is_the_catalogue():
+    from bayescal.registration.critique import CANDIDATES, UNITS
+
+    rows = _table("registration.md", "| candidate | what | parameters | size reported in |")
+    assert _names(rows) == list(CANDIDATES)
+    assert [int(row[2]) for row in rows] == list(CANDIDATES.values())
+    # the page writes μm where the JSON's unit is ASCII
+    assert [row[3] for row in rows] == [UNITS[name].replace("um", "μm") for name in CANDIDATES]
