@@ -95,6 +95,7 @@ from __future__ import annotations
 import json
 import warnings
 from dataclasses import dataclass, field
+from typing import NamedTuple
 from os import PathLike
 from pathlib import Path
 
@@ -207,6 +208,22 @@ def _residual_statistics(points: MarkerPoints, validation: AngleValidation) -> d
 # --------------------------------------------------------------------------- the critique
 
 
+class _Selection(NamedTuple):
+    """What the forward selection over the catalogue ended with."""
+
+    spec: _Spec
+    final: AngleValidation
+    causes: list[str]
+    """The extensions added, in order."""
+    steps: list[dict[str, Comparison]]
+    """Each round's comparisons of the extensions tried against the model so far."""
+    estimates: dict[str, dict[str, float]]
+    leads: dict[str, tuple[str, Comparison]]
+    """Each cause's runner-up and its lead over it."""
+    skipped: list[str]
+    """Extensions left out for lack of degrees of freedom."""
+
+
 @dataclass
 class GeometryCritique:
     """Criticism of the planar two-step compensator-geometry model on tracker points.
@@ -242,8 +259,7 @@ class GeometryCritique:
         reference = np.unique(points.q2)
         base = _validate(points, _Spec(), reference)
         selection = self._select(points, reference, base)
-        spec, current, skipped = selection["spec"], selection["final"], selection["skipped"]
-        causes = selection["causes"]
+        spec, current, causes, skipped = selection.spec, selection.final, selection.causes, selection.skipped
         probes = {}
         for name in self.probes:
             try:
@@ -256,10 +272,10 @@ class GeometryCritique:
         return GeometryCritiqueResults(
             causes=causes,
             unexplained_covariate=covariate,
-            steps=selection["steps"],
+            steps=selection.steps,
             probes=probes,
-            estimates=selection["estimates"],
-            leads=selection["leads"],
+            estimates=selection.estimates,
+            leads=selection.leads,
             skipped=sorted(set(skipped)),
             base=base,
             final=current,
@@ -272,13 +288,8 @@ class GeometryCritique:
             source=points.source or "",
         )
 
-    def _select(self, points: MarkerPoints, reference: np.ndarray, base: AngleValidation) -> dict:
-        """Forward selection over the catalogue: add the extension that most improves the held-out ELPD while one does.
-
-        Returns the final ``spec`` and its validation (``final``), the ``causes`` in the order added, each round's
-        comparisons (``steps``), every extension's ``estimates``, each cause's lead over the runner-up (``leads``)
-        and the extensions ``skipped`` for lack of degrees of freedom.
-        """
+    def _select(self, points: MarkerPoints, reference: np.ndarray, base: AngleValidation) -> _Selection:
+        """Forward selection over the catalogue: add the extension that most improves the held-out ELPD while one does."""
         spec, current = _Spec(), base
         causes: list[str] = []
         steps: list[dict[str, Comparison]] = []
@@ -309,8 +320,7 @@ class GeometryCritique:
             spec, current = spec.plus(best), trials[best]
             causes.append(best)
             remaining = [name for name in remaining if name != best]
-        return {"spec": spec, "final": current, "causes": causes, "steps": steps, "estimates": estimates, "leads": leads,
-                "skipped": skipped}
+        return _Selection(spec, current, causes, steps, estimates, leads, skipped)
 
 
 def _check_angles(points: MarkerPoints) -> None:
