@@ -250,6 +250,24 @@ def read_campaign(
     layout = _joint_layout(Path(path), cell)
     prismatic = ~layout.revolute
     frame, q = _read_frame(path, layout)
+    given, timed = _check_rows(frame, markers, list(layout.columns), cell, source)
+    positions = _positions(frame, to_base, source)
+    wrench, lines = frame[list(WRENCH_COLUMNS)].to_numpy(dtype=float), frame.index.to_numpy(dtype=int)
+    if cell is not None:
+        check_deflection(wrench, positions, lines, source)
+    return Campaign(
+        config=frame["config"].to_numpy(dtype=int), repeat=frame["repeat"].to_numpy(dtype=int),
+        marker=frame["marker"].to_numpy(dtype=str), q=q, wrench=wrench, p0=positions[:, :3], p1=positions[:, 3:],
+        lines=lines, source=source, load_point=frame[given].to_numpy(dtype=float) * MM if given else None,
+        prismatic=prismatic if prismatic.any() else None,
+        times=frame[list(TIME_COLUMNS)].to_numpy(dtype=float) if timed else None,
+    )
+
+
+def _check_rows(
+    frame: pd.DataFrame, markers: Collection[str] | None, joint_columns: list[str], cell: Cell | None, source: str
+) -> tuple[list[str], bool]:
+    """:func:`read_campaign`'s checks of the rows as read; the load point's columns (or none) and whether rows are timed."""
     if markers is not None:
         _check_markers(frame, markers, source)
     _check_unique(frame, source)
@@ -257,25 +275,8 @@ def read_campaign(
     timed = _all_or_none(frame, TIME_COLUMNS, "the reading times", source)
     if timed:
         _check_times(frame, source)
-    config = frame["config"].to_numpy(dtype=int)
-    _check_configurations(frame, list(layout.columns), given, cell, source)
-    positions = _positions(frame, to_base, source)
-    if cell is not None:
-        check_deflection(frame[list(WRENCH_COLUMNS)].to_numpy(dtype=float), positions, frame.index.to_numpy(dtype=int), source)
-    return Campaign(
-        config=config,
-        repeat=frame["repeat"].to_numpy(dtype=int),
-        marker=frame["marker"].to_numpy(dtype=str),
-        q=q,
-        wrench=frame[list(WRENCH_COLUMNS)].to_numpy(dtype=float),
-        p0=positions[:, :3],
-        p1=positions[:, 3:],
-        lines=frame.index.to_numpy(dtype=int),
-        source=source,
-        load_point=frame[given].to_numpy(dtype=float) * MM if given else None,
-        prismatic=prismatic if prismatic.any() else None,
-        times=frame[list(TIME_COLUMNS)].to_numpy(dtype=float) if timed else None,
-    )
+    _check_configurations(frame, joint_columns, given, cell, source)
+    return given, timed
 
 
 def _check_configurations(frame: pd.DataFrame, joint_columns: list[str], given: list[str], cell: Cell | None, source: str) -> None:

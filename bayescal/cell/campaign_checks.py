@@ -52,7 +52,6 @@ def check_wrench(
         (a wrench in kN).
     """
     force = np.linalg.norm(wrench[:, :3], axis=1)
-    moment = np.linalg.norm(wrench[:, 3:], axis=1)
     capacity = cell.capacity_weight / cell.gravity
     worst = int(np.argmax(force))
     if force[worst] > cell.max_force:
@@ -65,6 +64,24 @@ def check_wrench(
             line=int(lines[worst]),
             column=column,
         )
+    _check_moments(cell, wrench, lines, source, what, about)
+    floor = MIN_LOAD_FRACTION * cell.capacity_weight
+    if smallest and 0 < force[worst] < floor:
+        raise InputError(
+            f"the largest load force of the campaign is {force[worst]:.4g} N, below {floor:.0f} N "
+            f"({MIN_LOAD_FRACTION:.0%} of the weight of {capacity:g} kg, from {cell.source}), too small to deflect "
+            "the arm beyond the tracker's noise: is the wrench in kN instead of N?",
+            source=source,
+            line=int(lines[worst]),
+            column=WRENCH_COLUMNS[int(np.argmax(np.abs(wrench[worst, :3])))],
+        )
+
+
+
+def _check_moments(cell: Cell, wrench: np.ndarray, lines: Sequence[int], source: str, what: str, about: str) -> None:
+    """Refuse a moment whose force would act beyond :data:`MAX_LOAD_ARM` (see :func:`check_wrench`)."""
+    force = np.linalg.norm(wrench[:, :3], axis=1)
+    moment = np.linalg.norm(wrench[:, 3:], axis=1)
     # A force at the flange gives a moment |m| <= |f| times its arm; a pure moment is bounded by the capacity's.
     arm_limit = np.maximum(force, cell.capacity_weight) * MAX_LOAD_ARM
     beyond = np.flatnonzero(moment > arm_limit)
@@ -77,16 +94,6 @@ def check_wrench(
             source=source,
             line=int(lines[row]),
             column=column,
-        )
-    floor = MIN_LOAD_FRACTION * cell.capacity_weight
-    if smallest and 0 < force[worst] < floor:
-        raise InputError(
-            f"the largest load force of the campaign is {force[worst]:.4g} N, below {floor:.0f} N "
-            f"({MIN_LOAD_FRACTION:.0%} of the weight of {capacity:g} kg, from {cell.source}), too small to deflect "
-            "the arm beyond the tracker's noise: is the wrench in kN instead of N?",
-            source=source,
-            line=int(lines[worst]),
-            column=WRENCH_COLUMNS[int(np.argmax(np.abs(wrench[worst, :3])))],
         )
 
 

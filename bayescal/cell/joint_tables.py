@@ -185,6 +185,8 @@ def read_joint_table(
         (e.g. "the compensated file writes (its values would be overwritten)").
     span_in_degrees
         Refuse (for a layout with an owner) angles all within :attr:`JointLayout.radian_bound` as radians.
+    limits_refuse
+        Refuse a position outside the robot's joint limits (False: warn).
 
     Returns
     -------
@@ -199,12 +201,7 @@ def read_joint_table(
         Naming the file, line and column of the first fault.
     """
     source = str(path)
-    header = read_header(path)
-    if header is not None and layout.owner:
-        _check_joint_columns(header, layout, what, source)
-    clash = None if header is None else next((name for name in header[1] if name in reserved), None)
-    if clash is not None:
-        raise InputError(f"the {what} has a column {clash}, which {reserved_why}: rename it", source=source, line=header[0], column=clash)
+    _check_header(path, layout, what, reserved, reserved_why)
     joint_units = {name: name.rsplit("_", 1)[1] for name in layout.columns}
     frame = read_table(path, dict.fromkeys(layout.columns, "number") | dict(columns), optional=optional, units=joint_units | dict(units or {}))
     q = frame[list(layout.columns)].to_numpy(dtype=float) * layout.scale
@@ -218,6 +215,17 @@ def read_joint_table(
         else:
             _warn_limits(layout.robot, q, lines, source, what)
     return frame, q
+
+
+def _check_header(path: str | PathLike[str], layout: JointLayout, what: str, reserved: Collection[str], reserved_why: str) -> None:
+    """The header's joint columns are the layout's and it has no ``reserved`` column (see :func:`read_joint_table`)."""
+    source = str(path)
+    header = read_header(path)
+    if header is not None and layout.owner:
+        _check_joint_columns(header, layout, what, source)
+    clash = None if header is None else next((name for name in header[1] if name in reserved), None)
+    if clash is not None:
+        raise InputError(f"the {what} has a column {clash}, which {reserved_why}: rename it", source=source, line=header[0], column=clash)
 
 
 def _check_joint_columns(header: tuple[int, list[str]], layout: JointLayout, what: str, source: str) -> None:

@@ -143,31 +143,35 @@ def read_plan(
         optional={"load_kg": "number"} | {name: "number" for name in FORCE_COLUMNS + COUPLE_COLUMNS},
         units={"load_kg": "kg"} | dict.fromkeys(FORCE_COLUMNS, "N") | dict.fromkeys(COUPLE_COLUMNS, "N·m"),
     )
-    load = None
-    if "load_kg" in frame:
-        bad = frame.index[frame["load_kg"] <= 0]
-        if len(bad):
-            raise InputError(
-                f"expected a positive mass in kg, got {frame.at[bad[0], 'load_kg']:g}",
-                source=source,
-                line=int(bad[0]),
-                column="load_kg",
-            )
-        load = frame["load_kg"].to_numpy(dtype=float)
-        if max_load_kg is not None and np.any(load > max_load_kg):
-            row = int(np.argmax(load > max_load_kg))
-            raise InputError(
-                f"a load of {load[row]:g} kg is more than the {max_load_kg:.0f} kg the arm can plausibly carry: "
-                "is load_kg in another unit than kg?",
-                source=source,
-                line=int(frame.index[row]),
-                column="load_kg",
-            )
+    load = _masses(frame, max_load_kg, source) if "load_kg" in frame else None
     force = frame[list(FORCE_COLUMNS)].to_numpy(dtype=float) if FORCE_COLUMNS[0] in frame else None
     couple = frame[list(COUPLE_COLUMNS)].to_numpy(dtype=float) if COUPLE_COLUMNS[0] in frame else None
     _check_wrenches(frame.index, force, couple, max_load_kg, loading, source)
     lines = frame.index.to_numpy(dtype=int)
     return Plan(q=q, load_kg=load, lines=lines, source=source, force=force, couple=couple, prismatic=prismatic_flags(robot))
+
+
+def _masses(frame: pd.DataFrame, max_load_kg: float | None, source: str) -> np.ndarray:
+    """The plan's ``load_kg`` column, kg, each positive and at most ``max_load_kg``."""
+    bad = frame.index[frame["load_kg"] <= 0]
+    if len(bad):
+        raise InputError(
+            f"expected a positive mass in kg, got {frame.at[bad[0], 'load_kg']:g}",
+            source=source,
+            line=int(bad[0]),
+            column="load_kg",
+        )
+    load = frame["load_kg"].to_numpy(dtype=float)
+    if max_load_kg is not None and np.any(load > max_load_kg):
+        row = int(np.argmax(load > max_load_kg))
+        raise InputError(
+            f"a load of {load[row]:g} kg is more than the {max_load_kg:.0f} kg the arm can plausibly carry: "
+            "is load_kg in another unit than kg?",
+            source=source,
+            line=int(frame.index[row]),
+            column="load_kg",
+        )
+    return load
 
 
 def _check_load_columns(header: tuple[int, list[str]] | None, source: str) -> None:

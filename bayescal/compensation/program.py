@@ -26,7 +26,7 @@ from bayescal.output import record_read
 from bayescal.robot.kinematics import Robot
 from bayescal.units import MM
 
-__all__ = ["Program", "read_program", "compensated_columns", "WRENCH_COLUMNS", "TCP_COLUMNS"]
+__all__ = ["Program", "read_program", "compensated_columns", "LENGTH_COLUMNS", "WRENCH_COLUMNS", "TCP_COLUMNS"]
 
 TCP_COLUMNS = ("tcp_x_mm", "tcp_y_mm", "tcp_z_mm")
 
@@ -70,13 +70,18 @@ class Program:
         return np.column_stack([force, self.wrench[:, 3:] + np.cross(arm, force)])
 
 
+LENGTH_COLUMNS = ("deflection_mm", "error_rms_mm", "error_q95_mm", "error_q9973_mm", "error_q9973_identified_mm")
+"""The compensated file's lengths, mm: the tool's deflection without compensation, the error left (rms, 95 % and
+99.73 % of the draws) and the 99.73 % bound with the unidentified parameters held."""
+
+
 def compensated_columns(robot: Robot) -> tuple[str, ...]:
-    """The columns the compensated file adds to the program's (:meth:`CompensationResults.table
-    <bayescal.compensation.results.CompensationResults.table>`): a program may not carry them, or the
-    compensated file would overwrite their values."""
+    """The columns the compensated file adds to the program's, in order (:meth:`CompensationResults.table
+    <bayescal.compensation.results.CompensationResults.table>` writes them): the joint targets, the lengths of
+    :data:`LENGTH_COLUMNS`, the unidentified parameters' share and the flag.  A program may not carry them, or
+    the compensated file would overwrite their values."""
     commands = tuple(f"q{j + 1}_cmd_{unit}" for j, unit in enumerate(robot.position_units))
-    errors = ("deflection_mm", "error_rms_mm", "error_q95_mm", "error_q9973_mm", "error_q9973_identified_mm")
-    return commands + errors + ("unidentified_share", "flag")
+    return commands + LENGTH_COLUMNS + ("unidentified_share", "flag")
 
 
 def read_program(path: str | PathLike[str], cell: Cell) -> Program:

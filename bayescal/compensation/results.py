@@ -10,21 +10,26 @@ import numpy as np
 import pandas as pd
 
 from bayescal.compensation.budget import ErrorBudget
-from bayescal.compensation.program import Program
+from bayescal.compensation.program import Program, compensated_columns
 from bayescal.jsonsafe import json_safe
 from bayescal.robot.kinematics import Robot
 from bayescal.units import MM
 
-__all__ = ["CompensationResults", "FLAG_OK", "DECIMALS"]
+__all__ = ["CompensationResults", "FLAG_OK", "DECIMALS", "WORST", "SUMMARY_COLUMNS"]
 
 FLAG_OK = "ok"
 """The ``flag`` of a pose with nothing to report."""
 
 WORST = 10
+"""Poses listed in :meth:`CompensationResults.to_json`'s ``worst_poses``."""
+
 DECIMALS = 4
 """Decimals of the compensated targets (deg or mm) and the lengths (mm) in the written program: what KUKA
 KRL and ABB RAPID take for axis values (a ten-thousandth of a degree moves a tool 3 m out by 5 μm)."""
-"""Poses listed in :meth:`CompensationResults.to_json`'s ``worst_poses``."""
+
+SUMMARY_COLUMNS = ("deflection_mm", "error_rms_mm", "error_q9973_mm")
+"""The compensated file's lengths (of :data:`~bayescal.compensation.program.LENGTH_COLUMNS`) whose median and
+largest value over the program :meth:`CompensationResults.summary` and the review's section give."""
 
 
 @dataclass
@@ -113,15 +118,11 @@ class CompensationResults:
         """The compensated program: the input's columns, ``q<j>_cmd_deg`` (``q<j>_cmd_mm`` for a prismatic joint),
         ``deflection_mm``, the error columns, ``flag``."""
         out = self.program.table.copy()
-        for j, unit in enumerate(self.robot.position_units):
-            out[f"q{j + 1}_cmd_{unit}"] = self.commands[:, j] / self.robot.position_scale[j]
-        out["deflection_mm"] = self.deflection / MM
-        out["error_rms_mm"] = self.errors["rms"] / MM
-        out["error_q95_mm"] = self.errors["q95"] / MM
-        out["error_q9973_mm"] = self.errors["q9973"] / MM
-        out["error_q9973_identified_mm"] = self.budget.identified["q9973"] / MM
-        out["unidentified_share"] = self.unidentified_share
-        out["flag"] = self.flags
+        commands = [self.commands[:, j] / scale for j, scale in enumerate(self.robot.position_scale)]
+        lengths = [self.deflection, self.errors["rms"], self.errors["q95"], self.errors["q9973"], self.budget.identified["q9973"]]
+        values = commands + [length / MM for length in lengths] + [self.unidentified_share, self.flags]
+        for name, value in zip(compensated_columns(self.robot), values, strict=True):
+            out[name] = value
         return out
 
     def save(self, path: str | PathLike[str], decimals: int = DECIMALS) -> None:
@@ -142,12 +143,9 @@ class CompensationResults:
         compensation (``deflection_mm``, poses with an equilibrium), the errors left (``error_rms_mm``,
         ``error_q9973_mm``) and the unidentified parameters' share of the mean-square error (a fraction)."""
         ok = ~self.failed
-        columns = {
-            "deflection_mm": self.deflection[ok] / MM,
-            "error_rms_mm": self.errors["rms"] / MM,
-            "error_q9973_mm": self.errors["q9973"] / MM,
-            "unidentified_share_of_mean_square_error": self.unidentified_share,
-        }
+        lengths = dict(zip(SUMMARY_COLUMNS, (self.deflection[ok], self.errors["rms"], self.errors["q9973"]), strict=True))
+        columns = {name: length / MM for name, length in lengths.items()}
+        columns["unidentified_share_of_mean_square_error"] = self.unidentified_share
         rows = {name: [np.median(v) if v.size else math.nan, np.max(v) if v.size else math.nan] for name, v in columns.items()}
         return pd.DataFrame.from_dict(rows, orient="index", columns=["median", "max"])
 

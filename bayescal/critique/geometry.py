@@ -95,6 +95,7 @@ from __future__ import annotations
 import json
 import warnings
 from dataclasses import dataclass, field
+from typing import NamedTuple
 from os import PathLike
 from pathlib import Path
 
@@ -207,6 +208,22 @@ def _residual_statistics(points: MarkerPoints, validation: AngleValidation) -> d
 # --------------------------------------------------------------------------- the critique
 
 
+class _Selection(NamedTuple):
+    """What the forward selection over the catalogue ended with."""
+
+    spec: _Spec
+    final: AngleValidation
+    causes: list[str]
+    """The extensions added, in order."""
+    steps: list[dict[str, Comparison]]
+    """Each round's comparisons of the extensions tried against the model so far."""
+    estimates: dict[str, dict[str, float]]
+    leads: dict[str, tuple[str, Comparison]]
+    """Each cause's runner-up and its lead over it."""
+    skipped: list[str]
+    """Extensions left out for lack of degrees of freedom."""
+
+
 @dataclass
 class GeometryCritique:
     """Criticism of the planar two-step compensator-geometry model on tracker points.
@@ -236,20 +253,44 @@ class GeometryCritique:
         InputError
             When a marker is measured at fewer than :data:`MIN_ANGLES` joint angles.
         """
-        for name in points.markers:
-            n = np.unique(points.of(name)[0]).size
-            if n < MIN_ANGLES:
-                raise InputError(
-                    f"marker {name} is measured at {n} joint angles; the critique holds out one angle at a time "
-                    f"and needs at least {MIN_ANGLES}",
-                    source=points.source,
-                    column="q2_deg",
-                )
+        _check_angles(points)
         if points.dim == 3:
             warnings.warn("the geometry critique is planar: it uses x and y and ignores z_mm", UserWarning, stacklevel=2)
         reference = np.unique(points.q2)
-        spec = _Spec()
-        base = current = _validate(points, spec, reference)
+        base = _validate(points, _Spec(), reference)
+        selection = self._select(points, reference, base)
+        spec, current, causes, skipped = selection.spec, selection.final, selection.causes, selection.skipped
+        probes = {}
+        for name in self.probes:
+            try:
+                probes[name] = compare_elpd(current.elpd, _validate(points, spec.with_probe(name), reference).elpd)
+            except _TooFewDegrees:
+                skipped.append(name)
+        covariate = strongest(probes, decisive=False)
+        if covariate is not None:
+            causes.append(UNEXPLAINED)
+        return GeometryCritiqueResults(
+            causes=causes,
+            unexplained_covariate=covariate,
+            steps=selection.steps,
+            probes=probes,
+            estimates=selection.estimates,
+            leads=selection.leads,
+            skipped=sorted(set(skipped)),
+            base=base,
+            final=current,
+            gain=compare_elpd(base.elpd, current.elpd),
+            before=_residual_statistics(points, base),
+            after=_residual_statistics(points, current),
+            n_angles=reference.size,
+            n_points=points.q2.size,
+            residuals=_residual_table(points, base, current),
+            source=points.source or "",
+        )
+
+    def _select(self, points: MarkerPoints, reference: np.ndarray, base: AngleValidation) -> _Selection:
+        """Forward selection over the catalogue: add the extension that most improves the held-out ELPD while one does."""
+        spec, current = _Spec(), base
         causes: list[str] = []
         steps: list[dict[str, Comparison]] = []
         estimates: dict[str, dict[str, float]] = {}
@@ -279,33 +320,20 @@ class GeometryCritique:
             spec, current = spec.plus(best), trials[best]
             causes.append(best)
             remaining = [name for name in remaining if name != best]
-        probes = {}
-        for name in self.probes:
-            try:
-                probes[name] = compare_elpd(current.elpd, _validate(points, spec.with_probe(name), reference).elpd)
-            except _TooFewDegrees:
-                skipped.append(name)
-        covariate = strongest(probes, decisive=False)
-        if covariate is not None:
-            causes.append(UNEXPLAINED)
-        return GeometryCritiqueResults(
-            causes=causes,
-            unexplained_covariate=covariate,
-            steps=steps,
-            probes=probes,
-            estimates=estimates,
-            leads=leads,
-            skipped=sorted(set(skipped)),
-            base=base,
-            final=current,
-            gain=compare_elpd(base.elpd, current.elpd),
-            before=_residual_statistics(points, base),
-            after=_residual_statistics(points, current),
-            n_angles=reference.size,
-            n_points=points.q2.size,
-            residuals=_residual_table(points, base, current),
-            source=points.source or "",
-        )
+        return _Selection(spec, current, causes, steps, estimates, leads, skipped)
+
+
+def _check_angles(points: MarkerPoints) -> None:
+    """Every marker is measured at :data:`MIN_ANGLES` joint angles or more (one is held out at a time)."""
+    for name in points.markers:
+        n = np.unique(points.of(name)[0]).size
+        if n < MIN_ANGLES:
+            raise InputError(
+                f"marker {name} is measured at {n} joint angles; the critique holds out one angle at a time "
+                f"and needs at least {MIN_ANGLES}",
+                source=points.source,
+                column="q2_deg",
+            )
 
 
 def _residual_table(points: MarkerPoints, base: AngleValidation, final: AngleValidation) -> pd.DataFrame:

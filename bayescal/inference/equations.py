@@ -26,17 +26,8 @@ from bayescal.robot.kinematics import Robot
 from bayescal.units import DEG, MM
 
 __all__ = [
-    "DeflectionEquations",
-    "deflection_equations",
-    "deflection_noise",
-    "check_campaign",
-    "check_load_point",
-    "COUPLE_TOLERANCE",
-    "group_angles",
-    "MAX_ANGLES",
-    "MAX_DEFLECTION",
-    "MAX_MARKER_DISTANCE",
-    "MARKER_TOLERANCE",
+    "DeflectionEquations", "deflection_equations", "deflection_noise", "check_campaign", "check_load_point", "COUPLE_TOLERANCE",
+    "group_angles", "MAX_ANGLES", "MAX_DEFLECTION", "MAX_MARKER_DISTANCE", "MARKER_TOLERANCE",
 ]
 
 MAX_DEFLECTION = 50 * MM
@@ -164,7 +155,6 @@ class DeflectionEquations:
         return design
 
 
-
 def deflection_equations(
     robot: Robot,
     campaign: Campaign,
@@ -201,6 +191,29 @@ def deflection_equations(
         ``(N, 3)`` markers in the flange frame (m), from the unloaded positions.
     """
     n = len(campaign)
+    design, torque, points = _designs(robot, campaign)
+    if joint is None:
+        values, angle = np.empty(0), np.zeros(n, dtype=int)
+    else:
+        values, angle = group_angles(campaign.q[:, joint])
+    group, names = _noise_groups(campaign, noise)
+    equations = DeflectionEquations(
+        y=campaign.displacement.reshape(-1),
+        design=design.reshape(-1, robot.nq),
+        angle=np.repeat(angle, 3),
+        compensated_angles=values,
+        group=group,
+        group_names=names,
+        scale=None if tracker is None else np.repeat(_relative_noise(tracker, campaign), 3),
+        joint=joint,
+        prismatic=tuple(bool(p) for p in robot.prismatic) if robot.prismatic.any() else (),
+    )
+    return equations, torque, points
+
+
+def _designs(robot: Robot, campaign: Campaign) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Eq 31's design ``(N, 3, nq)``, the loads' joint torques ``(N, nq)`` N·m and the markers in the flange frame ``(N, 3)`` m."""
+    n = len(campaign)
     design, torque, points = np.empty((n, 3, robot.nq)), np.empty((n, robot.nq)), np.empty((n, 3))
     chain = BatchedChain.of(robot)
     # Rows by chunks of the batched chain (a loop of Pinocchio calls cost ~45 μs a row; all rows at once held
@@ -214,29 +227,18 @@ def deflection_equations(
         torque[rows] = np.einsum("njd,nd->nj", flange_linear, wrench[:, :3]) + np.einsum("njd,nd->nj", angular, wrench[:, 3:])
         # Eq 31: column j of a marker's design is its Jacobian's column j times the load's torque on joint j.
         design[rows] = np.swapaxes(chain.point_jacobian(poses, campaign.p0[rows])[0], 1, 2) * torque[rows, None, :]
-    if joint is None:
-        values, angle = np.empty(0), np.zeros(n, dtype=int)
-    else:
-        values, angle = group_angles(campaign.q[:, joint])
+    return design, torque, points
+
+
+def _noise_groups(campaign: Campaign, noise: str) -> tuple[np.ndarray, tuple[str, ...]]:
+    """Each equation's noise group ``(3N,)`` and the groups' names: per base axis (``"axis"``) or per marker."""
+    n = len(campaign)
     if noise == "axis":
-        group, names = np.tile(np.arange(3), n), ("x", "y", "z")
-    elif noise == "marker":
-        names_, index = np.unique(campaign.marker.astype(str), return_inverse=True)
-        group, names = np.repeat(index, 3), tuple(str(m) for m in names_)
-    else:
-        raise ValueError(f"noise must be 'axis' or 'marker', got {noise!r}")
-    equations = DeflectionEquations(
-        y=campaign.displacement.reshape(-1),
-        design=design.reshape(-1, robot.nq),
-        angle=np.repeat(angle, 3),
-        compensated_angles=values,
-        group=group,
-        group_names=names,
-        scale=None if tracker is None else np.repeat(_relative_noise(tracker, campaign), 3),
-        joint=joint,
-        prismatic=tuple(bool(p) for p in robot.prismatic) if robot.prismatic.any() else (),
-    )
-    return equations, torque, points
+        return np.tile(np.arange(3), n), ("x", "y", "z")
+    if noise == "marker":
+        names, index = np.unique(campaign.marker.astype(str), return_inverse=True)
+        return np.repeat(index, 3), tuple(str(m) for m in names)
+    raise ValueError(f"noise must be 'axis' or 'marker', got {noise!r}")
 
 
 def group_angles(q2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -130,19 +130,8 @@ class PointModel:
             self._slices[key] = slice(len(parameters), len(parameters) + len(entries))
             parameters.extend(entries)
 
-        def twist(prefix: str, group_of, translation: float, rotation: float, components=_COMPONENTS) -> list[Parameter]:
-            return [
-                Parameter(f"{prefix}.{c}", group_of(c), "mm" if c[0] == "t" else "deg", MM if c[0] == "t" else DEG, 0.0,
-                          translation if c[0] == "t" else rotation)
-                for c in components
-            ]
-
-        add(("base",), twist("base", lambda c: "frames", priors.base_translation, priors.base_rotation))
-        for j in cell.free_frames:
-            add(("frame", str(j)), twist(f"frame.{tree.names[j]}", lambda c: "frames", priors.frame_translation, priors.frame_rotation))
-        for marker in cell.markers:
-            add(("marker", marker.name), [Parameter(f"marker.{marker.name}.{a}", "frames", "mm", MM, float(v), priors.marker)
-                                          for a, v in zip("xyz", marker.position)])
+        for key, entries in self._frame_parameters():
+            add(key, entries)
         self.corrected: dict[int, tuple[str, ...]] = {}
         for j in on_path:
             if j in cell.free_frames:
@@ -179,6 +168,27 @@ class PointModel:
         self.mean = np.array([p.mean for p in parameters])
         self.sd = np.array([p.sd for p in parameters])
         self.names = tuple(p.name for p in parameters)
+
+    def _frame_parameters(self) -> list[tuple[tuple[str, ...], list[Parameter]]]:
+        """The frames' parameters with their keys: the base's and each free frame's twist, each marker's position."""
+        cell = self.cell
+        names, priors = cell.tree.names, cell.priors
+
+        def twist(prefix: str, translation: float, rotation: float) -> list[Parameter]:
+            return [
+                Parameter(f"{prefix}.{c}", "frames", "mm" if c[0] == "t" else "deg", MM if c[0] == "t" else DEG, 0.0,
+                          translation if c[0] == "t" else rotation)
+                for c in _COMPONENTS
+            ]
+
+        keyed = [(("base",), twist("base", priors.base_translation, priors.base_rotation))]
+        keyed += [(("frame", str(j)), twist(f"frame.{names[j]}", priors.frame_translation, priors.frame_rotation)) for j in cell.free_frames]
+        keyed += [
+            (("marker", marker.name), [Parameter(f"marker.{marker.name}.{a}", "frames", "mm", MM, float(v), priors.marker)
+                                       for a, v in zip("xyz", marker.position)])
+            for marker in cell.markers
+        ]
+        return keyed
 
     def _extension_parameters(self) -> list[tuple[tuple[str, ...], list[Parameter]]]:
         """The extensions' parameters with their keys: the coupled joints' mutual compliances, the base's compliances."""
@@ -237,7 +247,6 @@ class PointModel:
         base = cell.base * pin.exp6(base_delta)
         Rb, tb = np.array(base.rotation), np.array(base.translation)
         g = Rb.T @ cell.gravity
-        G = skew(g)
         moments, spread = self._gravity_moments(theta, R, o, g) if self.elastic else ({}, {})
         turns = self._turns(theta, R, moments, spread)
         weight = self._base_moment(theta, R, o, Rb) if self.base_elastic else None
@@ -259,17 +268,9 @@ class PointModel:
                 continue
             Jk = np.zeros((n, 3, self.size))
             Jk[:, :, self._slices[("marker", marker.name)]] = R[:, marker.joint]
-            for j, delta in deltas.items():
-                if j not in self.paths[k]:
-                    continue
-                arm = skew(p - o[:, j])
-                block = np.concatenate([frames.before[:, j], -arm @ frames.before[:, j]], axis=-1) @ pin.Jexp6(pin.Motion(delta))
-                if j in cell.free_frames:
-                    Jk[:, :, self._slices[("frame", str(j))]] = block
-                else:
-                    Jk[:, :, self._slices[("joint", str(j))]] = block[:, :, [_COMPONENTS.index(c) for c in self.corrected[j]]]
+            self._placement_jacobian(Jk, k, p, frames, deltas)
             if self.elastic:
-                self._elastic_jacobian(Jk, k, p, R, o, G, moments, spread, theta)
+                self._elastic_jacobian(Jk, k, p, R, o, skew(g), moments, spread, theta)
             Jk = np.einsum("ab,nbp->nap", Rb, Jk)
             base_block = np.concatenate([np.broadcast_to(Rb, (n, 3, 3)), -Rb @ skew(moved)], axis=-1)
             Jk[:, :, self._slices[("base",)]] = base_block @ pin.Jexp6(pin.Motion(base_delta))
@@ -277,6 +278,18 @@ class PointModel:
                 self._base_jacobian(Jk, columns, slope, turn, R, o, Rb)
             J[:, k] = Jk
         return positions, J
+
+    def _placement_jacobian(self, Jk: np.ndarray, k: int, p: np.ndarray, frames, deltas: dict[int, np.ndarray]) -> None:
+        """Fill ``Jk`` ``(N, 3, P)``, marker ``k``'s Jacobian at ``p`` ``(N, 3)`` m, in the joint placements' columns."""
+        for j, delta in deltas.items():
+            if j not in self.paths[k]:
+                continue
+            arm = skew(p - frames.origin[:, j])
+            block = np.concatenate([frames.before[:, j], -arm @ frames.before[:, j]], axis=-1) @ pin.Jexp6(pin.Motion(delta))
+            if j in self.cell.free_frames:
+                Jk[:, :, self._slices[("frame", str(j))]] = block
+            else:
+                Jk[:, :, self._slices[("joint", str(j))]] = block[:, :, [_COMPONENTS.index(c) for c in self.corrected[j]]]
 
     def _masses(self, theta: np.ndarray) -> tuple[dict[int, float], dict[int, np.ndarray]]:
         """Each carried body's mass (kg) and first moment in its joint frame (kg·m): parameters, or the URDF's."""

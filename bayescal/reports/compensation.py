@@ -10,16 +10,12 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from bayescal.compensation.results import FLAG_OK, WORST
+from bayescal.compensation.results import FLAG_OK, SUMMARY_COLUMNS as COLUMNS, WORST
 from bayescal.errors import InputError
 from bayescal.reports.page import Page
 from bayescal.tables import read_table
 
-__all__ = ["read_compensated", "compensation_section", "plot_program_errors", "COLUMNS"]
-
-COLUMNS = ("deflection_mm", "error_rms_mm", "error_q9973_mm")
-"""The compensated program's columns the section shows (besides ``flag``)."""
-
+__all__ = ["read_compensated", "compensation_section", "plot_program_errors"]
 
 
 def read_compensated(path: str) -> pd.DataFrame:

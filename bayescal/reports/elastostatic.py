@@ -262,13 +262,20 @@ def _misstated_section(frame: pd.DataFrame, seed: int) -> list[str]:
     )
 
 
-def _linearisation_section(findings: LinearisationFindings) -> list[str]:
-    study, sag = findings.study, findings.sag
-    rows = [
+def _linearisation_table(study: pd.DataFrame) -> list[str]:
+    """The linearisation study's table: χ²/dof of the linear and the exact fits, one row per twin and load scale."""
+    return [
+        "| twin | loads | noise per coordinate (μm) | linear χ²/dof | exact χ²/dof | linear − exact χ² |",
+        "|---|---|---|---|---|---|",
+    ] + [
         f"| {TWIN_LABELS[twin]} | ×{scale:g} | {s['noise_um']:g} | {s['linear_mean']:.3f} ({s['linear_min']:.3f}–{s['linear_max']:.3f}) "
         f"| {s['exact_mean']:.3f} ({s['exact_min']:.3f}–{s['exact_max']:.3f}) | {s['excess_chi2']:.1f} |"
         for (twin, scale), s in study.iterrows()
     ]
+
+
+def _linearisation_section(findings: LinearisationFindings) -> list[str]:
+    study, sag = findings.study, findings.sag
     full = study.loc[("cell", 1.0)]
     reduced = study.loc[("cell", REDUCED)]
     bare = study.loc[("weightless", 1.0)], study.loc[("weightless", REDUCED)]
@@ -293,9 +300,7 @@ def _linearisation_section(findings: LinearisationFindings) -> list[str]:
         "Mean (range) over the seeds; the last column is the mean excess of the linear χ² over the exact one, "
         "(χ²/dof linear − exact) × dof, which estimates the noncentrality the linearisation adds:",
         "",
-        "| twin | loads | noise per coordinate (μm) | linear χ²/dof | exact χ²/dof | linear − exact χ² |",
-        "|---|---|---|---|---|---|",
-        *rows,
+        *_linearisation_table(study),
         "",
         f"χ² is over the {n} deflection equations ({n // 3} rows × 3 coordinates); each is the difference of two "
         "tracker readings and carries their summed variance 2σ², and the per-angle compliances are fitted, so "

@@ -81,7 +81,14 @@ def plot_arc_fit(
     """
     figure = Figure(figsize=(11.0, 4.2), layout="constrained")
     overview, lever_ax, cylinder_ax = figure.subplots(1, 3, width_ratios=[1.3, 1.0, 1.0])
+    _draw_arcs(overview, points, fit)
+    _draw_lever_residuals(lever_ax, points, fit)
+    _draw_cylinder_residuals(cylinder_ax, points, fit, cylinder_residuals)
+    return figure
 
+
+def _draw_arcs(overview, points: MarkerPoints, fit: GeometryFit) -> None:
+    """The marker points with the fitted arcs, their centres p0 and p2, mm."""
     q1, p1 = points.of(LEVER_MARKER)
     sweep = np.linspace(min(q1.min(), 0.0) - 10 * DEG, max(q1.max(), 0.0) + 10 * DEG, 200)
     arc = fit.lever.predict(sweep)
@@ -108,6 +115,10 @@ def plot_arc_fit(
     overview.set_title("Marker points and fitted arcs", fontsize=9)
     overview.legend(fontsize=8)
 
+
+def _draw_lever_residuals(lever_ax, points: MarkerPoints, fit: GeometryFit) -> None:
+    """P1's residuals of the known-angle fit against q2, μm."""
+    q1, _ = points.of(LEVER_MARKER)
     residuals = fit.lever.residuals[:, :2]
     order = np.argsort(q1)
     for column, label in enumerate(("x", "y")):
@@ -118,6 +129,11 @@ def plot_arc_fit(
     lever_ax.set_title(f"P1, known-angle fit (rms {fit.residuals_rms[LEVER_MARKER] / UM:.0f} μm)", fontsize=9)
     lever_ax.legend(fontsize=8)
 
+
+def _draw_cylinder_residuals(
+    cylinder_ax, points: MarkerPoints, fit: GeometryFit, cylinder_residuals: Mapping[str, Mapping[str, ArrayLike]] | None
+) -> None:
+    """The cylinder markers' residuals against q2, μm: the concentric fit's radial ones and ``cylinder_residuals``'."""
     models = {"concentric (radial)": {name: fit.cylinder.residuals[name] for name in points.cylinder_markers}}
     models |= {label: dict(res) for label, res in (cylinder_residuals or {}).items()}
     for style, (label, by_marker) in zip(("o-", "s--", "^:"), models.items()):
@@ -131,7 +147,6 @@ def plot_arc_fit(
     cylinder_ax.set_ylabel("residual [μm]")
     cylinder_ax.set_title("Cylinder markers", fontsize=9)
     cylinder_ax.legend(fontsize=7)
-    return figure
 
 
 def plot_joint2_compliance(

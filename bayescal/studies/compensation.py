@@ -86,6 +86,21 @@ def twin_misses(twin: Cell, program: Program, commands: np.ndarray) -> tuple[np.
     return misses[0], misses[1]
 
 
+def _calibration(cell: Cell, campaign, rng: np.random.Generator, sampler: Sampler | None, folder):
+    """The campaign's identification as compensate reads it: fitted, saved in ``folder`` and loaded back."""
+    import tempfile
+    from pathlib import Path
+
+    options = {} if sampler is None else {"sampler": sampler}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        results = ElastostaticModel.from_cell(cell, **options).fit(campaign, rng)
+    with tempfile.TemporaryDirectory() as temporary:
+        path = Path(folder or temporary) / "calibration.nc"
+        results.save(path)
+        return load_calibration(path, cell)
+
+
 def compensation_check(
     cell: Cell,
     truth: Truth,
@@ -124,24 +139,13 @@ def compensation_check(
         Per pose: ``miss_m`` (compensated), ``uncompensated_m``, the predicted ``rms_m``,
         ``q9973_m``, and ``inside`` (miss within the 99.73 % bound).
     """
-    import tempfile
-    from pathlib import Path
-
     twin = dataclasses.replace(
         cell,
         robot=scale_masses(cell.robot, truth.masses),
         compliances=truth.compliances,
         compensator=cell.compensator.geometry.with_spring(*truth.spring),
     )
-    campaign = DigitalTwin(twin).simulate(plan, repeats, rng)
-    options = {} if sampler is None else {"sampler": sampler}
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        results = ElastostaticModel.from_cell(cell, **options).fit(campaign, rng)
-    with tempfile.TemporaryDirectory() as temporary:
-        path = Path(folder or temporary) / "calibration.nc"
-        results.save(path)
-        calibration = load_calibration(path, cell)
+    calibration = _calibration(cell, DigitalTwin(twin).simulate(plan, repeats, rng), rng, sampler, folder)
     program = random_program(cell, poses, rng)
     compensated = compensate_program(program, calibration, cell)
     miss, uncompensated = twin_misses(twin, program, compensated.commands)

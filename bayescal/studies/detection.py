@@ -91,7 +91,6 @@ def detection_power(
     from bayescal.cell.config import load_cell
     from bayescal.cell.plan import read_plan
     from bayescal.studies.parallel import seeded_map
-    from bayescal.twin.effects import EFFECTS
 
     root = np.random.SeedSequence(seed)
     null_seeds, effect_seeds = root.spawn(2)
@@ -104,6 +103,13 @@ def detection_power(
     items = [effects for _, _, effects, seeds in cases for _ in seeds]
     streams = [s for _, _, _, seeds in cases for s in seeds]
     results = seeded_map(_one, items, streams, executor=executor, cell=cell, plan=read_plan(plan, cell.robot), repeats=repeats)
+    return _rates(cases, results)
+
+
+def _rates(cases: list[tuple], results: list[list[str]]) -> pd.DataFrame:
+    """:func:`detection_power`'s table from its ``(name, magnitude, effects, seeds)`` cases and each campaign's causes, in order."""
+    from bayescal.twin.effects import EFFECTS
+
     records, start = [], 0
     for name, magnitude, _, seeds in cases:
         causes = results[start : start + len(seeds)]
@@ -179,6 +185,19 @@ class DetectionFindings:
     settings: dict = field(default_factory=dict)
 
 
+def _geometry_power(
+    points_path: str, magnitudes: Mapping[str, Sequence[float]], n_seeds: int, n_null: int, seed: int, executor: Executor | None
+) -> tuple[pd.DataFrame, int]:
+    """The geometry critique's detection table on the layout fitted to ``points_path``, and its number of q2 angles."""
+    from bayescal.geometry.arcs import CompensatorGeometryModel, MarkerLayout, read_arc_points
+    from bayescal.studies.geometry_critique import geometry_detection
+
+    points = read_arc_points(points_path)
+    layout = MarkerLayout.from_fit(CompensatorGeometryModel().fit(points), points)
+    angles = np.unique(points.q2)
+    return geometry_detection(layout, angles, magnitudes, n_seeds=n_seeds, n_null=n_null, seed=seed, executor=executor), angles.size
+
+
 def detection_findings(
     config: str,
     plan: str,
@@ -214,15 +233,9 @@ def detection_findings(
         seconds[name] = time.perf_counter() - began
     geometry, angles = None, 0
     if geometry_points is not None:
-        from bayescal.geometry.arcs import CompensatorGeometryModel, MarkerLayout, read_arc_points
-        from bayescal.studies.geometry_critique import geometry_detection
-
         began = time.perf_counter()
-        points = read_arc_points(geometry_points)
-        layout = MarkerLayout.from_fit(CompensatorGeometryModel().fit(points), points)
-        angles = np.unique(points.q2)
-        geometry = geometry_detection(layout, angles, geometry_magnitudes or {}, n_seeds=n_seeds, n_null=n_null, seed=seed, executor=executor)
-        seconds["geometry"], angles = time.perf_counter() - began, angles.size
+        geometry, angles = _geometry_power(geometry_points, geometry_magnitudes or {}, n_seeds, n_null, seed, executor)
+        seconds["geometry"] = time.perf_counter() - began
     began = time.perf_counter()
     independent = independent_detection(config, independent_effects, n_seeds=n_independent, n_null=n_independent, executor=executor)
     # effects tested above their defaults are also reported at them

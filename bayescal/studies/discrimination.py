@@ -138,6 +138,17 @@ def _one(
     }
 
 
+def _case_seeds(cases: Sequence[str], n_seeds: int, seed: int) -> tuple[list, list[np.random.SeedSequence]]:
+    """The :data:`TIE_CASES` entry and the seed of each of ``n_seeds`` campaigns of every case, case by case."""
+    unknown = [name for name in cases if name not in TIE_CASES]
+    if unknown:
+        raise ValueError(f"unknown tie cases {unknown}; expected names of TIE_CASES: {', '.join(TIE_CASES)}")
+    # each case's seeds hang off its place in TIE_CASES, so that a case gets the same campaigns alone or with others
+    roots = dict(zip(TIE_CASES, np.random.SeedSequence(seed).spawn(len(TIE_CASES))))
+    streams = [s for name in cases for s in roots[name].spawn(n_seeds)]
+    return [TIE_CASES[name] for name in cases for _ in range(n_seeds)], streams
+
+
 def tie_resolution(
     config: str,
     table3: str,
@@ -189,19 +200,12 @@ def tie_resolution(
     from bayescal.cell.plan import read_plan
     from bayescal.design.discriminate import PER_ANGLE
 
-    unknown = [name for name in cases if name not in TIE_CASES]
-    if unknown:
-        raise ValueError(f"unknown tie cases {unknown}; expected names of TIE_CASES: {', '.join(TIE_CASES)}")
+    items, streams = _case_seeds(cases, n_seeds, seed)
     cell = load_cell(config)
-    per_angle = PER_ANGLE if per_angle is None else per_angle
-    # each case's seeds hang off its place in TIE_CASES, so that a case gets the same campaigns alone or with others
-    roots = dict(zip(TIE_CASES, np.random.SeedSequence(seed).spawn(len(TIE_CASES))))
-    streams = [s for name in cases for s in roots[name].spawn(n_seeds)]
-    items = [TIE_CASES[name] for name in cases for _ in range(n_seeds)]
     results = seeded_map(
         _one, items, streams, executor=executor,
-        cell=cell, plan=read_plan(table3, cell.robot), mass_range=tuple(mass_range), angles=angles, per_angle=per_angle,
-        candidates_per_angle=candidates_per_angle, starts=starts,
+        cell=cell, plan=read_plan(table3, cell.robot), mass_range=tuple(mass_range), angles=angles,
+        per_angle=PER_ANGLE if per_angle is None else per_angle, candidates_per_angle=candidates_per_angle, starts=starts,
     )
-    labels = [(name, k) for name in cases for k in range(n_seeds)]
-    return pd.DataFrame.from_records([{"case": name, "seed": k} | record for (name, k), record in zip(labels, results)])
+    labels = ({"case": name, "seed": k} for name in cases for k in range(n_seeds))
+    return pd.DataFrame.from_records([label | record for label, record in zip(labels, results)])

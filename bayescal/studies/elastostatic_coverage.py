@@ -26,6 +26,7 @@ from bayescal.design.loads import draw_loads
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.exact import scale_masses
 from bayescal.inference.parameters import ParameterRegistry
+from bayescal.inference.results import ElastostaticResults
 from bayescal.sampling.protocol import Sampler
 from bayescal.studies.parallel import seeded_map
 from bayescal.twin.simulator import DigitalTwin
@@ -210,6 +211,11 @@ def fit_against_truth(
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         results = model.fit(campaign, rng)
+    return _against_truth(cell, truth, results)
+
+
+def _against_truth(cell: Cell, truth: Truth, results: ElastostaticResults) -> list[dict]:
+    """:func:`fit_against_truth`'s rows: each sampled parameter's truth beside its posterior, edge units."""
     summary = results.summary()
     not_identifiable = results.identifiability.not_identifiable
     r_hat = results.diagnostics()["r_hat_max"]

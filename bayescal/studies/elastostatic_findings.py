@@ -24,8 +24,9 @@ from os import PathLike
 import numpy as np
 import pandas as pd
 
+from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell, load_cell
-from bayescal.cell.plan import read_plan
+from bayescal.cell.plan import Plan, read_plan
 from bayescal.design.linearisation import test_deflection
 from bayescal.inference.elastostatic import EXTENSIONS, ElastostaticModel
 from bayescal.inference.identifiability import grouped
@@ -276,6 +277,34 @@ def _fits(cell: Cell, campaign, seed: int) -> tuple[ElastostaticModel, Elastosta
     return model, results, linear, messages
 
 
+def _campaign_facts(cell: Cell, plan: Plan, campaign: Campaign, results: ElastostaticResults) -> dict:
+    """What the findings say of the campaign: its size, loads (kg) and tracker noise (μm) (fields by name)."""
+    masses = plan.masses(cell.load_mass)
+    return {
+        "n_configurations": len(plan),
+        "n_markers": len(cell.markers),
+        "n_rows": len(campaign),
+        "n_equations": results.n_equations,
+        "n_angles": int(results.compensated_angles.size),
+        "mass_range_kg": (float(masses.min()), float(masses.max())),
+        "noise_range_um": tuple(sd / UM for sd in cell.tracker.sigma_range(campaign.p0, campaign.p1)),
+    }
+
+
+def _test_pose(results: ElastostaticResults, cell: Cell) -> dict:
+    """The cell's test pose: its error budget, beside the twin's true deflection there, and the pose itself (fields by name)."""
+    test_pose = predict_cell_test_pose(results, cell)
+    true_deflection = test_deflection(cell)
+    return {
+        "test_pose": test_pose.to_json(),
+        "test_pose_against_truth": test_pose.against(true_deflection) if test_pose.available else None,
+        "true_deflection_mm": float(np.linalg.norm(true_deflection) / MM),
+        "test_q_deg": np.degrees(cell.test_q),
+        "test_wrench": np.asarray(cell.test_wrench),
+        "test_point_mm": np.asarray(cell.test_point) / MM,
+    }
+
+
 def elastostatic_findings(
     config: str | PathLike[str] = "data/kr270.toml", plan_path: str | PathLike[str] = "data/table3_plan.csv", seed: int = 1
 ) -> ElastostaticFindings:
@@ -308,12 +337,7 @@ def elastostatic_findings(
     posterior = summary.loc[sampled, ["mean", "sd"]]
     truth_shift = {name: float((truth[name] - posterior.loc[name, "mean"]) / posterior.loc[name, "sd"]) for name in sampled}
     sensitivity = assumption_sensitivity(model, campaign, posterior)
-
-    test_pose = predict_cell_test_pose(results, cell)
-    true_deflection = test_deflection(cell)
-    truth_block = test_pose.against(true_deflection) if test_pose.available else None
-
-    masses = plan.masses(cell.load_mass)
+    test_pose = _test_pose(results, cell)
     reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in names}
     compensator = _compensator(results, cell) if results.closed_form.spring is not None else None
     linearisation = linearisation_findings(linearisation_study(cell, plan), unloaded_sag(cell, plan))
@@ -321,13 +345,7 @@ def elastostatic_findings(
         config=str(config),
         plan_path=str(plan_path),
         seed=seed,
-        n_configurations=len(plan),
-        n_markers=len(cell.markers),
-        n_rows=len(campaign),
-        n_equations=results.n_equations,
-        n_angles=int(results.compensated_angles.size),
-        mass_range_kg=(float(masses.min()), float(masses.max())),
-        noise_range_um=tuple(sd / UM for sd in cell.tracker.sigma_range(campaign.p0, campaign.p1)),
+        **_campaign_facts(cell, plan, campaign, results),
         sampler_name=results.sampler_name,
         diagnostics=results.diagnostics(),
         linear_diagnostics=linear.diagnostics(),
@@ -343,12 +361,7 @@ def elastostatic_findings(
         linear_vs_exact=_linear_vs_exact(results, names),
         sensitivity=sensitivity,
         misstated=misstated_config_study(cell, seed),
-        test_pose=test_pose.to_json(),
-        test_pose_against_truth=truth_block,
-        true_deflection_mm=float(np.linalg.norm(true_deflection) / MM),
-        test_q_deg=np.degrees(cell.test_q),
-        test_wrench=np.asarray(cell.test_wrench),
-        test_point_mm=np.asarray(cell.test_point) / MM,
+        **test_pose,
         joint2=_joint2(results, cell) if results.draws.spring is not None else None,
         warnings=messages,
     )

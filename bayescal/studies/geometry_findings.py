@@ -145,27 +145,13 @@ def geometry_findings(
     rigid = GeometryPosteriorModel("rigid", sampler=sampler).fit(points, rng=rng)
     summary, rigid_summary = concentric.summary(), rigid.summary()
 
-    q2_sorted = np.sort(points.of(LEVER_MARKER)[0])
-    layout = MarkerLayout.from_fit(closed, points)
-    arc_study = arc_fit_study(layout, q2_sorted, TABLE_I_NOISE, n_arc_rep, rng)
-    light = GeometryPosteriorModel("concentric", sampler=geometry_sampler(**COVERAGE_SAMPLER))
-    coverage = coverage_study(layout, q2_sorted, TABLE_I_NOISE, n_coverage_rep, light, rng)
+    arc_study, coverage = _monte_carlo(points, closed, n_arc_rep, n_coverage_rep, rng)
     along = {name: along_arc_residuals(points, rigid.closed_form.p0[:2], name, rigid.residuals[name]) for name in points.cylinder_markers}
-
-    g = concentric.geometry
-    s0_values = [0.0, 0.2, 0.4]
-    s0_published = None
-    if reference is not None and "s0" in reference.index:
-        s0_published = float(reference.loc["s0", "value"]) * MM
-        s0_values.append(s0_published)
-    s0_values.append(g.a - g.L)
-
+    s0_values, s0_published = _s0_values(concentric.geometry, reference)
     markers = cylinder_marker_study(points, closed)
     critique = GeometryCritique().run(points)
     paper = beside_published(summary.loc[["L", "a_x", "a_y"], ["mean", "sd"]], "II", reference) if reference is not None else None
     implied = implied_cylinder_noise(summary, paper) if paper is not None else None
-    lever_rms = closed.residuals_rms[LEVER_MARKER] / MM
-    beyond = float(markers["drift_along_arc_mm"].min() / lever_rms)
     return GeometryFindings(
         points_path=str(points_path),
         seed=seed,
@@ -179,14 +165,45 @@ def geometry_findings(
         arc_study=arc_study,
         coverage=coverage,
         critique=critique,
-        s0_values=tuple(s0_values),
+        s0_values=s0_values,
         s0_published=s0_published,
         implied_noise=implied,
-        closed_form_within_sd=bool(abs(closed.geometry.a_y / MM - summary.loc["a_y", "mean"]) < summary.loc["a_y", "sd"]),
-        same_pattern=bool((markers["residual_correlation"] > SAME_PATTERN).all()),
-        model_misfit=bool(markers["residual_rms_mm"].max() / lever_rms > MODEL_MISFIT_RATIO),
-        wider=None if implied is None else bool(summary.loc["sigma[cylinder]", "mean"] > implied.max()),
-        drift_in_noise=beyond,
-        drift_verdict=_drift_verdict(beyond),
-        rigid_narrower=bool(rigid_summary.loc["a_x", "sd"] < summary.loc["a_x", "sd"]),
+        **_verdicts(closed, summary, rigid_summary, markers, implied),
     )
+
+
+def _monte_carlo(
+    points: MarkerPoints, closed: GeometryFit, n_arc_rep: int, n_coverage_rep: int, rng: np.random.Generator
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The arc-fit and the coverage studies on the layout fitted to ``points``, at Table I's angles and noise."""
+    q2_sorted = np.sort(points.of(LEVER_MARKER)[0])
+    layout = MarkerLayout.from_fit(closed, points)
+    arc_study = arc_fit_study(layout, q2_sorted, TABLE_I_NOISE, n_arc_rep, rng)
+    light = GeometryPosteriorModel("concentric", sampler=geometry_sampler(**COVERAGE_SAMPLER))
+    return arc_study, coverage_study(layout, q2_sorted, TABLE_I_NOISE, n_coverage_rep, light, rng)
+
+
+def _s0_values(g, reference: pd.DataFrame | None) -> tuple[tuple[float, ...], float | None]:
+    """The free lengths s0 (m) the report tries, the published one among them, and the published one (None: none)."""
+    s0_values = [0.0, 0.2, 0.4]
+    s0_published = None
+    if reference is not None and "s0" in reference.index:
+        s0_published = float(reference.loc["s0", "value"]) * MM
+        s0_values.append(s0_published)
+    s0_values.append(g.a - g.L)
+    return tuple(s0_values), s0_published
+
+
+def _verdicts(closed: GeometryFit, summary: pd.DataFrame, rigid_summary: pd.DataFrame, markers: pd.DataFrame, implied) -> dict:
+    """The findings' verdicts on the fits and the cylinder markers (:class:`GeometryFindings`' fields by name)."""
+    lever_rms = closed.residuals_rms[LEVER_MARKER] / MM
+    beyond = float(markers["drift_along_arc_mm"].min() / lever_rms)
+    return {
+        "closed_form_within_sd": bool(abs(closed.geometry.a_y / MM - summary.loc["a_y", "mean"]) < summary.loc["a_y", "sd"]),
+        "same_pattern": bool((markers["residual_correlation"] > SAME_PATTERN).all()),
+        "model_misfit": bool(markers["residual_rms_mm"].max() / lever_rms > MODEL_MISFIT_RATIO),
+        "wider": None if implied is None else bool(summary.loc["sigma[cylinder]", "mean"] > implied.max()),
+        "drift_in_noise": beyond,
+        "drift_verdict": _drift_verdict(beyond),
+        "rigid_narrower": bool(rigid_summary.loc["a_x", "sd"] < summary.loc["a_x", "sd"]),
+    }

@@ -169,36 +169,47 @@ def load_direction_study(
     }
     rows, first = {}, None
     for name, plan in plans.items():
-        linearised = CampaignModel.build(cell, plan, repeats, vary_all=True)
-        if k1_known:
-            linearised = dataclasses.replace(linearised, varied=np.arange(len(linearised.varied)) != 0)
-        weighted = linearised.design / linearised.sigma[:, np.newaxis]
-        prediction = predict(cell, repeats * weighted.T @ weighted, test_design=linearised.test_design)
-        result = simulate_plan(cell, plan, campaigns=campaigns, repeats=repeats, seed=seed + 1, executor=executor, model=linearised)
-        length = np.linalg.norm(result["errors"], axis=1)
+        rows[name], length = _plan_scores(cell, plan, first, repeats, campaigns, seed, k1_known, executor)
         first = length if first is None else first
-        sd_k1 = prediction.relative_sd[0]
-        covered = np.abs(result["parameter_errors"][:, 0]) <= 3.0 * sd_k1 if linearised.excited[0] else np.full(campaigns, np.nan)
-        rows[name] = {
-            "predicted_rho0_um": prediction.rho0 / UM,
-            "predicted_rho0_identified_um": prediction.rho0_identified / UM,
-            "mean_error_um": length.mean() / UM,
-            "mean_error_se_um": length.std(ddof=1) / math.sqrt(campaigns) / UM,
-            "rms_error_um": math.sqrt(np.mean(length**2)) / UM,
-            "difference_to_hanging_um": (length - first).mean() / UM,
-            "difference_se_um": (length - first).std(ddof=1) / math.sqrt(campaigns) / UM,
-            "k1_excited": bool(linearised.excited[0]),
-            "k1_identifiable": _k1_reported_identifiable(cell, plan, repeats, seed),
-            "k1_width_3sd_pct": 300.0 * sd_k1,
-            "k1_width_3sd_urad_per_Nm": 3.0 * sd_k1 * cell.compliances[0] / URAD_PER_NM,
-            "k1_coverage_3sd": float(np.mean(covered)),
-            "campaigns": campaigns,
-        }
     scores = pd.DataFrame.from_dict(rows, orient="index")
     scores.index.name = "plan"
     settings = {"angles": angles, "per_angle": per_angle, "repeats": repeats, "campaigns": campaigns, "turned": turned, "seed": seed}
     settings |= {"candidates_per_angle": candidates_per_angle, "starts": starts, "model": model, "k1_known": k1_known}
     return LoadDirectionFindings(scores=scores, plans=plans, settings=settings)
+
+
+def _plan_scores(
+    cell: Cell, plan: Plan, first: np.ndarray | None, repeats: int, campaigns: int, seed: int, k1_known: bool, executor: Executor | None
+) -> tuple[dict, np.ndarray]:
+    """One plan's row of :func:`load_direction_study`'s scores, and its error lengths (m) over the campaigns.
+
+    ``first`` holds the first plan's error lengths on the same campaigns (None: this plan is the first).
+    """
+    linearised = CampaignModel.build(cell, plan, repeats, vary_all=True)
+    if k1_known:
+        linearised = dataclasses.replace(linearised, varied=np.arange(len(linearised.varied)) != 0)
+    weighted = linearised.design / linearised.sigma[:, np.newaxis]
+    prediction = predict(cell, repeats * weighted.T @ weighted, test_design=linearised.test_design)
+    result = simulate_plan(cell, plan, campaigns=campaigns, repeats=repeats, seed=seed + 1, executor=executor, model=linearised)
+    length = np.linalg.norm(result["errors"], axis=1)
+    first = length if first is None else first
+    sd_k1 = prediction.relative_sd[0]
+    covered = np.abs(result["parameter_errors"][:, 0]) <= 3.0 * sd_k1 if linearised.excited[0] else np.full(campaigns, np.nan)
+    return {
+        "predicted_rho0_um": prediction.rho0 / UM,
+        "predicted_rho0_identified_um": prediction.rho0_identified / UM,
+        "mean_error_um": length.mean() / UM,
+        "mean_error_se_um": length.std(ddof=1) / math.sqrt(campaigns) / UM,
+        "rms_error_um": math.sqrt(np.mean(length**2)) / UM,
+        "difference_to_hanging_um": (length - first).mean() / UM,
+        "difference_se_um": (length - first).std(ddof=1) / math.sqrt(campaigns) / UM,
+        "k1_excited": bool(linearised.excited[0]),
+        "k1_identifiable": _k1_reported_identifiable(cell, plan, repeats, seed),
+        "k1_width_3sd_pct": 300.0 * sd_k1,
+        "k1_width_3sd_urad_per_Nm": 3.0 * sd_k1 * cell.compliances[0] / URAD_PER_NM,
+        "k1_coverage_3sd": float(np.mean(covered)),
+        "campaigns": campaigns,
+    }, length
 
 
 def _k1_reported_identifiable(cell: Cell, plan: Plan, repeats: int, seed: int) -> bool:

@@ -221,6 +221,21 @@ def _paired_ratio(squared: np.ndarray, first: np.ndarray) -> dict[str, float]:
     return {"rms_ratio_to_first": ratio, "rms_ratio_se": ratio * float(np.sqrt(max(variance, 0.0)))}
 
 
+def _width_rows(plan: str, exact, linear, result: dict) -> list[dict]:
+    """:func:`compare_plans`' widths of one plan, a row per parameter: predicted (exact, linear) and simulated, %."""
+    simulated = 300.0 * np.sqrt(np.mean(result["parameter_errors"] ** 2, axis=0))
+    return [
+        {
+            "plan": plan,
+            "parameter": parameter,
+            "predicted_width_3sd_pct": 300.0 * exact.relative_sd[i],
+            "predicted_linear_width_3sd_pct": 300.0 * linear.relative_sd[i],
+            "simulated_width_3sd_pct": simulated[i] if result["excited"][i] else np.nan,
+        }
+        for i, parameter in enumerate(exact.names)
+    ]
+
+
 def compare_plans(
     cell: Cell,
     plans: Mapping[str, Plan],
@@ -274,17 +289,7 @@ def compare_plans(
             **_paired_ratio(squared, squares[0]),
             "campaigns": campaigns,
         }
-        simulated = 300.0 * np.sqrt(np.mean(result["parameter_errors"] ** 2, axis=0))
-        for i, parameter in enumerate(exact.names):
-            width_rows.append(
-                {
-                    "plan": name,
-                    "parameter": parameter,
-                    "predicted_width_3sd_pct": 300.0 * exact.relative_sd[i],
-                    "predicted_linear_width_3sd_pct": 300.0 * linear.relative_sd[i],
-                    "simulated_width_3sd_pct": simulated[i] if result["excited"][i] else np.nan,
-                }
-            )
+        width_rows += _width_rows(name, exact, linear, result)
     scores = pd.DataFrame.from_dict(rows, orient="index")
     scores.index.name = "plan"
     return scores, pd.DataFrame(width_rows).set_index(["plan", "parameter"])

@@ -1,9 +1,10 @@
 """Physical effects the digital twin can plant in a simulated campaign.
 
-Each effect is a small object with a documented default magnitude; it changes
-the twin at one of four places, the others being left as they are:
+Each effect is a small object with a documented default magnitude (the package's one idiom for
+effects, :class:`bayescal.twin.planted.Planted`); it changes the twin at one of four places, the
+others being left as they are:
 
-* :meth:`Effect.compensator` - the spring compensator on joint 2;
+* :meth:`Effect.compensator` - the cell's spring compensator;
 * :meth:`Effect.joints` - the deflection law of the joint springs;
 * :meth:`Effect.displacement` - an extra displacement of the tool's points
   under the external load (compliance outside the joints);
@@ -16,7 +17,6 @@ magnitudes, their units and their sources are listed in :data:`EFFECTS` and in
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -26,6 +26,7 @@ from bayescal.robot.compensator import Compensator
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
 from bayescal.robot.stiffness import JointLaw
+from bayescal.twin.planted import Planted
 from bayescal.units import DEG, MM, URAD_PER_NM
 
 __all__ = [
@@ -42,19 +43,8 @@ __all__ = [
 
 
 @dataclass(frozen=True)
-class Effect:
-    """Base class: an effect that changes nothing.  ``magnitude`` is in the effect's :attr:`unit`."""
-
-    magnitude: float
-
-    name = ""
-    unit = ""
-    default = 0.0
-    summary = ""
-
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.magnitude) and self.magnitude >= 0):
-            raise ValueError(f"effect '{self.name}' needs a finite magnitude >= 0 in {self.unit}, got {self.magnitude:g}")
+class Effect(Planted):
+    """Base class: an effect of the twin that changes nothing.  ``magnitude`` is in the effect's :attr:`unit`."""
 
     def compensator(self, compensator: Compensator | None) -> Compensator | None:
         """The compensator the twin uses."""
@@ -76,9 +66,6 @@ class Effect:
         """The tracker readings (k, 3), m, as the effect leaves them."""
         return measured
 
-    def describe(self) -> str:
-        return f"{self.name}={self.magnitude:g} {self.unit}"
-
 
 @dataclass(frozen=True)
 class CompensatorScale(Effect):
@@ -93,7 +80,7 @@ class CompensatorScale(Effect):
     name = "compensator"
     unit = "x K_c"
     default = 1.0
-    summary = "the spring compensator on joint 2, K_c scaled by the magnitude (0: a plain serial robot)"
+    summary = "the cell's spring compensator, K_c scaled by the magnitude (0: a plain serial robot)"
 
     def compensator(self, compensator: Compensator | None) -> Compensator | None:
         if compensator is None or self.magnitude == 0:

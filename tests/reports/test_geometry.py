@@ -17,6 +17,7 @@ def test_report_is_rendered_with_figures(data_dir):
     assert "About a_y" in text
     # claims worded from the findings: Table I's lever turns clockwise, its cylinder markers drift
     assert findings.drift_verdict == "far beyond" and "far beyond P1's noise" in text
+    assert f"({findings.drift_in_noise:.1f} times its rms residual at the least)" in text
     assert "turn opposite ways" in text
     assert "| a_y | " in text and "Binomial standard error" in text
     # the model criticism: its verdict and the held-out residuals before and after

@@ -16,6 +16,15 @@ def test_every_effect_of_each_generator_has_a_right_verdict():
     assert set(SET_ON) == set(GENERATORS)
 
 
+def test_the_independent_generators_right_verdicts_are_its_effects_causes():
+    from bayescal.studies.independent_detection import INDEPENDENT_EFFECTS
+    from bayescal.twin.independent import EFFECTS
+
+    expected = dict(GENERATORS["independent"].expected)
+    assert expected.pop("none") == "adequate"
+    assert expected == {name: EFFECTS[name].cause or "unexplained" for name in INDEPENDENT_EFFECTS}
+
+
 def test_a_tie_is_right_but_not_alone_and_a_lone_wrong_cause_is_wrong():
     tied = _judged(["outliers", "backlash"], {"outliers": ["backlash"]}, {}, "backlash")
     assert (tied["first"], tied["partners"], tied["right"], tied["alone"], tied["wrong_single"]) == ("outliers", "backlash", True, False, False)

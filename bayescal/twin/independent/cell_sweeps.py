@@ -135,13 +135,8 @@ def cell_sweeps(
     tracker = type(cell.tracker)(position, cell.tracker.U0, cell.tracker.U1, cell.tracker.factor * factor)
     readout = TrackerReadout(tracker)
     lines, flange = _home_lines(cell, home)
-    # Three reflectors 100-250 mm off the flange's axis at random azimuths, 30-150 mm out along it.
-    azimuth = rng.uniform(0, 2 * np.pi) + np.array([0.0, 2.1, 4.2]) + rng.uniform(-0.3, 0.3, 3)
-    offsets = np.column_stack([rng.uniform(0.10, 0.25, 3) * np.cos(azimuth), rng.uniform(0.10, 0.25, 3) * np.sin(azimuth),
-                               rng.uniform(0.03, 0.15, 3)])
-    reflectors = flange.translation + offsets @ flange.rotation.T
-    scale = np.array([loose, 1.0, 1.0])
-    step = span_deg / (angles - 1)
+    reflectors = _reflectors(flange, rng)
+    scale, step = np.array([loose, 1.0, 1.0]), span_deg / (angles - 1)
     rows = []
     for j in joints:
         axis, origin = lines[j]
@@ -164,12 +159,22 @@ def cell_sweeps(
             for k in np.flatnonzero(kept[i]):
                 rows.append({"joint": j + 1, **{f"q{m + 1}_deg": reported[m] / DEG for m in range(home.size)},
                              "marker": f"S{k + 1}", "x_mm": read[k, 0] / MM, "y_mm": read[k, 1] / MM, "z_mm": read[k, 2] / MM})
-    truth = {}
-    for j in joints:
-        axis, origin = lines[j]
-        a, p = rotation.T @ axis, (origin - position) @ rotation
-        truth[j] = (a, p - (p @ a) * a)
+    truth = {j: _axis_in_tracker(*lines[j], rotation, position) for j in joints}
     return CellSweeps(pd.DataFrame(rows), truth, (rotation.T, -rotation.T @ position), factor)
+
+
+def _reflectors(flange, rng: np.random.Generator) -> np.ndarray:
+    """(3, 3) three reflectors in base, m: 100-250 mm off the flange's axis at random azimuths, 30-150 mm out along it."""
+    azimuth = rng.uniform(0, 2 * np.pi) + np.array([0.0, 2.1, 4.2]) + rng.uniform(-0.3, 0.3, 3)
+    offsets = np.column_stack([rng.uniform(0.10, 0.25, 3) * np.cos(azimuth), rng.uniform(0.10, 0.25, 3) * np.sin(azimuth),
+                               rng.uniform(0.03, 0.15, 3)])
+    return flange.translation + offsets @ flange.rotation.T
+
+
+def _axis_in_tracker(axis: np.ndarray, origin: np.ndarray, rotation: np.ndarray, position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A joint's base-frame axis line as the tracker sees it: (direction, the line's point nearest the tracker), m."""
+    a, p = rotation.T @ axis, (origin - position) @ rotation
+    return a, p - (p @ a) * a
 
 
 def swap_labels(table: pd.DataFrame, joint: int, rng: np.random.Generator) -> pd.DataFrame:

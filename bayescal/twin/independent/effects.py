@@ -1,19 +1,22 @@
 """The effects the independent generator can plant, and the world they change.
 
 An effect is a named change of the simulated world (:class:`World`): of the
-arm's mechanics, of the tool, of the load, or of the tracker's readings.  Each
-has a physical description, a default size (``default`` in ``unit``, documented
-with its source or flagged as an estimate in ``docs/twin.md``), a ``magnitude``
-multiplier of that size, and the cause family a model criticism should name for
-it (``None``: no family covers it, the right answer is "unexplained").  The
-forms are this generator's own and deliberately not those of the package's
-digital twin (``bayescal.twin.effects``).
+arm's mechanics, of the tool, of the load, or of the tracker's readings.  Effects
+are written in the package's one idiom (:class:`bayescal.twin.planted.Planted`):
+a class per effect with its one-line ``summary``, its default size (``default``
+in ``unit``, documented with its source or flagged as an estimate in
+``docs/independent.md``) and the cause family a model criticism should name for
+it (``cause``; ``None``: no family covers it, the right answer is
+"unexplained"); an instance is the effect at one size, and the generator's
+``magnitude`` is a multiple of the default.  The forms are this generator's own
+and deliberately not those of the package's digital twin
+(``bayescal.twin.effects``): the idiom is shared, the physics is not.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -24,6 +27,7 @@ from bayescal.twin.independent.geometry import GeometryErrors
 from bayescal.twin.independent.noise import FrameDrift, LineOfSightJumps, ScaleError
 from bayescal.twin.independent.solver import SpringLinkage
 from bayescal.twin.independent.structure import ApproachPlay, GearPlay, KneeJoints, LinkBeams, RandomField, ToolMount, tube
+from bayescal.twin.planted import Planted
 
 __all__ = ["World", "PlantedEffect", "EFFECTS", "CAUSES"]
 
@@ -93,27 +97,18 @@ class World:
 
 
 @dataclass(frozen=True)
-class PlantedEffect:
-    """A plantable effect.
+class PlantedEffect(Planted, ABC):
+    """An effect of this generator at ``magnitude`` in its ``unit`` (the generator's multiple times ``default``).
 
-    Attributes
-    ----------
-    name, description : str
-    cause : str or None
-        The family of :data:`CAUSES` it belongs to, or None (expect ``unexplained``).
-    default : float
-        Its size at magnitude 1, in ``unit``.
-    unit : str
-    plant : callable
-        ``plant(world, cell, size, rng) -> World`` with ``size = default·magnitude`` in ``unit``.
+    Besides the idiom's ``name``, ``unit``, ``default`` and ``summary``, its class gives ``cause``: the family of
+    :data:`CAUSES` it belongs to, or None (expect ``unexplained``).
     """
 
-    name: str
-    description: str
-    cause: str | None
-    default: float
-    unit: str
-    plant: Callable[[World, Cell, float, np.random.Generator], World]
+    cause = None
+
+    @abstractmethod
+    def plant(self, world: World, cell: Cell, rng: np.random.Generator) -> World:
+        """``world`` with the effect planted (its random parts drawn from ``rng``)."""
 
 
 def _rated_torque(cell: Cell) -> np.ndarray:
@@ -123,25 +118,31 @@ def _rated_torque(cell: Cell) -> np.ndarray:
     return effort
 
 
-def _spring(world: World, cell: Cell, size: float, rng) -> World:
-    if world.linkage is None:
-        raise ValueError("the cell has no compensator whose spring could be changed")
-    # A stiffer, progressive spring (the rate rises 15 % over a 200 mm stretch at the
-    # default size), its free length chosen as a maker would: the one whose moment is
-    # closest, in least squares over the joint's range, to the moment of the spring it replaces.
-    old = world.linkage
-    step = (size - 1.0) / (EFFECTS["stiff_spring"].default - 1.0)
-    joint = old.joint
-    angles = np.linspace(cell.robot.lower[joint], cell.robot.upper[joint], 60)
-    target = np.array([old.moment(angle) for angle in angles])
+@dataclass(frozen=True)
+class StiffSpringEffect(PlantedEffect):
+    """A stiffer, progressive spring (the rate rises 15 % over a 200 mm stretch at the default size), its free
+    length chosen as a maker would: the one whose moment is closest, in least squares over the joint's range,
+    to the moment of the spring it replaces."""
 
-    def misfit(s0: float) -> float:
-        new = replace(old, K_c=old.K_c * size, s0=s0, progression=0.15 * step)
-        return float(np.sum((np.array([new.moment(angle) for angle in angles]) - target) ** 2))
+    name, cause, default, unit = "stiff_spring", "compensator", 3.0, "factor on K_c"
+    summary = "the compensator's spring stiffer (rate × the size), progressive, with a longer free length"
 
-    lengths = np.array([old.length(angle) for angle in angles])
-    s0 = minimize_scalar(misfit, bounds=(0.0, float(lengths.max())), method="bounded").x if size > 0 else old.s0
-    return replace(world, linkage=replace(old, K_c=old.K_c * size, s0=float(s0), progression=0.15 * step))
+    def plant(self, world: World, cell: Cell, rng: np.random.Generator) -> World:
+        if world.linkage is None:
+            raise ValueError("the cell has no compensator whose spring could be changed")
+        size, old = self.magnitude, world.linkage
+        step = (size - 1.0) / (self.default - 1.0)
+        joint = old.joint
+        angles = np.linspace(cell.robot.lower[joint], cell.robot.upper[joint], 60)
+        target = np.array([old.moment(angle) for angle in angles])
+
+        def misfit(s0: float) -> float:
+            new = replace(old, K_c=old.K_c * size, s0=s0, progression=0.15 * step)
+            return float(np.sum((np.array([new.moment(angle) for angle in angles]) - target) ** 2))
+
+        lengths = np.array([old.length(angle) for angle in angles])
+        s0 = minimize_scalar(misfit, bounds=(0.0, float(lengths.max())), method="bounded").x if size > 0 else old.s0
+        return replace(world, linkage=replace(old, K_c=old.K_c * size, s0=float(s0), progression=0.15 * step))
 
 
 CAST_IRON = (169e9, 65e9)
@@ -151,27 +152,43 @@ ARM_TUBES = ((0.34, 0.016), (0.24, 0.012))
 sized from the KR-270's outline (upper arm about 350 mm deep, forearm about 250 mm)."""
 
 
-def _beams(world: World, cell: Cell, size: float, rng) -> World:
-    sections = tuple(tube(outer, wall, *CAST_IRON) for outer, wall in ARM_TUBES)
-    return replace(world, beams=LinkBeams(sections, size, cell.gravity))
+@dataclass(frozen=True)
+class LinkBeamsEffect(PlantedEffect):
+    name, cause, default, unit = "link_beams", "link_compliance", 1.0, "factor on the tubes' compliance"
+    summary = "upper arm and forearm bend and twist as cast-iron tubes under their own weight and the load beyond"
+
+    def plant(self, world: World, cell: Cell, rng: np.random.Generator) -> World:
+        sections = tuple(tube(outer, wall, *CAST_IRON) for outer, wall in ARM_TUBES)
+        return replace(world, beams=LinkBeams(sections, self.magnitude, cell.gravity))
 
 
 TOOL_MASS = 30.0
 """The tool's own mass, kg: ESTIMATE for a welded steel plate carrying markers and a lifting eye."""
 
 
-def _tool(world: World, cell: Cell, size: float, rng) -> World:
-    # The tool's centre of mass: midway between the flange and the centroid of what it carries.
-    carried = np.vstack([world.load_point, *world.markers.values()])
-    centre = 0.5 * carried.mean(axis=0)
-    mount = ToolMount(TOOL_MASS, centre, bending=size * 1e-6, torsion=0.4 * size * 1e-6, shear=0.5 * size * 1e-9)
-    return replace(world, tool=mount)
+@dataclass(frozen=True)
+class ToolMountEffect(PlantedEffect):
+    name, cause, default, unit = "tool_mount", "tool_compliance", 0.4, "μrad/(N·m) in bending"
+    summary = "a 30 kg tool on an adaptor that turns under the bending moment (torsion 0.4 times it) and shears"
+
+    def plant(self, world: World, cell: Cell, rng: np.random.Generator) -> World:
+        size = self.magnitude
+        # The tool's centre of mass: midway between the flange and the centroid of what it carries.
+        carried = np.vstack([world.load_point, *world.markers.values()])
+        centre = 0.5 * carried.mean(axis=0)
+        mount = ToolMount(TOOL_MASS, centre, bending=size * 1e-6, torsion=0.4 * size * 1e-6, shear=0.5 * size * 1e-9)
+        return replace(world, tool=mount)
 
 
-def _play(world: World, cell: Cell, size: float, rng) -> World:
-    rated = _rated_torque(cell)
-    play = np.full(len(rated), size * math.pi / (180.0 * 60.0))
-    return replace(world, play=GearPlay(play, 0.03 * rated, 0.01 * rated))
+@dataclass(frozen=True)
+class GearPlayEffect(PlantedEffect):
+    name, cause, default, unit = "gear_play", "backlash", 1.0, "arcmin of play per joint"
+    summary = "lost motion of every joint's gears, held by friction until the torque exceeds 3 % of the rated torque the other way"
+
+    def plant(self, world: World, cell: Cell, rng: np.random.Generator) -> World:
+        rated = _rated_torque(cell)
+        play = np.full(len(rated), self.magnitude * math.pi / (180.0 * 60.0))
+        return replace(world, play=GearPlay(play, 0.03 * rated, 0.01 * rated))
 
 
 APPROACH_PLAY = (0.5, 1.5)
@@ -181,77 +198,95 @@ APPROACH_HOLD = (0.01, 0.06)
 breakaway torque at the output, a few per cent of rated."""
 
 
-def _approach(world: World, cell: Cell, size: float, rng) -> World:
-    rated = _rated_torque(cell)
-    play = size * math.pi / (180.0 * 60.0) * rng.uniform(*APPROACH_PLAY, len(rated))
-    hold = rated * rng.uniform(*APPROACH_HOLD, len(rated))
-    # Home: the middle of each joint's range (of its first turn), where a cell's programs start.
-    home = 0.5 * (np.maximum(cell.robot.lower, -math.pi) + np.minimum(cell.robot.upper, math.pi))
-    return replace(world, approach=ApproachPlay(play, hold, home))
-
-
-def _knee(world: World, cell: Cell, size: float, rng) -> World:
-    return replace(world, knee=KneeJoints(world.compliances, size, 0.1 * _rated_torque(cell)))
-
-
-def _jumps(world: World, cell: Cell, size: float, rng) -> World:
-    return replace(world, jumps=LineOfSightJumps(0.03, 0.5 * size * 1e-3, 1.5 * size * 1e-3))
-
-
-def _drift(world: World, cell: Cell, size: float, rng) -> World:
-    hour = 3600.0
-    drift = FrameDrift.draw(
-        rng, rate=size * 1e-3 / hour, cycle=0.1 * size * 1e-3, period=0.5 * hour, spin_rate=0.1 * size * 1e-3 / hour
+@dataclass(frozen=True)
+class ApproachPlayEffect(PlantedEffect):
+    name, cause, default, unit = "approach_play", "backlash", 1.0, "arcmin of play per joint"
+    summary = (
+        "lost motion of every joint on the flank its servo last drove it to (the direction of its last move, from a "
+        "home pose), crossed when the torque exceeds a friction hold drawn per joint (1-6 % of rated); each joint's "
+        "play the size times 0.5-1.5"
     )
-    return replace(world, drift=drift)
+
+    def plant(self, world: World, cell: Cell, rng: np.random.Generator) -> World:
+        rated = _rated_torque(cell)
+        play = self.magnitude * math.pi / (180.0 * 60.0) * rng.uniform(*APPROACH_PLAY, len(rated))
+        hold = rated * rng.uniform(*APPROACH_HOLD, len(rated))
+        # Home: the middle of each joint's range (of its first turn), where a cell's programs start.
+        home = 0.5 * (np.maximum(cell.robot.lower, -math.pi) + np.minimum(cell.robot.upper, math.pi))
+        return replace(world, approach=ApproachPlay(play, hold, home))
 
 
-def _scale(world: World, cell: Cell, size: float, rng) -> World:
-    return replace(world, scale=ScaleError(size * 1e-6))
+@dataclass(frozen=True)
+class KneeJointsEffect(PlantedEffect):
+    name, cause, default, unit = "knee_joints", "nonlinear_stiffness", 0.5, "fraction of extra compliance"
+    summary = "every joint spring softer by this fraction below 10 % of its rated torque"
+
+    def plant(self, world: World, cell: Cell, rng: np.random.Generator) -> World:
+        return replace(world, knee=KneeJoints(world.compliances, self.magnitude, 0.1 * _rated_torque(cell)))
 
 
-def _rehang(world: World, cell: Cell, size: float, rng) -> World:
-    return replace(world, load_jitter=size * 1e-3)
+@dataclass(frozen=True)
+class LineOfSightJumpsEffect(PlantedEffect):
+    name, cause, default, unit = "los_jumps", "outliers", 1.0, "mm"
+    summary = "3 % of readings re-acquired off along the line of sight, by 0.5 to 1.5 times the size"
+
+    def plant(self, world: World, cell: Cell, rng: np.random.Generator) -> World:
+        return replace(world, jumps=LineOfSightJumps(0.03, 0.5 * self.magnitude * 1e-3, 1.5 * self.magnitude * 1e-3))
+
+
+@dataclass(frozen=True)
+class ThermalDriftEffect(PlantedEffect):
+    name, cause, default, unit = "thermal_drift", "drift", 0.2, "mm/h"
+    summary = (
+        "the tracker's frame drifts in time: a steady translation, a 30 min cycle of a tenth of its hourly amount "
+        "and a turn of 0.1 mrad/h per mm/h about the tracker"
+    )
+
+    def plant(self, world: World, cell: Cell, rng: np.random.Generator) -> World:
+        size, hour = self.magnitude, 3600.0
+        drift = FrameDrift.draw(
+            rng, rate=size * 1e-3 / hour, cycle=0.1 * size * 1e-3, period=0.5 * hour, spin_rate=0.1 * size * 1e-3 / hour
+        )
+        return replace(world, drift=drift)
+
+
+@dataclass(frozen=True)
+class TrackerScaleEffect(PlantedEffect):
+    name, cause, default, unit = "tracker_scale", "tracker_scale", 20.0, "ppm"
+    summary = "every distance from the tracker off by a relative error (refractive index)"
+
+    def plant(self, world: World, cell: Cell, rng: np.random.Generator) -> World:
+        return replace(world, scale=ScaleError(self.magnitude * 1e-6))
+
+
+@dataclass(frozen=True)
+class LoadRehangEffect(PlantedEffect):
+    name, cause, default, unit = "load_rehang", None, 4.0, "mm standard deviation"
+    summary = "the load hangs somewhere else on the tool each time it is hung (per axis)"
+
+    def plant(self, world: World, cell: Cell, rng: np.random.Generator) -> World:
+        return replace(world, load_jitter=self.magnitude * 1e-3)
 
 
 FIELD_FORCE = 2600.0
 """Force (N) at which the random field has its nominal size: the weight of 265 kg."""
 
 
-def _field(world: World, cell: Cell, size: float, rng) -> World:
-    field = RandomField.draw(rng, cell.robot.nq, sigma=size * 1e-6, length=0.6, marker_scale=0.2)
-    return replace(world, field=field, field_force=FIELD_FORCE)
+@dataclass(frozen=True)
+class RandomFieldEffect(PlantedEffect):
+    name, cause, default, unit = "random_field", None, 40.0, "μm per coordinate at 2600 N"
+    summary = "a smooth random function of the joint angles and the marker added to the loaded deflection"
+
+    def plant(self, world: World, cell: Cell, rng: np.random.Generator) -> World:
+        field = RandomField.draw(rng, cell.robot.nq, sigma=self.magnitude * 1e-6, length=0.6, marker_scale=0.2)
+        return replace(world, field=field, field_force=FIELD_FORCE)
 
 
-EFFECTS: dict[str, PlantedEffect] = {
+EFFECTS: dict[str, type[PlantedEffect]] = {
     effect.name: effect
     for effect in (
-        PlantedEffect("stiff_spring", "the compensator's spring stiffer (rate × the size), progressive, with a longer free length",
-               "compensator", 3.0, "factor on K_c", _spring),
-        PlantedEffect("link_beams", "upper arm and forearm bend and twist as cast-iron tubes under their own weight and the load beyond",
-               "link_compliance", 1.0, "factor on the tubes' compliance", _beams),
-        PlantedEffect("tool_mount", "a 30 kg tool on an adaptor that turns under the bending moment (torsion 0.4 times it) and shears",
-               "tool_compliance", 0.4, "μrad/(N·m) in bending", _tool),
-        PlantedEffect("gear_play", "lost motion of every joint's gears, held by friction until the torque exceeds "
-               "3 % of the rated torque the other way",
-               "backlash", 1.0, "arcmin of play per joint", _play),
-        PlantedEffect("approach_play", "lost motion of every joint on the flank its servo last drove it to (the direction "
-               "of its last move, from a home pose), crossed when the torque exceeds a friction hold drawn "
-               "per joint (1-6 % of rated); each joint's play the size times 0.5-1.5",
-               "backlash", 1.0, "arcmin of play per joint", _approach),
-        PlantedEffect("knee_joints", "every joint spring softer by this fraction below 10 % of its rated torque",
-               "nonlinear_stiffness", 0.5, "fraction of extra compliance", _knee),
-        PlantedEffect("los_jumps", "3 % of readings re-acquired off along the line of sight, by 0.5 to 1.5 times the size",
-               "outliers", 1.0, "mm", _jumps),
-        PlantedEffect("thermal_drift", "the tracker's frame drifts in time: a steady translation, a 30 min cycle of a tenth of "
-               "its hourly amount and a turn of 0.1 mrad/h per mm/h about the tracker",
-               "drift", 0.2, "mm/h", _drift),
-        PlantedEffect("tracker_scale", "every distance from the tracker off by a relative error (refractive index)",
-               "tracker_scale", 20.0, "ppm", _scale),
-        PlantedEffect("load_rehang", "the load hangs somewhere else on the tool each time it is hung (per axis)",
-               None, 4.0, "mm standard deviation", _rehang),
-        PlantedEffect("random_field", "a smooth random function of the joint angles and the marker added to the loaded deflection",
-               None, 40.0, "μm per coordinate at 2600 N", _field),
+        StiffSpringEffect, LinkBeamsEffect, ToolMountEffect, GearPlayEffect, ApproachPlayEffect, KneeJointsEffect,
+        LineOfSightJumpsEffect, ThermalDriftEffect, TrackerScaleEffect, LoadRehangEffect, RandomFieldEffect,
     )
 }
-"""The effects by name."""
+"""The effects by name, each a class: ``EFFECTS[name](EFFECTS[name].default * multiple)`` is one at a multiple of its default."""

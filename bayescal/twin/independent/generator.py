@@ -180,7 +180,7 @@ class IndependentGenerator:
             raise InputError(f"the magnitude must be a finite number ≥ 0, got {magnitude}", column="magnitude")
         planted = EFFECTS[effect]
         try:
-            return planted.plant(world, cell, planted.default * magnitude, rng)
+            return planted(planted.default * magnitude).plant(world, cell, rng)
         except ValueError as exc:
             raise InputError(f"cannot plant {effect!r} in {cell.source}: {exc}", column="effect") from None
 
