@@ -148,7 +148,9 @@ class Table:
         return lines
 
     def _cells(self, row: tuple[str | Span, ...]) -> list[tuple[str, int]]:
-        return [(cell.text, cell.columns) if isinstance(cell, Span) else (cell, 1) for cell in row]
+        """The row's texts with the columns each covers, empty cells added up to the table's width (a row may end early)."""
+        cells = [(cell.text, cell.columns) if isinstance(cell, Span) else (cell, 1) for cell in row]
+        return cells + [("", 1)] * (len(self.columns) - sum(span for _, span in cells))
 
     def markdown(self) -> str:
         def line(cells: Sequence[str]) -> str:
