@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from bayescal.output import guard_outputs, record_read, write_folder
@@ -19,19 +18,6 @@ MAX_CHI2_PER_DOF = 100.0
 """Largest χ²/dof of a calibration against the campaign and cell given beside it: residuals 10 times the
 tracker noise the cell states.  A short calibration of the twin's Table III campaign gives 0.87 on that
 campaign and 3588 beside a campaign of the same plan on a robot twice as compliant (tests/cli/test_hostile.py)."""
-
-_SCHEMAS = {
-    "--plan": ({"criterion": (float, int, type(None)), "parameters": dict, "configurations": int}, "verdict", "bayescal plan --json"),
-    "--critique": ({"verdict": str, "causes": list, "evidence": dict, "gain": dict}, "parameters", "bayescal critique --json"),
-    "--registration": ({"axes": dict, "frames": dict}, "parameters", "bayescal axes -o"),
-}
-"""Per JSON option: the keys it must have with their types, a key only the other kind has, and the command that writes it."""
-
-LADDER_KEYS = {"verdict": str, "rungs": list, "steps": list, "without": list, "folds": int}
-"""The keys a model ladder's JSON must have, with their types."""
-
-VERDICTS = ("adequate", "misfit")
-"""The verdicts `bayescal critique` gives."""
 
 STUDY_COLUMNS = ("angles", "per_angle", "noise_fraction", "test_pose_rms_mm")
 """Columns every q2-angle study table has (`bayescal study q2-angles -o`)."""
@@ -209,39 +195,20 @@ def _load_tree(path: str, option: str, needs: tuple[str, ...], foreign: str):
 
 
 def _read_json(path: str, option: str) -> dict:
-    from bayescal.errors import InputError
+    """The JSON file of ``option``, checked against the schema of the results class that writes it."""
+    from bayescal.critique.results import CRITIQUE_JSON
+    from bayescal.design.plan_design import PLAN_JSON
+    from bayescal.jsonfiles import read_json_object
+    from bayescal.kinematics.ladder import LADDER_JSON, LADDER_KIND
+    from bayescal.registration.register import REGISTRATION_JSON
 
-    record_read(path, f"the {option} file")
-    try:
-        with open(path, encoding="utf-8") as stream:
-            data = json.load(stream)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"not valid JSON ({exc.msg} at character {exc.colno})", source=path, line=exc.lineno) from None
-    except UnicodeDecodeError:
-        raise InputError("not a UTF-8 text file", source=path) from None
-    required, foreign, writer = _SCHEMAS[option]
-    if not isinstance(data, dict):
-        raise InputError(f"expected a JSON object (the output of {writer}), got a {type(data).__name__}", source=path)
-    if foreign in data:
-        raise InputError(f"the JSON has the key '{foreign}' of another command's output; {option} expects the output of {writer}", source=path)
-    from bayescal.kinematics.ladder import LADDER_KIND
-
+    data = read_json_object(path, f"the {option} file")
+    schema = {"--plan": PLAN_JSON, "--critique": CRITIQUE_JSON, "--registration": REGISTRATION_JSON}[option]
+    schema.check_kind(data, path, option)
     if option == "--critique" and data.get("kind") == LADDER_KIND:
-        _check_keys(data, LADDER_KEYS, path, "bayescal critique POSITIONS.csv --config POINTS_CELL.toml --json")
-        return data
-    _check_keys(data, required, path, writer)
-    if option == "--critique" and data["verdict"] not in VERDICTS:
-        raise InputError(f"expected a verdict {' or '.join(VERDICTS)}, got {data['verdict']!r}", source=path, column="verdict")
+        schema = LADDER_JSON
+    schema.check_keys(data, path)
     return data
-
-
-def _check_keys(data: dict, required: dict, path: str, writer: str) -> None:
-    from bayescal.errors import InputError
-
-    for key, kind in required.items():
-        if key not in data or not isinstance(data[key], kind) or isinstance(data[key], bool):
-            found = "no such key" if key not in data else f"a {type(data[key]).__name__}"
-            raise InputError(f"expected the key '{key}' of the output of {writer}, found {found}", source=path, column=key)
 
 
 def _read_csv(path: str, option: str):

@@ -18,9 +18,18 @@ from bayescal.critique.compare import Comparison, CrossValidation
 from bayescal.critique.covariates import COVARIATES
 from bayescal.critique.rule import DECISIVE_GAIN, DECISIVE_Z, DETECTION_FLOOR, DETECTION_Z, TIE_NOISE
 from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit
+from bayescal.jsonfiles import JsonSchema
 from bayescal.summary import Summary
 
-__all__ = ["Outcome", "CritiqueResults"]
+__all__ = ["Outcome", "CritiqueResults", "CRITIQUE_JSON", "VERDICTS"]
+
+VERDICTS = ("adequate", "misfit")
+"""The verdicts a critique gives (:attr:`Outcome.verdict`)."""
+
+CRITIQUE_JSON = JsonSchema({"verdict": str, "causes": list, "evidence": dict, "gain": dict}, "bayescal critique --json",
+                           foreign="parameters", values={"verdict": VERDICTS})
+"""What a reader of :meth:`CritiqueResults.to_json`'s file relies on (the geometry critique's has the same keys);
+``parameters`` is a calibration's key."""
 
 
 def _candidate_summary(

@@ -20,10 +20,16 @@ from bayescal.design.criteria import criterion_value
 from bayescal.design.loads import loads_json
 from bayescal.design.prediction import PlanPrediction
 from bayescal.inference.parameters import ANGLE_DECIMALS
+from bayescal.jsonfiles import JsonSchema
 from bayescal.jsonsafe import json_safe
 from bayescal.units import DEG, MM
 
-__all__ = ["PlanDesign", "PlanEvaluation"]
+__all__ = ["PlanDesign", "PlanEvaluation", "PLAN_JSON"]
+
+PLAN_JSON = JsonSchema({"criterion": (float, int, type(None)), "parameters": dict, "configurations": int}, "bayescal plan --json",
+                       foreign="verdict")
+"""What a reader of a plan's JSON (:meth:`PlanDesign.to_json`, :meth:`PlanEvaluation.to_json`) relies on; ``verdict`` is a
+critique's key."""
 
 
 @dataclass(frozen=True)

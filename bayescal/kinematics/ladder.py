@@ -24,11 +24,16 @@ from bayescal.kinematics.cell import PointsCell
 from bayescal.kinematics.fit import KinematicCalibration
 from bayescal.kinematics.model import EXTENSIONS, GROUPS, RUNGS, PointModel
 from bayescal.kinematics.positions import Positions
+from bayescal.jsonfiles import JsonSchema
 from bayescal.kinematics.results import KinematicResults
 
-__all__ = ["LadderFindings", "ModelLadder", "DECISIVE_SE", "PUBLISHED", "LADDER_KIND"]
+__all__ = ["LadderFindings", "ModelLadder", "DECISIVE_SE", "PUBLISHED", "LADDER_KIND", "LADDER_JSON"]
 
 LADDER_KIND = "bayescal model ladder"
+
+LADDER_JSON = JsonSchema({"verdict": str, "rungs": list, "steps": list, "without": list, "folds": int},
+                         "bayescal critique POSITIONS.csv --config POINTS_CELL.toml --json")
+"""What a reader of :meth:`LadderFindings.to_json`'s file relies on (its ``kind`` is :data:`LADDER_KIND`)."""
 """The ``kind`` of the ladder's JSON: how ``bayescal report --critique`` tells it from a campaign's critique."""
 
 PUBLISHED_SOURCE = "Tenhumberg and Bäuml, Humanoids 2021 (Agile Justin, 500 configurations)"
