@@ -122,6 +122,8 @@ class Table:
         columns'); without them the JSON gives the texts.
     head : bool
         Whether the terminal text shows the header line.
+    rule : bool
+        Whether the terminal text rules the header off with a line of dashes as long as it.
     """
 
     key: str
@@ -129,9 +131,11 @@ class Table:
     rows: tuple[tuple[str | Span, ...], ...]
     values: tuple[dict, ...] | None = None
     head: bool = True
+    rule: bool = False
 
     def text_lines(self) -> list[str]:
-        lines = ["".join(f"{c.before}{(c.name if c.header is None else c.header):{c.align}{c.width}}" for c in self.columns)] if self.head else []
+        header = "".join(f"{c.before}{(c.name if c.header is None else c.header):{c.align}{c.width}}" for c in self.columns)
+        lines = ([header] if self.head else []) + (["-" * len(header)] if self.rule else [])
         for row in self.rows:
             parts, at = [], 0
             for cell in row:
@@ -207,25 +211,25 @@ class Summary:
     ----------
     title : str
         The first line: what was computed from what.
-    lead : tuple of Paragraph
-        Lines that follow the title directly (a verdict).
+    lead : tuple of Paragraph or Table
+        What follows the title directly, without a blank line (a verdict; a document of one block).
     sections : tuple of Section
     """
 
     title: str
-    lead: tuple[Paragraph, ...] = ()
+    lead: tuple[Paragraph | Table, ...] = ()
     sections: tuple[Section, ...] = field(default_factory=tuple)
 
     def as_text(self) -> str:
         """The document as the terminal shows it: the title and lead, then each section after a blank line."""
-        lines = [self.title] + [line for paragraph in self.lead for line in paragraph.text_lines()]
+        lines = [self.title] + [line for block in self.lead for line in block.text_lines()]
         for section in self.sections:
             lines += ["", *section.text_lines()]
         return "\n".join(lines)
 
     def as_markdown(self) -> str:
         """The document in Markdown: the title as a level-1 heading, sections as level-2 ones, tables with units in their heads."""
-        parts = [f"# {self.title}", *(p.markdown() for p in self.lead)]
+        parts = [f"# {self.title}", *(block.markdown() for block in self.lead)]
         for section in self.sections:
             if section.heading:
                 parts.append(f"## {section.heading.rstrip(':')}")
@@ -234,7 +238,7 @@ class Summary:
 
     def as_html(self) -> str:
         """The document as an HTML fragment: an ``<article>`` of a heading, paragraphs and ``<section>`` elements."""
-        parts = [f"<h1>{html.escape(self.title)}</h1>", *(p.html() for p in self.lead)]
+        parts = [f"<h1>{html.escape(self.title)}</h1>", *(block.html() for block in self.lead)]
         for section in self.sections:
             inner = [f"<h2>{html.escape(section.heading.rstrip(':'))}</h2>"] if section.heading else []
             parts.append("<section>" + "".join(inner + [block.html() for block in section.blocks]) + "</section>")
@@ -244,7 +248,7 @@ class Summary:
         """The document as JSON-ready data: title, lead and sections, each table's rows as its numbers where it has them."""
         return {
             "title": self.title,
-            "lead": [p.to_json() for p in self.lead],
+            "lead": [block.to_json() for block in self.lead],
             "sections": [{"heading": s.heading, "blocks": [b.to_json() for b in s.blocks]} for s in self.sections],
         }
 

@@ -121,7 +121,7 @@ def _run_ladder(args: argparse.Namespace) -> CommandOutput:
     if len(positions) < args.folds:
         raise InputError(f"{len(positions)} configurations cannot be split into {args.folds} folds", source="--folds")
     findings = ModelLadder(cell, folds=args.folds, seed=args.seed).run(positions)
-    return CommandOutput(payload=findings.to_json() | {"seed": args.seed}, text=findings.text())
+    return CommandOutput(payload=findings.to_json() | {"seed": args.seed}, text=findings.document().as_text())
 
 
 def _run_geometry(args: argparse.Namespace) -> CommandOutput:

@@ -160,7 +160,11 @@ def _read_inputs(args: argparse.Namespace):
         review.plan = _read_json(args.plan, "--plan")
     if args.critique:
         sources["critique"] = args.critique
-        review.critique = _read_json(args.critique, "--critique")
+        critique = _read_json(args.critique, "--critique")
+        if isinstance(critique, dict):
+            review.critique = critique
+        else:
+            review.ladder = critique
     if args.study:
         sources["q2-angle study"] = args.study
         review.study = _read_csv(args.study, "--study")
@@ -194,19 +198,21 @@ def _load_tree(path: str, option: str, needs: tuple[str, ...], foreign: str):
     return tree
 
 
-def _read_json(path: str, option: str) -> dict:
-    """The JSON file of ``option``, checked against the schema of the results class that writes it."""
+def _read_json(path: str, option: str):
+    """The JSON file of ``option``, checked against the schema of the results class that writes it: a dict, or the
+    :class:`~bayescal.kinematics.ladder.LadderFindings` a model ladder's file holds."""
     from bayescal.critique.results import CRITIQUE_JSON
     from bayescal.design.plan_design import PLAN_JSON
     from bayescal.jsonfiles import read_json_object
-    from bayescal.kinematics.ladder import LADDER_JSON, LADDER_KIND
+    from bayescal.kinematics.ladder import LADDER_JSON, LADDER_KIND, LadderFindings
     from bayescal.registration.register import REGISTRATION_JSON
 
     data = read_json_object(path, f"the {option} file")
     schema = {"--plan": PLAN_JSON, "--critique": CRITIQUE_JSON, "--registration": REGISTRATION_JSON}[option]
     schema.check_kind(data, path, option)
     if option == "--critique" and data.get("kind") == LADDER_KIND:
-        schema = LADDER_JSON
+        LADDER_JSON.check_keys(data, path)
+        return LadderFindings.from_json(data)
     schema.check_keys(data, path)
     return data
 
