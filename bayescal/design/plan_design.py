@@ -77,6 +77,13 @@ class PlanDesign:
         """Predicted precision per parameter (see :meth:`PlanPrediction.summary`)."""
         return self.prediction.summary()
 
+    def document(self, output: str | None = None, hanging_only: bool = False):
+        """The plan as one document (:mod:`bayescal.summary`): the text ``bayescal plan`` prints, and its Markdown, HTML and
+        JSON; ``output`` names the file the plan was written to, ``hanging_only`` says the cell's loads only hang (k1 unbounded)."""
+        from bayescal.design.document import plan_document
+
+        return plan_document(self.to_json() | ({} if output is None else {"output": output}), self.summary(), hanging_only)
+
     def diagnostics(self) -> dict:
         """How the search went: the criterion reached from each start, the best of them, the candidates' count."""
         finite = [value for value in self.starts if math.isfinite(value)]
@@ -147,6 +154,13 @@ class PlanEvaluation:
     def summary(self) -> pd.DataFrame:
         """Predicted precision per parameter (see :meth:`PlanPrediction.summary`)."""
         return self.prediction.summary()
+
+    def document(self, hanging_only: bool = False):
+        """The assessment as one document (:mod:`bayescal.summary`): the text ``bayescal plan --evaluate`` prints, and its
+        Markdown, HTML and JSON; ``hanging_only`` says the cell's loads only hang (k1 unbounded by any plan)."""
+        from bayescal.design.document import plan_document
+
+        return plan_document(self.to_json(), self.summary(), hanging_only)
 
     def diagnostics(self) -> dict:
         """The plan's size and the configurations that break a constraint of the cell."""
