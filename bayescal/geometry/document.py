@@ -1,6 +1,6 @@
 """The compensator geometry's document (:class:`~bayescal.summary.Summary`): what ``bayescal geometry`` prints.
 
-:func:`geometry_document` lays out a :class:`~bayescal.geometry.posterior.GeometryPosteriorResults`: every posterior
+:func:`geometry_document` lays out a :class:`~bayescal.geometry.posterior.GeometryPosterior`: every posterior
 variable with its closed-form value and, when the published results are given, Table II beside it, then the
 convergence, the residuals and the arc's sense.  :func:`beside_table_ii` is the one comparison with Table II that
 the document and the command's JSON both show.
@@ -58,7 +58,7 @@ def geometry_document(result, source: str, seed: int, reference: pd.DataFrame | 
 
     Parameters
     ----------
-    result : GeometryPosteriorResults
+    result : GeometryPosterior
     source : str
         The points file's name, for the title.
     seed : int
