@@ -100,7 +100,8 @@ class Column:
 
 @dataclass(frozen=True)
 class Span:
-    """A cell's text laid over ``columns`` columns of the terminal text (the other renderers repeat no cell)."""
+    """A cell's text laid over ``columns`` columns: the terminal text and the HTML span them, the Markdown and the JSON
+    give it in the first and leave the others empty."""
 
     text: str
     columns: int
@@ -120,8 +121,6 @@ class Table:
     values : tuple of dict, optional
         Per row, the numbers behind its texts under the columns' names (the JSON's rows; their units are the
         columns'); without them the JSON gives the texts.
-    head : bool
-        Whether the terminal text shows the header line.
     rule : bool
         Whether the terminal text rules the header off with a line of dashes as long as it.
     """
@@ -130,12 +129,11 @@ class Table:
     columns: tuple[Column, ...]
     rows: tuple[tuple[str | Span, ...], ...]
     values: tuple[dict, ...] | None = None
-    head: bool = True
     rule: bool = False
 
     def text_lines(self) -> list[str]:
         header = "".join(f"{c.before}{(c.name if c.header is None else c.header):{c.align}{c.width}}" for c in self.columns)
-        lines = ([header] if self.head else []) + (["-" * len(header)] if self.rule else [])
+        lines = [header] + (["-" * len(header)] if self.rule else [])
         for row in self.rows:
             parts, at = [], 0
             for cell in row:
@@ -156,16 +154,15 @@ class Table:
         cells = [(cell.text, cell.columns) if isinstance(cell, Span) else (cell, 1) for cell in row]
         return cells + [("", 1)] * (len(self.columns) - sum(span for _, span in cells))
 
+    def _texts(self, row: tuple[str | Span, ...]) -> list[str]:
+        """One text per column: a span's in its first column, the columns it covers empty."""
+        return [part for text, span in self._cells(row) for part in [text] + [""] * (span - 1)]
+
     def markdown(self) -> str:
         def line(cells: Sequence[str]) -> str:
             return "| " + " | ".join(cell.replace("|", "\\|") for cell in cells) + " |"
 
-        rows = []
-        for row in self.rows:
-            cells = []
-            for text, span in self._cells(row):
-                cells += [text] + [""] * (span - 1)
-            rows.append(line(cells))
+        rows = [line(self._texts(row)) for row in self.rows]
         rule = "|" + "|".join("---" if c.align == "<" else "---:" for c in self.columns) + "|"
         return "\n".join([line([c.label() for c in self.columns]), rule, *rows])
 
@@ -176,7 +173,7 @@ class Table:
 
     def to_json(self) -> dict:
         rows = self.values if self.values is not None else [
-            {column.name: text for column, (text, _) in zip(self.columns, self._cells(row))} for row in self.rows
+            {column.name: text for column, text in zip(self.columns, self._texts(row))} for row in self.rows
         ]
         return {"table": self.key, "columns": [{"name": c.name, "unit": c.unit} for c in self.columns], "rows": json_safe(list(rows))}
 

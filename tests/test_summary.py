@@ -70,6 +70,6 @@ def test_json_gives_the_numbers_behind_the_texts_and_no_nan():
     assert data["sections"][1]["heading"] == "Next:" and "not identifiable" not in text
 
 
-def test_json_of_a_table_without_numbers_gives_its_texts():
-    table = Table("t", (Column("a"), Column("b")), (("1", "x"),))
-    assert table.to_json()["rows"] == [{"a": "1", "b": "x"}]
+def test_json_of_a_table_without_numbers_gives_its_texts_a_span_in_its_first_column():
+    table = Table("t", (Column("a"), Column("b"), Column("c")), (("1", "x", "y"), ("2", Span("both", 2))))
+    assert table.to_json()["rows"] == [{"a": "1", "b": "x", "c": "y"}, {"a": "2", "b": "both", "c": ""}]
