@@ -160,11 +160,7 @@ def _read_inputs(args: argparse.Namespace):
         review.plan = _read_json(args.plan, "--plan")
     if args.critique:
         sources["critique"] = args.critique
-        critique = _read_json(args.critique, "--critique")
-        if isinstance(critique, dict):
-            review.critique = critique
-        else:
-            review.ladder = critique
+        review.critique, review.ladder = _read_critique(args.critique)
     if args.study:
         sources["q2-angle study"] = args.study
         review.study = _read_csv(args.study, "--study")
@@ -215,6 +211,12 @@ def _read_json(path: str, option: str):
         return LadderFindings.from_json(data)
     schema.check_keys(data, path)
     return data
+
+
+def _read_critique(path: str):
+    """The --critique file: a campaign's critique as its checked JSON, or a points cell's model ladder as its findings."""
+    critique = _read_json(path, "--critique")
+    return (critique, None) if isinstance(critique, dict) else (None, critique)
 
 
 def _read_csv(path: str, option: str):
