@@ -125,7 +125,6 @@ def _discriminate(args: argparse.Namespace, cell) -> CommandOutput:
     from bayescal.design.constraints import load_design_space
     from bayescal.design.discriminate import PER_ANGLE, STARTS, DiscriminatingDesigner
     from bayescal.errors import InputError
-    from bayescal.reports.numbers import fixed, table_texts
 
     if args.criterion != "discriminate" or args.between is None or args.campaign is None:
         raise InputError("--between A,B and --campaign CAMPAIGN.csv go together with --criterion discriminate", source="--criterion")
@@ -141,21 +140,7 @@ def _discriminate(args: argparse.Namespace, cell) -> CommandOutput:
     comments = (_command(args, starts) + f" --between {args.between} --campaign {args.campaign}",)
     write_atomically("--output", args.output, lambda path: design.save(path, comments=comments))
     payload = design.to_json() | {"output": str(args.output)}
-    a, b = design.planned.between
-    planned, tied = design.planned.nats, design.campaign.nats
-    table = design.summary()
-    lines = [
-        f"wrote {args.output}: {len(design.plan)} configurations at q2 = {', '.join(f'{v:g}' for v in payload['q2_deg'])} deg, "
-        f"loads {min(payload['load_kg']):g}-{max(payload['load_kg']):g} kg",
-        f"expected log-likelihood ratio of the true model over the other (nats; {args.campaign} in brackets): "
-        f"{planned[0]:.1f} ({tied[0]:.1f}) if {a} is true, {planned[1]:.1f} ({tied[1]:.1f}) if {b} is; "
-        f"in standard errors of the held-out comparison {design.planned.z[0]:.1f} ({design.campaign.z[0]:.1f}) "
-        f"and {design.planned.z[1]:.1f} ({design.campaign.z[1]:.1f})",
-        design.order,
-        # Angles and loads as a person sets them on the robot: to 0.1 deg and 0.1 kg.
-        table_texts(table, {}, {column: fixed(1) for column in table.columns}).to_string(),
-    ]
-    return CommandOutput(payload=payload, text="\n".join(lines))
+    return CommandOutput(payload=payload, text=design.document(str(args.output), args.campaign).as_text())
 
 
 def _save(design, path, comments: tuple[str, ...], nests_every: int | None) -> None:

@@ -4,6 +4,7 @@
 :meth:`~bayescal.design.plan_design.PlanEvaluation.to_json`) and its table of predicted widths (their ``summary()``):
 the file written, the error predicted at the test pose (ρ0, eq 38), each parameter's predicted ±3σ rounded as
 ``bayescal calibrate`` rounds it, what the plan cannot bound, and the configurations the cell cannot measure.
+:func:`discrimination_document` lays out a plan that separates two candidates of the critique.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import pandas as pd
 
 from bayescal.summary import Column, Paragraph, Section, Summary, Table
 
-__all__ = ["plan_document"]
+__all__ = ["plan_document", "discrimination_document"]
 
 HANGING_ONLY_NOTE = ("This cell hangs masses only ([load] directions = \"down\"): no plan of it turns the vertical A1, so k1 keeps "
                      "the cell's value; a cell that pushes or pulls sideways (directions = \"any\", docs/design.md) identifies it.")
@@ -81,3 +82,37 @@ def plan_document(payload: dict, table: pd.DataFrame, hanging_only: bool) -> Sum
     blocks += [Paragraph(f"configuration {v['config']}: {v['reason']}", kind="warning") for v in payload.get("violations", [])]
     sections = [Section(tuple(blocks))] + ([Section((Paragraph(HANGING_ONLY_NOTE, wrap=True),))] if hanging_only else [])
     return Summary(title, tuple(head), tuple(sections))
+
+
+def _configuration_table(table: pd.DataFrame) -> Table:
+    """One row per configuration, its angles (deg) and load (kg) to 0.1 as a person sets them on the robot, laid out as
+    pandas prints a table of texts (each column one space wider than its longest text, one space apart)."""
+    from bayescal.reports.numbers import fixed, table_texts
+
+    texts = table_texts(table, {}, {column: fixed(1) for column in table.columns})
+    index = [str(i) for i in texts.index]
+    columns = (Column("configuration", width=max(map(len, index)), align="<", header=""),) + tuple(
+        Column(name.rsplit("_", 1)[0], name.rsplit("_", 1)[1], width=max(len(name), 1 + int(texts[name].str.len().max())), before=" ", header=name)
+        for name in texts.columns
+    )
+    rows = tuple((i, *row) for i, row in zip(index, texts.itertuples(index=False)))
+    values = tuple({"configuration": int(i)} | {c.name: row[c.header] for c in columns[1:]} for i, row in zip(texts.index, table.to_dict("records")))
+    return Table("configurations", columns, rows, values)
+
+
+def discrimination_document(design, output: str, campaign: str) -> Summary:
+    """The plan that separates two candidates (:class:`~bayescal.design.discriminate.DiscriminatingDesign`) as one document:
+    the file written, the expected log-likelihood ratio (nats) and its standard errors beside the tied ``campaign``'s,
+    the order to measure in, and the configurations."""
+    payload = design.to_json()
+    a, b = design.planned.between
+    planned, tied = design.planned.nats, design.campaign.nats
+    title = (f"wrote {output}: {len(design.plan)} configurations at q2 = {', '.join(f'{v:g}' for v in payload['q2_deg'])} deg, "
+             f"loads {min(payload['load_kg']):g}-{max(payload['load_kg']):g} kg")
+    ratio = Paragraph(
+        f"expected log-likelihood ratio of the true model over the other (nats; {campaign} in brackets): "
+        f"{planned[0]:.1f} ({tied[0]:.1f}) if {a} is true, {planned[1]:.1f} ({tied[1]:.1f}) if {b} is; "
+        f"in standard errors of the held-out comparison {design.planned.z[0]:.1f} ({design.campaign.z[0]:.1f}) "
+        f"and {design.planned.z[1]:.1f} ({design.campaign.z[1]:.1f})"
+    )
+    return Summary(title, (ratio, Paragraph(design.order), _configuration_table(design.summary())))

@@ -31,3 +31,21 @@ def test_a_plan_written_to_a_file_says_so_first(cell):
     assert document.title.startswith("wrote plan.csv: 8 configurations at q2 = ")
     assert document.lead[0].text.startswith("predicted rms error left at the test pose")
     assert "This cell hangs masses only" not in document.as_text()
+
+
+def test_a_discriminating_plan_lists_its_configurations_as_pandas_prints_them(cell, twin_campaign):
+    from bayescal.design.constraints import load_design_space
+    from bayescal.design.discriminate import DiscriminatingDesigner
+    from bayescal.reports.numbers import fixed, table_texts
+
+    campaign = twin_campaign(["backlash"], seed=2)
+    designer = DiscriminatingDesigner(cell, ("backlash", "nonlinear_stiffness"), campaign, load_design_space(cell))
+    design = designer.optimise(3, 4, 0, starts=1)
+    document = design.document("plan.csv", "tied.csv")
+    assert document.title.startswith(f"wrote plan.csv: {len(design.plan)} configurations at q2 = ")
+    assert "(nats; tied.csv in brackets)" in document.lead[0].text and document.lead[1].text == design.order
+    table = design.summary()
+    expected = table_texts(table, {}, {column: fixed(1) for column in table.columns}).to_string()
+    assert document.as_text().split("\n", 3)[3] == expected
+    columns = document.as_json()["lead"][2]["columns"]
+    assert [c["unit"] for c in columns] == ["", *["deg"] * 6, "kg"]
