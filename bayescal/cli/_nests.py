@@ -38,11 +38,6 @@ def read_nests_in_base(args: argparse.Namespace, campaign):
 
 def nests_lines(drift: dict | None) -> list[str]:
     """The line a command's text gives the drift the nests measured and removed."""
-    if not drift:
-        return []
-    return [
-        f"drift from {drift['nests']} reference nests ({drift['nest_readings']} readings over {drift['span_s'] / 3600:.1f} h): "
-        f"removed {drift['deflection_removed_rms_um']:.1f} μm rms (at most {drift['deflection_removed_max_um']:.1f} μm) from the "
-        f"deflections, readings moved by up to {drift['readings_moved_max_mm']:.3f} mm; its uncertainty adds "
-        f"{drift['deflection_sd_added_median_um']:.1f} μm sd to a deflection (median, at most {drift['deflection_sd_added_max_um']:.1f})"
-    ]
+    from bayescal.registration.nest_drift import removed_drift_sentence
+
+    return [removed_drift_sentence(drift)] if drift else []

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
-import textwrap
 
 from bayescal.jsonsafe import json_safe
 
@@ -110,7 +108,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
         payload["registration"] = {"source": args.registration} | transfer.to_json()
     if drift is not None:
         payload["drift"] = {"file": args.nests} | drift
-    text = "\n".join([*_geometry_lines(identified), _text(results, test_pose, args, cell.reference),
+    document = results.document(test_pose, args.campaign, args.seed, cell.reference)
+    text = "\n".join([*_geometry_lines(identified), document.as_text(),
                       *registration_lines(transfer, args.registration), *nests_lines(drift)])
     return CommandOutput(payload=json_safe(payload), text=text)
 
@@ -154,93 +153,3 @@ def _geometry_lines(identified: dict | None) -> list[str]:
         return []
     return [f"geometry: the one identified in {identified['kinematics']} (joint placements of "
             f"{', '.join(identified['joints_corrected'])}; not applied: {' and '.join(identified['not_applied'])})"]
-
-
-def _text(results, test_pose, args, reference_file) -> str:
-    import pandas as pd
-
-    from bayescal.inference.identifiability import grouped
-    from bayescal.reference import beside_published, read_paper_reference, width_3sd_pct
-    from bayescal.reports.numbers import rounded_pair, with_uncertainty
-
-    parameters = results.parameters()
-    estimates = pd.DataFrame(
-        {name: (entry.get("mean", math.nan), entry.get("sd", math.nan)) for name, entry in parameters.items()}, index=["mean", "sd"]
-    ).T
-    # Only a cell that names published results of its own robot is compared with them.
-    compared = reference_file is not None
-    if compared:
-        paper = beside_published(estimates, "IV", read_paper_reference(reference_file))
-    else:
-        paper = estimates.assign(half_width_3sd=3 * estimates["sd"], width_3sd_pct=width_3sd_pct(estimates["mean"], estimates["sd"]))
-    units = results.parameter_units
-    reasons = {k: v for k, v in results.identifiability.not_identifiable.items() if k in units}
-    lines = [
-        f"{args.campaign}: {results.n_equations} equations ({results.n_rows} rows x 3 coordinates), "
-        f"{results.model} model, {results.sampler_name}, seed {args.seed}",
-        "",
-        f"{'parameter':<10}{'unit':<12}{'mean':>10}{'±3σ':>10}{'width':>8}"
-        + (f"   | {'Table IV':>9}{'±3σ':>8}{'width':>8}" if compared else ""),
-    ]
-    for name, row in paper.iterrows():
-        published = "" if not compared else "   | " + (
-            f"{row['published']:>9.4g}{row['published_half_width_3sd']:>8.3g}{row['published_width_pct']:>7.1f}%"
-            if math.isfinite(row["published"])
-            else f"{'–':>9}"
-        )
-        unit = units[name]
-        if "mean" in parameters[name]:
-            mean, half = rounded_pair(row["mean"], row["half_width_3sd"])
-            lines.append(f"{name:<10}{unit:<12}{mean:>10}{half:>10}{row['width_3sd_pct']:>7.1f}%{published}")
-        else:
-            lines.append(f"{name:<10}{unit:<12}{'not identifiable':>28}{published}")
-    lines.append("Intervals are mean ± 3 sd, rounded to two digits of the 3 sd; widths 3 sd / |mean|" + (" (Table IV: Klimchik et al.)." if compared else "."))
-    if reasons:
-        lines += ["", "Not identifiable:"]
-        for names, reason in grouped(reasons):
-            lines += textwrap.wrap(f"{', '.join(names)}: {reason}.", width=100, initial_indent="  ", subsequent_indent="    ")
-        weak = results.weakly_determined()
-        if weak:
-            listed = ", ".join(weak)
-            lines.append(f"  The posterior of {listed} is kept in the DataTree and in the JSON's weakly_determined block.")
-    j = -1 if results.joint is None else results.joint + 1
-    per_angle = [
-        f"  q{j} = {angle:>8.2f} deg  {with_uncertainty(entry['mean'], entry['hi3'] - entry['mean'], 'urad/(N m)')}"
-        for angle, entry in results.per_angle().items()
-        if "mean" in entry
-    ]
-    if per_angle:
-        lines += ["", f"Joint {j} with its compensator at each campaign angle (±3σ; the paper's Fig. 7):", *per_angle]
-    lines += _closing_lines(results, test_pose, reasons)
-    return "\n".join(lines)
-
-
-
-def _closing_lines(results, test_pose, reasons) -> list[str]:
-    """Diagnostics, the test pose (errors in μm, deflections in mm) and what to do next."""
-    from bayescal.inference.equations import HANGING_ONLY_REASON
-    from bayescal.reports.next_steps import calibration_next_steps
-    from bayescal.reports.numbers import error_um
-    from bayescal.reports.test_pose import test_pose_lines
-    from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, converged
-
-    d = results.diagnostics()
-    lines = [
-        "",
-        f"R-hat max {d['r_hat_max']:.3f}, bulk ESS min {d['ess_bulk_min']:.0f}, tail ESS min {d['ess_tail_min']:.0f}, "
-        f"residual rms {error_um(d['residual_rms_mm'])}" + (f", χ²/dof {d['chi2_per_dof']:.2f}" if d["chi2_per_dof"] is not None else ""),
-        f"identifiability: rank {results.identifiability.rank} of {len(results.identifiability.names)}, "
-        f"condition number {results.identifiability.condition_number:.3g} (unit columns)",
-        f"(wanted: R-hat ≤ {R_HAT_LIMIT}, both ESS ≥ {ESS_LIMIT}; χ²/dof near 1: residuals as large as the tracker's noise; "
-        "rank below the columns: some compliances not identifiable; docs/glossary.md)",
-    ]
-    block = test_pose.to_json()
-    q9973 = None
-    if block.get("available", True):
-        q9973 = block["residual_error_mm"]["q99.73"]
-        lines += test_pose_lines(block)
-    else:
-        lines.append(f"test pose: not predicted: {block['reason']}")
-    limited = [name for name, reason in reasons.items() if reason.endswith(HANGING_ONLY_REASON)]
-    advice = calibration_next_steps(d, sorted(reasons), q9973, converged(d), limited)
-    return lines + ["", *textwrap.wrap(advice, width=100)]

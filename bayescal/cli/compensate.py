@@ -100,7 +100,7 @@ def _run_csv(args: argparse.Namespace) -> CommandOutput:
     results = compensate_program(program, calibration, cell, tolerance=tolerance)
     decimals = {} if args.decimals is None else {"decimals": args.decimals}
     write_atomically("-o", args.output, partial(results.save, **decimals))
-    return CommandOutput(payload=results.to_json(), text=results.text() + f"\nwrote {args.output}")
+    return CommandOutput(payload=results.to_json(), text=results.document().as_text() + f"\nwrote {args.output}")
 
 
 def _run_controller(args: argparse.Namespace) -> CommandOutput:
@@ -137,4 +137,4 @@ def _run_controller(args: argparse.Namespace) -> CommandOutput:
     texts = compensated.texts(DECIMALS if args.decimals is None else args.decimals)
     for role, path in paths.items():
         write_atomically("-o", path, lambda temporary, text=texts[role]: temporary.write_bytes(text.encode("latin-1")))
-    return CommandOutput(payload=compensated.to_json(), text=compensated.text() + f"\nwrote {', '.join(str(p) for p in paths.values())}")
+    return CommandOutput(payload=compensated.to_json(), text=compensated.document().as_text() + f"\nwrote {', '.join(str(p) for p in paths.values())}")

@@ -6,12 +6,11 @@ With ``--geometry POINTS.csv`` the same for the compensator-geometry model on tr
 from __future__ import annotations
 
 import argparse
-import textwrap
 
 from bayescal.output import guard_outputs, write_folder
 
 from ._command import CommandOutput, add_common_options, whole_number
-from ._nests import add_nests_option, nests_lines, read_nests_in_base
+from ._nests import add_nests_option, read_nests_in_base
 from ._registered import add_registration_option, read_arcs_in_paper_frame, read_campaign_in_base, registration_lines
 
 __all__ = ["add_parser", "run"]
@@ -104,7 +103,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         payload["figures"] = figures
     if transfer is not None:
         payload["registration"] = {"source": args.registration} | transfer.to_json()
-    text = "\n".join([_text(results, figures), *registration_lines(transfer, args.registration)])
+    text = "\n".join([results.document(figures).as_text(), *registration_lines(transfer, args.registration)])
     return CommandOutput(payload=payload, text=text)
 
 
@@ -122,7 +121,7 @@ def _run_ladder(args: argparse.Namespace) -> CommandOutput:
     if len(positions) < args.folds:
         raise InputError(f"{len(positions)} configurations cannot be split into {args.folds} folds", source="--folds")
     findings = ModelLadder(cell, folds=args.folds, seed=args.seed).run(positions)
-    return CommandOutput(payload=findings.to_json() | {"seed": args.seed}, text=findings.text())
+    return CommandOutput(payload=findings.to_json() | {"seed": args.seed}, text=findings.document().as_text())
 
 
 def _run_geometry(args: argparse.Namespace) -> CommandOutput:
@@ -136,111 +135,9 @@ def _run_geometry(args: argparse.Namespace) -> CommandOutput:
     payload = results.to_json() | {"seed": args.seed}
     if transfer is not None:
         payload["registration"] = {"source": args.registration} | transfer.to_json()
-    text = "\n".join([_geometry_text(results), *registration_lines(transfer, args.registration)])
+    text = "\n".join([results.document().as_text(), *registration_lines(transfer, args.registration)])
     if args.figures is not None:
         written = write_folder("--figures", args.figures, lambda folder: write_geometry_figures(results, folder))
         payload["figures"] = [str(path) for path in written]
         text += f"\nfigures: {', '.join(payload['figures'])}"
     return CommandOutput(payload=payload, text=text)
-
-
-def _outcome_lines(results, held_out: str, baseline: str) -> list[str]:
-    """The verdict, every candidate's evidence and the unexplained covariate, for either critique."""
-    if results.verdict == "adequate":
-        lines = [f"verdict: adequate - no extension predicts held-out {held_out} clearly better than {baseline}"]
-    else:
-        lines = [f"verdict: misfit - causes in order of gain: {', '.join(results.causes)}"]
-    evidence = results.to_json()["evidence"]
-    width = max(len("candidate"), *map(len, evidence)) + 2
-    lines += ["", f"{'candidate':<{width}}{'step':>5}{'ΔELPD':>10}{'SE':>8}  named"]
-    for name, entry in evidence.items():
-        lines.append(f"{name:<{width}}{entry['step']:>5}{entry['delta_elpd']:>10.1f}{entry['se']:>8.1f}  {'yes' if entry['named'] else ''}")
-    lines.append(f"(ΔELPD: held-out log predictive density gained over {baseline}, in nats; SE: its standard error; docs/glossary.md)")
-    if results.unexplained_covariate is not None:
-        c = results.probes[results.unexplained_covariate]
-        lines.append(
-            f"unexplained: the residuals follow {results.unexplained_covariate} (ΔELPD {c.delta_elpd:.1f} ± {c.se:.1f} nats) "
-            "and no extension of the catalogue explains it"
-        )
-    misfit = getattr(results, "lack_of_fit", None)
-    if misfit is not None:
-        verdict = "misses them" if misfit.significant() else "fits them within the repeats' scatter"
-        lines.append(f"repeats: the final model {verdict}: {misfit.describe()}")
-        if misfit.significant() and results.unexplained_covariate is None:
-            lines.append("unexplained: a misfit the repeats reveal and no candidate of the catalogue matches in shape")
-    return lines
-
-
-def _geometry_text(results) -> str:
-    before, after = results.before, results.after
-    lines = [f"{results.source}: {results.n_points} points at {results.n_angles} joint angles, held out one angle at a time"]
-    lines += _outcome_lines(results, "angles", "the two-step model")
-    lines += [
-        "",
-        f"held-out gain: ΔELPD {results.gain.delta_elpd:.1f} ± {results.gain.se:.1f} nats over {results.n_angles} angles; "
-        f"residual rms per coordinate: lever {before['residual_rms_lever_mm']:.3f} -> {after['residual_rms_lever_mm']:.3f} mm, "
-        f"cylinder {before['residual_rms_cylinder_mm']:.3f} -> {after['residual_rms_cylinder_mm']:.3f} mm",
-        f"rule: a cause is named when ΔELPD > {results.rule['z']:g} SE and > {results.rule['floor_nats']:g} nats; "
-        f"with {results.n_angles} held-out angles the SE itself is uncertain by about "
-        f"{100 / (2 * (results.n_angles - 1)) ** 0.5:.0f} %",
-    ]
-    return "\n".join(lines)
-
-
-def _text(results, figures: list[str]) -> str:
-    from bayescal.reports.next_steps import critique_next_steps
-
-    before, after = results.before, results.after
-    lines = [f"{results.source}: {results.n_equations} equations in {results.n_configs} configurations"]
-    lines += _outcome_lines(results, "configurations", "the classical model")
-    if results.negligible:
-        lines[1] += f" ({', '.join(results.negligible)} detectable but too small to matter at the test pose)"
-    lines += [
-        "",
-        f"held-out gain: ΔELPD {results.gain.delta_elpd:.1f} ± {results.gain.se:.1f} nats; residual rms "
-        f"{before['residual_rms_mm'] * 1000:.1f} -> {after['residual_rms_mm'] * 1000:.1f} μm; position error rms "
-        f"{before['position_error_rms_mm'] * 1000:.1f} -> {after['position_error_rms_mm'] * 1000:.1f} μm",
-        f"test pose: the classical model's prediction differs from the extended one's by "
-        f"{results.test_pose['classical_error_mm'] * 1000:.1f} μm",
-        f"rule: a cause is named when ΔELPD > {results.rule['z']:g} SE and > {results.rule['floor_nats']:g} nats, "
-        f"or > {results.rule['decisive_nats']:g} nats and > {results.rule['decisive_z']:g} SE",
-    ]
-    for cause, entry in results.importance.items():
-        before, after = (1000 * v for v in entry["residual_rms_mm"])
-        lines.append(
-            f"{cause}: residual rms {before:.1f} -> {after:.1f} μm, test pose moved {1000 * entry['test_pose_change_mm']:.1f} μm "
-            f"(its sd {1000 * entry['test_pose_sd_mm']:.1f} μm)"
-            + ("" if entry["matters"] else ": detectable but too small to matter")
-        )
-    from bayescal.critique.extensions import CATALOGUE
-
-    plannable = {name for name, e in CATALOGUE.items() if e.physical and not e.robust}
-    for kind, pairs in (("tied with", results.tied_with), ("contested by", results.contested_by)):
-        for cause, others in pairs.items():
-            lines.append(f"{cause} {kind} {', '.join(others)}")
-            # the plan that separates exactly that pair (docs/critique.md, The experiment that resolves a tie)
-            lines += [
-                f"  to separate them: bayescal plan --config CELL.toml --criterion discriminate --between {cause},{other} "
-                f"--campaign {results.source} -o PLAN.csv"
-                for other in others
-                if {cause, other} <= plannable
-            ]
-    drift = results.drift
-    if drift.get("source") == "reference nests":
-        lines += nests_lines(drift)
-    elif drift.get("testable"):
-        rate = ", ".join(f"{v:+.3f}" for v in drift["translation_mm_per_h"])
-        lines.append(
-            f"drift from {drift['evidence']}: ({rate}) mm/h, {1000 * drift['deflection_rms_mm']:.1f} μm rms in the deflections"
-            + (" (removed)" if "drift" in results.causes else "")
-        )
-    elif drift:
-        lines.append(f"drift: not testable on this campaign: {drift['evidence']}")
-    if figures:
-        lines.append(f"figures: {', '.join(figures)}")
-    misfit = getattr(results, "lack_of_fit", None)
-    advice = critique_next_steps(
-        list(results.causes), misfit is not None and misfit.significant(), results.test_pose["classical_error_mm"], results.negligible
-    )
-    lines += ["", *textwrap.wrap(advice, width=100)]
-    return "\n".join(lines)

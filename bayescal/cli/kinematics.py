@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     if args.output is not None:
         write_atomically("-o", args.output, results.save)
     payload = results.to_json()
-    text = _text(results) + (f"\nwrote {args.output}" if args.output else "")
+    text = results.document().as_text() + (f"\nwrote {args.output}" if args.output else "")
     return CommandOutput(payload=payload, text=text)
 
 
@@ -75,34 +75,3 @@ def _elastic_fit(args: argparse.Namespace, cell, positions, rung: str):
     elastic_cell = load_cell(args.elastic_config)
     calibration = load_calibration(args.elastic, elastic_cell)
     return ElasticKinematicCalibration.from_calibration(elastic_cell, cell, calibration, rung).fit(positions)
-
-
-def _text(results) -> str:
-    d = results.diagnostics()
-    table = results.summary()
-    lines = [
-        f"model '{d['rung']}', {d['parameters']} parameters ({d['identified']} identified by the data), "
-        f"{d['configurations']} configurations",
-        f"residual error per marker: mean {d['error_mean_mm']:.2f} mm, sd {d['error_sd_mm']:.2f}, max {d['error_max_mm']:.2f} "
-        f"(in sample; `bayescal critique` scores it held out)",
-        f"model error learned from the data: {d['model_error_sd_mm']:.3f} mm per coordinate, on top of the tracker's noise",
-    ] + ([] if "K_c_N_per_mm" not in d else [
-        f"the spring, refined from the elastostatic calibration's: K_c = {d['K_c_N_per_mm'][0]:.1f} ± {d['K_c_N_per_mm'][1]:.1f} N/mm, "
-        f"s0 = {d['s0_mm'][0]:.1f} ± {d['s0_mm'][1]:.1f} mm",
-    ]) + [
-        f"{'parameter':<34}{'unit':>12}{'mean':>12}{'sd':>10}{'prior sd':>10}",
-    ]
-    for name, row in table.iterrows():
-        if row["identified"]:
-            lines.append(f"{name:<34}{row['unit']:>12}{row['mean']:>12.4g}{row['sd']:>10.3g}{row['prior_sd']:>10.3g}")
-    hidden = results.identifiability()
-    if hidden:
-        lines.append(f"{len(hidden)} parameters not identifiable by these data (they keep their prior; see --json):")
-        for entry in hidden[:8]:
-            lines.append(f"  {entry['parameter']}: {entry['why']}")
-        if len(hidden) > 8:
-            lines.append(f"  … and {len(hidden) - 8} more")
-    partly = int((~table["identified"]).sum()) - len(hidden)
-    if partly:
-        lines.append(f"{partly} more parameters are partly identified (posterior sd 0.5-0.9 of the prior's): see --json")
-    return "\n".join(lines)

@@ -3,14 +3,10 @@
 from __future__ import annotations
 
 import argparse
-from typing import TYPE_CHECKING
 
 from bayescal.output import guard_outputs, record_read, write_atomically
 
 from ._command import CommandOutput, add_common_options, options_for, whole_number
-
-if TYPE_CHECKING:
-    import pandas as pd
 
 __all__ = ["add_parser", "run"]
 
@@ -86,65 +82,12 @@ def run(args: argparse.Namespace) -> CommandOutput:
             return _discriminate(args, cell)
         if args.per_angle is None:
             args.per_angle = 3
-        payload, table = _design_or_evaluate(args, cell)
-    lines = _text(payload, table, cell)
-    return CommandOutput(payload=payload, text="\n".join(lines))
+        payload, document = _design_or_evaluate(args, cell)
+    return CommandOutput(payload=payload, text=document.as_text())
 
 
-def _text(payload: dict, table, cell) -> list[str]:
-    """The plan in words: angles to 0.1 deg, ρ0 in μm, each width rounded as ``bayescal calibrate`` rounds."""
-    import math
-    import textwrap
-
-    from bayescal.reports.numbers import rounded_pair
-
-    criterion = payload["criterion"]
-    lines = []
-    if "output" in payload:
-        loads = f", forces of {payload['force_max_N']:.0f} N in directions of the design" if "force_max_N" in payload else ""
-        angles = ", ".join(f"{v:.1f}" for v in payload["q2_deg"])
-        lines.append(f"wrote {payload['output']}: {payload['configurations']} configurations at q2 = {angles} deg{loads}")
-    from bayescal.reports.numbers import error_length
-
-    if criterion is None:
-        lines.append("predicted rms error left at the test pose after compensation (ρ0, eq 38): not predictable")
-    else:
-        lines.append(
-            "predicted rms error left at the test pose after compensation (ρ0, eq 38, linearised at the design), "
-            f"everything counted: {error_length(criterion)}"
-        )
-        if payload["criterion_prior_share_of_mean_square"] > 0:
-            lines += textwrap.wrap(
-                f"from the plan's data alone {error_length(payload['criterion_identified_only'])}; the rest "
-                f"({payload['criterion_prior_share_of_mean_square']:.0%} of the mean square) from "
-                f"{payload['criterion_includes'].split('the prior of ', 1)[1]}, its prior in the cell ([joints] k_log_sd)",
-                width=100, initial_indent="  ", subsequent_indent="  ",
-            )
-    published = "table_iv_pct" in table
-    lines += ["", f"{'parameter':<10}{'unit':<12}{'value':>8}{'±3σ':>13}{'width':>9}" + (f"{'Table IV':>10}" if published else "")]
-    for name, row in table.iterrows():
-        _, half = rounded_pair(row["value"], 3 * row["sd"])
-        width = f"{row['width_3sd_pct']:>8.1f}%" if math.isfinite(row["width_3sd_pct"]) else f"{'':>9}"
-        paper = (f"{row['table_iv_pct']:>9.1f}%" if math.isfinite(row["table_iv_pct"]) else f"{'–':>10}") if published else ""
-        shown = half if half != "–" else "not excited"
-        lines.append(f"{name:<10}{row['unit']:<12}{row['value']:>8g}{shown:>13}{width}{paper}")
-    lines.append("±3σ: the predicted 3 sd after measuring the plan, rounded to two digits; width: 3 sd / value" + (
-        " (Table IV: Klimchik et al.)" if published else ""))
-    unbounded = [name for name, row in table.iterrows() if row["value"] - 3 * row["sd"] < 0]
-    if unbounded:
-        lines.append(f"{', '.join(unbounded)}: the predicted interval reaches below 0, which they cannot; this plan does not bound them.")
-    for violation in payload.get("violations", []):
-        lines.append(f"configuration {violation['config']}: {violation['reason']}")
-    if cell.loading.hanging_only:
-        # Said here once, where the plan is made: the later commands record it in k1's reason without a warning.
-        note = ("This cell hangs masses only ([load] directions = \"down\"): no plan of it turns the vertical A1, so k1 keeps "
-                "the cell's value; a cell that pushes or pulls sideways (directions = \"any\", docs/design.md) identifies it.")
-        lines += ["", *textwrap.wrap(note, width=100)]
-    return lines
-
-
-def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFrame]:
-    """Design the plan and write it, or score the --evaluate plan: the JSON payload and the table of predicted widths."""
+def _design_or_evaluate(args: argparse.Namespace, cell):
+    """Design the plan and write it, or score the --evaluate plan: the JSON payload and the plan's document."""
     from bayescal.design.constraints import load_design_space
     from bayescal.design.optimise import STARTS, PlanDesigner
 
@@ -152,7 +95,7 @@ def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFr
     designer = PlanDesigner(cell, space, repeats=args.repeats, model=args.model)
     if args.evaluate is not None:
         evaluation = designer.assess(_read_evaluated_plan(args.evaluate, cell), args.evaluate)
-        payload, table = evaluation.to_json(), evaluation.summary()
+        payload, document = evaluation.to_json(), evaluation.document(hanging_only=cell.loading.hanging_only)
     else:
         import sys
 
@@ -172,8 +115,8 @@ def _design_or_evaluate(args: argparse.Namespace, cell) -> tuple[dict, pd.DataFr
         comments = (_command(args, starts),)
         write_atomically("--output", args.output, lambda path: _save(design, path, comments, args.nests))
         payload = design.to_json() | {"output": str(args.output)} | ({} if args.nests is None else {"read_nests_every": args.nests})
-        table = design.summary()
-    return payload, table
+        document = design.document(str(args.output), cell.loading.hanging_only)
+    return payload, document
 
 
 def _discriminate(args: argparse.Namespace, cell) -> CommandOutput:
@@ -182,7 +125,6 @@ def _discriminate(args: argparse.Namespace, cell) -> CommandOutput:
     from bayescal.design.constraints import load_design_space
     from bayescal.design.discriminate import PER_ANGLE, STARTS, DiscriminatingDesigner
     from bayescal.errors import InputError
-    from bayescal.reports.numbers import fixed, table_texts
 
     if args.criterion != "discriminate" or args.between is None or args.campaign is None:
         raise InputError("--between A,B and --campaign CAMPAIGN.csv go together with --criterion discriminate", source="--criterion")
@@ -198,21 +140,7 @@ def _discriminate(args: argparse.Namespace, cell) -> CommandOutput:
     comments = (_command(args, starts) + f" --between {args.between} --campaign {args.campaign}",)
     write_atomically("--output", args.output, lambda path: design.save(path, comments=comments))
     payload = design.to_json() | {"output": str(args.output)}
-    a, b = design.planned.between
-    planned, tied = design.planned.nats, design.campaign.nats
-    table = design.summary()
-    lines = [
-        f"wrote {args.output}: {len(design.plan)} configurations at q2 = {', '.join(f'{v:g}' for v in payload['q2_deg'])} deg, "
-        f"loads {min(payload['load_kg']):g}-{max(payload['load_kg']):g} kg",
-        f"expected log-likelihood ratio of the true model over the other (nats; {args.campaign} in brackets): "
-        f"{planned[0]:.1f} ({tied[0]:.1f}) if {a} is true, {planned[1]:.1f} ({tied[1]:.1f}) if {b} is; "
-        f"in standard errors of the held-out comparison {design.planned.z[0]:.1f} ({design.campaign.z[0]:.1f}) "
-        f"and {design.planned.z[1]:.1f} ({design.campaign.z[1]:.1f})",
-        design.order,
-        # Angles and loads as a person sets them on the robot: to 0.1 deg and 0.1 kg.
-        table_texts(table, {}, {column: fixed(1) for column in table.columns}).to_string(),
-    ]
-    return CommandOutput(payload=payload, text="\n".join(lines))
+    return CommandOutput(payload=payload, text=design.document(str(args.output), args.campaign).as_text())
 
 
 def _save(design, path, comments: tuple[str, ...], nests_every: int | None) -> None:

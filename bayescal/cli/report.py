@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from bayescal.output import guard_outputs, record_read, write_folder
@@ -13,25 +12,7 @@ from ._nests import add_nests_option, read_nests_in_base
 from ._registered import read_campaign_in_base
 from .paper_reports import add_options as add_paper_options, run_paper_reports
 
-__all__ = ["add_parser", "run", "MAX_CHI2_PER_DOF"]
-
-MAX_CHI2_PER_DOF = 100.0
-"""Largest χ²/dof of a calibration against the campaign and cell given beside it: residuals 10 times the
-tracker noise the cell states.  A short calibration of the twin's Table III campaign gives 0.87 on that
-campaign and 3588 beside a campaign of the same plan on a robot twice as compliant (tests/cli/test_hostile.py)."""
-
-_SCHEMAS = {
-    "--plan": ({"criterion": (float, int, type(None)), "parameters": dict, "configurations": int}, "verdict", "bayescal plan --json"),
-    "--critique": ({"verdict": str, "causes": list, "evidence": dict, "gain": dict}, "parameters", "bayescal critique --json"),
-    "--registration": ({"axes": dict, "frames": dict}, "parameters", "bayescal axes -o"),
-}
-"""Per JSON option: the keys it must have with their types, a key only the other kind has, and the command that writes it."""
-
-LADDER_KEYS = {"verdict": str, "rungs": list, "steps": list, "without": list, "folds": int}
-"""The keys a model ladder's JSON must have, with their types."""
-
-VERDICTS = ("adequate", "misfit")
-"""The verdicts `bayescal critique` gives."""
+__all__ = ["add_parser", "run"]
 
 STUDY_COLUMNS = ("angles", "per_angle", "noise_fraction", "test_pose_rms_mm")
 """Columns every q2-angle study table has (`bayescal study q2-angles -o`)."""
@@ -129,6 +110,7 @@ def _read_inputs(args: argparse.Namespace):
 
     from bayescal.cell.config import load_cell
     from bayescal.inference.priors import posterior_geometry
+    from bayescal.sampling.summary import read_posterior_of
 
     sources = {}
     review = ReviewInputs(sources=sources, seed=args.seed)
@@ -136,7 +118,7 @@ def _read_inputs(args: argparse.Namespace):
     geometry = None
     if args.geometry:
         sources["geometry posterior"] = args.geometry
-        review.geometry = _load_tree(args.geometry, "--geometry", needs=("L", "a_x", "a_y"), foreign="k2_q2")
+        review.geometry = read_posterior_of(args.geometry, "--geometry", needs=("L", "a_x", "a_y"), foreign="k2_q2", other="--calibration")
         # The check calibrate applies: units, finite draws and, with a cell, nearness to its compensator.
         geometry = posterior_geometry(args.geometry, None if cell is None else cell.compensator)
     if args.registration:
@@ -147,34 +129,13 @@ def _read_inputs(args: argparse.Namespace):
         for name in review.registration["frames"]:
             read_frame(args.registration, name, cell)
     if args.calibration:
-        from bayescal.compensation.calibration import check_calibration_robot
-        from bayescal.studies.review import calibration_findings
-
-        sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
-        campaign, cell, _ = read_campaign_in_base(args, args.campaign, cell)
-        nests = read_nests_in_base(args, campaign)
-        if nests is not None:
-            from bayescal.registration.nest_drift import fit_nest_drift
-
-            # the campaign as `calibrate --nests` fitted it: the drift the nests measure taken out
-            campaign = fit_nest_drift(nests, cell.tracker).remove(campaign)
-            sources["nests"] = args.nests
-        from bayescal.inference.parameters import ParameterRegistry
-
-        # A robot without a compensator has no per-angle compliances; the geometry's own 'R' tells the other kind apart.
-        per_angle = ParameterRegistry.of_cell(cell).per_angle_variable if cell is not None else None
-        tree = _load_tree(args.calibration, "--calibration", needs=(*([per_angle] if per_angle else []), "sigma"), foreign="R")
-        check_calibration_robot(tree, cell, args.calibration)
-        calibration = calibration_findings(cell, campaign, tree, geometry)
-        _check_fit(calibration.results, args)
-        review.results, review.campaign, review.cell = calibration.results, campaign, cell
-        review.residuals, review.test_pose = calibration.residuals, calibration.test_pose
+        _read_calibration(args, cell, geometry, review)
     if args.plan:
         sources["plan"] = args.plan
         review.plan = _read_json(args.plan, "--plan")
     if args.critique:
         sources["critique"] = args.critique
-        review.critique = _read_json(args.critique, "--critique")
+        review.critique, review.ladder = _read_critique(args.critique)
     if args.study:
         sources["q2-angle study"] = args.study
         review.study = _read_csv(args.study, "--study")
@@ -186,62 +147,58 @@ def _read_inputs(args: argparse.Namespace):
     return review
 
 
-def _load_tree(path: str, option: str, needs: tuple[str, ...], foreign: str):
-    """The posterior at ``path``, refused when it lacks a variable of ``needs``, has ``foreign``, a variable only
-    the other kind of posterior has (an elastostatic posterior also holds the geometry it sampled), or non-finite draws."""
-    import numpy as np
+def _read_calibration(args: argparse.Namespace, cell, geometry, review) -> None:
+    """The --calibration posterior restored on its --campaign (the nests' drift taken out as calibrate took it) into ``review``,
+    refused when it is not a calibration of this cell's robot or does not fit this campaign."""
+    from bayescal.compensation.calibration import check_calibration_robot
+    from bayescal.inference.fit_checks import check_fits_campaign
+    from bayescal.inference.parameters import ParameterRegistry
+    from bayescal.sampling.summary import read_posterior_of
+    from bayescal.studies.review import calibration_findings
 
-    from bayescal.errors import InputError
-    from bayescal.sampling.summary import read_posterior
+    review.sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
+    campaign, cell, _ = read_campaign_in_base(args, args.campaign, cell)
+    nests = read_nests_in_base(args, campaign)
+    if nests is not None:
+        from bayescal.registration.nest_drift import fit_nest_drift
 
-    tree, posterior = read_posterior(path)
-    missing = [name for name in needs if name not in posterior]
-    if missing:
-        raise InputError(f"the posterior has no variable {', '.join(repr(m) for m in missing)}: is it the file {option} expects?", source=path)
-    if foreign in posterior:
-        other = "--calibration" if option == "--geometry" else "--geometry"
-        raise InputError(f"the posterior has the variable '{foreign}' of a {other} posterior: is it the file {option} expects?", source=path)
-    for name, values in posterior.data_vars.items():
-        bad = int(np.count_nonzero(~np.isfinite(np.asarray(values.values, dtype=float))))
-        if bad:
-            raise InputError(f"the variable has {bad} non-finite draws; expected finite draws", source=path, column=str(name))
-    return tree
+        # the campaign as `calibrate --nests` fitted it: the drift the nests measure taken out
+        campaign = fit_nest_drift(nests, cell.tracker).remove(campaign)
+        review.sources["nests"] = args.nests
+    # A robot without a compensator has no per-angle compliances; the geometry's own 'R' tells the other kind apart.
+    per_angle = ParameterRegistry.of_cell(cell).per_angle_variable if cell is not None else None
+    tree = read_posterior_of(args.calibration, "--calibration", needs=(*([per_angle] if per_angle else []), "sigma"), foreign="R",
+                             other="--geometry")
+    check_calibration_robot(tree, cell, args.calibration)
+    calibration = calibration_findings(cell, campaign, tree, geometry)
+    check_fits_campaign(calibration.results, args.campaign, args.config, args.calibration)
+    review.results, review.campaign, review.cell = calibration.results, campaign, cell
+    review.residuals, review.test_pose = calibration.residuals, calibration.test_pose
 
 
-def _read_json(path: str, option: str) -> dict:
-    from bayescal.errors import InputError
+def _read_json(path: str, option: str):
+    """The JSON file of ``option``, checked against the schema of the results class that writes it: a dict, or the
+    :class:`~bayescal.kinematics.ladder.LadderFindings` a model ladder's file holds."""
+    from bayescal.critique.results import CRITIQUE_JSON
+    from bayescal.design.plan_design import PLAN_JSON
+    from bayescal.jsonfiles import read_json_object
+    from bayescal.kinematics.ladder import LADDER_JSON, LADDER_KIND, LadderFindings
+    from bayescal.registration.register import REGISTRATION_JSON
 
-    record_read(path, f"the {option} file")
-    try:
-        with open(path, encoding="utf-8") as stream:
-            data = json.load(stream)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"not valid JSON ({exc.msg} at character {exc.colno})", source=path, line=exc.lineno) from None
-    except UnicodeDecodeError:
-        raise InputError("not a UTF-8 text file", source=path) from None
-    required, foreign, writer = _SCHEMAS[option]
-    if not isinstance(data, dict):
-        raise InputError(f"expected a JSON object (the output of {writer}), got a {type(data).__name__}", source=path)
-    if foreign in data:
-        raise InputError(f"the JSON has the key '{foreign}' of another command's output; {option} expects the output of {writer}", source=path)
-    from bayescal.kinematics.ladder import LADDER_KIND
-
+    data = read_json_object(path, f"the {option} file")
+    schema = {"--plan": PLAN_JSON, "--critique": CRITIQUE_JSON, "--registration": REGISTRATION_JSON}[option]
+    schema.check_kind(data, path, option)
     if option == "--critique" and data.get("kind") == LADDER_KIND:
-        _check_keys(data, LADDER_KEYS, path, "bayescal critique POSITIONS.csv --config POINTS_CELL.toml --json")
-        return data
-    _check_keys(data, required, path, writer)
-    if option == "--critique" and data["verdict"] not in VERDICTS:
-        raise InputError(f"expected a verdict {' or '.join(VERDICTS)}, got {data['verdict']!r}", source=path, column="verdict")
+        LADDER_JSON.check_keys(data, path)
+        return LadderFindings.from_json(data)
+    schema.check_keys(data, path)
     return data
 
 
-def _check_keys(data: dict, required: dict, path: str, writer: str) -> None:
-    from bayescal.errors import InputError
-
-    for key, kind in required.items():
-        if key not in data or not isinstance(data[key], kind) or isinstance(data[key], bool):
-            found = "no such key" if key not in data else f"a {type(data[key]).__name__}"
-            raise InputError(f"expected the key '{key}' of the output of {writer}, found {found}", source=path, column=key)
+def _read_critique(path: str):
+    """The --critique file: a campaign's critique as its checked JSON, or a points cell's model ladder as its findings."""
+    critique = _read_json(path, "--critique")
+    return (critique, None) if isinstance(critique, dict) else (None, critique)
 
 
 def _read_csv(path: str, option: str):
@@ -263,16 +220,3 @@ def _read_csv(path: str, option: str):
         if not pd.api.types.is_numeric_dtype(frame[column]):
             raise InputError("expected numbers", source=path, column=column)
     return frame
-
-
-def _check_fit(results, args: argparse.Namespace) -> None:
-    """Refuse a calibration whose χ²/dof against the given campaign and cell shows it was computed from other data."""
-    from bayescal.errors import InputError
-
-    chi2 = results.diagnostics().get("chi2_per_dof")
-    if chi2 is not None and chi2 > MAX_CHI2_PER_DOF:
-        raise InputError(
-            f"the calibration fits the campaign {args.campaign} with χ²/dof = {chi2:.2f}, above {MAX_CHI2_PER_DOF:g} (residuals "
-            f"{chi2 ** 0.5:.0f} times the tracker noise of {args.config}): was it computed from this campaign and cell?",
-            source=args.calibration,
-        )

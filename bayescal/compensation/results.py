@@ -13,6 +13,7 @@ from bayescal.compensation.budget import ErrorBudget
 from bayescal.compensation.program import Program, compensated_columns
 from bayescal.jsonsafe import json_safe
 from bayescal.robot.kinematics import Robot
+from bayescal.summary import Paragraph, Summary
 from bayescal.units import MM
 
 __all__ = ["CompensationResults", "FLAG_OK", "DECIMALS", "WORST", "SUMMARY_COLUMNS"]
@@ -163,12 +164,13 @@ class CompensationResults:
             "equilibrium_failures": int(self.failed.sum()),
         }
 
-    def text(self) -> str:
-        """A reader's summary: the poses, the worst 99.73 % bound and what dominates it, the flags."""
+    def document(self) -> Summary:
+        """The compensation as one document (:mod:`bayescal.summary`), the text ``bayescal compensate`` prints: the poses,
+        the deflection removed, the worst 99.73 % bound and what dominates it, the flags."""
         from bayescal.reports.numbers import error_length
 
         summary = self._summary_json()
-        lines = [f"{self.program.source or 'program'}: {summary['poses']} poses compensated over {self.n_draws} draws"]
+        lines = []
         if len(self.program) and np.isfinite(self.errors["q9973"]).any():
             worst = int(np.nanargmax(self.errors["q9973"]))
             share = self.unidentified_share[worst]
@@ -187,7 +189,8 @@ class CompensationResults:
             f"flagged: {summary['flagged']} ({summary['outside_joint_limits']} outside the joint limits, {summary['no_equilibrium']} without "
             "equilibrium" + ("" if self.tolerance is None else f", tolerance {self.tolerance / MM:g} mm") + ")"
         )
-        return "\n".join(lines)
+        title = f"{self.program.source or 'program'}: {summary['poses']} poses compensated over {self.n_draws} draws"
+        return Summary(title, tuple(Paragraph(line) for line in lines))
 
     def to_json(self) -> dict:
         """Summary, diagnostics and the :data:`WORST` poses by their 99.73 % error."""

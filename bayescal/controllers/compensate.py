@@ -15,7 +15,7 @@ changes a turn bit and nothing else).
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from os import PathLike
 from pathlib import Path
 
@@ -39,6 +39,7 @@ from bayescal.output import record_read
 from bayescal.robot.batched import BatchedChain
 from bayescal.robot.inverse import POSITION_TOLERANCE, inverse_kinematics
 from bayescal.robot.kinematics import Robot
+from bayescal.summary import Paragraph, Summary
 from bayescal.units import DEG, MM
 
 __all__ = [
@@ -304,13 +305,13 @@ class ControllerCompensation:
             "unsupported_statements_passed_through": self.program.unsupported,
         }
 
-    def text(self) -> str:
-        """The compensation's summary and the program's counts."""
+    def document(self) -> Summary:
+        """The compensation's document (:meth:`CompensationResults.document`) and the program's counts after it."""
         s = self.summary_json()
-        return self.results.text() + (
-            f"\n{s['language']}: {s['targets']} targets ({s['cartesian_targets']} Cartesian, {s['joint_targets']} joint) of "
-            f"{s['motions']} motions; {s['unsupported_statements_passed_through']} unsupported statements passed through unchanged"
-        )
+        document = self.results.document()
+        counts = Paragraph(f"{s['language']}: {s['targets']} targets ({s['cartesian_targets']} Cartesian, {s['joint_targets']} joint) of "
+                           f"{s['motions']} motions; {s['unsupported_statements_passed_through']} unsupported statements passed through unchanged")
+        return replace(document, lead=document.lead + (counts,))
 
     def to_json(self) -> dict:
         """The compensation's JSON with the program's counts under ``program``."""

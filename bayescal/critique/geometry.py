@@ -108,6 +108,7 @@ from bayescal.critique.results import Outcome
 from bayescal.critique.rule import DETECTION_FLOOR, DETECTION_Z, UNEXPLAINED, check_candidates, strongest
 from bayescal.errors import InputError
 from bayescal.geometry.arcs import MarkerPoints
+from bayescal.summary import Summary
 from bayescal.units import DEG, MM
 
 __all__ = [
@@ -425,6 +426,13 @@ class GeometryCritiqueResults(Outcome):
         if self.unexplained_covariate is not None:
             payload["unexplained_covariate"] = self.unexplained_covariate
         return payload
+
+    def document(self) -> Summary:
+        """What the geometry critique found as one document (:mod:`bayescal.summary`): the text
+        ``bayescal critique --geometry`` prints, and its Markdown, HTML and JSON."""
+        from bayescal.critique.document import geometry_critique_document
+
+        return geometry_critique_document(self)
 
     def diagnostics(self) -> dict:
         """What the comparison rests on: held-out angles and points, the candidates not tried, the decision

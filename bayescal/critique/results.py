@@ -7,6 +7,7 @@ Plain data with the house's verbs (``summary()``, ``diagnostics()``, ``to_json()
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
@@ -17,8 +18,18 @@ from bayescal.critique.compare import Comparison, CrossValidation
 from bayescal.critique.covariates import COVARIATES
 from bayescal.critique.rule import DECISIVE_GAIN, DECISIVE_Z, DETECTION_FLOOR, DETECTION_Z, TIE_NOISE
 from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit
+from bayescal.jsonfiles import JsonSchema
+from bayescal.summary import Summary
 
-__all__ = ["Outcome", "CritiqueResults"]
+__all__ = ["Outcome", "CritiqueResults", "CRITIQUE_JSON", "VERDICTS"]
+
+VERDICTS = ("adequate", "misfit")
+"""The verdicts a critique gives (:attr:`Outcome.verdict`)."""
+
+CRITIQUE_JSON = JsonSchema({"verdict": str, "causes": list, "evidence": dict, "gain": dict}, "bayescal critique --json",
+                           foreign="parameters", values={"verdict": VERDICTS})
+"""What a reader of :meth:`CritiqueResults.to_json`'s file relies on (the geometry critique's has the same keys);
+``parameters`` is a calibration's key."""
 
 
 def _candidate_summary(
@@ -167,6 +178,13 @@ class CritiqueResults(Outcome):
             "meaning": "scatter of the configuration means about the final model against the scatter between repeats",
         }
         return payload
+
+    def document(self, figures: Sequence[str] = ()) -> Summary:
+        """What the critique found as one document (:mod:`bayescal.summary`): the text ``bayescal critique`` prints,
+        and its Markdown, HTML and JSON; ``figures`` names the files the figures were written to."""
+        from bayescal.critique.document import critique_document
+
+        return critique_document(self, figures)
 
     def diagnostics(self) -> dict:
         """What the comparison rests on: held-out configurations and equations, the decision rule, the

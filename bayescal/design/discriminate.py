@@ -127,6 +127,13 @@ class DiscriminatingDesign:
         table["load_kg"] = self.plan.load_kg
         return table
 
+    def document(self, output: str, campaign: str):
+        """The plan as one document (:mod:`bayescal.summary`), what ``bayescal plan --criterion discriminate`` prints: ``output``
+        names the file it was written to, ``campaign`` the tied campaign (:func:`~bayescal.design.document.discrimination_document`)."""
+        from bayescal.design.document import discrimination_document
+
+        return discrimination_document(self, output, campaign)
+
     def diagnostics(self) -> dict:
         return {"starts_worst_nats": [round(v, 3) for v in self.starts]}
 

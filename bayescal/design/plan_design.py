@@ -20,10 +20,16 @@ from bayescal.design.criteria import criterion_value
 from bayescal.design.loads import loads_json
 from bayescal.design.prediction import PlanPrediction
 from bayescal.inference.parameters import ANGLE_DECIMALS
+from bayescal.jsonfiles import JsonSchema
 from bayescal.jsonsafe import json_safe
 from bayescal.units import DEG, MM
 
-__all__ = ["PlanDesign", "PlanEvaluation"]
+__all__ = ["PlanDesign", "PlanEvaluation", "PLAN_JSON"]
+
+PLAN_JSON = JsonSchema({"criterion": (float, int, type(None)), "parameters": dict, "configurations": int}, "bayescal plan --json",
+                       foreign="verdict")
+"""What a reader of a plan's JSON (:meth:`PlanDesign.to_json`, :meth:`PlanEvaluation.to_json`) relies on; ``verdict`` is a
+critique's key."""
 
 
 @dataclass(frozen=True)
@@ -70,6 +76,13 @@ class PlanDesign:
     def summary(self) -> pd.DataFrame:
         """Predicted precision per parameter (see :meth:`PlanPrediction.summary`)."""
         return self.prediction.summary()
+
+    def document(self, output: str | None = None, hanging_only: bool = False):
+        """The plan as one document (:mod:`bayescal.summary`): the text ``bayescal plan`` prints, and its Markdown, HTML and
+        JSON; ``output`` names the file the plan was written to, ``hanging_only`` says the cell's loads only hang (k1 unbounded)."""
+        from bayescal.design.document import plan_document
+
+        return plan_document(self.to_json() | ({} if output is None else {"output": output}), self.summary(), hanging_only)
 
     def diagnostics(self) -> dict:
         """How the search went: the criterion reached from each start, the best of them, the candidates' count."""
@@ -141,6 +154,13 @@ class PlanEvaluation:
     def summary(self) -> pd.DataFrame:
         """Predicted precision per parameter (see :meth:`PlanPrediction.summary`)."""
         return self.prediction.summary()
+
+    def document(self, hanging_only: bool = False):
+        """The assessment as one document (:mod:`bayescal.summary`): the text ``bayescal plan --evaluate`` prints, and its
+        Markdown, HTML and JSON; ``hanging_only`` says the cell's loads only hang (k1 unbounded by any plan)."""
+        from bayescal.design.document import plan_document
+
+        return plan_document(self.to_json(), self.summary(), hanging_only)
 
     def diagnostics(self) -> dict:
         """The plan's size and the configurations that break a constraint of the cell."""

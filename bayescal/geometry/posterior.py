@@ -147,6 +147,13 @@ class GeometryPosterior:
             "frame_mirrored": self.closed_form.mirrored,
         })
 
+    def document(self, source: str, seed: int, reference: pd.DataFrame | None = None, saved_to: str | None = None):
+        """The geometry as one document (:mod:`bayescal.summary`): the text ``bayescal geometry`` prints, and its Markdown,
+        HTML and JSON (:func:`~bayescal.geometry.document.geometry_document`, which says what the arguments are)."""
+        from bayescal.geometry.document import geometry_document
+
+        return geometry_document(self, source, seed, reference, saved_to)
+
     def save(self, path: str | PathLike[str]) -> None:
         """Write the posterior DataTree to a NetCDF file."""
         posterior.save(self.tree, path)

@@ -26,7 +26,7 @@ from bayescal.inference.priors import GeometryPrior
 from bayescal.robot.compensator import CompensatorGeometry
 from bayescal.units import MM, N_PER_MM, URAD_PER_NM
 
-__all__ = ["campaign_identifiability", "check_determined", "check_scale", "unresolved_columns", "UNRESOLVED_RATIO", "residual_chi2", "calibration_lack_of_fit", "practical_identifiability"]
+__all__ = ["check_fits_campaign", "MAX_CHI2_PER_DOF", "campaign_identifiability", "check_determined", "check_scale", "unresolved_columns", "UNRESOLVED_RATIO", "residual_chi2", "calibration_lack_of_fit", "practical_identifiability"]
 
 IMPLAUSIBLE_RATIO = 100.0
 """Factor between the compliances a campaign implies and the config's beyond which the data are taken to be in
@@ -231,3 +231,21 @@ def campaign_identifiability(
         ident = check_regression(ident, equations.per_angle_columns(), equations.compensated_angles, geometry)
     check_determined(campaign, equations, ident)
     return ident
+
+
+MAX_CHI2_PER_DOF = 100.0
+"""Largest χ²/dof of a calibration against the campaign and cell given beside it: residuals 10 times the
+tracker noise the cell states.  A short calibration of the twin's Table III campaign gives 0.87 on that
+campaign and 3588 beside a campaign of the same plan on a robot twice as compliant (tests/cli/test_hostile.py)."""
+
+
+def check_fits_campaign(results, campaign: str, cell: str, calibration: str) -> None:
+    """Refuse a calibration (from the file ``calibration``, restored on the files ``campaign`` and ``cell``) whose χ²/dof
+    against them shows it was computed from other data."""
+    chi2 = results.diagnostics().get("chi2_per_dof")
+    if chi2 is not None and chi2 > MAX_CHI2_PER_DOF:
+        raise InputError(
+            f"the calibration fits the campaign {campaign} with χ²/dof = {chi2:.2f}, above {MAX_CHI2_PER_DOF:g} (residuals "
+            f"{chi2 ** 0.5:.0f} times the tracker noise of {cell}): was it computed from this campaign and cell?",
+            source=calibration,
+        )

@@ -255,6 +255,13 @@ class ElastostaticResults:
 
         save(self.tree, path)
 
+    def document(self, test_pose, source: str, seed: int, reference_file=None):
+        """The calibration with its test pose as one document (:mod:`bayescal.summary`): the text ``bayescal calibrate``
+        prints, and its Markdown, HTML and JSON (:func:`~bayescal.inference.document.calibration_document`)."""
+        from bayescal.inference.document import calibration_document
+
+        return calibration_document(self, test_pose, source, seed, reference_file)
+
     def summary(self) -> pd.DataFrame:
         """Mean, sd, ±3σ and central 99.73 % intervals, R-hat, ESS and unit of every posterior variable."""
         if self.summary_table is None:

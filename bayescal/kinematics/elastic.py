@@ -332,6 +332,13 @@ class ElasticKinematicResults:
                     out[j - 1, i] = self.kinematic.mean[names.index(f"{tree.names[j]}.{c}")]
         return out
 
+    def document(self):
+        """The calibration as one document (:mod:`bayescal.summary`): the text ``bayescal kinematics`` prints, and its
+        Markdown, HTML and JSON (:func:`~bayescal.kinematics.document.kinematic_document`)."""
+        from bayescal.kinematics.document import kinematic_document
+
+        return kinematic_document(self)
+
     def summary(self) -> pd.DataFrame:
         return self.kinematic.summary()
 

@@ -16,6 +16,7 @@ below gets wrong on configurations it has not seen.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from os import PathLike
 
 import numpy as np
 import pandas as pd
@@ -24,11 +25,17 @@ from bayescal.kinematics.cell import PointsCell
 from bayescal.kinematics.fit import KinematicCalibration
 from bayescal.kinematics.model import EXTENSIONS, GROUPS, RUNGS, PointModel
 from bayescal.kinematics.positions import Positions
+from bayescal.jsonfiles import JsonSchema, read_json_object
 from bayescal.kinematics.results import KinematicResults
+from bayescal.summary import Column, Paragraph, Summary, Table
 
-__all__ = ["LadderFindings", "ModelLadder", "DECISIVE_SE", "PUBLISHED", "LADDER_KIND"]
+__all__ = ["LadderFindings", "ModelLadder", "DECISIVE_SE", "PUBLISHED", "LADDER_KIND", "LADDER_JSON"]
 
 LADDER_KIND = "bayescal model ladder"
+
+LADDER_JSON = JsonSchema({"verdict": str, "rungs": list, "steps": list, "without": list, "folds": int},
+                         "bayescal critique POSITIONS.csv --config POINTS_CELL.toml --json")
+"""What a reader of :meth:`LadderFindings.to_json`'s file relies on (its ``kind`` is :data:`LADDER_KIND`)."""
 """The ``kind`` of the ladder's JSON: how ``bayescal report --critique`` tells it from a campaign's critique."""
 
 PUBLISHED_SOURCE = "Tenhumberg and Bäuml, Humanoids 2021 (Agile Justin, 500 configurations)"
@@ -102,28 +109,48 @@ class LadderFindings:
                 "without": self.without.reset_index().to_dict(orient="records"),
                 "published": {"source": PUBLISHED_SOURCE, "rungs_mean_sd_max_mm": PUBLISHED, "without_mean_mm": PUBLISHED_WITHOUT}}
 
-    def text(self) -> str:
-        """The findings as the terminal shows them."""
-        lines = [f"model ladder, {self.folds}-fold cross-validation by configuration (held-out errors, mm; published beside):"]
-        header = f"{'model':<16}{'mean':>7}{'sd':>7}{'max':>8}{'in-sample':>11}{'ELPD':>11}{'± SE':>8}{'cover95':>9}{'paper mean/sd/max':>22}"
-        lines.append(header)
+    @classmethod
+    def from_json(cls, data: dict) -> LadderFindings:
+        """The findings :meth:`to_json` gave (its ``published`` block is this module's :data:`PUBLISHED`, not read back)."""
+        rungs = pd.DataFrame.from_records(data["rungs"]).set_index("model")
+        without = pd.DataFrame.from_records(data["without"])
+        return cls(rungs, list(data["steps"]), without.set_index("without") if len(without) else without, int(data["folds"]), str(data["verdict"]))
+
+    @classmethod
+    def load(cls, path: str | PathLike[str], option: str = "the model ladder file") -> LadderFindings:
+        """The findings in the JSON file at ``path`` (``bayescal critique POSITIONS.csv --json``), checked against
+        :data:`LADDER_JSON`; ``option`` names the file in errors and in the record of files read."""
+        data = read_json_object(path, option)
+        LADDER_JSON.check_kind(data, str(path), option)
+        LADDER_JSON.check_keys(data, str(path))
+        return cls.from_json(data)
+
+    def document(self) -> Summary:
+        """The findings as one document (:mod:`bayescal.summary`): each rung's held-out errors (mm) and ELPD (nats) beside
+        the published ones, each step up the ladder, the full model with a group left out, and the verdict."""
+        columns = (Column("model", width=16, align="<"), Column("mean", "mm", width=7), Column("sd", "mm", width=7),
+                   Column("max", "mm", width=8), Column("in-sample", "mm", width=11), Column("ELPD", "nats", width=11),
+                   Column("± SE", "nats", width=8), Column("cover95", width=9), Column("paper mean/sd/max", "mm", width=22))
+        rows, values = [], []
         for name, r in self.rungs.iterrows():
             paper = PUBLISHED.get(name)
-            paper_text = "" if paper is None else f"{paper[0]:.2f}/{paper[1]:.2f}/{paper[2]:.2f}"
-            lines.append(f"{name:<16}{r.mean_mm:>7.2f}{r.sd_mm:>7.2f}{r.max_mm:>8.2f}{r.in_sample_mean_mm:>11.2f}{r.elpd:>11.0f}"
-                         f"{r.elpd_se:>8.0f}{r.coverage_95:>9.3f}{paper_text:>22}")
-        lines.append("steps up the ladder (held-out ELPD gain ± SE of the paired difference):")
-        for s in self.steps:
-            lines.append(f"  {s['from']} → {s['to']} (+{', '.join(s['adds'])}): ΔELPD {s['elpd_gain']:+.0f} ± {s['elpd_gain_se']:.0f}, "
-                         f"mean error {s['error_change_mm']:+.2f} mm: {'called for by the data' if s['named'] else 'not called for'}")
+            rows.append((str(name), f"{r.mean_mm:.2f}", f"{r.sd_mm:.2f}", f"{r.max_mm:.2f}", f"{r.in_sample_mean_mm:.2f}", f"{r.elpd:.0f}",
+                         f"{r.elpd_se:.0f}", f"{r.coverage_95:.3f}", "" if paper is None else "/".join(f"{v:.2f}" for v in paper)))
+            values.append({"model": name, "mean": r.mean_mm, "sd": r.sd_mm, "max": r.max_mm, "in-sample": r.in_sample_mean_mm, "ELPD": r.elpd,
+                           "± SE": r.elpd_se, "cover95": r.coverage_95, "paper mean/sd/max": paper})
+        blocks = [Table("rungs", columns, tuple(rows), tuple(values)),
+                  Paragraph("steps up the ladder (held-out ELPD gain ± SE of the paired difference):")]
+        blocks += [Paragraph(f"{s['from']} → {s['to']} (+{', '.join(s['adds'])}): ΔELPD {s['elpd_gain']:+.0f} ± {s['elpd_gain_se']:.0f}, "
+                             f"mean error {s['error_change_mm']:+.2f} mm: {'called for by the data' if s['named'] else 'not called for'}", indent="  ")
+                   for s in self.steps]
         if len(self.without):
-            lines.append("leave one group out of the full model (held-out mean error, mm; published beside):")
+            blocks.append(Paragraph("leave one group out of the full model (held-out mean error, mm; published beside):"))
             for name, r in self.without.iterrows():
                 paper = PUBLISHED_WITHOUT.get(name)
-                lines.append(f"  without {name:<9}{r.mean_mm:>7.2f}   ΔELPD {r.elpd_loss:+.0f} ± {r.elpd_loss_se:.0f}"
-                             + ("" if paper is None else f"   (paper {paper:.2f})"))
-        lines.append(self.verdict)
-        return "\n".join(lines)
+                blocks.append(Paragraph(f"without {name:<9}{r.mean_mm:>7.2f}   ΔELPD {r.elpd_loss:+.0f} ± {r.elpd_loss_se:.0f}"
+                                        + ("" if paper is None else f"   (paper {paper:.2f})"), indent="  "))
+        blocks.append(Paragraph(self.verdict))
+        return Summary(f"model ladder, {self.folds}-fold cross-validation by configuration (held-out errors, mm; published beside):", tuple(blocks))
 
 
 class ModelLadder:

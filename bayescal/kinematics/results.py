@@ -120,6 +120,13 @@ class KinematicResults:
             out.append({"parameter": self.model.names[i], "sd_ratio": float(ratio[i]), "why": why})
         return out
 
+    def document(self):
+        """The calibration as one document (:mod:`bayescal.summary`): the text ``bayescal kinematics`` prints, and its
+        Markdown, HTML and JSON (:func:`~bayescal.kinematics.document.kinematic_document`)."""
+        from bayescal.kinematics.document import kinematic_document
+
+        return kinematic_document(self)
+
     def summary(self) -> pd.DataFrame:
         """One row per parameter: group, unit, prior mean and sd, posterior mean and sd, ±3σ, the sd ratio (edge units)."""
         scale = np.array([p.scale for p in self.model.parameters])

@@ -38,7 +38,7 @@ from bayescal.cell.nests import Nests
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.units import MM
 
-__all__ = ["NestDrift", "fit_nest_drift", "DIFFUSION_GRID", "motion_matrix"]
+__all__ = ["NestDrift", "fit_nest_drift", "DIFFUSION_GRID", "motion_matrix", "removed_drift_sentence"]
 
 DIFFUSION_GRID = 10.0 ** np.arange(-22.0, -6.0 + 1e-9, 0.25)
 """Candidate diffusions q (m²/s), a quarter decade apart: from a frame that wanders 0.6 nm in an
@@ -241,6 +241,16 @@ class NestDrift:
             "deflection_sd_added_median_um": round(float(np.median(sd)) * 1e6, 2),
             "deflection_sd_added_max_um": round(float(sd.max()) * 1e6, 2),
         }
+
+
+def removed_drift_sentence(drift: dict) -> str:
+    """The drift the nests measured and removed, in words: ``drift`` is :meth:`NestDrift.to_json`'s block."""
+    return (
+        f"drift from {drift['nests']} reference nests ({drift['nest_readings']} readings over {drift['span_s'] / 3600:.1f} h): "
+        f"removed {drift['deflection_removed_rms_um']:.1f} μm rms (at most {drift['deflection_removed_max_um']:.1f} μm) from the "
+        f"deflections, readings moved by up to {drift['readings_moved_max_mm']:.3f} mm; its uncertainty adds "
+        f"{drift['deflection_sd_added_median_um']:.1f} μm sd to a deflection (median, at most {drift['deflection_sd_added_max_um']:.1f})"
+    )
 
 
 def fit_nest_drift(nests: Nests, tracker: TrackerNoise) -> NestDrift:

@@ -11,13 +11,17 @@ import pandas as pd
 
 from bayescal.cell.config import Cell
 from bayescal.errors import InputError
+from bayescal.jsonfiles import JsonSchema
 from bayescal.output import record_read
 from bayescal.registration.axes import AxisFit, fit_axis, span_needed
 from bayescal.registration.frames import Frame, common_perpendicular, draw_axis, frames_with_uncertainty, urdf_axes
 from bayescal.registration.sweeps import Sweeps
 from bayescal.units import DEG, MM
 
-__all__ = ["Registration", "exclude", "read_frame", "register", "MIRROR_Z"]
+__all__ = ["Registration", "exclude", "read_frame", "register", "MIRROR_Z", "REGISTRATION_JSON"]
+
+REGISTRATION_JSON = JsonSchema({"axes": dict, "frames": dict}, "bayescal axes -o", foreign="parameters")
+"""What a reader of :meth:`Registration.save`'s file relies on; ``parameters`` is a calibration's key."""
 
 MIRROR_Z = 5.0
 """Standard deviations by which the offset between axes 1 and 2 must sit nearer the URDF's mirror image than the URDF's

@@ -1,14 +1,14 @@
 """The model ladder on measured points (``bayescal critique POSITIONS.csv --json``) as a section of the review.
 
-Renders :meth:`~bayescal.kinematics.ladder.LadderFindings.to_json`; it computes nothing.
+Renders :class:`~bayescal.kinematics.ladder.LadderFindings` (read back by :meth:`~bayescal.kinematics.ladder.LadderFindings.load`)
+beside the published values of :mod:`bayescal.kinematics.ladder`; it computes nothing.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import pandas as pd
 
+from bayescal.kinematics.ladder import PUBLISHED, PUBLISHED_SOURCE, PUBLISHED_WITHOUT, LadderFindings
 from bayescal.reports.numbers import fixed, table_texts
 from bayescal.reports.page import Page
 
@@ -20,23 +20,18 @@ _RUNG_COLUMNS = {
 }
 
 
-def ladder_section(page: Page, ladder: Mapping, source: str) -> None:
+def ladder_section(page: Page, ladder: LadderFindings, source: str) -> None:
     """Each rung's held-out errors beside the published ones, each step's gain, and the leave-one-group-out table."""
     page.heading("ladder", "Model ladder on measured points")
     if source:
-        page.paragraph(f"From {source}: {ladder.get('folds', '?')}-fold cross-validation by configuration.")
-    page.paragraph(str(ladder.get("verdict", "")), css="verdict")
-    published = ladder.get("published", {})
-    rungs = pd.DataFrame.from_records(ladder["rungs"]).set_index("model")
+        page.paragraph(f"From {source}: {ladder.folds}-fold cross-validation by configuration.")
+    page.paragraph(ladder.verdict, css="verdict")
+    rungs = ladder.rungs
     frame = rungs[[key for key in _RUNG_COLUMNS if key in rungs]].rename(columns=_RUNG_COLUMNS)
-    paper = published.get("rungs_mean_sd_max_mm", {})
-    if paper:
-        frame["published mean / sd / max [mm]"] = [
-            " / ".join(f"{v:.2f}" for v in paper[name]) if name in paper else "–" for name in frame.index
-        ]
+    frame["published mean / sd / max [mm]"] = [" / ".join(f"{v:.2f}" for v in PUBLISHED[name]) if name in PUBLISHED else "–" for name in frame.index]
     formats = {column: fixed(0 if "nats" in column else 3 if "covers" in column else 2) for column in frame.columns if "published" not in column}
     page.table("rungs", frame, shown=table_texts(frame, {}, formats))
-    steps = ladder.get("steps", [])
+    steps = ladder.steps
     if steps:
         page.items(
             [
@@ -46,17 +41,13 @@ def ladder_section(page: Page, ladder: Mapping, source: str) -> None:
             ]
         )
         page.record("steps", list(steps))
-    without = ladder.get("without", [])
-    if without:
-        table = pd.DataFrame.from_records(without).set_index("without")
+    if len(ladder.without):
+        table = ladder.without
         shown = table[[c for c in ("mean_mm", "elpd_loss", "elpd_loss_se") if c in table]].rename(
             columns={"mean_mm": "held-out mean [mm]", "elpd_loss": "ELPD lost [nats]", "elpd_loss_se": "SE [nats]"}
         )
-        paper_without = published.get("without_mean_mm", {})
-        if paper_without:
-            shown["published mean [mm]"] = [f"{paper_without[name]:.2f}" if name in paper_without else "–" for name in shown.index]
+        shown["published mean [mm]"] = [f"{PUBLISHED_WITHOUT[name]:.2f}" if name in PUBLISHED_WITHOUT else "–" for name in shown.index]
         shown.index.name = "full model without"
         page.table("without", shown, shown=table_texts(shown, {}, {c: fixed(0 if "nats" in c else 2) for c in shown.columns if "published" not in c}))
-    if published.get("source"):
-        page.paragraph(f"Published values: {published['source']}.")
+    page.paragraph(f"Published values: {PUBLISHED_SOURCE}.")
     page.close()

@@ -32,7 +32,7 @@ from bayescal.reports.numbers import error_length, fixed, table_texts
 from bayescal.reports.test_pose import unidentified_sentence
 from bayescal.reports.page import HTML_FILE, JSON_FILE, MARKDOWN_FILE, Page
 from bayescal.reports.review_data import data_section, residual_section
-from bayescal.kinematics.ladder import LADDER_KIND
+from bayescal.kinematics.ladder import LadderFindings
 from bayescal.reports.ladder import ladder_section
 from bayescal.reports.review_files import critique_section, plan_section, registration_section
 from bayescal.reports.review_parameters import (
@@ -78,8 +78,9 @@ class ReviewInputs:
     test_pose : TestPosePrediction or None
         The prediction at the cell's test pose.
     plan, critique : dict or None
-        The JSON printed by ``bayescal plan --json`` and ``bayescal critique --json`` (of a campaign, or the model
-        ladder of a cell of measured points).
+        The JSON printed by ``bayescal plan --json`` and ``bayescal critique --json`` of a campaign.
+    ladder : LadderFindings or None
+        The model ladder of a cell of measured points (``bayescal critique POSITIONS.csv --json``, :meth:`LadderFindings.load`).
     study : pandas.DataFrame or None
         A q2-angle study table.
     compensation : pandas.DataFrame or None
@@ -99,6 +100,7 @@ class ReviewInputs:
     test_pose: TestPosePrediction | None = None
     plan: dict | None = None
     critique: dict | None = None
+    ladder: LadderFindings | None = None
     study: pd.DataFrame | None = None
     compensation: pd.DataFrame | None = None
     registration: dict | None = None
@@ -136,9 +138,9 @@ def render_review(inputs: ReviewInputs) -> dict[str, bytes]:
         if inputs.residuals is not None:
             residual_section(page, inputs.results, inputs.residuals, inputs.campaign, inputs.cell)
     if inputs.critique is not None:
-        # A points cell's critique is the model ladder (bayescal.kinematics.ladder), a campaign's the VJM critique.
-        render = ladder_section if inputs.critique.get("kind") == LADDER_KIND else critique_section
-        render(page, inputs.critique, inputs.sources.get("critique", ""))
+        critique_section(page, inputs.critique, inputs.sources.get("critique", ""))
+    if inputs.ladder is not None:
+        ladder_section(page, inputs.ladder, inputs.sources.get("critique", ""))
     _convergence_section(page, inputs, facts)
     if inputs.results is not None:
         _pairs_section(page, inputs.results, inputs.seed, _published_iv(inputs.cell))
@@ -182,9 +184,9 @@ def _overview(page: Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
                f"{', '.join(error['unidentified'])}, which the campaign does not identify." if error["unidentified"] else ".")
         )
     if inputs.critique is not None and "verdict" in inputs.critique:
-        ladder = inputs.critique.get("kind") == LADDER_KIND
-        verdict = str(inputs.critique["verdict"]).removeprefix("verdict: ")
-        lines.append(f"{'Model ladder' if ladder else 'Critique'}: {verdict}.")
+        lines.append(f"Critique: {str(inputs.critique['verdict']).removeprefix('verdict: ')}.")
+    if inputs.ladder is not None:
+        lines.append(f"Model ladder: {inputs.ladder.verdict.removeprefix('verdict: ')}.")
     page.items(lines or ["No posterior was given: only the files below are shown."])
     page.table("inputs", pd.DataFrame({"file": list(inputs.sources.values())}, index=pd.Index(list(inputs.sources), name="input")))
     page.close()

@@ -25,7 +25,7 @@ from bayescal.sampling.diagnostics import diagnose
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["posterior_tree", "summarize", "diagnostics", "converged", "sample_until_converged", "warn_if_unconverged", "ConvergenceWarning", "parameters_json", "save", "load", "read_posterior"]
+__all__ = ["posterior_tree", "summarize", "diagnostics", "converged", "sample_until_converged", "warn_if_unconverged", "ConvergenceWarning", "parameters_json", "save", "load", "read_posterior", "read_posterior_of"]
 
 R_HAT_LIMIT = 1.01
 """Largest rank-normalised split R-hat accepted as converged (Vehtari et al. 2021)."""
@@ -301,6 +301,31 @@ def read_posterior(path: str | PathLike[str], what: str = "a posterior DataTree"
         return tree, tree["posterior"]
     except (OSError, KeyError, ValueError) as exc:
         raise InputError(f"cannot read {what} ({type(exc).__name__})", source=str(path)) from None
+
+
+def read_posterior_of(path: str, option: str, needs: Sequence[str], foreign: str, other: str) -> xr.DataTree:
+    """The saved tree at ``path`` that ``option`` expects, refused when it lacks a variable of ``needs``, has ``foreign``, a
+    variable only the posterior ``other`` expects has (an elastostatic posterior also holds the geometry it sampled), or
+    non-finite draws.
+
+    Raises
+    ------
+    InputError
+        Naming the file, and the variable or ``option`` and ``other``.
+    """
+    from bayescal.errors import InputError
+
+    tree, posterior = read_posterior(path)
+    missing = [name for name in needs if name not in posterior]
+    if missing:
+        raise InputError(f"the posterior has no variable {', '.join(repr(m) for m in missing)}: is it the file {option} expects?", source=path)
+    if foreign in posterior:
+        raise InputError(f"the posterior has the variable '{foreign}' of a {other} posterior: is it the file {option} expects?", source=path)
+    for name, values in posterior.data_vars.items():
+        bad = int(np.count_nonzero(~np.isfinite(np.asarray(values.values, dtype=float))))
+        if bad:
+            raise InputError(f"the variable has {bad} non-finite draws; expected finite draws", source=path, column=str(name))
+    return tree
 
 
 def _elements(values: xr.DataArray):

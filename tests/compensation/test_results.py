@@ -54,3 +54,17 @@ def test_a_program_may_not_carry_the_columns_the_compensated_file_adds_and_those
     results = _results(cell)
     added = [name for name in results.table().columns if name not in results.program.table.columns]
     assert added == list(compensated_columns(results.robot))
+
+
+def test_the_document_names_the_worst_pose_and_the_flags(cell):
+    from bayescal.reports.numbers import error_length
+
+    results = _results(cell, tolerance=1e-6)
+    payload = results.to_json()
+    document = results.document()
+    assert document.title == f"{results.program.source}: 10 poses compensated over {results.n_draws} draws"
+    lines = document.as_text().splitlines()
+    worst = payload["worst_poses"][0]
+    assert f"worst {error_length(worst['error_q9973_mm'])} at line {worst['line']}" in lines[2]
+    assert lines[-1] == "flagged: 10 (0 outside the joint limits, 0 without equilibrium, tolerance 0.001 mm)"
+    assert document.as_markdown().startswith(f"# {results.program.source}: 10 poses")

@@ -68,3 +68,24 @@ def test_the_lack_of_fit_test_needs_repeats_and_finds_a_misfit_of_the_configurat
     cells = np.unique(np.column_stack([repeated.config, repeated.marker]).astype(str), axis=0, return_inverse=True)[1].reshape(-1)
     offset = rng.standard_normal((cells.max() + 1, 3))[cells].reshape(-1) * 3 * sd
     assert calibration_lack_of_fit(cell.tracker, repeated, equations, -offset).significant()
+
+
+class _Fit:
+    """A calibration's diagnostics at a given χ²/dof: what check_fits_campaign reads of it."""
+
+    def __init__(self, chi2):
+        self.chi2 = chi2
+
+    def diagnostics(self):
+        return {"chi2_per_dof": self.chi2}
+
+
+def test_a_calibration_far_off_its_campaign_is_refused_naming_the_files():
+    from bayescal.inference.fit_checks import MAX_CHI2_PER_DOF, check_fits_campaign
+
+    for chi2 in (None, 0.87, MAX_CHI2_PER_DOF):
+        check_fits_campaign(_Fit(chi2), "campaign.csv", "cell.toml", "calibration.nc")
+    with pytest.raises(InputError, match=r"fits the campaign campaign.csv with χ²/dof = 3588.00, above 100 \(residuals 60 times the "
+                                         r"tracker noise of cell.toml\)") as error:
+        check_fits_campaign(_Fit(3588.0), "campaign.csv", "cell.toml", "calibration.nc")
+    assert error.value.source == "calibration.nc"

@@ -221,8 +221,8 @@ def test_a_points_cells_ladder_is_shown_as_its_own_section(tmp_path):
     ).set_index("model")
     without = pd.DataFrame([{"without": "k_theta", "mean_mm": 3.67, "elpd_loss": 40.0, "elpd_loss_se": 9.0}]).set_index("without")
     steps = [{"from": "frames", "to": "full", "adds": ["theta"], "elpd_gain": 900.0, "elpd_gain_se": 30.0, "error_change_mm": -12.6, "named": True}]
-    ladder = json.loads(json.dumps(LadderFindings(rungs, steps, without, 10, "verdict: the data call for full").to_json()))
-    files = render_review(ReviewInputs(sources={"critique": "ladder.json"}, critique=ladder))
+    ladder = LadderFindings.from_json(json.loads(json.dumps(LadderFindings(rungs, steps, without, 10, "verdict: the data call for full").to_json())))
+    files = render_review(ReviewInputs(sources={"critique": "ladder.json"}, ladder=ladder))
     text = files["summary.md"].decode()
     assert "Model ladder on measured points" in text and "16.03" in text and "21.33 / 9.71 / 63.41" in text
     assert "frames → full" in text and "9.09" in text and "Critique of the model" not in text

@@ -186,3 +186,22 @@ def test_a_sampler_without_an_extension_doubles_its_draws():
     with pytest.warns(UserWarning, match=r"sampled again \(Short, 100 draws per chain\)"):
         _, _, used = sample_until_converged(run, Short(), 2, what="the test posterior")
     assert used == Short(100)
+
+
+def test_read_posterior_of_refuses_the_other_kind_a_missing_variable_and_non_finite_draws(gaussian_tree, tmp_path):
+    from bayescal.sampling.summary import read_posterior_of
+
+    tree, _, _ = gaussian_tree
+    path = tmp_path / "posterior.nc"
+    save(tree, path)
+    assert read_posterior_of(str(path), "--thing", needs=("a",), foreign="z", other="--other").attrs["seed"] == 3
+    with pytest.raises(InputError, match=r"no variable 'q': is it the file --thing expects\?"):
+        read_posterior_of(str(path), "--thing", needs=("a", "q"), foreign="z", other="--other")
+    with pytest.raises(InputError, match=r"the variable 'b' of a --other posterior: is it the file --thing expects\?"):
+        read_posterior_of(str(path), "--thing", needs=("a",), foreign="b", other="--other")
+    draws = np.ones((2, 50))
+    draws[1, 7] = np.nan
+    save(posterior_tree({"a": draws}, units={"a": "mm"}), tmp_path / "nan.nc")
+    with pytest.raises(InputError, match="1 non-finite draws") as error:
+        read_posterior_of(str(tmp_path / "nan.nc"), "--thing", needs=("a",), foreign="z", other="--other")
+    assert error.value.column == "a"

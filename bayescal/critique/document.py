@@ -1,0 +1,158 @@
+"""The critiques' documents (:class:`~bayescal.summary.Summary`): what ``bayescal critique`` prints, in one place.
+
+:func:`critique_document` lays out a :class:`~bayescal.critique.results.CritiqueResults`,
+:func:`geometry_critique_document` a :class:`~bayescal.critique.geometry.GeometryCritiqueResults`; both share the
+verdict and the evidence table (:func:`_outcome`).  They read the results' fields and say them; every verdict and
+number was decided by the critique.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from bayescal.summary import Column, Paragraph, Section, Summary, Table
+
+__all__ = ["critique_document", "geometry_critique_document"]
+
+
+def _evidence_table(evidence: dict) -> Table:
+    """Each candidate's held-out ΔELPD and SE (nats) at its step, and whether it was named."""
+    width = max(len("candidate"), *map(len, evidence)) + 2
+    columns = (
+        Column("candidate", width=width, align="<"),
+        Column("step", width=5),
+        Column("ΔELPD", "nats", width=10),
+        Column("SE", "nats", width=8),
+        Column("named", align="<", before="  "),
+    )
+    rows = tuple(
+        (name, str(entry["step"]), f"{entry['delta_elpd']:.1f}", f"{entry['se']:.1f}", "yes" if entry["named"] else "")
+        for name, entry in evidence.items()
+    )
+    values = tuple(
+        {"candidate": name, "step": entry["step"], "ΔELPD": entry["delta_elpd"], "SE": entry["se"], "named": entry["named"]}
+        for name, entry in evidence.items()
+    )
+    return Table("evidence", columns, rows, values)
+
+
+def _outcome(results, held_out: str, baseline: str) -> tuple[Paragraph, list[Paragraph | Table]]:
+    """The verdict, and every candidate's evidence with the unexplained covariate, for either critique."""
+    if results.verdict == "adequate":
+        verdict = f"verdict: adequate - no extension predicts held-out {held_out} clearly better than {baseline}"
+    else:
+        verdict = f"verdict: misfit - causes in order of gain: {', '.join(results.causes)}"
+    negligible = getattr(results, "negligible", [])
+    if negligible:
+        verdict += f" ({', '.join(negligible)} detectable but too small to matter at the test pose)"
+    blocks: list[Paragraph | Table] = [
+        _evidence_table(results.to_json()["evidence"]),
+        Paragraph(f"(ΔELPD: held-out log predictive density gained over {baseline}, in nats; SE: its standard error; docs/glossary.md)",
+                  kind="note"),
+    ]
+    if results.unexplained_covariate is not None:
+        c = results.probes[results.unexplained_covariate]
+        blocks.append(Paragraph(
+            f"unexplained: the residuals follow {results.unexplained_covariate} (ΔELPD {c.delta_elpd:.1f} ± {c.se:.1f} nats) "
+            "and no extension of the catalogue explains it", kind="warning"))
+    misfit = getattr(results, "lack_of_fit", None)
+    if misfit is not None:
+        said = "misses them" if misfit.significant() else "fits them within the repeats' scatter"
+        blocks.append(Paragraph(f"repeats: the final model {said}: {misfit.describe()}"))
+        if misfit.significant() and results.unexplained_covariate is None:
+            blocks.append(Paragraph("unexplained: a misfit the repeats reveal and no candidate of the catalogue matches in shape", kind="warning"))
+    return Paragraph(verdict), blocks
+
+
+def geometry_critique_document(results) -> Summary:
+    """What the compensator-geometry critique found: verdict, evidence, held-out gain and the rule."""
+    before, after = results.before, results.after
+    verdict, evidence = _outcome(results, "angles", "the two-step model")
+    findings = [
+        f"held-out gain: ΔELPD {results.gain.delta_elpd:.1f} ± {results.gain.se:.1f} nats over {results.n_angles} angles; "
+        f"residual rms per coordinate: lever {before['residual_rms_lever_mm']:.3f} -> {after['residual_rms_lever_mm']:.3f} mm, "
+        f"cylinder {before['residual_rms_cylinder_mm']:.3f} -> {after['residual_rms_cylinder_mm']:.3f} mm",
+        # the relative sd of a variance estimated from n - 1 degrees of freedom, sqrt(1 / (2 (n - 1)))
+        f"rule: a cause is named when ΔELPD > {results.rule['z']:g} SE and > {results.rule['floor_nats']:g} nats; "
+        f"with {results.n_angles} held-out angles the SE itself is uncertain by about "
+        f"{100 / (2 * (results.n_angles - 1)) ** 0.5:.0f} %",
+    ]
+    return Summary(
+        f"{results.source}: {results.n_points} points at {results.n_angles} joint angles, held out one angle at a time",
+        (verdict,),
+        (Section(tuple(evidence)), Section(tuple(Paragraph(line) for line in findings))),
+    )
+
+
+def _importance_lines(results) -> list[str]:
+    """What each named cause changes, then the candidates it ties with or is contested by, and the plan that separates them."""
+    from bayescal.critique.extensions import CATALOGUE
+
+    lines = []
+    for cause, entry in results.importance.items():
+        before, after = (1000 * v for v in entry["residual_rms_mm"])
+        lines.append(
+            f"{cause}: residual rms {before:.1f} -> {after:.1f} μm, test pose moved {1000 * entry['test_pose_change_mm']:.1f} μm "
+            f"(its sd {1000 * entry['test_pose_sd_mm']:.1f} μm)"
+            + ("" if entry["matters"] else ": detectable but too small to matter")
+        )
+    plannable = {name for name, e in CATALOGUE.items() if e.physical and not e.robust}
+    for kind, pairs in (("tied with", results.tied_with), ("contested by", results.contested_by)):
+        for cause, others in pairs.items():
+            lines.append(f"{cause} {kind} {', '.join(others)}")
+            # the plan that separates exactly that pair (docs/critique.md, The experiment that resolves a tie)
+            lines += [
+                f"  to separate them: bayescal plan --config CELL.toml --criterion discriminate --between {cause},{other} "
+                f"--campaign {results.source} -o PLAN.csv"
+                for other in others
+                if {cause, other} <= plannable
+            ]
+    return lines
+
+
+def _drift_lines(results) -> list[str]:
+    """The drift the nests removed, or the one the repeated readings show, or why they cannot."""
+    from bayescal.registration.nest_drift import removed_drift_sentence
+
+    drift = results.drift
+    if drift.get("source") == "reference nests":
+        return [removed_drift_sentence(drift)]
+    if drift.get("testable"):
+        rate = ", ".join(f"{v:+.3f}" for v in drift["translation_mm_per_h"])
+        return [
+            f"drift from {drift['evidence']}: ({rate}) mm/h, {1000 * drift['deflection_rms_mm']:.1f} μm rms in the deflections"
+            + (" (removed)" if "drift" in results.causes else "")
+        ]
+    return [f"drift: not testable on this campaign: {drift['evidence']}"] if drift else []
+
+
+def critique_document(results, figures: Sequence[str] = ()) -> Summary:
+    """What the campaign critique found: verdict, evidence, held-out gain, what each cause changes, drift, next step.
+
+    ``figures``: the files the figures were written to, named in the document when given.
+    """
+    from bayescal.reports.next_steps import critique_next_steps
+
+    before, after = results.before, results.after
+    verdict, evidence = _outcome(results, "configurations", "the classical model")
+    findings = [
+        f"held-out gain: ΔELPD {results.gain.delta_elpd:.1f} ± {results.gain.se:.1f} nats; residual rms "
+        f"{before['residual_rms_mm'] * 1000:.1f} -> {after['residual_rms_mm'] * 1000:.1f} μm; position error rms "
+        f"{before['position_error_rms_mm'] * 1000:.1f} -> {after['position_error_rms_mm'] * 1000:.1f} μm",
+        f"test pose: the classical model's prediction differs from the extended one's by "
+        f"{results.test_pose['classical_error_mm'] * 1000:.1f} μm",
+        f"rule: a cause is named when ΔELPD > {results.rule['z']:g} SE and > {results.rule['floor_nats']:g} nats, "
+        f"or > {results.rule['decisive_nats']:g} nats and > {results.rule['decisive_z']:g} SE",
+        *_importance_lines(results),
+        *_drift_lines(results),
+        *([f"figures: {', '.join(figures)}"] if figures else []),
+    ]
+    misfit = results.lack_of_fit
+    advice = critique_next_steps(
+        list(results.causes), misfit is not None and misfit.significant(), results.test_pose["classical_error_mm"], results.negligible
+    )
+    return Summary(
+        f"{results.source}: {results.n_equations} equations in {results.n_configs} configurations",
+        (verdict,),
+        (Section(tuple(evidence)), Section(tuple(Paragraph(line) for line in findings)), Section((Paragraph(advice, wrap=True),))),
+    )

@@ -1,0 +1,71 @@
+"""A result's JSON file read back: valid JSON, an object, and the keys its results class writes.
+
+Each results class that writes a JSON states its shape once, beside its ``to_json``, as a :class:`JsonSchema`
+(the keys a reader relies on, with their types, and the command that writes the file); whatever reads such a
+file (``bayescal report``'s ``--plan``, ``--critique``, ``--registration``) reads it with
+:func:`read_json_object` and checks it against that schema, so that a wrong file is one line naming the file,
+the key and the command that writes the right one.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from os import PathLike
+
+from bayescal.errors import InputError
+from bayescal.output import record_read
+
+__all__ = ["JsonSchema", "read_json_object"]
+
+
+def read_json_object(path: str | PathLike[str], what: str):
+    """The JSON value in the file at ``path`` (``what`` names it in the record of files read), or an input error."""
+    record_read(path, what)
+    try:
+        with open(path, encoding="utf-8") as stream:
+            return json.load(stream)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"not valid JSON ({exc.msg} at character {exc.colno})", source=str(path), line=exc.lineno) from None
+    except UnicodeDecodeError:
+        raise InputError("not a UTF-8 text file", source=str(path)) from None
+
+
+@dataclass(frozen=True)
+class JsonSchema:
+    """The keys of a result's JSON a reader relies on.
+
+    Attributes
+    ----------
+    keys : dict
+        Key -> the type (or tuple of types) its value has; a boolean never passes for a number.
+    writer : str
+        The command that writes the file, named in every error.
+    foreign : str
+        A key only another kind of result's JSON has, refused ("" for none).
+    values : dict
+        Key -> the values it may take, for the keys that take few (a verdict).
+    """
+
+    keys: dict[str, type | tuple[type, ...]]
+    writer: str
+    foreign: str = ""
+    values: dict[str, tuple] = field(default_factory=dict)
+
+    def check_kind(self, data, source: str, option: str) -> None:
+        """Refuse ``data`` unless it is an object without the other kind's key; ``option`` names what expected it."""
+        if not isinstance(data, dict):
+            raise InputError(f"expected a JSON object (the output of {self.writer}), got a {type(data).__name__}", source=source)
+        if self.foreign and self.foreign in data:
+            raise InputError(f"the JSON has the key '{self.foreign}' of another command's output; {option} expects the output of "
+                             f"{self.writer}", source=source)
+
+    def check_keys(self, data: dict, source: str) -> None:
+        """Refuse ``data`` when a key is missing, of another type, or takes a value it cannot."""
+        for key, kind in self.keys.items():
+            if key not in data or not isinstance(data[key], kind) or isinstance(data[key], bool):
+                found = "no such key" if key not in data else f"a {type(data[key]).__name__}"
+                raise InputError(f"expected the key '{key}' of the output of {self.writer}, found {found}", source=source, column=key)
+        for key, allowed in self.values.items():
+            if data[key] not in allowed:
+                raise InputError(f"expected a {key} {' or '.join(allowed)}, got {data[key]!r}", source=source, column=key)
