@@ -22,6 +22,8 @@ from bayescal.errors import InputError
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.inference.parameters import ANGLE_DECIMALS, ParameterRegistry
 from bayescal.robot.batched import CHUNK, BatchedChain
+from bayescal.robot.compensator import Compensator
+from bayescal.robot.laws import LawParameter
 from bayescal.robot.kinematics import Robot
 from bayescal.units import DEG, MM
 
@@ -95,6 +97,8 @@ class DeflectionEquations:
         compensator and every joint has one constant compliance.
     prismatic
         Which joints are prismatic (their compliances in m/N); empty: all revolute.
+    law
+        The identified parameters of the compensator's law (the spring's ``K_c``, ``s0`` by default).
     """
 
     y: np.ndarray
@@ -106,6 +110,7 @@ class DeflectionEquations:
     scale: np.ndarray | None = None
     joint: int | None = DEFAULT_COMPENSATED_JOINT
     prismatic: tuple[bool, ...] = ()
+    law: tuple[LawParameter, ...] = Compensator.PARAMETERS
 
     def __post_init__(self) -> None:
         n = self.y.shape[0]
@@ -124,7 +129,7 @@ class DeflectionEquations:
     @property
     def registry(self) -> ParameterRegistry:
         """The parameters these equations identify: names, edge units and SI factors."""
-        return ParameterRegistry(self.n_joints, self.prismatic, self.joint)
+        return ParameterRegistry(self.n_joints, self.prismatic, self.joint, law=self.law)
 
     @property
     def n_joints(self) -> int:
@@ -172,6 +177,7 @@ def deflection_equations(
     noise: str = "axis",
     tracker: TrackerNoise | None = None,
     joint: int | None = DEFAULT_COMPENSATED_JOINT,
+    law: tuple[LawParameter, ...] = Compensator.PARAMETERS,
 ) -> tuple[DeflectionEquations, np.ndarray, np.ndarray]:
     """The scalar equations of eq 30 for a campaign, with the loads' joint torques.
 
@@ -190,6 +196,8 @@ def deflection_equations(
     joint
         Index (0-based) of the joint whose compliance is taken per angle: the cell's compensated joint;
         None without a compensator (every compliance constant).
+    law
+        The identified parameters of the compensator's law (:class:`~bayescal.robot.laws.LawParameter`).
 
     Returns
     -------
@@ -235,6 +243,7 @@ def deflection_equations(
         scale=None if tracker is None else np.repeat(_relative_noise(tracker, campaign), 3),
         joint=joint,
         prismatic=tuple(bool(p) for p in robot.prismatic) if robot.prismatic.any() else (),
+        law=law,
     )
     return equations, torque, points
 

@@ -39,7 +39,8 @@ import numpy as np
 import pandas as pd
 
 from bayescal.inference.parameters import angle_label, label_angle
-from bayescal.robot.compensator import MIN_ANGLES
+from bayescal.robot.compensator import MIN_ANGLES, Compensator
+from bayescal.robot.laws import CompensatorLaw
 
 __all__ = [
     "Identifiability",
@@ -146,8 +147,11 @@ def analyse(
     torque_angle: np.ndarray,
     prismatic: Sequence[bool] = (),
     unresolved: Mapping[int, str] | None = None,
+    law: type | CompensatorLaw = Compensator,
 ) -> Identifiability:
     """Rank, conditioning and identifiability of the per-angle design.
+
+    ``law`` is the compensator's law (its class or an instance): its parameters' names in the reasons.
 
     Parameters
     ----------
@@ -187,7 +191,7 @@ def analyse(
     condition = float(singular.max() / singular.min()) if singular.size else math.inf
     vif = dict(zip([names[i] for i in kept], np.diag(np.linalg.inv(scaled.T @ scaled)))) if kept.size else {}
 
-    compensator = _compensator_identifiable(columns, kept, q2, reasons)
+    compensator = _compensator_identifiable(columns, kept, q2, reasons, law)
     return Identifiability(
         names=names,
         identifiable=identifiable,
@@ -233,9 +237,9 @@ def _drop_confounded(scaled: np.ndarray, kept: np.ndarray, rank: int, names: lis
         identifiable[i] = False
 
 
-def _compensator_identifiable(columns: Sequence[tuple[int, int | None]], kept: np.ndarray, q2: np.ndarray, reasons: dict[str, str]) -> bool:
+def _compensator_identifiable(columns: Sequence[tuple[int, int | None]], kept: np.ndarray, q2: np.ndarray, reasons: dict[str, str], law) -> bool:
     """Whether the kept columns hold :data:`~bayescal.robot.compensator.MIN_ANGLES` angles of the compensated joint; if not, the reason is
-    added to ``reasons`` for that joint's compliance, K_c and s0."""
+    added to ``reasons`` for that joint's compliance and the ``law``'s parameters (K_c and s0)."""
     # Only the compensated joint's compliance has one column per angle; without a compensator no column has
     # one, and nothing is said about K_c and s0.
     per_angle_joint = next((j for j, angle in columns if angle is not None), None)
@@ -246,9 +250,9 @@ def _compensator_identifiable(columns: Sequence[tuple[int, int | None]], kept: n
         j = per_angle_joint + 1
         why = (
             f"the campaign has {len(joint2_angles)} q{j} angle(s) with an identifiable joint-{j} compliance "
-            f"({listed} deg); K_theta{j}^0, K_c and s0*K_c of eq 34 need at least {MIN_ANGLES}"
+            f"({listed} deg); K_theta{j}^0, {' and '.join(law.LINEAR)} of eq 34 need at least {MIN_ANGLES}"
         )
-        for name in (f"k{per_angle_joint + 1}", "K_c", "s0"):
+        for name in (f"k{per_angle_joint + 1}", *(p.name for p in law.PARAMETERS)):
             reasons[name] = why
     return compensator
 
