@@ -278,6 +278,14 @@ class Compensator(CompensatorGeometry):
         """``dM_c/dq`` (N·m/rad) of springs ``values`` ``(N, 2)`` on this linkage at angles ``q`` ``(N,)``."""
         return spring_stiffness(self, values[:, 0], values[:, 1], q)
 
+    def compliance_gradient(self, q: ArrayLike, effective: ArrayLike) -> np.ndarray:
+        """``(..., 2)`` derivatives in ``K_c`` and ``s0`` of the joint's equivalent compliance ``effective``
+        (rad/(N·m)) at angle(s) ``q``: ``-effective²`` times those of ``K_c a L eta``, which with eq 35's
+        ``C1·K_c + C2·s0·K_c`` are ``C1 + s0·C2`` and ``K_c·C2``."""
+        regressor = self.regressor(q)
+        c1, c2 = regressor[..., 1], regressor[..., 2]
+        return np.stack([-effective**2 * (c1 + self.s0 * c2), -effective**2 * self.K_c * c2], axis=-1)
+
     def prior_sd(self) -> dict[str, float | None]:
         """``{name: prior sd}`` in edge units, None for K_c's flat prior on the half-line; s0's is flat on
         ``(0, a + L)`` (:meth:`block_inside`): its sd is the width over sqrt(12)."""

@@ -123,6 +123,10 @@ class CompensatorLaw(Protocol):
     def linear_jacobian(self, w: ArrayLike) -> np.ndarray:
         """``(p, p)`` derivatives of :meth:`from_linear` with respect to ``w``."""
 
+    def compliance_gradient(self, q: ArrayLike, effective: ArrayLike) -> np.ndarray:
+        """``(..., p)`` derivatives in the identified parameters of the joint's equivalent compliance ``effective``
+        (rad/(N·m), eq 8) at angle(s) ``q``: ``-effective²`` times those of :meth:`stiffness`."""
+
     def prior_sd(self) -> dict[str, float | None]:
         """``{name: sd of its prior}`` in edge units; None for a flat prior on a half-line (no sd)."""
 

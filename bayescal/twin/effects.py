@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pinocchio as pin
 
-from bayescal.robot.compensator import Compensator
+from bayescal.robot.laws import CompensatorLaw
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
 from bayescal.robot.stiffness import JointLaw
@@ -56,7 +56,7 @@ class Effect:
         if not (math.isfinite(self.magnitude) and self.magnitude >= 0):
             raise ValueError(f"effect '{self.name}' needs a finite magnitude >= 0 in {self.unit}, got {self.magnitude:g}")
 
-    def compensator(self, compensator: Compensator | None) -> Compensator | None:
+    def compensator(self, compensator: CompensatorLaw | None) -> CompensatorLaw | None:
         """The compensator the twin uses."""
         return compensator
 
@@ -95,10 +95,12 @@ class CompensatorScale(Effect):
     default = 1.0
     summary = "the spring compensator on joint 2, K_c scaled by the magnitude (0: a plain serial robot)"
 
-    def compensator(self, compensator: Compensator | None) -> Compensator | None:
+    def compensator(self, compensator: CompensatorLaw | None) -> CompensatorLaw | None:
         if compensator is None or self.magnitude == 0:
             return None
-        return replace(compensator, K_c=compensator.K_c * self.magnitude)
+        # The law's first parameter sets its force's scale: the spring's K_c.
+        name = compensator.PARAMETERS[0].name
+        return replace(compensator, **{name: getattr(compensator, name) * self.magnitude})
 
 
 def _beam_compliance(length: float, EI: float, GJ: float, EA: float) -> np.ndarray:
