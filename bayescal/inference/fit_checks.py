@@ -99,17 +99,18 @@ def practical_identifiability(
     """
     prior_sd: dict[str, float | None] = {name: None for name in equations.registry.names}
     requires: dict[str, str] = {}
+    through: dict[str, str] = {}
     context = {}
     if geometry is not None:
         law = law_on(law, geometry.mean, nominal_spring)
         prior_sd |= law.prior_sd()
-        requires = dict(law.REQUIRES)
+        requires, through = dict(law.REQUIRES), dict(law.THROUGH)
         first = law.PARAMETERS[0].name
         if first in summary.index:
             k2 = summary.loc[f"k{equations.joint + 1}", "mean"] * URAD_PER_NM
             context[first] = _compensator_context(equations, ident, cf, k2, law)
     prior_sd |= {name: None for name in summary.index if label_angle(name) is not None}
-    return practical_reasons(summary, prior_sd, requires=requires, context=context)
+    return practical_reasons(summary, prior_sd, requires=requires, context=context, through=through)
 
 
 def _compensator_context(equations, ident, cf, k2: float, law: CompensatorLaw) -> str:

@@ -100,6 +100,9 @@ class Identifiability:
     practical : dict
         Reason for each parameter that the design could identify but the
         posterior does not determine (:func:`practical_reasons`); empty before sampling.
+    rule_clause : str
+        What the practical rule says of the compensator law's parameters (the spring's: s0 whenever K_c is not
+        identifiable).
     """
 
     names: list[str]
@@ -110,6 +113,7 @@ class Identifiability:
     reasons: dict[str, str] = field(default_factory=dict)
     compensator: bool = True
     practical: dict[str, str] = field(default_factory=dict)
+    rule_clause: str = _SPRING_CLAUSE
 
     @property
     def not_identifiable(self) -> dict[str, str]:
@@ -130,7 +134,7 @@ class Identifiability:
             "not_identifiable": self.not_identifiable,
             "structural": sorted(self.reasons),
             # Without a compensator there is no spring to speak of.
-            "rule": PRACTICAL_RULE if self.compensated else PRACTICAL_RULE.removesuffix(_SPRING_CLAUSE),
+            "rule": PRACTICAL_RULE.removesuffix(_SPRING_CLAUSE) + (self.rule_clause if self.compensated else ""),
         }
 
     @property
@@ -192,7 +196,9 @@ def analyse(
     vif = dict(zip([names[i] for i in kept], np.diag(np.linalg.inv(scaled.T @ scaled)))) if kept.size else {}
 
     compensator = _compensator_identifiable(columns, kept, q2, reasons, law)
+    clause = "".join(f"; {name} whenever {other} is not identifiable (eq 34)" for name, other in law.REQUIRES.items())
     return Identifiability(
+        rule_clause=clause,
         names=names,
         identifiable=identifiable,
         rank=rank,
@@ -304,6 +310,7 @@ def practical_reasons(
     *,
     requires: Mapping[str, str] | None = None,
     context: Mapping[str, str] | None = None,
+    through: Mapping[str, str] | None = None,
 ) -> dict[str, str]:
     """The parameters a posterior leaves undetermined, each with its reason in numbers.
 
@@ -321,6 +328,9 @@ def practical_reasons(
     context
         Extra explanation (why the data are weak) prepended to a parameter's reason
         when it fails.
+    through
+        ``{name: words}``: how ``name`` enters the model through its ``requires``' other (default: the product of
+        the two, as s0 through s0·K_c).
 
     Returns
     -------
@@ -338,7 +348,8 @@ def practical_reasons(
             reasons[name] = f"{context[name]}; {why}" if name in context else why
     for name, other in requires.items():
         if other in reasons and name in summary.index:
-            why = f"{name} enters the model only through the product {name}·{other}, and {other} is not identifiable from these data"
+            how = (through or {}).get(name, f"the product {name}·{other}")
+            why = f"{name} enters the model only through {how}, and {other} is not identifiable from these data"
             reasons[name] = why + (f"; besides, {reasons[name]}" if name in reasons else "")
     return {name: reasons[name] for name in prior_sd if name in reasons}
 

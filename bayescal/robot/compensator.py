@@ -46,7 +46,7 @@ from numpy.typing import ArrayLike
 from bayescal.robot.laws import LawParameter
 from bayescal.units import MM, N_PER_MM
 
-__all__ = ["CompensatorGeometry", "Compensator", "MIN_ANGLES", "SPRING_SCALE", "law_on", "alpha", "spring_stiffness", "spring_torque", "stiffness_regressor"]
+__all__ = ["CompensatorGeometry", "Compensator", "JointCompliance", "MIN_ANGLES", "SPRING_SCALE", "law_on", "alpha", "spring_stiffness", "spring_torque", "stiffness_regressor"]
 
 MIN_ANGLES = 3
 """Distinct angles of the compensated joint that eq 34 needs: one per unknown, K_θ^0, K_c and s0·K_c."""
@@ -164,8 +164,36 @@ class CompensatorGeometry:
         return Compensator(self.L, self.a_x, self.a_y, self.phi, K_c, s0)
 
 
+class JointCompliance:
+    """What follows of a law's ``stiffness(q)`` for the joint it acts on (eq 8); a mixin of every law."""
+
+    def joint_stiffness(self, q2: ArrayLike, K0: float) -> np.ndarray | float:
+        """Equivalent stiffness of joint 2, ``K_θ2 = K0 + dM_c/dq`` in N·m/rad, eq 8.
+
+        Parameters
+        ----------
+        q2
+            Joint angle(s) in rad.
+        K0
+            Stiffness of joint 2 without its compensator, ``K_θ2^0``, in N·m/rad.
+        """
+        return _out(K0 + np.asarray(self.stiffness(q2)))
+
+    def equivalent_compliance(self, q2: ArrayLike, own: ArrayLike) -> np.ndarray | float:
+        """Compliance of joint 2 with its compensator, ``1 / (1/own + dM_c/dq)`` (eq 8), in rad/(N·m).
+
+        ``own`` is the joint's compliance without the compensator, ``1/K_θ2^0``.
+        """
+        return _out(1.0 / (1.0 / np.asarray(own, dtype=float) + np.asarray(self.stiffness(q2))))
+
+    def own_compliance(self, q2: ArrayLike, equivalent: ArrayLike) -> np.ndarray | float:
+        """The inverse of :meth:`equivalent_compliance`: joint 2's own compliance ``1/K_θ2^0`` (rad/(N·m))
+        that, with this compensator at ``q2``, gives the ``equivalent`` compliance."""
+        return _out(1.0 / (1.0 / np.asarray(equivalent, dtype=float) - np.asarray(self.stiffness(q2))))
+
+
 @dataclass(frozen=True)
-class Compensator(CompensatorGeometry):
+class Compensator(CompensatorGeometry, JointCompliance):
     """A spring compensator: the linkage geometry plus the spring (eqs 5-9).
 
     Parameters
@@ -190,6 +218,7 @@ class Compensator(CompensatorGeometry):
     COORDINATES: ClassVar[tuple[str, ...]] = ("log_K_c", "s0")
     LINEAR: ClassVar[tuple[str, ...]] = ("K_c", "s0*K_c")
     REQUIRES: ClassVar[dict[str, str]] = {"s0": "K_c"}
+    THROUGH: ClassVar[dict[str, str]] = {"s0": "the product s0·K_c"}
     EXACT_REGRESSOR: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
@@ -231,31 +260,6 @@ class Compensator(CompensatorGeometry):
     def stiffness(self, q2: ArrayLike) -> np.ndarray | float:
         """The compensator's contribution ``K_c a L eta = dM_c/dq2`` to joint 2, in N·m/rad."""
         return _out(spring_stiffness(self, self.K_c, self.s0, q2))
-
-    def joint_stiffness(self, q2: ArrayLike, K0: float) -> np.ndarray | float:
-        """Equivalent stiffness of joint 2, ``K_θ2 = K0 + K_c a L eta`` in N·m/rad, eq 8.
-
-        Parameters
-        ----------
-        q2
-            Joint angle(s) in rad.
-        K0
-            Stiffness of joint 2 without its compensator, ``K_θ2^0``, in N·m/rad.
-        """
-        return _out(K0 + np.asarray(self.stiffness(q2)))
-
-    def equivalent_compliance(self, q2: ArrayLike, own: ArrayLike) -> np.ndarray | float:
-        """Compliance of joint 2 with its compensator, ``1 / (1/own + K_c a L eta)`` (eq 8), in rad/(N·m).
-
-        ``own`` is the joint's compliance without the compensator, ``1/K_θ2^0``.
-        """
-        return _out(1.0 / (1.0 / np.asarray(own, dtype=float) + np.asarray(self.stiffness(q2))))
-
-    def own_compliance(self, q2: ArrayLike, equivalent: ArrayLike) -> np.ndarray | float:
-        """The inverse of :meth:`equivalent_compliance`: joint 2's own compliance ``1/K_θ2^0`` (rad/(N·m))
-        that, with this compensator at ``q2``, gives the ``equivalent`` compliance."""
-        return _out(1.0 / (1.0 / np.asarray(equivalent, dtype=float) - np.asarray(self.stiffness(q2))))
-
 
     def linear(self, values: ArrayLike) -> np.ndarray:
         """``[K_c, s0·K_c]`` (N/m, N) of ``(..., 2)`` values ``[K_c, s0]``: the unknowns of eq 35."""

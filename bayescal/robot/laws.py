@@ -85,6 +85,8 @@ class CompensatorLaw(Protocol):
     """Names of the linear parameters (:meth:`linear`), as the reasons of a rank-deficient regression say them."""
     REQUIRES: ClassVar[dict[str, str]]
     """``{name: other}``: a parameter that the data determine only through another (s0 only through K_c)."""
+    THROUGH: ClassVar[dict[str, str]]
+    """``{name: words}``: how each of :attr:`REQUIRES` enters the model (``the product s0·K_c``)."""
     EXACT_REGRESSOR: ClassVar[bool]
     """Whether :meth:`regressor` is the same at any parameters (the spring's): one regression suffices."""
 
