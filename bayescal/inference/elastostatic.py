@@ -49,7 +49,7 @@ from bayescal.inference.fit_checks import calibration_lack_of_fit, campaign_iden
 from bayescal.inference.identifiability import Identifiability, grouped, label_angle
 from bayescal.inference.posterior import posterior_density, sample_posterior, sampler_coordinates
 from bayescal.inference.priors import GeometryPrior, config_geometry
-from bayescal.inference.results import ElastostaticDraws, ElastostaticResults, linearisation_attrs
+from bayescal.inference.results import ElastostaticDraws, ElastostaticResults, edge_point, linearisation_attrs, stored_point
 from bayescal.inference.samplers import elastostatic_sampler
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.robot.kinematics import Robot
@@ -184,11 +184,6 @@ class ElastostaticModel:
         return (self.law or Compensator).PARAMETERS
 
     @property
-    def kind(self) -> str:
-        """The compensator law's kind (``spring`` without one)."""
-        return (self.law or Compensator).kind
-
-    @property
     def _geometry_mean(self) -> np.ndarray | None:
         """The compensator geometry's prior mean ``[L, a_x, a_y, phi]`` (m, rad); None without a compensator."""
         return None if self.geometry is None else self.geometry.mean
@@ -283,7 +278,7 @@ class ElastostaticModel:
                 {"model": self.model, "noise": self.noise, "sampler": type(sampler).__name__, "geometry": self.geometry_source}
             )
             if prepared.point is not None:
-                tree.attrs.update(dict(zip(linearisation_attrs(self.registry_law), _edge_point(prepared.point, self.registry_law))))
+                tree.attrs.update(dict(zip(linearisation_attrs(self.registry_law), edge_point(prepared.point, self.registry_law))))
             if equations.scale is not None:
                 residual = residual * equations.scale
             practical = practical_identifiability(summary, equations, ident, cf, self.geometry, self.nominal_spring, self.law)
@@ -348,10 +343,10 @@ class ElastostaticModel:
             times += 1
         if times:
             settled = moved(first) is None
-            *values, masses = _edge_point(prepared.point, self.registry_law)
+            *values, masses = edge_point(prepared.point, self.registry_law)
             where = ", ".join(f"{p.name} = {v:.4g} {p.unit}" for p, v in zip(self.registry_law, values))
             warnings.warn(
-                f"{campaign.source}: the posterior's {self.kind} and link masses lie far from the config's, about which the exact "
+                f"{campaign.source}: the posterior's {(self.law or Compensator).kind} and link masses lie far from the config's, about which the exact "
                 f"model's correction is first linearised: linearised again {'once' if times == 1 else f'{times} times'}, last about "
                 f"{where}, link masses × {masses:.4g}"
                 + ("" if settled else " (the posterior mean still moving)"),
@@ -379,7 +374,7 @@ class ElastostaticModel:
         InputError
             When the posterior does not belong to this campaign and model.
         """
-        point = _stored_point(tree, self.registry_law)
+        point = stored_point(tree, self.registry_law)
         prepared = self._prepare(campaign, announce=False, point=point)
         try:
             draws = ElastostaticDraws.from_tree(tree, prepared.equations)
@@ -491,20 +486,6 @@ def restore_results(cell: Cell, campaign: Campaign, tree, geometry: GeometryPrio
     groups = tuple(str(v) for v in tree["posterior"]["noise_group"].values) if "noise_group" in tree["posterior"].coords else ()
     noise = str(attrs.get("noise", "axis" if groups == ("x", "y", "z") else "marker"))
     return ElastostaticModel.from_cell(cell, geometry, model=model, noise=noise).restore(campaign, tree)
-
-
-def _edge_point(point: tuple[float, ...], law: tuple[LawParameter, ...]) -> tuple[float, ...]:
-    """``(*law values, mass scale)`` from SI to the law's edge units (N/mm, mm for the spring) and 1."""
-    return (*(v / p.si_factor for v, p in zip(point[:-1], law)), point[-1])
-
-
-def _stored_point(tree, law: tuple[LawParameter, ...]) -> tuple[float, ...] | None:
-    """The linearisation point (SI) a saved posterior records; None when it was the config's."""
-    names = linearisation_attrs(law)
-    if not all(name in tree.attrs for name in names):
-        return None
-    *values, masses = (float(tree.attrs[name]) for name in names)
-    return (*(v * p.si_factor for v, p in zip(values, law)), masses)
 
 
 def _listed(names: list[str]) -> str:

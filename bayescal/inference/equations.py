@@ -23,7 +23,6 @@ from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.inference.parameters import ANGLE_DECIMALS, ParameterRegistry
 from bayescal.robot.batched import CHUNK, BatchedChain
 from bayescal.robot.compensator import Compensator
-from bayescal.robot.laws import LawParameter
 from bayescal.robot.kinematics import Robot
 from bayescal.units import DEG, MM
 
@@ -91,14 +90,12 @@ class DeflectionEquations:
         ``(n,)`` known relative noise sd of each equation (e.g. from the
         tracker's distance-dependent error); the group's unknown sigma
         multiplies it.  None: all equal.
-    joint
+    joint, law
         Index (0-based) of the joint whose compliance is taken per angle (the cell's
         compensated joint); ``angle`` and ``compensated_angles`` are that joint's.  None: the robot has no
-        compensator and every joint has one constant compliance.
+        compensator and every joint has one constant compliance.  ``law``: its law's identified parameters.
     prismatic
         Which joints are prismatic (their compliances in m/N); empty: all revolute.
-    law
-        The identified parameters of the compensator's law (the spring's ``K_c``, ``s0`` by default).
     """
 
     y: np.ndarray
@@ -110,7 +107,7 @@ class DeflectionEquations:
     scale: np.ndarray | None = None
     joint: int | None = DEFAULT_COMPENSATED_JOINT
     prismatic: tuple[bool, ...] = ()
-    law: tuple[LawParameter, ...] = Compensator.PARAMETERS
+    law: tuple = Compensator.PARAMETERS
 
     def __post_init__(self) -> None:
         n = self.y.shape[0]
@@ -177,7 +174,7 @@ def deflection_equations(
     noise: str = "axis",
     tracker: TrackerNoise | None = None,
     joint: int | None = DEFAULT_COMPENSATED_JOINT,
-    law: tuple[LawParameter, ...] = Compensator.PARAMETERS,
+    law: tuple = Compensator.PARAMETERS,
 ) -> tuple[DeflectionEquations, np.ndarray, np.ndarray]:
     """The scalar equations of eq 30 for a campaign, with the loads' joint torques.
 
@@ -193,11 +190,9 @@ def deflection_equations(
         When given, each equation's noise is taken proportional to the tracker's
         error at the unloaded and loaded positions, ``sqrt(s(p0)^2 + s(p1)^2)``
         (scaled to mean 1; the unknown level per group multiplies it).
-    joint
+    joint, law
         Index (0-based) of the joint whose compliance is taken per angle: the cell's compensated joint;
-        None without a compensator (every compliance constant).
-    law
-        The identified parameters of the compensator's law (:class:`~bayescal.robot.laws.LawParameter`).
+        None without a compensator (every compliance constant).  ``law``: its law's identified parameters.
 
     Returns
     -------

@@ -11,6 +11,7 @@ did determine (:func:`practical_identifiability`).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -20,7 +21,7 @@ from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError
 from bayescal.inference.closedform import ClosedForm, check_regression
 from bayescal.inference.equations import HANGING_ONLY_REASON, DeflectionEquations, deflection_noise
-from bayescal.inference.identifiability import Identifiability, analyse, label_angle, practical_reasons
+from bayescal.inference.identifiability import Identifiability, analyse, label_angle, practical_reasons, rule_clause
 from bayescal.inference.lack_of_fit import LackOfFit, least_squares_lack_of_fit, line_of_sight, replicate_cells
 from bayescal.inference.priors import GeometryPrior
 from bayescal.robot.compensator import Compensator, law_on
@@ -233,6 +234,7 @@ def campaign_identifiability(
         unresolved,
         law or Compensator,
     )
+    ident = replace(ident, rule_clause=rule_clause(law or Compensator))
     if hanging_only and "k1" in ident.reasons:
         ident.reasons["k1"] += f"; {HANGING_ONLY_REASON}"
     if ident.compensator:

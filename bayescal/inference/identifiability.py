@@ -53,6 +53,7 @@ __all__ = [
     "ILL_CONDITIONED",
     "CONTRACTION_LIMIT",
     "PRACTICAL_RULE",
+    "rule_clause",
     "independent_columns",
     "COLLINEAR_TOLERANCE",
 ]
@@ -102,7 +103,7 @@ class Identifiability:
         posterior does not determine (:func:`practical_reasons`); empty before sampling.
     rule_clause : str
         What the practical rule says of the compensator law's parameters (the spring's: s0 whenever K_c is not
-        identifiable).
+        identifiable; :func:`rule_clause` of another law).
     """
 
     names: list[str]
@@ -155,8 +156,6 @@ def analyse(
 ) -> Identifiability:
     """Rank, conditioning and identifiability of the per-angle design.
 
-    ``law`` is the compensator's law (its class or an instance): its parameters' names in the reasons.
-
     Parameters
     ----------
     design
@@ -175,6 +174,8 @@ def analyse(
     unresolved
         Column index → reason for columns the data resolve too poorly to keep
         (:func:`~bayescal.inference.fit_checks.unresolved_columns`): not identifiable, whatever their norm.
+    law
+        The compensator's law (its class or an instance): its parameters' names in the reasons.
     """
     names = [angle_label(q2[a], j) if a is not None else f"k{j + 1}" for j, a in columns]
     norms = np.linalg.norm(design, axis=0)
@@ -194,18 +195,14 @@ def analyse(
         singular = np.linalg.svd(scaled, compute_uv=False)
     condition = float(singular.max() / singular.min()) if singular.size else math.inf
     vif = dict(zip([names[i] for i in kept], np.diag(np.linalg.inv(scaled.T @ scaled)))) if kept.size else {}
-
-    compensator = _compensator_identifiable(columns, kept, q2, reasons, law)
-    clause = "".join(f"; {name} whenever {other} is not identifiable (eq 34)" for name, other in law.REQUIRES.items())
     return Identifiability(
-        rule_clause=clause,
         names=names,
         identifiable=identifiable,
         rank=rank,
         condition_number=condition,
         vif={k: float(v) for k, v in vif.items()},
         reasons=reasons,
-        compensator=compensator,
+        compensator=_compensator_identifiable(columns, kept, q2, reasons, law),
     )
 
 
@@ -241,6 +238,11 @@ def _drop_confounded(scaled: np.ndarray, kept: np.ndarray, rank: int, names: lis
             "their columns of the design are linearly dependent"
         )
         identifiable[i] = False
+
+
+def rule_clause(law) -> str:
+    """The practical rule's words on a compensator ``law``'s dependent parameters (``; s0 whenever K_c …``)."""
+    return "".join(f"; {name} whenever {other} is not identifiable (eq 34)" for name, other in law.REQUIRES.items())
 
 
 def _compensator_identifiable(columns: Sequence[tuple[int, int | None]], kept: np.ndarray, q2: np.ndarray, reasons: dict[str, str], law) -> bool:

@@ -30,13 +30,27 @@ from bayescal.sampling.gibbs import ConditionallyLinear
 from bayescal.sampling.summary import converged, diagnostics
 from bayescal.units import DEG, MM, URAD_PER_NM
 
-__all__ = ["ElastostaticResults", "ElastostaticDraws", "linearisation_attrs"]
+__all__ = ["ElastostaticResults", "ElastostaticDraws", "edge_point", "linearisation_attrs", "stored_point"]
 
 def linearisation_attrs(law: tuple[LawParameter, ...]) -> tuple[str, ...]:
     """The posterior tree's attributes of the law's values and link-mass scale the exact model's correction was
     linearised about, when not the config's and the URDF's masses (``linearised_K_c_N_per_mm``, ``linearised_s0_mm``,
     ``linearised_mass_scale`` for the spring)."""
     return (*(f"linearised_{p.key}" for p in law), "linearised_mass_scale")
+
+
+def edge_point(point: tuple[float, ...], law: tuple[LawParameter, ...]) -> tuple[float, ...]:
+    """``(*law values, mass scale)`` from SI to the law's edge units (N/mm, mm for the spring) and 1."""
+    return (*(v / p.si_factor for v, p in zip(point[:-1], law)), point[-1])
+
+
+def stored_point(tree, law: tuple[LawParameter, ...]) -> tuple[float, ...] | None:
+    """The linearisation point (SI) a saved posterior records; None when it was the config's."""
+    names = linearisation_attrs(law)
+    if not all(name in tree.attrs for name in names):
+        return None
+    *values, masses = (float(tree.attrs[name]) for name in names)
+    return (*(v * p.si_factor for v, p in zip(values, law)), masses)
 
 
 @dataclass(frozen=True)

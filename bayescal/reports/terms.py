@@ -50,7 +50,7 @@ TERMS = {
 }
 """Term → one-line explanation; the page marks each term with a hover title and lists those it used."""
 # Every other compensator law's parameters, in its own words (the spring's are above).
-TERMS |= {p.name: f"The compensator's {p.description} ({p.unit})." for law in LAWS.values() for p in law.PARAMETERS if p.name not in TERMS}
+TERMS |= {p.name: f"{p.description[0].upper()}{p.description[1:]} ({p.unit})." for law in LAWS.values() for p in law.PARAMETERS if p.name not in TERMS}
 
 
 LABELS = {
