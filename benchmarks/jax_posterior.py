@@ -27,7 +27,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from bayescal.inference.likelihood import SPRING
 
 # JAX computes in single precision unless told otherwise; the package's density is in double, and the
 # residuals are small differences of terms in compliances of ~1e-6 rad/(N·m) and stiffnesses of ~1e6 N·m/rad.
@@ -94,7 +93,7 @@ def log_density(posterior):
         fit = X @ k + b * compliance[level]
         prior = log_K_c
         if static is not None:
-            gravity = z[len(SPRING)]
+            gravity = z[1 + block.n_law]
             fit = fit + W @ jnp.stack([K_c - static[0], K_c * s0 - static[1], gravity - static[2]])
             prior = prior - 0.5 * ((gravity - 1.0) / block.gravity_sd) ** 2
         if not fixed:
@@ -126,7 +125,7 @@ class Unconstrained:
     def at(cls, posterior, start: np.ndarray, scale: np.ndarray) -> Unconstrained:
         """Centred on ``start`` ``(ndim,)``, standardised by the posterior sd ``scale`` ``(ndim,)`` carried through ``g``'s inverse."""
         block, p = posterior.block, posterior.n_linear
-        s0 = p + len(SPRING) - 1
+        s0 = p + block.n_law
         geometry = None if block.geometry.fixed else p + block.n_adapted
         geometry_of_start = block.geometry.mean if geometry is None else start[geometry : geometry + 4]
         longest = float(np.hypot(geometry_of_start[1], geometry_of_start[2]) + geometry_of_start[0])

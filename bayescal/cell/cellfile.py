@@ -22,14 +22,18 @@ import numpy as np
 
 from bayescal.errors import InputError
 from bayescal.output import record_read
+from bayescal.robot.kinds import LAWS
 
-__all__ = ["CellFileReader", "SCHEMA", "read_cell_file"]
+__all__ = ["CellFileReader", "COMPENSATOR_KEYS", "SCHEMA", "read_cell_file"]
+
+COMPENSATOR_KEYS = frozenset({"joint", "kind", "L_mm", "a_x_mm", "a_y_mm", "phi_deg"})
+"""The ``[compensator]`` keys of every law; each law adds its own (:data:`bayescal.robot.kinds.LAWS`)."""
 
 SCHEMA: dict[str, frozenset[str] | None] = {
     "robot": frozenset({"urdf", "flange", "payload_kg", "joints", "locked_deg", "locked_mm", "reference_csv", "coupled"}),
     "robot.coupled": None,
     "joints": frozenset({"k_urad_per_Nm", "k_um_per_N", "k_log_sd"}),
-    "compensator": frozenset({"joint", "L_mm", "a_x_mm", "a_y_mm", "phi_deg", "K_c_N_per_mm", "s0_mm"}),
+    "compensator": COMPENSATOR_KEYS | frozenset(p.key for law in LAWS.values() for p in law.PARAMETERS + law.CONSTANTS),
     "tool": frozenset({"load_point_mm", "markers_mm", "tcp_mm"}),
     "tool.markers_mm": None,
     "tracker": frozenset({"position_mm", "U0_um", "U1_um_per_m", "factor"}),

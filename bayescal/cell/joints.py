@@ -11,11 +11,12 @@ from __future__ import annotations
 from pathlib import Path
 import numpy as np
 
-from bayescal.cell.cellfile import CellFileReader
+from bayescal.cell.cellfile import COMPENSATOR_KEYS, CellFileReader
 from bayescal.output import record_read
-from bayescal.robot.compensator import Compensator
+from bayescal.robot.kinds import DEFAULT_KIND, LAWS
+from bayescal.robot.laws import CompensatorLaw
 from bayescal.robot.kinematics import Robot
-from bayescal.units import DEG, MM, N_PER_MM
+from bayescal.units import DEG, MM
 
 __all__ = ["DEFAULT_COMPENSATED_JOINT", "per_joint", "read_compensator", "reference_file"]
 
@@ -59,8 +60,9 @@ def per_joint(reader: CellFileReader, robot: Robot, table: str, keys: tuple[str,
     return values
 
 
-def read_compensator(reader: CellFileReader, robot: Robot) -> tuple[Compensator | None, int]:
-    """The ``[compensator]`` table: the spring of eqs 4-9 and the (0-based) joint it acts on, or ``None``."""
+def read_compensator(reader: CellFileReader, robot: Robot) -> tuple[CompensatorLaw | None, int]:
+    """The ``[compensator]`` table: the law of its ``kind`` (the spring of eqs 4-9 by default) and the (0-based)
+    joint it acts on, or ``None``."""
     if reader.table("compensator", required=False) is None:
         return None, DEFAULT_COMPENSATED_JOINT
     table = reader.table("compensator")
@@ -73,15 +75,17 @@ def read_compensator(reader: CellFileReader, robot: Robot) -> tuple[Compensator 
     elif robot.nq <= joint:
         reader.fail(f"the robot has {robot.nq} joint(s): give the compensated joint as joint = <1..{robot.nq}>", "compensator")
     if robot.prismatic[joint]:
-        reader.fail(f"joint {joint + 1} ({robot.joint_names[joint]}) is prismatic: the spring compensator of eqs 4-9 turns a revolute joint", "compensator", "joint")
+        reader.fail(f"joint {joint + 1} ({robot.joint_names[joint]}) is prismatic: a compensator of eq 4's linkage turns a revolute joint", "compensator", "joint")
+    law = _law(reader)
     values = {
         "L": reader.number("compensator", "L_mm", unit="mm", positive=True) * MM,
         "a_x": reader.number("compensator", "a_x_mm", unit="mm") * MM,
         "a_y": reader.number("compensator", "a_y_mm", unit="mm") * MM,
         "phi": reader.number("compensator", "phi_deg", unit="deg") * DEG,
-        "K_c": reader.number("compensator", "K_c_N_per_mm", unit="N/mm", non_negative=True) * N_PER_MM,
-        "s0": reader.number("compensator", "s0_mm", unit="mm", non_negative=True) * MM,
     }
+    for parameter in law.PARAMETERS + law.CONSTANTS:
+        bound = {parameter.bound: True} if parameter.bound else {}
+        values[parameter.name] = reader.number("compensator", parameter.key, unit=parameter.unit, **bound) * parameter.si_factor
     for name in ("L", "a_x", "a_y"):
         if abs(values[name]) > MAX_COMPENSATOR_LENGTH:
             reader.fail(
@@ -91,6 +95,19 @@ def read_compensator(reader: CellFileReader, robot: Robot) -> tuple[Compensator 
                 f"{name}_mm",
             )
     try:
-        return Compensator(**values), joint
+        return law(**values), joint
     except ValueError as exc:
         reader.fail(str(exc), "compensator")
+
+
+def _law(reader: CellFileReader) -> type:
+    """The law class the ``[compensator] kind`` names (:data:`~bayescal.robot.kinds.LAWS`)."""
+    kind = reader.table("compensator").get("kind", DEFAULT_KIND)
+    if kind not in LAWS:
+        reader.fail(f"unknown compensator kind {kind!r}; expected one of {', '.join(sorted(LAWS))}", "compensator", "kind")
+    law = LAWS[kind]
+    own = COMPENSATOR_KEYS | {p.key for p in law.PARAMETERS + law.CONSTANTS}
+    for key in reader.table("compensator"):
+        if key not in own:
+            reader.fail(f"not a key of a {kind!r} compensator (kind = {kind!r})", "compensator", key)
+    return law

@@ -206,7 +206,8 @@ def _read_evaluated_plan(path: str, cell):
         angles = len(np.unique(np.round(plan.q[:, joint], 9)))
         if angles < MIN_ANGLES:
             raise InputError(
-                f"the plan has {angles} distinct q{joint + 1} angle(s); the compensator's stiffness, K_c and s0 need at "
+                f"the plan has {angles} distinct q{joint + 1} angle(s); the compensator's stiffness, "
+                f"{' and '.join(p.name for p in cell.compensator.PARAMETERS)} need at "
                 f"least {MIN_ANGLES} to be predicted at all",
                 source=path,
             )

@@ -1,8 +1,8 @@
 """A saved elastostatic calibration as the compensation uses it: posterior draws of the arm's parameters.
 
 ``bayescal calibrate --posterior`` writes the posterior DataTree; the
-compensation needs, draw by draw, each joint's own compliance, the spring
-(``K_c``, ``s0``), the compensator geometry and the scale of the link masses,
+compensation needs, draw by draw, each joint's own compliance, the compensator
+law's parameters (the spring's ``K_c``, ``s0``), its geometry and the scale of the link masses,
 without the campaign.  A joint compliance the campaign could not identify (k1
 under hanging loads) is not in the posterior: its draws come from its prior,
 log-normal with the cell's value as median and the cell's ``[joints] k_log_sd``
@@ -10,7 +10,7 @@ log-normal with the cell's value as median and the cell's ``[joints] k_log_sd``
 reaches every predicted error instead of a fixed guess.  Those draws are the
 prior's quantiles, not random numbers, so that every command (calibrate,
 compensate, the review) spreads the same draws and prints the same numbers.
-``K_c`` and ``s0`` are always sampled; when flagged not identifiable their
+The law's parameters are always sampled; when flagged not identifiable their
 draws are essentially their prior's.
 
 The correction applies the **median** of the draws of each parameter (for a
@@ -29,7 +29,9 @@ import numpy as np
 from bayescal.cell.config import Cell
 from bayescal.errors import InputError
 from bayescal.inference.parameters import GEOMETRY_PARAMETERS, ParameterRegistry
-from bayescal.robot.compensator import Compensator, stiffness_regressor
+from bayescal.robot.compensator import Compensator, law_on
+from bayescal.robot.kinds import LAWS
+from bayescal.robot.laws import CompensatorLaw
 from bayescal.units import DEG
 
 __all__ = ["Calibration", "check_calibration_robot", "load_calibration", "calibration_from_tree", "prior_draws", "GRID_STEP", "MAX_DRAWS"]
@@ -65,7 +67,8 @@ class Calibration:
     own : numpy.ndarray
         ``(S, n)`` joint compliances, rad/(N·m); the compensated joint's excludes its compensator.
     spring : numpy.ndarray or None
-        ``(S, 2)`` ``K_c`` (N/m) and ``s0`` (m); None without a compensator.
+        ``(S, p)`` the compensator law's parameters in SI (``K_c`` N/m and ``s0`` m for the spring); None
+        without a compensator.
     geometry : numpy.ndarray or None
         ``(S, 4)`` ``L, a_x, a_y`` (m), ``phi`` (rad) of the compensator.
     gravity_scale : float
@@ -79,6 +82,8 @@ class Calibration:
     priors : dict
         For each compliance drawn from its log-normal prior: ``{"median", "unit"}`` (the cell's value in
         the registry's edge unit), ``"log_sd"`` and its ``"source"`` (the cell file's key or the default).
+    law : CompensatorLaw or None
+        The cell's compensator (its law and constants); None: the spring of eqs 4-9.
     """
 
     own: np.ndarray
@@ -89,6 +94,7 @@ class Calibration:
     unidentified: tuple[str, ...]
     source: str = ""
     priors: dict = field(default_factory=dict)
+    law: CompensatorLaw | None = None
 
     @property
     def n_draws(self) -> int:
@@ -99,13 +105,11 @@ class Calibration:
         """``(n,)`` the joint compliances the correction applies: the draws' median (rad/(N·m))."""
         return np.median(self.own, axis=0)
 
-    def median_compensator(self) -> Compensator | None:
-        """The compensator at the median of its geometry and spring draws (what the correction applies)."""
+    def median_compensator(self) -> CompensatorLaw | None:
+        """The compensator at the median of its geometry and law's draws (what the correction applies)."""
         if self.spring is None:
             return None
-        L, a_x, a_y, phi = np.median(self.geometry, axis=0)
-        K_c, s0 = np.median(self.spring, axis=0)
-        return Compensator(L, a_x, a_y, phi, K_c, s0)
+        return law_on(self.law, np.median(self.geometry, axis=0), np.median(self.spring, axis=0))
 
     def compliances(
         self, q_compensated: np.ndarray, *, fixed: tuple[str, ...] = ()
@@ -117,7 +121,7 @@ class Calibration:
         q_compensated
             ``(P,)`` angles of the compensated joint the program visits, rad (ignored without a compensator).
         fixed
-            Parameter names (``k1``.., ``K_c``, ``s0``) held at their median, the value the
+            Parameter names (``k1``.., the law's ``K_c``, ``s0``) held at their median, the value the
             correction applies: how much of the error they account for is the difference with
             the full spread.
 
@@ -135,13 +139,18 @@ class Calibration:
         if self.spring is None:
             return own, None
         spring = self.spring.copy()
-        for i, name in enumerate(("K_c", "s0")):
+        for i, name in enumerate(self._law_names):
             if name in fixed:
                 spring[:, i] = np.median(spring[:, i])
         return own, self._equivalent(np.asarray(q_compensated, dtype=float), own[:, self.compensated_joint], spring)
 
+    @property
+    def _law_names(self) -> list[str]:
+        """The compensator law's parameters' names (``K_c``, ``s0`` for the spring)."""
+        return [p.name for p in (self.law or Compensator).PARAMETERS]
+
     def _equivalent(self, q: np.ndarray, own: np.ndarray, spring: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
-        """The compensated joint's equivalent compliance ``1/(1/own + K_c a L η(q))`` (eq 8), draw by draw.
+        """The compensated joint's equivalent compliance ``1/(1/own + dM_c/dq(q))`` (eq 8), draw by draw.
 
         Evaluated once at the distinct angles of ``q``, or, when there are more of them than
         knots of a :data:`GRID_STEP` grid over their range, on that grid; the returned function
@@ -151,10 +160,10 @@ class Calibration:
         grid = np.arange(distinct[0], distinct[-1] + GRID_STEP, GRID_STEP)
         exact = distinct.size <= grid.size
         knots = distinct if exact else grid
-        C = stiffness_regressor(knots[None, :], *(self.geometry[:, i, None] for i in range(4)))
-        weights = np.column_stack([1.0 / own, spring[:, 0], spring[:, 0] * spring[:, 1]])
+        law = law_on(self.law, self.geometry[0], spring[0])
+        stiffness = law.joint_stiffness_of(knots, self.geometry, np.column_stack([1.0 / own, spring]))
         # Knots by rows: a pose's draws are then contiguous, as the spread wants them.
-        values = np.ascontiguousarray((1.0 / np.einsum("spk,sk->sp", C, weights)).T)
+        values = np.ascontiguousarray((1.0 / stiffness).T)
 
         def at(angles: np.ndarray) -> np.ndarray:
             if exact:
@@ -228,7 +237,7 @@ def calibration_from_tree(tree, cell: Cell, source: str = "the calibration") -> 
             }
     spring, geometry = _compensator_draws(posterior, values, cell, registry, size, source)
     gravity = float(values("gravity_scale").mean()) if "gravity_scale" in posterior else 1.0
-    names = [f"k{j + 1}" for j in range(n)] + ["K_c", "s0"]
+    names = [f"k{j + 1}" for j in range(n)] + registry.law_names
     return Calibration(
         own=own,
         spring=spring,
@@ -238,29 +247,31 @@ def calibration_from_tree(tree, cell: Cell, source: str = "the calibration") -> 
         unidentified=tuple(name for name in names if name in unidentified),
         source=source,
         priors=priors,
+        law=cell.compensator,
     )
 
 
 def _compensator_draws(posterior, values, cell: Cell, registry, size: int, source: str) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """``(S, 2)`` the spring's ``K_c, s0`` draws and ``(S, 4)`` its geometry's (the cell's where the posterior has none), SI;
-    ``None, None`` for a cell without a compensator, refusing a calibration whose compensator is not the cell's."""
+    """``(S, p)`` the law's draws (the spring's ``K_c, s0``) and ``(S, 4)`` its geometry's (the cell's where the posterior
+    has none), SI; ``None, None`` for a cell without a compensator, refusing a calibration whose compensator is not the cell's."""
+    names = registry.law_names
     if cell.compensated_joint is not None:
-        if "K_c" not in posterior:
+        if not all(name in posterior for name in names):
             raise InputError(
-                "the calibration has no compensator model (K_c, s0: its campaign had fewer than three joint-2 angles); "
-                "the cell's compensated joint cannot be predicted at other angles",
+                f"the calibration has no compensator model ({', '.join(names)}: its campaign had fewer than three joint-2 "
+                "angles, or its compensator is of another kind); the cell's compensated joint cannot be predicted at other angles",
                 source=source,
             )
-        spring = np.column_stack([registry["K_c"].to_si(values("K_c")), registry["s0"].to_si(values("s0"))])
+        spring = np.column_stack([registry[name].to_si(values(name)) for name in names])
         if "L" in posterior:
             geometry = np.column_stack([p.to_si(values(p.name)) for p in GEOMETRY_PARAMETERS])
         else:
             c = cell.compensator
             geometry = np.tile([c.L, c.a_x, c.a_y, c.phi], (size, 1))
         return spring, geometry
-    if "K_c" in posterior:
+    if any(name in posterior for law in LAWS.values() for name in (p.name for p in law.PARAMETERS)):
         raise InputError(
-            f"the calibration has a compensator (K_c, s0) and the cell ({cell.source}) has none: it belongs to another cell",
+            f"the calibration has a compensator and the cell ({cell.source}) has none: it belongs to another cell",
             source=source,
         )
     return None, None

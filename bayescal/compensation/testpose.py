@@ -152,11 +152,12 @@ def predict_cell_test_pose(results, cell: Cell) -> TestPosePrediction:
         calibration = calibration_from_tree(results.tree, cell)
     except InputError as error:
         reason = error.what
-        if cell.compensator is not None and "K_c" not in results.tree["posterior"]:
+        first = None if cell.compensator is None else cell.compensator.PARAMETERS[0].name
+        if first is not None and first not in results.tree["posterior"]:
             j = cell.compensated_joint
             reason = (
                 f"joint {j + 1}'s compliance at the test pose's q{j + 1} = {np.degrees(cell.test_q[j]):.2f} deg needs the compensator "
-                f"model, and K_c is not identifiable: {results.identifiability.not_identifiable.get('K_c', 'not sampled')}"
+                f"model, and {first} is not identifiable: {results.identifiability.not_identifiable.get(first, 'not sampled')}"
             )
         return TestPosePrediction(deflection=np.empty((0, 3)), applied=np.full(3, np.nan), budget=None, available=False, reason=reason)
     return predict_test_pose(calibration, cell, cell.test_q, cell.test_wrench, cell.test_point)

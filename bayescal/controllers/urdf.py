@@ -15,7 +15,8 @@ kinematic calibration, the identified joint placements in place of the nominal:
   ``joint``, ``mean_urad_per_Nm``, ``sd_urad_per_Nm`` (``mean_um_per_N``, ``sd_um_per_N`` for a
   prismatic joint) and ``identified`` (``false``: the campaign did not identify it, and the
   numbers are its prior's), and, for a cell with a compensator, a ``<bayescal:compensator>``
-  with the mean and sd of ``K_c`` (N/mm), ``s0``, ``L``, ``a_x``, ``a_y`` (mm) and ``phi`` (deg).
+  with the mean and sd of the compensator law's parameters under their cell keys (``K_c_N_per_mm``,
+  ``s0_mm`` for the spring), ``L``, ``a_x``, ``a_y`` (mm) and ``phi`` (deg).
   For a kinematic calibration the compliances are its joints' ``k_theta`` (posterior mean and
   sd of its Gaussian), identified when the data shrink the prior's sd by half.
 
@@ -36,6 +37,7 @@ import numpy as np
 from bayescal.compensation.calibration import Calibration
 from bayescal.errors import InputError
 from bayescal.output import record_read
+from bayescal.robot.compensator import Compensator
 from bayescal.robot.kinematics import Robot
 from bayescal.units import DEG, MM
 
@@ -78,8 +80,8 @@ def calibrated_urdf(urdf_text: str, robot: Robot, calibration: Calibration, *, s
     ]
     extra = []
     if calibration.spring is not None:
-        values = {
-            "K_c_N_per_mm": calibration.spring[:, 0] * MM, "s0_mm": calibration.spring[:, 1] / MM,
+        law = (calibration.law or Compensator).PARAMETERS
+        values = {p.key: calibration.spring[:, i] / p.si_factor for i, p in enumerate(law)} | {
             "L_mm": calibration.geometry[:, 0] / MM, "a_x_mm": calibration.geometry[:, 1] / MM,
             "a_y_mm": calibration.geometry[:, 2] / MM, "phi_deg": calibration.geometry[:, 3] / DEG,
         }

@@ -25,7 +25,8 @@ Three criteria, all to be minimised:
   positioning error left at the cell's test pose ``(q0, F0)`` after compliance
   compensation, with ``G0`` the test pose's eq-31 matrix through the same chain
   rule, so joint 2's compliance at ``q0``'s q2 comes from the compensator model;
-* ``compensator``: the sum of the relative variances of ``K_c`` and ``s0``;
+* ``compensator``: the sum of the relative variances of the compensator law's
+  parameters (``K_c`` and ``s0`` for the spring);
 * ``d-optimal``: ``-log det`` of the information matrix, as general-purpose
   calibration toolboxes use it.
 
@@ -95,15 +96,15 @@ this factor of the limit are left to ``eigh`` to decide (none of the 126,644 inf
 
 
 def parameter_names(cell: Cell) -> list[str]:
-    """``k1..k<n>`` and, with a compensator, ``K_c`` and ``s0``: the cell's :class:`~bayescal.inference.parameters.ParameterRegistry`."""
+    """``k1..k<n>`` and, with a compensator, its law's (``K_c`` and ``s0``): the cell's :class:`~bayescal.inference.parameters.ParameterRegistry`."""
     return ParameterRegistry.of_cell(cell).names
 
 
 def nominal_parameters(cell: Cell) -> np.ndarray:
-    """(p,) the cell's parameter values, SI: rad/(N·m), then N/m and m."""
+    """(p,) the cell's parameter values, SI: rad/(N·m), then the compensator law's (N/m and m for the spring)."""
     values = list(cell.compliances)
     if cell.compensator is not None:
-        values += [cell.compensator.K_c, cell.compensator.s0]
+        values += list(cell.compensator.values)
     return np.array(values, dtype=float)
 
 
@@ -135,12 +136,8 @@ def compliance_chain(cell: Cell, q2) -> tuple[np.ndarray, np.ndarray]:
     if compensator is not None:
         j2 = cell.compensated_joint
         effective[..., j2] = 1.0 / (1.0 / k[j2] + compensator.stiffness(q2))
-        # K_c·a·L·η = C1·K_c + C2·s0·K_c (eq 35): derivatives C1 + s0·C2 in K_c and K_c·C2 in s0.
-        regressor = compensator.regressor(q2)
-        c1, c2 = regressor[..., 1], regressor[..., 2]
         chain[..., j2, j2] = effective[..., j2] ** 2 / k[j2] ** 2
-        chain[..., j2, -2] = -effective[..., j2] ** 2 * (c1 + compensator.s0 * c2)
-        chain[..., j2, -1] = -effective[..., j2] ** 2 * compensator.K_c * c2
+        chain[..., j2, cell.robot.nq :] = compensator.compliance_gradient(q2, effective[..., j2])
     return effective, chain
 
 
@@ -244,14 +241,14 @@ def criterion_value(prediction: PlanPrediction, criterion: str) -> float:
     """The number ``criterion`` minimises (inf for a plan that cannot deliver it).
 
     ``test-pose``: ``ρ0`` (m); ``compensator``: the sum of the relative variances of
-    ``K_c`` and ``s0``; ``d-optimal``: ``-log det`` of the information matrix.
+    the compensator law's parameters; ``d-optimal``: ``-log det`` of the information matrix.
     """
     if criterion == "test-pose":
         return prediction.rho0
     if criterion == "compensator":
-        if "K_c" not in prediction.names:
+        if not prediction.registry.compensated:
             raise ValueError("the compensator criterion needs a cell with a compensator")
-        variance = np.diag(prediction.covariance)[-2:]
+        variance = np.diag(prediction.covariance)[-len(prediction.registry.law_names) :]
         return float(np.sum(variance)) if np.all(np.isfinite(variance)) else math.inf
     if criterion == "d-optimal":
         return -prediction.log_det
@@ -341,7 +338,8 @@ def _criterion_values(cell: Cell, information: np.ndarray, criterion: str, excit
     if criterion == "d-optimal":
         values[decided] = -(2.0 * np.sum(np.log(np.einsum("nii->ni", factor)), axis=1) - 2.0 * np.sum(np.log(scale), axis=1))
     elif criterion == "compensator":
-        values[decided] = np.sum(np.sum(inverse_factor[:, :, -2:] ** 2, axis=1) * scale[:, -2:] ** 2, axis=1)
+        law = -len(cell.compensator.PARAMETERS)
+        values[decided] = np.sum(np.sum(inverse_factor[:, :, law:] ** 2, axis=1) * scale[:, law:] ** 2, axis=1)
     else:
         whitened = inverse_factor @ (scale[:, :, np.newaxis] * G0[:, excited].T)
         values[decided] = np.sqrt(np.einsum("nij,nij->n", whitened, whitened) + _prior_term(cell, G0, excited))

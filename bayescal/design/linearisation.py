@@ -26,11 +26,11 @@ parameters, so the truncation error (order step², relative) stays far below the
 
 
 def with_parameters(cell: Cell, theta: np.ndarray) -> Cell:
-    """``cell`` with the parameters ``theta`` = [k1..k<n>, K_c, s0] (SI)."""
+    """``cell`` with the parameters ``theta`` = [k1..k<n>, *law values] (SI; ``K_c``, ``s0`` for the spring)."""
     nq = cell.robot.nq
     compensator = cell.compensator
     if compensator is not None:
-        compensator = replace(compensator, K_c=float(theta[nq]), s0=float(theta[nq + 1]))
+        compensator = replace(compensator, **{p.name: float(v) for p, v in zip(compensator.PARAMETERS, theta[nq:])})
     return replace(cell, compliances=np.array(theta[:nq], dtype=float), compensator=compensator)
 
 
@@ -57,7 +57,7 @@ class ExactLinearisation:
     linearised about the cell's values by central differences, in relative parameters.
 
     The compensator's static torque moves the unloaded and loaded equilibria, so
-    ``K_c`` and ``s0`` act on the deflections also through the arm's geometry,
+    its law's parameters (``K_c`` and ``s0``) act on the deflections also through the arm's geometry,
     which eq 31's design leaves out: on Table III the exact model predicts
     K_c and s0 about 2.4 and 1.4 times more precisely than eq 31 (docs/design.md).
 
@@ -82,7 +82,7 @@ class ExactLinearisation:
         # Variant 0 is the cell itself, then each parameter up and down.
         variants = [cell] + [changed for pair in self._cells for changed in pair]
         self._compliances = np.array([changed.compliances for changed in variants])
-        self._springs = None if cell.compensator is None else np.array([[v.compensator.K_c, v.compensator.s0] for v in variants])
+        self._springs = None if cell.compensator is None else np.array([v.compensator.values for v in variants])
 
     def deflections(self, q, mass: float) -> np.ndarray:
         """(markers, 3) noiseless deflections (m) at the cell's values."""

@@ -234,10 +234,13 @@ class PlanDesigner(Exchange, Refinement):
                 f"{math.degrees(self.space.min_separation):.0f} deg apart (at most {self.max_angles()})",
                 source="angles",
             )
-        # every criterion inverts the information in K_θ2^0, K_c and s0, singular below three angles
+        # every criterion inverts the information in K_θ2^0 and the law's parameters, singular below three angles
         if self.cell.compensator is not None and angles < MIN_ANGLES and scored:
+            names = ", ".join(p.name for p in self.cell.compensator.PARAMETERS[:-1])
             raise InputError(
-                f"the compensator's K_θ2^0, K_c and s0 need at least {MIN_ANGLES} distinct q2 angles, got {angles}", source="angles"
+                f"the compensator's K_θ2^0, {names} and {self.cell.compensator.PARAMETERS[-1].name} need at least {MIN_ANGLES} "
+                f"distinct q2 angles, got {angles}",
+                source="angles",
             )
 
     # ----------------------------------------------------------------- candidates
@@ -393,7 +396,7 @@ class PlanDesigner(Exchange, Refinement):
             scores.append(score)
             if best is None or score < best[2]:
                 best = (q, load, score)
-            bar.step(best_text(best[2], criterion))
+            bar.step(best_text(best[2], criterion, *([] if self.cell.compensator is None else [tuple(p.name for p in self.cell.compensator.PARAMETERS)])))
         bar.close()
         return self._design(self._plan(best[0], best[1]), criterion, scores, len(candidates[1]), seed)
 

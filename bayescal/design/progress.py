@@ -31,11 +31,11 @@ class Progress:
         self._bar.close()
 
 
-def best_text(score: float, criterion: str) -> str:
+def best_text(score: float, criterion: str, law: tuple[str, ...] = ("K_c", "s0")) -> str:
     """The note on the best plan so far, ending with the criterion's unit (``score`` as
-    :func:`bayescal.design.criteria.criterion_value` gives it)."""
+    :func:`bayescal.design.criteria.criterion_value` gives it; ``law`` the compensator law's parameters)."""
     if criterion == "test-pose":
         return f"best: ρ0 = {score * 1e6:.2f} μm"
     if criterion == "compensator":
-        return f"best: K_c and s0 to {100 * math.sqrt(max(score, 0.0)):.0f} % (1 sd, combined)"
+        return f"best: {' and '.join(law)} to {100 * math.sqrt(max(score, 0.0)):.0f} % (1 sd, combined)"
     return f"best: -log det of the information = {score:.1f}"

@@ -1,4 +1,4 @@
-"""Elastostatic identification: joint compliances and the compensator's spring from a campaign.
+"""Elastostatic identification: joint compliances and the compensator law's parameters from a campaign.
 
 Klimchik et al., section V.  ``ElastostaticModel(...).fit(campaign)`` builds
 the campaign's equations (:mod:`~bayescal.inference.equations`), analyses what
@@ -49,14 +49,15 @@ from bayescal.inference.fit_checks import calibration_lack_of_fit, campaign_iden
 from bayescal.inference.identifiability import Identifiability, grouped, label_angle
 from bayescal.inference.posterior import posterior_density, sample_posterior, sampler_coordinates
 from bayescal.inference.priors import GeometryPrior, config_geometry
-from bayescal.inference.results import LINEARISATION_ATTRS, ElastostaticDraws, ElastostaticResults
+from bayescal.inference.results import ElastostaticDraws, ElastostaticResults, edge_point, linearisation_attrs, stored_point
 from bayescal.inference.samplers import elastostatic_sampler
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.protocol import Sampler
 from bayescal.sampling.summary import converged, diagnostics, sample_until_converged, summarize, warn_if_unconverged
 from bayescal.threads import one_blas_thread
-from bayescal.units import MM, N_PER_MM
+from bayescal.robot.compensator import Compensator, law_on
+from bayescal.robot.laws import CompensatorLaw, LawParameter
 
 __all__ = ["ElastostaticModel", "restore_results"]
 
@@ -85,13 +86,13 @@ class _Prepared(NamedTuple):
     iterations: int
     linearised_at: ClosedForm
     """The closed form ``offset`` was computed at: the exact model's linearisation point."""
-    point: tuple[float, float, float] | None = None
-    """``(K_c, s0, mass scale)`` (N/m, m, 1) the correction is linearised about; None: the config's spring, the URDF's masses."""
+    point: tuple[float, ...] | None = None
+    """``(*law values, mass scale)`` (SI, 1) the correction is linearised about; None: the config's law, the URDF's masses."""
 
 
 @dataclass
 class ElastostaticModel:
-    """Identification of the joint compliances and the compensator spring.
+    """Identification of the joint compliances and the compensator law's parameters.
 
     Parameters
     ----------
@@ -105,8 +106,8 @@ class ElastostaticModel:
         ``(nq,)`` compliances (rad/(N·m), k2 without compensator) used only by the
         exact model for parameters the campaign cannot identify.
     nominal_spring
-        ``(K_c, s0)`` (N/m, m) used by the exact model when the compensator is not identifiable;
-        None without a compensator.
+        The compensator law's values (SI; ``(K_c, s0)`` in N/m, m for the spring) used by the exact model when the
+        compensator is not identifiable; None without a compensator.
     model
         ``"exact"`` (default) or ``"linear"`` (eq 30 as is).
     sampler
@@ -131,13 +132,15 @@ class ElastostaticModel:
         given.  A misspecified campaign can leave the default draws short.
     compensated_joint
         Index (0-based) of the joint the compensator acts on: the cell's; None without a
-        compensator, when every joint has one constant compliance and nothing is said of K_c and s0.
+        compensator, when every joint has one constant compliance and nothing is said of the law's parameters.
+    law
+        The compensator's law (:class:`~bayescal.robot.laws.CompensatorLaw`, the cell's); None: the spring of eqs 4-9.
     """
 
     robot: Robot
     geometry: GeometryPrior | None
     nominal_compliances: np.ndarray
-    nominal_spring: tuple[float, float] | None
+    nominal_spring: tuple[float, ...] | None
     model: str = "exact"
     sampler: Sampler = field(default_factory=elastostatic_sampler)
     noise: str = "axis"
@@ -147,6 +150,7 @@ class ElastostaticModel:
     hanging_only: bool = False
     extensions: int = 0
     compensated_joint: int | None = DEFAULT_COMPENSATED_JOINT
+    law: CompensatorLaw | None = None
 
     @classmethod
     def from_cell(cls, cell: Cell, geometry: GeometryPrior | None = None, **options) -> ElastostaticModel:
@@ -160,7 +164,7 @@ class ElastostaticModel:
                 raise ValueError("a compensator geometry was given for a cell without a compensator")
             spring = None
         else:
-            spring = (cell.compensator.K_c, cell.compensator.s0)
+            spring = cell.compensator.values
             geometry = geometry if geometry is not None else config_geometry(cell.compensator, cell.source)
         return cls(
             robot=cell.robot,
@@ -170,21 +174,31 @@ class ElastostaticModel:
             load_point=cell.load_point,
             tracker=cell.tracker,
             compensated_joint=cell.compensated_joint,
+            law=cell.compensator,
             **({"hanging_only": cell.loading.hanging_only} | options),
         )
+
+    @property
+    def registry_law(self) -> tuple[LawParameter, ...]:
+        """The identified parameters of the compensator's law (the spring's without one)."""
+        return (self.law or Compensator).PARAMETERS
 
     @property
     def _geometry_mean(self) -> np.ndarray | None:
         """The compensator geometry's prior mean ``[L, a_x, a_y, phi]`` (m, rad); None without a compensator."""
         return None if self.geometry is None else self.geometry.mean
 
-    def _exact_at(self, point: tuple[float, float, float] | None = None) -> ExactCorrection:
+    def _exact_at(self, point: tuple[float, ...] | None = None) -> ExactCorrection:
         """The exact model's correction with this model's robot, nominal stiffness and load point, linearised about
-        ``point`` ``(K_c, s0, mass scale)`` (N/m, m, 1; None: the config's spring and the URDF's masses)."""
-        spring, masses = (self.nominal_spring, 1.0) if point is None else (tuple(point[:2]), float(point[2]))
+        ``point`` ``(*law values, mass scale)`` (SI, 1; None: the config's law and the URDF's masses)."""
+        spring, masses = (self.nominal_spring, 1.0) if point is None else (tuple(point[:-1]), float(point[-1]))
         return ExactCorrection(
-            self.robot, self.nominal_compliances, self._geometry_mean, spring, self.load_point, self.max_iterations, masses
+            self.robot, self.nominal_compliances, self._geometry_mean, spring, self.load_point, self.max_iterations, masses, self.law
         )
+
+    def _nominal_law(self) -> CompensatorLaw | None:
+        """The law at the config's values on the geometry prior's mean; None without a compensator or a law."""
+        return None if self.law is None or self.geometry is None else law_on(self.law, self.geometry.mean, self.nominal_spring)
 
     def _static_columns(self, campaign: Campaign, prepared: _Prepared) -> tuple[np.ndarray, np.ndarray] | None:
         """:meth:`ExactCorrection.static_columns` at the closed form the offset of ``prepared`` was computed at; None
@@ -221,22 +235,22 @@ class ElastostaticModel:
         """
         return self._prepare(campaign, announce=False).offset
 
-    def _prepare(self, campaign: Campaign, *, announce: bool = True, point: tuple[float, float, float] | None = None) -> _Prepared:
+    def _prepare(self, campaign: Campaign, *, announce: bool = True, point: tuple[float, ...] | None = None) -> _Prepared:
         if self.model not in ("exact", "linear"):
             raise ValueError(f"model must be 'exact' or 'linear', got {self.model!r}")
         equations, torque, points = deflection_equations(
-            self.robot, campaign, noise=self.noise, tracker=self.tracker, joint=self.compensated_joint
+            self.robot, campaign, noise=self.noise, tracker=self.tracker, joint=self.compensated_joint, law=self.registry_law
         )
         check_campaign(self.robot, campaign, points, hanging_only=self.hanging_only)
         if announce:
             check_load_point(self.robot, campaign, self.load_point)
-        ident = campaign_identifiability(campaign, equations, torque, self._geometry_mean, self.hanging_only)
-        linear_cf = closed_form(equations.whitened(), ident, self._geometry_mean)
+        ident = campaign_identifiability(campaign, equations, torque, self._geometry_mean, self.hanging_only, law=self._nominal_law())
+        linear_cf = closed_form(equations.whitened(), ident, self._geometry_mean, self._nominal_law())
         check_scale(campaign, linear_cf, self.nominal_compliances)
         unresolved = unresolved_columns(linear_cf, ident, self.nominal_compliances)
         if unresolved:
-            ident = campaign_identifiability(campaign, equations, torque, self._geometry_mean, self.hanging_only, unresolved)
-            linear_cf = closed_form(equations.whitened(), ident, self._geometry_mean)
+            ident = campaign_identifiability(campaign, equations, torque, self._geometry_mean, self.hanging_only, unresolved, law=self._nominal_law())
+            linear_cf = closed_form(equations.whitened(), ident, self._geometry_mean, self._nominal_law())
         if announce:
             # A limit of the cell, not of the campaign: recorded in k1's reason, said once by `bayescal plan`.
             cell_limit = {k for k, v in ident.reasons.items() if v.endswith(HANGING_ONLY_REASON)}
@@ -264,10 +278,10 @@ class ElastostaticModel:
                 {"model": self.model, "noise": self.noise, "sampler": type(sampler).__name__, "geometry": self.geometry_source}
             )
             if prepared.point is not None:
-                tree.attrs.update(dict(zip(LINEARISATION_ATTRS, _edge_point(prepared.point))))
+                tree.attrs.update(dict(zip(linearisation_attrs(self.registry_law), edge_point(prepared.point, self.registry_law))))
             if equations.scale is not None:
                 residual = residual * equations.scale
-            practical = practical_identifiability(summary, equations, ident, cf, self.geometry, self.nominal_spring)
+            practical = practical_identifiability(summary, equations, ident, cf, self.geometry, self.nominal_spring, self.law)
             # What a later user of the saved posterior (bayescal compensate) must know without the campaign:
             # the robot it belongs to and which sampled parameters the data did not determine.
             tree.attrs.update(
@@ -313,11 +327,11 @@ class ElastostaticModel:
 
         def run(sampler: Sampler) -> tuple:
             corrected = replace(prepared.equations, y=prepared.equations.y - prepared.offset).whitened()
-            return sample_posterior(corrected, prepared.identifiability, prepared.closed_form, sampler, self.geometry, self.nominal_spring, rng, static)
+            return sample_posterior(corrected, prepared.identifiability, prepared.closed_form, sampler, self.geometry, self.nominal_spring, rng, static, self.law)
 
         def moved(output: tuple) -> tuple[float, float, float] | None:
             tolerance = SETTLED_SD if converged(diagnostics(output[0])) else UNCONVERGED_SD
-            return moved_point(output[1].spring, output[1].gravity, static[0], tolerance)
+            return moved_point(output[1].spring, output[1].gravity, static[0], tolerance, self._nominal_law())
 
         static = self._static_columns(campaign, prepared)
         first = run(self.sampler) if static is not None else None
@@ -329,11 +343,12 @@ class ElastostaticModel:
             times += 1
         if times:
             settled = moved(first) is None
-            K_c, s0, masses = _edge_point(prepared.point)
+            *values, masses = edge_point(prepared.point, self.registry_law)
+            where = ", ".join(f"{p.name} = {v:.4g} {p.unit}" for p, v in zip(self.registry_law, values))
             warnings.warn(
-                f"{campaign.source}: the posterior's spring and link masses lie far from the config's, about which the exact "
+                f"{campaign.source}: the posterior's {(self.law or Compensator).kind} and link masses lie far from the config's, about which the exact "
                 f"model's correction is first linearised: linearised again {'once' if times == 1 else f'{times} times'}, last about "
-                f"K_c = {K_c:.4g} N/mm, s0 = {s0:.4g} mm, link masses × {masses:.4g}"
+                f"{where}, link masses × {masses:.4g}"
                 + ("" if settled else " (the posterior mean still moving)"),
                 UserWarning,
                 stacklevel=3,
@@ -359,7 +374,7 @@ class ElastostaticModel:
         InputError
             When the posterior does not belong to this campaign and model.
         """
-        point = _stored_point(tree)
+        point = stored_point(tree, self.registry_law)
         prepared = self._prepare(campaign, announce=False, point=point)
         try:
             draws = ElastostaticDraws.from_tree(tree, prepared.equations)
@@ -379,7 +394,7 @@ class ElastostaticModel:
         if prepared.identifiability.compensator != (draws.spring is not None):
             raise InputError(
                 "the posterior is not one of this campaign: "
-                f"it {'has' if draws.spring is not None else 'lacks'} the compensator's K_c and s0, which the campaign "
+                f"it {'has' if draws.spring is not None else 'lacks'} the compensator's {' and '.join(p.name for p in self.registry_law)}, which the campaign "
                 f"{'does not determine' if draws.spring is not None else 'determines'}",
                 source=campaign.source,
             )
@@ -387,7 +402,7 @@ class ElastostaticModel:
         corrected = replace(equations, y=equations.y - offset)
         static = self._static_columns(campaign, prepared)
         whitened = corrected.whitened()
-        posterior, joints = posterior_density(whitened, ident, self.geometry, static)
+        posterior, joints = posterior_density(whitened, ident, self.geometry, static, self.law)
         if (static is None) != (draws.gravity is None):
             has = "has" if draws.gravity is not None else "lacks"
             raise InputError(
@@ -402,7 +417,7 @@ class ElastostaticModel:
             residual = residual * corrected.scale
         summary = summarize(tree)
         chi2 = residual_chi2(self.tracker, campaign, residual, posterior.ndim - posterior.n_groups)
-        practical = practical_identifiability(summary, equations, ident, cf, self.geometry, self.nominal_spring)
+        practical = practical_identifiability(summary, equations, ident, cf, self.geometry, self.nominal_spring, self.law)
         sampler = str(tree.attrs.get("sampler", "not recorded"))
         misfit = calibration_lack_of_fit(self.tracker, campaign, equations, offset)
         return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, sampler, misfit)
@@ -431,6 +446,7 @@ class ElastostaticModel:
             summary_table=summary,
             sampler_name=sampler_name,
             lack_of_fit=misfit,
+            law=self._nominal_law(),
         )
 
     def chi2_per_dof(self, campaign: Campaign) -> float | None:
@@ -470,18 +486,6 @@ def restore_results(cell: Cell, campaign: Campaign, tree, geometry: GeometryPrio
     groups = tuple(str(v) for v in tree["posterior"]["noise_group"].values) if "noise_group" in tree["posterior"].coords else ()
     noise = str(attrs.get("noise", "axis" if groups == ("x", "y", "z") else "marker"))
     return ElastostaticModel.from_cell(cell, geometry, model=model, noise=noise).restore(campaign, tree)
-
-
-def _edge_point(point: tuple[float, float, float]) -> tuple[float, float, float]:
-    return point[0] / N_PER_MM, point[1] / MM, point[2]  # (K_c, s0, mass scale) from SI to N/mm, mm and 1
-
-
-def _stored_point(tree) -> tuple[float, float, float] | None:
-    """The linearisation point (SI) a saved posterior records; None when it was the config's."""
-    if not all(name in tree.attrs for name in LINEARISATION_ATTRS):
-        return None
-    K_c, s0, masses = (float(tree.attrs[name]) for name in LINEARISATION_ATTRS)
-    return K_c * N_PER_MM, s0 * MM, masses
 
 
 def _listed(names: list[str]) -> str:

@@ -22,6 +22,7 @@ from bayescal.errors import InputError
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.inference.parameters import ANGLE_DECIMALS, ParameterRegistry
 from bayescal.robot.batched import CHUNK, BatchedChain
+from bayescal.robot.compensator import Compensator
 from bayescal.robot.kinematics import Robot
 from bayescal.units import DEG, MM
 
@@ -80,10 +81,10 @@ class DeflectionEquations:
         ``(n,)`` known relative noise sd of each equation (e.g. from the
         tracker's distance-dependent error); the group's unknown sigma
         multiplies it.  None: all equal.
-    joint
+    joint, law
         Index (0-based) of the joint whose compliance is taken per angle (the cell's
         compensated joint); ``angle`` and ``compensated_angles`` are that joint's.  None: the robot has no
-        compensator and every joint has one constant compliance.
+        compensator and every joint has one constant compliance.  ``law``: its law's identified parameters.
     prismatic
         Which joints are prismatic (their compliances in m/N); empty: all revolute.
     """
@@ -97,6 +98,7 @@ class DeflectionEquations:
     scale: np.ndarray | None = None
     joint: int | None = DEFAULT_COMPENSATED_JOINT
     prismatic: tuple[bool, ...] = ()
+    law: tuple = Compensator.PARAMETERS
 
     def __post_init__(self) -> None:
         n = self.y.shape[0]
@@ -115,7 +117,7 @@ class DeflectionEquations:
     @property
     def registry(self) -> ParameterRegistry:
         """The parameters these equations identify: names, edge units and SI factors."""
-        return ParameterRegistry(self.n_joints, self.prismatic, self.joint)
+        return ParameterRegistry(self.n_joints, self.prismatic, self.joint, law=self.law)
 
     @property
     def n_joints(self) -> int:
@@ -162,6 +164,7 @@ def deflection_equations(
     noise: str = "axis",
     tracker: TrackerNoise | None = None,
     joint: int | None = DEFAULT_COMPENSATED_JOINT,
+    law: tuple = Compensator.PARAMETERS,
 ) -> tuple[DeflectionEquations, np.ndarray, np.ndarray]:
     """The scalar equations of eq 30 for a campaign, with the loads' joint torques.
 
@@ -177,9 +180,9 @@ def deflection_equations(
         When given, each equation's noise is taken proportional to the tracker's
         error at the unloaded and loaded positions, ``sqrt(s(p0)^2 + s(p1)^2)``
         (scaled to mean 1; the unknown level per group multiplies it).
-    joint
+    joint, law
         Index (0-based) of the joint whose compliance is taken per angle: the cell's compensated joint;
-        None without a compensator (every compliance constant).
+        None without a compensator (every compliance constant).  ``law``: its law's identified parameters.
 
     Returns
     -------
@@ -207,6 +210,7 @@ def deflection_equations(
         scale=None if tracker is None else np.repeat(_relative_noise(tracker, campaign), 3),
         joint=joint,
         prismatic=tuple(bool(p) for p in robot.prismatic) if robot.prismatic.any() else (),
+        law=law,
     )
     return equations, torque, points
 

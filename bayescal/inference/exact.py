@@ -23,15 +23,17 @@ from bayescal.inference.closedform import ClosedForm, closed_form
 from bayescal.inference.equations import DeflectionEquations
 from bayescal.inference.identifiability import Identifiability
 from bayescal.robot.batched import BatchedChain, equilibria
-from bayescal.robot.compensator import Compensator, CompensatorGeometry
+from bayescal.robot.compensator import law_on
+from bayescal.robot.laws import CompensatorLaw
 from bayescal.robot.kinematics import Robot
 from bayescal.robot.stiffness import ElasticArm
 
 __all__ = ["ExactCorrection", "campaign_deflections", "exact_deflections", "linearisation_offset", "moved_point", "scale_masses"]
 
 STATIC_STEPS = (0.05, 0.05, 0.05)
-"""Finite-difference steps of the static columns: relative in K_c and K_c s0, absolute in the mass scale;
-the correction is linear in all three to well within this (the compensator torque is linear in K_c and K_c s0, eq 7)."""
+"""Finite-difference steps of the static columns: relative in the law's static coordinates (K_c and K_c s0 for the
+spring), absolute in the mass scale; the correction is linear in all three to well within this (the spring's torque
+is linear in K_c and K_c s0, eq 7)."""
 
 
 SETTLED_SD = 3.0
@@ -46,32 +48,37 @@ UNCONVERGED_SD = 0.5
 is a better one (the link masses 15 % heavier than the URDF's at 0.3 μm: R-hat 1.010 after every extension without)."""
 
 
-def moved_point(spring: np.ndarray, masses: np.ndarray, at: np.ndarray, tolerance: float = SETTLED_SD) -> tuple[float, float, float] | None:
-    """Where to linearise the correction next: None when the posterior mean of ``[K_c, K_c s0, mass scale]`` lies within
-    ``tolerance`` posterior sd of the linearisation point ``at`` (N/m, N, 1), otherwise that mean.
+def moved_point(spring: np.ndarray, masses: np.ndarray, at: np.ndarray, tolerance: float = SETTLED_SD, law: CompensatorLaw | None = None) -> tuple[float, ...] | None:
+    """Where to linearise the correction next: None when the posterior mean of the law's static coordinates and the
+    mass scale (``[K_c, K_c s0, mass scale]`` for the spring) lies within ``tolerance`` posterior sd of the
+    linearisation point ``at``, otherwise that mean.
 
     Parameters
     ----------
     spring
-        ``(..., 3)`` draws of ``[K_theta2^0, K_c, s0]`` (N·m/rad, N/m, m).
+        ``(..., 1 + p)`` draws of ``[K_theta2^0, *law values]`` (``K_c``, ``s0`` in N/m, m for the spring).
     masses
         ``(...)`` draws of the link-mass scale.
     at
-        ``(3,)`` the point the correction was linearised about (:meth:`ExactCorrection.static_columns`).
+        ``(p + 1,)`` the point the correction was linearised about (:meth:`ExactCorrection.static_columns`).
     tolerance
         :data:`SETTLED_SD`, or :data:`UNCONVERGED_SD` for draws whose chains disagree.
+    law
+        The compensator's law; None: the spring of eqs 4-9.
 
     Returns
     -------
     tuple or None
-        ``(K_c, s0, mass scale)`` (N/m, m, 1) with ``K_c s0`` at its posterior mean, or None.
+        ``(*law values, mass scale)`` (SI, 1) at the posterior mean of the static coordinates, or None.
     """
-    K_c = spring[..., 1].reshape(-1)
-    values = np.column_stack([K_c, K_c * spring[..., 2].reshape(-1), masses.reshape(-1)])
+    # The spring's static coordinates do not depend on its geometry: any valid one stands in for None's.
+    law = law_on(law, (1.0, 2.0, 0.0, 0.0))
+    u = law.static_point(spring[..., 1:].reshape(-1, spring.shape[-1] - 1))
+    values = np.column_stack([u, masses.reshape(-1)])
     mean, sd = values.mean(axis=0), values.std(axis=0)
     if np.all(np.abs(mean - at) <= tolerance * sd):
         return None
-    return float(mean[0]), float(mean[1] / mean[0]), float(mean[2])
+    return (*law.from_static(mean[:-1]), float(mean[-1]))
 
 
 def exact_deflections(
@@ -79,7 +86,7 @@ def exact_deflections(
     q: np.ndarray,
     wrench: np.ndarray,
     compliances: np.ndarray,
-    compensator: Compensator | None,
+    compensator: CompensatorLaw | None,
     *,
     points_in_flange: np.ndarray | None = None,
     unloaded_positions: np.ndarray | None = None,
@@ -104,7 +111,7 @@ def exact_deflections(
     compliances
         ``(nq,)`` joint compliances (rad/(N·m)); the compensated joint's is ``1/K_theta2^0``.
     compensator
-        The spring compensator, on the joint ``compensated_joint`` (0-based; required with a compensator).
+        The compensator, on the joint ``compensated_joint`` (0-based; required with a compensator).
     points_in_flange, unloaded_positions
         ``(k, 3)`` points, one of the two (m).
     load_point
@@ -134,7 +141,7 @@ def campaign_deflections(
     equations: DeflectionEquations,
     compliances: np.ndarray,
     k2: np.ndarray,
-    compensator: Compensator | None,
+    compensator: CompensatorLaw | None,
     load_point: np.ndarray | None,
 ) -> np.ndarray:
     """``(N, 3)`` exact deflections (m) of every row of ``campaign``, all configurations solved together.
@@ -165,7 +172,7 @@ def linearisation_offset(
     equations: DeflectionEquations,
     compliances: np.ndarray,
     k2: np.ndarray,
-    compensator: Compensator | None,
+    compensator: CompensatorLaw | None,
     load_point: np.ndarray | None,
 ) -> np.ndarray:
     """Exact minus linear prediction (m) of every equation of ``campaign``.
@@ -206,14 +213,17 @@ class ExactCorrection:
     geometry_mean
         The compensator geometry ``[L, a_x, a_y, phi]`` (m, rad); None without a compensator.
     nominal_spring
-        ``(K_c, s0)`` (N/m, m) of the compensator's static torque about which the correction is linearised
-        (the config's, or the posterior's when that is far from it); None without a compensator.
+        The law's values (SI; ``(K_c, s0)`` in N/m, m for the spring) of the compensator's static torque about which
+        the correction is linearised (the config's, or the posterior's when that is far from it); None without a
+        compensator.
     load_point
         Flange-frame point (m) where the load's force acts.
     max_iterations
         Relinearisations before :meth:`relinearise` gives up with a warning.
     masses
         Scale on the URDF's link masses about which the correction is linearised.
+    law
+        The compensator's law (its constants); None: the spring of eqs 4-9.
     """
 
     robot: Robot
@@ -223,6 +233,11 @@ class ExactCorrection:
     load_point: np.ndarray | None
     max_iterations: int = 10
     masses: float = 1.0
+    law: CompensatorLaw | None = None
+
+    def _law(self) -> CompensatorLaw | None:
+        """The law at the linearisation point's values (where a regressor that depends on them starts)."""
+        return None if self.law is None else law_on(self.law, self.geometry_mean, self.nominal_spring)
 
     def _robot(self, masses: float | None = None) -> Robot:
         """The robot with its link masses scaled by ``masses`` (default: the linearisation point's)."""
@@ -234,7 +249,7 @@ class ExactCorrection:
 
         The per-angle joint-2 compliances of ``cf`` fix joint 2's stiffness at each
         angle; the compensator's static torque, which with the arm's weight sets
-        the sag under which the loads act, is that of ``spring`` ``(K_c, s0)``
+        the sag under which the loads act, is that of the law's values ``spring`` (``(K_c, s0)``)
         (default: the linearisation point's), and the weights those of ``robot`` (default:
         the URDF's scaled by the linearisation point's ``masses``).  The compensated model
         corrects both through :meth:`static_columns`.
@@ -243,7 +258,7 @@ class ExactCorrection:
         compliances = np.where(np.isfinite(cf.compliances) & (cf.compliances > 0), cf.compliances, self.nominal_compliances)
         if equations.joint is None:
             return linearisation_offset(robot, campaign, equations, compliances, cf.k2, None, self.load_point)
-        compensator = CompensatorGeometry(*self.geometry_mean).with_spring(*(spring or self.nominal_spring))
+        compensator = law_on(self.law, self.geometry_mean, spring or self.nominal_spring)
         nominal_k2 = compensator.equivalent_compliance(equations.compensated_angles, self.nominal_compliances[equations.joint])
         k2 = np.where(np.isfinite(cf.k2) & (cf.k2 > 0), cf.k2, nominal_k2)
         return linearisation_offset(robot, campaign, equations, compliances, k2, compensator, self.load_point)
@@ -251,24 +266,23 @@ class ExactCorrection:
     def static_columns(self, campaign: Campaign, equations: DeflectionEquations, cf: ClosedForm, base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The exact model's correction linearised in the compensator's static torque and the link weights.
 
-        Returns the linearisation point ``[K_c, K_c s0, mass scale]`` (N/m, N, 1)
-        and the ``(n, 3)`` derivatives of the correction with respect to
-        ``K_c`` (at fixed ``K_c s0``), ``K_c s0`` and a common scale of the link
-        masses, by finite differences, divided like the equations by their
-        relative noise.  The derivatives are taken at the closed form ``cf`` the
+        Returns the linearisation point ``[*static coordinates, mass scale]`` (for the spring ``[K_c, K_c s0, mass
+        scale]``, N/m, N, 1) and the ``(n, p + 1)`` derivatives of the correction with respect to each static
+        coordinate (``K_c`` at fixed ``K_c s0``, then ``K_c s0``) and a common scale of the link masses, by finite
+        differences, divided like the equations by their relative noise.  The derivatives are taken at the closed form ``cf`` the
         offset ``base`` was computed at, so that the offset itself is their base.
         """
-        Kc, s0 = self.nominal_spring
-        dKc, dP, dg = STATIC_STEPS[0] * Kc, STATIC_STEPS[1] * Kc * s0, STATIC_STEPS[2]
+        law = law_on(self.law, self.geometry_mean, self.nominal_spring)
+        dg = STATIC_STEPS[-1]
         columns = [
-            (self.offset(campaign, equations, cf, spring=(Kc + dKc, Kc * s0 / (Kc + dKc))) - base) / dKc,
-            (self.offset(campaign, equations, cf, spring=(Kc, s0 + dP / Kc)) - base) / dP,
-            (self.offset(campaign, equations, cf, robot=self._robot(self.masses + dg)) - base) / dg,
+            (self.offset(campaign, equations, cf, spring=values) - base) / step
+            for step, values in law.static_steps(self.nominal_spring, STATIC_STEPS[:-1])
         ]
+        columns.append((self.offset(campaign, equations, cf, robot=self._robot(self.masses + dg)) - base) / dg)
         W = np.column_stack(columns)
         if equations.scale is not None:
             W = W / equations.scale[:, None]
-        return np.array([Kc, Kc * s0, self.masses]), W
+        return np.array([*law.static_point(self.nominal_spring), self.masses]), W
 
     def relinearise(self, campaign: Campaign, equations: DeflectionEquations, ident: Identifiability, cf: ClosedForm):
         """The closed form of the corrected equations, relinearised until it no longer moves.
@@ -281,7 +295,7 @@ class ExactCorrection:
         for iteration in range(1, self.max_iterations + 1):
             at = cf
             offset = self.offset(campaign, equations, at)
-            updated = closed_form(replace(equations, y=equations.y - offset).whitened(), ident, self.geometry_mean)
+            updated = closed_form(replace(equations, y=equations.y - offset).whitened(), ident, self.geometry_mean, self._law())
             change = np.abs(updated.per_angle - cf.per_angle)
             moved = float(np.max(change / sd))
             cf = updated

@@ -11,6 +11,7 @@ did determine (:func:`practical_identifiability`).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -20,11 +21,12 @@ from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError
 from bayescal.inference.closedform import ClosedForm, check_regression
 from bayescal.inference.equations import HANGING_ONLY_REASON, DeflectionEquations, deflection_noise
-from bayescal.inference.identifiability import Identifiability, analyse, label_angle, practical_reasons
+from bayescal.inference.identifiability import Identifiability, analyse, label_angle, practical_reasons, rule_clause
 from bayescal.inference.lack_of_fit import LackOfFit, least_squares_lack_of_fit, line_of_sight, replicate_cells
 from bayescal.inference.priors import GeometryPrior
-from bayescal.robot.compensator import CompensatorGeometry
-from bayescal.units import MM, N_PER_MM, URAD_PER_NM
+from bayescal.robot.compensator import Compensator, law_on
+from bayescal.robot.laws import CompensatorLaw
+from bayescal.units import URAD_PER_NM
 
 __all__ = ["check_fits_campaign", "MAX_CHI2_PER_DOF", "campaign_identifiability", "check_determined", "check_scale", "unresolved_columns", "UNRESOLVED_RATIO", "residual_chi2", "calibration_lack_of_fit", "practical_identifiability"]
 
@@ -86,40 +88,44 @@ def practical_identifiability(
     ident: Identifiability,
     cf: ClosedForm,
     geometry: GeometryPrior | None,
-    nominal_spring: tuple[float, float] | None,
+    nominal_spring: tuple[float, ...] | None,
+    law: CompensatorLaw | None = None,
 ) -> dict[str, str]:
     """Practical identifiability of the sampled parameters (:func:`~bayescal.inference.identifiability.practical_reasons`),
     from the posterior's summary.
 
-    ``geometry`` (the compensator geometry's prior) bounds s0's flat prior; ``nominal_spring``
-    ``(K_c, s0)`` (N/m, m) sets the scale of K_c's reason.
+    ``geometry`` (the compensator geometry's prior) bounds the law's flat priors (s0's); ``nominal_spring``, the
+    values of the compensator's ``law`` (SI; ``(K_c, s0)`` for the spring, None's law), sets the scale of the
+    reason of its first parameter (K_c's).
     """
-    prior_sd: dict[str, float | None] = {name: None for name in equations.registry.names if name != "s0"}
-    if geometry is not None:
-        L, a_x, a_y = geometry.mean[:3]
-        # s0's prior is flat on (0, a + L): its sd is the width over sqrt(12).
-        prior_sd["s0"] = (math.hypot(a_x, a_y) + L) / math.sqrt(12.0) / MM
-    prior_sd |= {name: None for name in summary.index if label_angle(name) is not None}
+    prior_sd: dict[str, float | None] = {name: None for name in equations.registry.names}
+    requires: dict[str, str] = {}
+    through: dict[str, str] = {}
     context = {}
-    if "K_c" in summary.index:
-        k2 = summary.loc[f"k{equations.joint + 1}", "mean"] * URAD_PER_NM
-        context["K_c"] = _compensator_context(equations, ident, cf, k2, geometry, nominal_spring)
-    return practical_reasons(summary, prior_sd, requires={"s0": "K_c"}, context=context)
+    if geometry is not None:
+        law = law_on(law, geometry.mean, nominal_spring)
+        prior_sd |= law.prior_sd()
+        requires, through = dict(law.REQUIRES), dict(law.THROUGH)
+        first = law.PARAMETERS[0].name
+        if first in summary.index:
+            k2 = summary.loc[f"k{equations.joint + 1}", "mean"] * URAD_PER_NM
+            context[first] = _compensator_context(equations, ident, cf, k2, law)
+    prior_sd |= {name: None for name in summary.index if label_angle(name) is not None}
+    return practical_reasons(summary, prior_sd, requires=requires, context=context, through=through)
 
 
-def _compensator_context(equations, ident, cf, k2: float, geometry: GeometryPrior, nominal_spring: tuple[float, float]) -> str:
+def _compensator_context(equations, ident, cf, k2: float, law: CompensatorLaw) -> str:
     """How much the compensator changes the joint-2 stiffness, against how finely the per-angle compliances are known."""
-    Kc, s0 = nominal_spring
-    compensator = CompensatorGeometry(*geometry.mean).with_spring(Kc, s0)
-    share = 100.0 * np.abs(compensator.stiffness(equations.compensated_angles)) * k2
+    share = 100.0 * np.abs(law.stiffness(equations.compensated_angles)) * k2
     columns = [c for c, keep in zip(equations.per_angle_columns(), ident.identifiable) if keep]
     sd = np.sqrt(np.diag(cf.cov))
     resolution = [300.0 * sd[i] / cf.per_angle[i] for i, (joint, _) in enumerate(columns) if joint == equations.joint]
     j = equations.joint + 1
     return (
         f"the compensator changes the joint-{j} stiffness by {share.min():.2f}–{share.max():.2f} % across the "
-        f"campaign's {equations.compensated_angles.size} q{j} angles (at the config's K_c = {Kc / N_PER_MM:.4g} N/mm, "
-        f"s0 = {s0 / MM:.4g} mm), while the per-angle joint-{j} compliances are resolved to "
+        f"campaign's {equations.compensated_angles.size} q{j} angles (at the config's "
+        f"{', '.join(f'{p.name} = {v / p.si_factor:.4g} {p.unit}' for p, v in zip(law.PARAMETERS, law.values))}), "
+        f"while the per-angle joint-{j} compliances are resolved to "
         f"±{np.median(resolution):.2f} % (3σ, median over the angles)"
     )
 
@@ -208,12 +214,14 @@ def campaign_identifiability(
     geometry: np.ndarray | None,
     hanging_only: bool,
     unresolved: dict[int, str] | None = None,
+    law: CompensatorLaw | None = None,
 ) -> Identifiability:
     """What ``equations`` identify (:func:`~bayescal.inference.identifiability.analyse`), with the ``unresolved``
     columns (:func:`unresolved_columns`) set apart, the eq 34 regressor checked, and refused when nothing is determined.
 
     ``torque`` ``(N, nq)`` the loads' joint torques of every row (N·m); ``geometry`` the compensator's ``[L, a_x, a_y, phi]``
-    (m, rad; None without one); ``hanging_only`` the cell's end-effector hangs masses only (k1's reason says so).
+    (m, rad; None without one); ``hanging_only`` the cell's end-effector hangs masses only (k1's reason says so);
+    ``law`` the compensator's law (None: the spring of eqs 4-9).
     """
     configs = np.unique(campaign.config, return_index=True)[1]
     ident = analyse(
@@ -224,11 +232,13 @@ def campaign_identifiability(
         equations.angle[3 * configs],
         equations.prismatic,
         unresolved,
+        law or Compensator,
     )
+    ident = replace(ident, rule_clause=rule_clause(law or Compensator))
     if hanging_only and "k1" in ident.reasons:
         ident.reasons["k1"] += f"; {HANGING_ONLY_REASON}"
     if ident.compensator:
-        ident = check_regression(ident, equations.per_angle_columns(), equations.compensated_angles, geometry)
+        ident = check_regression(ident, equations.per_angle_columns(), equations.compensated_angles, geometry, law)
     check_determined(campaign, equations, ident)
     return ident
 

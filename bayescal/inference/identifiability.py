@@ -39,7 +39,8 @@ import numpy as np
 import pandas as pd
 
 from bayescal.inference.parameters import angle_label, label_angle
-from bayescal.robot.compensator import MIN_ANGLES
+from bayescal.robot.compensator import MIN_ANGLES, Compensator
+from bayescal.robot.laws import CompensatorLaw
 
 __all__ = [
     "Identifiability",
@@ -52,6 +53,7 @@ __all__ = [
     "ILL_CONDITIONED",
     "CONTRACTION_LIMIT",
     "PRACTICAL_RULE",
+    "rule_clause",
     "independent_columns",
     "COLLINEAR_TOLERANCE",
 ]
@@ -99,6 +101,9 @@ class Identifiability:
     practical : dict
         Reason for each parameter that the design could identify but the
         posterior does not determine (:func:`practical_reasons`); empty before sampling.
+    rule_clause : str
+        What the practical rule says of the compensator law's parameters (the spring's: s0 whenever K_c is not
+        identifiable; :func:`rule_clause` of another law).
     """
 
     names: list[str]
@@ -109,6 +114,7 @@ class Identifiability:
     reasons: dict[str, str] = field(default_factory=dict)
     compensator: bool = True
     practical: dict[str, str] = field(default_factory=dict)
+    rule_clause: str = _SPRING_CLAUSE
 
     @property
     def not_identifiable(self) -> dict[str, str]:
@@ -129,7 +135,7 @@ class Identifiability:
             "not_identifiable": self.not_identifiable,
             "structural": sorted(self.reasons),
             # Without a compensator there is no spring to speak of.
-            "rule": PRACTICAL_RULE if self.compensated else PRACTICAL_RULE.removesuffix(_SPRING_CLAUSE),
+            "rule": PRACTICAL_RULE.removesuffix(_SPRING_CLAUSE) + (self.rule_clause if self.compensated else ""),
         }
 
     @property
@@ -146,6 +152,7 @@ def analyse(
     torque_angle: np.ndarray,
     prismatic: Sequence[bool] = (),
     unresolved: Mapping[int, str] | None = None,
+    law: type | CompensatorLaw = Compensator,
 ) -> Identifiability:
     """Rank, conditioning and identifiability of the per-angle design.
 
@@ -167,6 +174,8 @@ def analyse(
     unresolved
         Column index → reason for columns the data resolve too poorly to keep
         (:func:`~bayescal.inference.fit_checks.unresolved_columns`): not identifiable, whatever their norm.
+    law
+        The compensator's law (its class or an instance): its parameters' names in the reasons.
     """
     names = [angle_label(q2[a], j) if a is not None else f"k{j + 1}" for j, a in columns]
     norms = np.linalg.norm(design, axis=0)
@@ -186,8 +195,6 @@ def analyse(
         singular = np.linalg.svd(scaled, compute_uv=False)
     condition = float(singular.max() / singular.min()) if singular.size else math.inf
     vif = dict(zip([names[i] for i in kept], np.diag(np.linalg.inv(scaled.T @ scaled)))) if kept.size else {}
-
-    compensator = _compensator_identifiable(columns, kept, q2, reasons)
     return Identifiability(
         names=names,
         identifiable=identifiable,
@@ -195,7 +202,7 @@ def analyse(
         condition_number=condition,
         vif={k: float(v) for k, v in vif.items()},
         reasons=reasons,
-        compensator=compensator,
+        compensator=_compensator_identifiable(columns, kept, q2, reasons, law),
     )
 
 
@@ -233,9 +240,14 @@ def _drop_confounded(scaled: np.ndarray, kept: np.ndarray, rank: int, names: lis
         identifiable[i] = False
 
 
-def _compensator_identifiable(columns: Sequence[tuple[int, int | None]], kept: np.ndarray, q2: np.ndarray, reasons: dict[str, str]) -> bool:
+def rule_clause(law) -> str:
+    """The practical rule's words on a compensator ``law``'s dependent parameters (``; s0 whenever K_c …``)."""
+    return "".join(f"; {name} whenever {other} is not identifiable (eq 34)" for name, other in law.REQUIRES.items())
+
+
+def _compensator_identifiable(columns: Sequence[tuple[int, int | None]], kept: np.ndarray, q2: np.ndarray, reasons: dict[str, str], law) -> bool:
     """Whether the kept columns hold :data:`~bayescal.robot.compensator.MIN_ANGLES` angles of the compensated joint; if not, the reason is
-    added to ``reasons`` for that joint's compliance, K_c and s0."""
+    added to ``reasons`` for that joint's compliance and the ``law``'s parameters (K_c and s0)."""
     # Only the compensated joint's compliance has one column per angle; without a compensator no column has
     # one, and nothing is said about K_c and s0.
     per_angle_joint = next((j for j, angle in columns if angle is not None), None)
@@ -246,9 +258,9 @@ def _compensator_identifiable(columns: Sequence[tuple[int, int | None]], kept: n
         j = per_angle_joint + 1
         why = (
             f"the campaign has {len(joint2_angles)} q{j} angle(s) with an identifiable joint-{j} compliance "
-            f"({listed} deg); K_theta{j}^0, K_c and s0*K_c of eq 34 need at least {MIN_ANGLES}"
+            f"({listed} deg); K_theta{j}^0, {' and '.join(law.LINEAR)} of eq 34 need at least {MIN_ANGLES}"
         )
-        for name in (f"k{per_angle_joint + 1}", "K_c", "s0"):
+        for name in (f"k{per_angle_joint + 1}", *(p.name for p in law.PARAMETERS)):
             reasons[name] = why
     return compensator
 
@@ -300,6 +312,7 @@ def practical_reasons(
     *,
     requires: Mapping[str, str] | None = None,
     context: Mapping[str, str] | None = None,
+    through: Mapping[str, str] | None = None,
 ) -> dict[str, str]:
     """The parameters a posterior leaves undetermined, each with its reason in numbers.
 
@@ -317,6 +330,9 @@ def practical_reasons(
     context
         Extra explanation (why the data are weak) prepended to a parameter's reason
         when it fails.
+    through
+        ``{name: words}``: how ``name`` enters the model through its ``requires``' other (default: the product of
+        the two, as s0 through s0·K_c).
 
     Returns
     -------
@@ -334,7 +350,8 @@ def practical_reasons(
             reasons[name] = f"{context[name]}; {why}" if name in context else why
     for name, other in requires.items():
         if other in reasons and name in summary.index:
-            why = f"{name} enters the model only through the product {name}·{other}, and {other} is not identifiable from these data"
+            how = (through or {}).get(name, f"the product {name}·{other}")
+            why = f"{name} enters the model only through {how}, and {other} is not identifiable from these data"
             reasons[name] = why + (f"; besides, {reasons[name]}" if name in reasons else "")
     return {name: reasons[name] for name in prior_sd if name in reasons}
 

@@ -35,39 +35,38 @@ import numpy as np
 from bayescal.inference.equations import DeflectionEquations
 from bayescal.inference.parameters import GEOMETRY_PARAMETERS
 from bayescal.inference.priors import GeometryPrior
-from bayescal.robot.compensator import stiffness_regressor
+from bayescal.robot.compensator import law_on
+from bayescal.robot.laws import CompensatorLaw
 from bayescal.sampling.gibbs import ConditionallyLinear
 
-__all__ = ["CompensatorBlock", "per_angle_posterior", "compensated_posterior", "SPRING"]
-
-SPRING = ("K_theta2_ref", "log_K_c", "s0")
-"""The compensated model's spring coordinates, in order: joint 2's equivalent stiffness at the reference
-angle (N·m/rad), log K_c (log N/m), s0 (m)."""
-"""The compensator geometry's coordinates, in order: m, m, m, rad."""
+__all__ = ["CompensatorBlock", "per_angle_posterior", "compensated_posterior"]
 
 
 @dataclass(frozen=True)
 class CompensatorBlock:
-    """The joint-2 compliance at each campaign angle as a function of the spring and geometry (eq 8).
+    """The compensated joint's compliance at each campaign angle as a function of its law and geometry (eq 8).
 
-    ``z = [K_ref, log K_c, s0]`` followed by ``[L, a_x, a_y, phi]`` when the
-    geometry prior is not fixed; a block of
-    :class:`~bayescal.sampling.gibbs.ConditionallyLinear`.  ``K_ref`` is joint
-    2's equivalent stiffness (eq 8) at the reference angle ``q_ref``, so that
-    ``K_theta2^0 = K_ref - K_c a L eta(q_ref; s0)``.  The data determine the
-    equivalent stiffness far better than its split between the joint and a
-    spring that changes it by a fraction of a percent: in ``(K_theta2^0, K_c)``
-    the posterior is a narrow curved ridge, in ``(K_ref, log K_c)`` nearly a
-    product, which is what a Metropolis proposal needs.
+    ``z = [K_ref, *law coordinates]`` (``[K_ref, log K_c, s0]`` for the spring)
+    followed by ``[L, a_x, a_y, phi]`` when the geometry prior is not fixed; a
+    block of :class:`~bayescal.sampling.gibbs.ConditionallyLinear`.  ``K_ref``
+    is the joint's equivalent stiffness (eq 8) at the reference angle
+    ``q_ref``, so that ``K_theta2^0 = K_ref - dM_c/dq(q_ref)``.  The data
+    determine the equivalent stiffness far better than its split between the
+    joint and a compensator that changes it by a fraction of a percent: in
+    ``(K_theta2^0, K_c)`` the posterior is a narrow curved ridge, in ``(K_ref,
+    log K_c)`` nearly a product, which is what a Metropolis proposal needs.
+    The law (:class:`~bayescal.robot.laws.CompensatorLaw`, the spring when None)
+    says what its coordinates are, their priors and their support.
 
     With ``static`` (the exact model), the block also sets the coefficients
-    ``u(z) = [K_c - K_c*, K_c s0 - (K_c s0)*, gravity_scale - g*]`` of the
-    columns ``W`` that linearise the exact model's correction about the
-    spring and link-mass scale ``static = [K_c*, (K_c s0)*, g*]``: the
-    compensator's static torque, linear in ``K_c`` and ``K_c s0`` (eq 7), and
-    the arm's weight set the sag under which the loads act.  ``z`` then holds
-    ``gravity_scale`` after ``s0``, a factor on every link's mass with a
-    Gaussian prior of mean 1 and sd ``gravity_sd``.
+    ``u(z) = [static coordinates - their linearisation point, gravity_scale - g*]``
+    of the columns ``W`` that linearise the exact model's correction about the
+    law's static coordinates and link-mass scale ``static`` (for the spring
+    ``[K_c*, (K_c s0)*, g*]``: its static torque is linear in ``K_c`` and
+    ``K_c s0``, eq 7), and the arm's weight set the sag under which the loads
+    act.  ``z`` then holds ``gravity_scale`` after the law's coordinates, a
+    factor on every link's mass with a Gaussian prior of mean 1 and sd
+    ``gravity_sd``.
     """
 
     q2: np.ndarray
@@ -75,14 +74,24 @@ class CompensatorBlock:
     q_ref: float
     static: np.ndarray | None = None
     gravity_sd: float = 0.0
+    law: CompensatorLaw | None = None
+
+    def __post_init__(self) -> None:
+        # The law on the geometry prior's mean: a block the caller built without one holds the spring.
+        object.__setattr__(self, "law", law_on(self.law, self.geometry.mean, None if self.law is None else self.law.values))
 
     @property
     def ndim(self) -> int:
         return self.n_adapted + (0 if self.geometry.fixed else len(GEOMETRY_PARAMETERS))
 
     @property
+    def n_law(self) -> int:
+        """The law's coordinates."""
+        return len(self.law.COORDINATES)
+
+    @property
     def n_adapted(self) -> int:
-        return len(SPRING) + (self.static is not None)
+        return 1 + self.n_law + (self.static is not None)
 
     @property
     def prior_mean(self) -> np.ndarray:
@@ -96,83 +105,77 @@ class CompensatorBlock:
         a = self.n_adapted
         return np.broadcast_to(self.geometry.mean, (z.shape[0], 4)) if self.geometry.fixed else z[:, a : a + 4]
 
+    def _law_z(self, z: np.ndarray) -> np.ndarray:
+        return z[:, 1 : 1 + self.n_law]
+
     def gravity_scale(self, z: np.ndarray) -> np.ndarray | None:
         """``(c,)`` the link weights' scale, or None when the block has no static channel."""
-        return None if self.static is None else z[:, len(SPRING)]
+        return None if self.static is None else z[:, 1 + self.n_law]
 
     def shift(self, z: np.ndarray) -> np.ndarray:
-        """``(c, 3)`` coefficients ``u(z)`` of the static columns (``(c, 0)`` without them)."""
+        """``(c, p + 1)`` coefficients ``u(z)`` of the static columns (``(c, 0)`` without them)."""
         if self.static is None:
             return np.zeros((z.shape[0], 0))
-        K_c = np.exp(z[:, 1])
-        return np.column_stack([K_c - self.static[0], K_c * z[:, 2] - self.static[1], z[:, len(SPRING)] - self.static[2]])
+        u = self.law.static_point(self.law.block_values(self._law_z(z)))
+        return np.column_stack([u - self.static[:-1], z[:, 1 + self.n_law] - self.static[-1]])
 
     def _regressor(self, z: np.ndarray, q2: np.ndarray) -> np.ndarray:
-        """``(c|1, m + 1, 3)`` eq-35 rows at ``q2`` and, last, at ``q_ref``."""
+        """``(c|1, m + 1, r)`` the law's rows at ``q2`` and, last, at ``q_ref``."""
         if self.geometry.fixed:
-            return (self._fixed_regressor if q2 is self.q2 else stiffness_regressor(np.append(q2, self.q_ref), *self.geometry.mean))[None]
-        g = self._geometry(z)
-        return stiffness_regressor(np.append(q2, self.q_ref)[None, :], *(g[:, i, None] for i in range(4)))
+            return self._fixed_regressor if q2 is self.q2 else self.law.block_rows(np.append(q2, self.q_ref), None)
+        return self.law.block_rows(np.append(q2, self.q_ref), self._geometry(z))
 
     def stiffness(self, z: np.ndarray, q2: np.ndarray | None = None) -> np.ndarray:
-        """``(c, m)`` equivalent joint-2 stiffness (N·m/rad) at the angles ``q2`` (default: the campaign's)."""
+        """``(c, m)`` equivalent stiffness of the compensated joint (N·m/rad) at the angles ``q2`` (default: the campaign's)."""
         return self._stiffness(z, self._regressor(z, self.q2 if q2 is None else np.asarray(q2, dtype=float)))
 
     def spring(self, z: np.ndarray) -> np.ndarray:
-        """``(c, 3)`` ``[K_theta2^0 (N·m/rad), K_c (N/m), s0 (m)]`` at ``(c, ndim)`` points."""
+        """``(c, 1 + p)`` ``[K_theta2^0 (N·m/rad), *law values]`` (``K_c`` N/m, ``s0`` m for the spring) at ``(c, ndim)`` points."""
         return self._spring(z, self._regressor(z, self.q2))
 
-    @staticmethod
-    def _stiffness(z: np.ndarray, C: np.ndarray) -> np.ndarray:
-        change = C[..., :-1, 1:] - C[..., -1:, 1:]
-        return z[:, :1] + np.exp(z[:, 1])[:, None] * (change[..., 0] + change[..., 1] * z[:, 2:3])
+    def _stiffness(self, z: np.ndarray, C: np.ndarray) -> np.ndarray:
+        return z[:, :1] + self.law.block_change(self._law_z(z), C)
 
-    @staticmethod
-    def _spring(z: np.ndarray, C: np.ndarray) -> np.ndarray:
-        reference = C[..., -1, :]
-        K_c = np.exp(z[:, 1])
-        return np.column_stack([z[:, 0] - K_c * (reference[..., 1] + reference[..., 2] * z[:, 2]), K_c, z[:, 2]])
+    def _spring(self, z: np.ndarray, C: np.ndarray) -> np.ndarray:
+        law_z = self._law_z(z)
+        return np.column_stack([z[:, 0] - self.law.block_reference(law_z, C), self.law.block_values(law_z)])
 
     def coordinates(self, spring: np.ndarray) -> np.ndarray:
-        """``[K_ref, log K_c, s0]`` of a spring ``[K_theta2^0, K_c, s0]`` at the geometry prior's mean."""
-        K0, K_c, s0 = spring
-        C = stiffness_regressor(self.q_ref, *self.geometry.mean)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.array([C @ [K0, K_c, s0 * K_c], np.log(K_c), s0])
+        """``[K_ref, *law coordinates]`` of ``[K_theta2^0, *law values]`` at the geometry prior's mean."""
+        K0, values = spring[0], spring[1:]
+        C = self.law.regressor(self.q_ref)
+        return np.concatenate([[C @ [K0, *self.law.linear(values)]], self.law.block_coordinates(values)])
 
     def evaluate(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(c, m)`` joint-2 compliances (rad/(N·m)) and ``(c,)`` log prior at ``(c, ndim)`` points.
+        """``(c, m)`` compliances of the compensated joint (rad/(N·m)) and ``(c,)`` log prior at ``(c, ndim)`` points.
 
         The compliance is ``nan`` and the log prior ``-inf`` outside the support
-        (``K_theta2^0 > 0``, ``0 < s0 < a + L``) or where the stiffness is not
-        positive; the log prior is ``log K_c`` (the Jacobian of K_c's flat prior)
-        plus the geometry's and the gravity scale's log densities.
+        (``K_theta2^0 > 0`` and the law's, :meth:`~bayescal.robot.laws.CompensatorLaw.block_inside`) or where the
+        stiffness is not positive; the log prior is the law's Jacobian (``log K_c`` for the spring: K_c's flat
+        prior) plus the geometry's and the gravity scale's log densities.
         """
-        C, longest, log_prior = self._geometry_terms(z)
-        log_prior = log_prior + z[:, 1]
+        C, geometry, log_prior = self._geometry_terms(z)
+        law_z = self._law_z(z)
+        log_prior = log_prior + self.law.block_log_jacobian(law_z)
         if self.static is not None:
-            log_prior = log_prior - 0.5 * ((z[:, len(SPRING)] - 1.0) / self.gravity_sd) ** 2
-        total = self._stiffness(z, C)
-        ok = (self._spring(z, C)[:, 0] > 0) & (z[:, 2] > 0) & (z[:, 2] < longest)
+            log_prior = log_prior - 0.5 * ((z[:, 1 + self.n_law] - 1.0) / self.gravity_sd) ** 2
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            total = self._stiffness(z, C)
+            ok = (self._spring(z, C)[:, 0] > 0) & self.law.block_inside(law_z, geometry)
         positive = ok[:, None] & (total > 0)
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(positive, 1.0 / total, np.nan), np.where(ok, log_prior, -np.inf)
 
-    def _geometry_terms(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray | float, np.ndarray | float]:
-        """The eq-35 rows at the campaign's angles, the spring's longest length and the geometry's log prior at ``z``."""
+    def _geometry_terms(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | float]:
+        """The law's rows at the campaign's angles, the ``(c|1, 4)`` geometry and its log prior at ``z``."""
         if self.geometry.fixed:
-            return self._fixed_regressor[None], self._longest, 0.0
+            return self._fixed_regressor, self.geometry.mean[None, :], 0.0
         g = self._geometry(z)
-        return self._regressor(z, self.q2), np.hypot(g[:, 1], g[:, 2]) + g[:, 0], self.geometry.log_density(g)
+        return self._regressor(z, self.q2), g, self.geometry.log_density(g)
 
     @cached_property
     def _fixed_regressor(self) -> np.ndarray:
-        return stiffness_regressor(np.append(self.q2, self.q_ref), *self.geometry.mean)
-
-    @cached_property
-    def _longest(self) -> float:
-        L, a_x, a_y = self.geometry.mean[:3]
-        return float(np.hypot(a_x, a_y) + L)
+        return self.law.block_rows(np.append(self.q2, self.q_ref), None)
 
 
 def per_angle_posterior(equations: DeflectionEquations, free: np.ndarray) -> ConditionallyLinear:
@@ -191,14 +194,17 @@ def compensated_posterior(
     geometry: GeometryPrior,
     static: tuple[np.ndarray, np.ndarray] | None = None,
     gravity_sd: float = 0.0,
+    law: CompensatorLaw | None = None,
 ) -> ConditionallyLinear:
     """Posterior with the compensator's joint-2 stiffness (eq 8).
 
     ``theta``: the compliances of ``joints`` (0-based, joint 2 excluded), then
-    ``K_ref, log K_c, s0`` (:class:`CompensatorBlock`, reference angle the campaign's median q2), then
+    ``K_ref`` and the coordinates of the compensator's ``law`` (``log K_c, s0`` for the spring, None's;
+    :class:`CompensatorBlock`, reference angle the campaign's median q2), then
     ``gravity_scale`` with ``static``, then the geometry ``L, a_x, a_y, phi`` unless
     its prior is fixed, then ``log sigma`` per noise group.  ``static`` is the
-    linearisation point ``[K_c, K_c s0, gravity_scale]`` (N/m, N, 1) and the ``(n, 3)`` columns
+    linearisation point ``[*static coordinates of the law, gravity_scale]`` (``K_c, K_c s0`` in N/m, N for the
+    spring) and the ``(n, p + 1)`` columns
     ``W`` of the exact model's correction (:class:`CompensatorBlock`).
     """
     if equations.joint in joints:
@@ -216,6 +222,7 @@ def compensated_posterior(
             q_ref=float(np.median(equations.compensated_angles)),
             static=None if static is None else static[0],
             gravity_sd=gravity_sd,
+            law=law,
         ),
         W=None if static is None else static[1],
     )

@@ -3,13 +3,15 @@
 For a robot of ``n`` joints a calibration identifies the joint compliances
 ``k1``..``k<n>`` (rad/(N·m) inside; μrad/(N·m) at the edges, μm/N for a
 prismatic joint such as a linear track: the same factor 1e-6 from SI) and, when
-the cell has a spring compensator on joint ``j``, its stiffness ``K_c`` (N/m;
-N/mm) and free length ``s0`` (m; mm) of eqs 4-9 (Klimchik et al.).  Joint
+the cell has a compensator on joint ``j``, its law's parameters
+(:attr:`bayescal.robot.laws.CompensatorLaw.PARAMETERS`): for the spring of eqs
+4-9 (Klimchik et al.) its stiffness ``K_c`` (N/m; N/mm) and free length ``s0``
+(m; mm).  Joint
 ``j``'s ``k<j>`` is then its compliance without the compensator, and its
 equivalent compliance at each campaign angle is a per-angle parameter labelled
 by the joint's own number, ``k<j>_q<j>[<angle in deg>]``: ``k2_q2[-25.240]``
 for the KR-270, ``k3_q3[40.000]`` for a compensator on joint 3.  Without a
-compensator nothing is said of ``K_c`` and ``s0`` and no label is per angle.
+compensator nothing is said of the law's parameters and no label is per angle.
 
 A :class:`ParameterRegistry` holds, for one cell's robot, each parameter's
 name, symbol, SI factor, edge unit and the published value where the cell names
@@ -26,7 +28,9 @@ from dataclasses import dataclass
 from types import MappingProxyType
 
 from bayescal.cell.joints import DEFAULT_COMPENSATED_JOINT
-from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
+from bayescal.robot.compensator import Compensator
+from bayescal.robot.laws import LawParameter
+from bayescal.units import DEG, MM, URAD_PER_NM
 
 __all__ = [
     "ANGLE_DECIMALS",
@@ -116,12 +120,15 @@ class ParameterRegistry:
         0-based index of the joint the compensator acts on; None without a compensator.
     published
         ``{name: (value, ±3σ half-width)}`` in edge units from the cell's reference table; None when it names none.
+    law
+        The identified parameters of the compensator's law (the spring's ``K_c`` and ``s0`` by default).
     """
 
     n_joints: int
     prismatic: tuple[bool, ...] = ()
     compensated_joint: int | None = DEFAULT_COMPENSATED_JOINT
     published: MappingProxyType | None = None
+    law: tuple[LawParameter, ...] = Compensator.PARAMETERS
 
     @classmethod
     def of_cell(cls, cell) -> ParameterRegistry:
@@ -134,16 +141,17 @@ class ParameterRegistry:
             rows = rows[rows["table"] == "IV"]
             published = MappingProxyType({str(name): (float(row["value"]), float(row["ci3"])) for name, row in rows.iterrows()})
         prismatic = tuple(bool(p) for p in cell.robot.prismatic) if cell.robot.prismatic.any() else ()
-        return cls(cell.robot.nq, prismatic, cell.compensated_joint, published)
+        law = Compensator.PARAMETERS if cell.compensator is None else cell.compensator.PARAMETERS
+        return cls(cell.robot.nq, prismatic, cell.compensated_joint, published, law)
 
     @property
     def compensated(self) -> bool:
-        """Whether the robot has a compensator (and so ``K_c``, ``s0`` and per-angle compliances)."""
+        """Whether the robot has a compensator (and so its law's parameters and per-angle compliances)."""
         return self.compensated_joint is not None
 
     @property
     def parameters(self) -> tuple[Parameter, ...]:
-        """Every parameter, joints first, then the compensator's spring."""
+        """Every parameter, joints first, then the compensator law's."""
         published = self.published or {}
         out = []
         for j in range(self.n_joints):
@@ -160,9 +168,13 @@ class ParameterRegistry:
                 )
             )
         if self.compensated:
-            out.append(Parameter("K_c", "K_c", N_PER_MM, "N/mm", "stiffness of the compensator's spring (eq 7)", published.get("K_c")))
-            out.append(Parameter("s0", "s_0", MM, "mm", "free length of the compensator's spring (eq 7)", published.get("s0")))
+            out.extend(Parameter(p.name, p.symbol, p.si_factor, p.unit, p.description, published.get(p.name)) for p in self.law)
         return tuple(out)
+
+    @property
+    def law_names(self) -> list[str]:
+        """The compensator law's parameters' names (``K_c``, ``s0`` for the spring); empty without a compensator."""
+        return [p.name for p in self.law] if self.compensated else []
 
     @property
     def names(self) -> list[str]:
@@ -175,18 +187,18 @@ class ParameterRegistry:
         return {p.name: p.unit for p in self.parameters}
 
     def edge_values(self, compliances, spring=None) -> dict:
-        """SI values by name in the edge units: ``{k1: …, k<n>: …}`` and, given the spring, ``K_c`` and ``s0``.
+        """SI values by name in the edge units: ``{k1: …, k<n>: …}`` and, given them, the compensator law's.
 
         Parameters
         ----------
         compliances
             ``(n_joints,)`` joint compliances, rad/(N·m) or m/N for a prismatic joint.
         spring
-            ``(K_c, s0)`` in N/m and m, or None.
+            The law's identified values in SI (``(K_c, s0)`` in N/m and m for the spring), or None.
         """
         values = {parameter.name: parameter.to_edge(value) for parameter, value in zip(self.parameters[: self.n_joints], compliances)}
         if spring is not None:
-            values |= {"K_c": self["K_c"].to_edge(spring[0]), "s0": self["s0"].to_edge(spring[1])}
+            values |= {p.name: self[p.name].to_edge(value) for p, value in zip(self.law, spring)}
         return values
 
     def __getitem__(self, name: str) -> Parameter:

@@ -20,7 +20,8 @@ from bayescal.inference.identifiability import Identifiability
 from bayescal.inference.likelihood import compensated_posterior, per_angle_posterior
 from bayescal.inference.priors import GeometryPrior
 from bayescal.inference.results import ElastostaticDraws
-from bayescal.robot.compensator import CompensatorGeometry, stiffness_regressor
+from bayescal.robot.compensator import law_on
+from bayescal.robot.laws import CompensatorLaw
 from bayescal.sampling.protocol import Sampler
 
 __all__ = ["posterior_density", "sample_posterior", "sampler_coordinates", "GRAVITY_SD"]
@@ -29,18 +30,17 @@ LOG_SIGMA_SCALE = 0.05
 """Initial spread of log sigma around the closed form's: its posterior sd at a few hundred equations."""
 GRAVITY_SD = 0.2 / 3
 """Prior sd of the scale on the link masses: ±20 % at 3σ, as uncertain as the URDF's mass ESTIMATES."""
-SPRING_SCALE = np.array([0.005, 0.05, 0.02])
-"""Typical posterior sd of joint 2's equivalent stiffness (relative), ``log K_c`` and ``s0`` (relative) when the data determine them:
-the scale of the Gibbs sampler's mode search and of emcee's initial ball."""
+REFERENCE_SCALE = 0.005
+"""Typical posterior sd of the compensated joint's equivalent stiffness (relative) when the data determine it: with
+the law's (:meth:`~bayescal.robot.laws.CompensatorLaw.block_scale`), the scale of the Gibbs sampler's mode search
+and of emcee's initial ball."""
 
 
-def _nominal_start(cf: ClosedForm, q2: np.ndarray, geometry: GeometryPrior, nominal_spring: tuple[float, float]) -> np.ndarray:
-    """``[K_theta2^0, K_c, s0]`` with the nominal spring and the K_theta2^0 that best fits the per-angle k2."""
-    Kc, s0 = nominal_spring
-    compensator = CompensatorGeometry(*geometry.mean).with_spring(Kc, s0)
+def _nominal_start(cf: ClosedForm, q2: np.ndarray, law: CompensatorLaw) -> np.ndarray:
+    """``[K_theta2^0, *values]`` with the nominal law and the K_theta2^0 that best fits the per-angle k2."""
     known = np.isfinite(cf.k2) & (cf.k2 > 0)
-    K0 = float(np.mean(1.0 / cf.k2[known] - compensator.stiffness(q2[known])))
-    return np.array([K0, Kc, s0])
+    K0 = float(np.mean(1.0 / cf.k2[known] - law.stiffness(q2[known])))
+    return np.array([K0, *law.values])
 
 
 def _positive(compliances: np.ndarray, sd: np.ndarray) -> np.ndarray:
@@ -53,7 +53,7 @@ def _positive(compliances: np.ndarray, sd: np.ndarray) -> np.ndarray:
     return np.where(compliances > 0, compliances, sd)
 
 
-def posterior_density(equations: DeflectionEquations, ident: Identifiability, geometry: GeometryPrior | None, static=None):
+def posterior_density(equations: DeflectionEquations, ident: Identifiability, geometry: GeometryPrior | None, static=None, law=None):
     """The posterior density of the (whitened) equations and, in the compensated model, the joints it samples.
 
     Parameters
@@ -67,10 +67,12 @@ def posterior_density(equations: DeflectionEquations, ident: Identifiability, ge
     static
         The exact model's static columns (:meth:`~bayescal.inference.exact_correction.ExactCorrection.static_columns`),
         or None when the link weights are not sampled.
+    law
+        The compensator's law (:class:`~bayescal.robot.laws.CompensatorLaw`); None: the spring of eqs 4-9.
     """
     if ident.compensator:
         joints = tuple(j for j in range(equations.n_joints) if j != equations.joint and f"k{j + 1}" not in ident.reasons)
-        return compensated_posterior(equations, joints, geometry, static, GRAVITY_SD), joints
+        return compensated_posterior(equations, joints, geometry, static, GRAVITY_SD, law), joints
     return per_angle_posterior(equations, ident.identifiable), None
 
 
@@ -80,20 +82,21 @@ def sample_posterior(
     cf: ClosedForm,
     sampler: Sampler,
     geometry: GeometryPrior | None,
-    nominal_spring: tuple[float, float] | None,
+    nominal_spring: tuple[float, ...] | None,
     rng,
     static=None,
+    law: CompensatorLaw | None = None,
 ):
     """The posterior tree, its draws, the residuals (whitened) at the posterior mean and the number of parameters
     other than the noise levels.
 
-    ``cf`` is the closed form the chains start at; ``nominal_spring`` ``(K_c, s0)`` (N/m, m)
-    is their start when eq 34's spring does not fit; the other arguments are those of
-    :func:`posterior_density`.
+    ``cf`` is the closed form the chains start at; ``nominal_spring`` the compensator ``law``'s values (SI;
+    ``(K_c, s0)`` for the spring, the law when None) are their start when eq 34's do not fit; the other arguments
+    are those of :func:`posterior_density`.
     """
     sd = np.sqrt(np.diag(cf.cov))
     log_sigma_scale = np.full(cf.sigma.size, LOG_SIGMA_SCALE)
-    posterior, joints = posterior_density(equations, ident, geometry, static)
+    posterior, joints = posterior_density(equations, ident, geometry, static, law)
     if ident.compensator:
         prior = geometry
         geometry = np.empty(0) if prior.fixed else prior.mean
@@ -109,9 +112,9 @@ def sample_posterior(
         spring = cf.spring
         start = start_at(spring)
         if not np.isfinite(posterior(start)):
-            # Eq 34 can return a negative K_c or s0 when the data determine the spring
-            # loosely; the chains then start from the nominal spring instead.
-            spring = _nominal_start(cf, equations.compensated_angles, prior, nominal_spring)
+            # Eq 34 can return values outside the law's support (a negative K_c or s0) when the data determine
+            # them loosely; the chains then start from the nominal law instead.
+            spring = _nominal_start(cf, equations.compensated_angles, law_on(law, prior.mean, nominal_spring))
             start = start_at(spring)
         if not np.isfinite(posterior(start)):
             raise InputError(
@@ -119,7 +122,7 @@ def sample_posterior(
                 "with a positive joint-2 stiffness: the campaign does not determine the compensator"
             )
         geometry_sd = np.sqrt(np.diag(prior.cov)) if geometry.size else np.empty(0)
-        spring_sd = SPRING_SCALE * np.abs([start[len(joints)], 1.0, spring[2]])
+        spring_sd = np.concatenate([[REFERENCE_SCALE * abs(start[len(joints)])], posterior.block.law.block_scale(spring[1:])])
         scale = np.concatenate([k_sd, spring_sd, np.full(gravity.size, GRAVITY_SD), geometry_sd, log_sigma_scale])
         raw = sampler.sample(posterior, start, scale, rng)
         draws = ElastostaticDraws.compensated(posterior, joints, raw, equations.joint)
@@ -140,10 +143,11 @@ def sampler_coordinates(posterior, joints: tuple[int, ...] | None, draws: Elasto
         values = [draws.compliances[f"k{j + 1}"].reshape(-1) if a is None else draws.k2[..., a].reshape(-1) for j, a in columns]
         return np.column_stack([*values, sigma])
     block = posterior.block
-    K0, K_c, s0 = (draws.spring[..., i].reshape(-1) for i in range(3))
+    spring = draws.spring.reshape(-1, draws.spring.shape[-1])
     geometry = block.geometry.mean[None, :] if draws.geometry is None else draws.geometry.reshape(-1, 4)
-    reference = stiffness_regressor(block.q_ref, *(geometry[:, i] for i in range(4)))
-    z = [reference[..., 0] * K0 + reference[..., 1] * K_c + reference[..., 2] * s0 * K_c, np.log(K_c), s0]
+    geometry = np.broadcast_to(geometry, (spring.shape[0], 4))
+    reference = block.law.joint_stiffness_of(np.array([block.q_ref]), geometry, spring)[:, 0]
+    z = [reference, *block.law.block_coordinates(spring[:, 1:]).T]
     if draws.gravity is not None:
         z.append(draws.gravity.reshape(-1))
     if not block.geometry.fixed:

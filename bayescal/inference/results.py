@@ -24,16 +24,33 @@ from bayescal.inference.lack_of_fit import LackOfFit
 from bayescal.inference.priors import GeometryPrior
 from bayescal.jsonsafe import json_safe
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
-from bayescal.robot.compensator import stiffness_regressor
+from bayescal.robot.compensator import Compensator, law_on
+from bayescal.robot.laws import CompensatorLaw, LawParameter
 from bayescal.sampling.gibbs import ConditionallyLinear
 from bayescal.sampling.summary import converged, diagnostics
-from bayescal.units import DEG, MM, N_PER_MM, URAD_PER_NM
+from bayescal.units import DEG, MM, URAD_PER_NM
 
-__all__ = ["ElastostaticResults", "ElastostaticDraws"]
+__all__ = ["ElastostaticResults", "ElastostaticDraws", "edge_point", "linearisation_attrs", "stored_point"]
 
-LINEARISATION_ATTRS = ("linearised_K_c_N_per_mm", "linearised_s0_mm", "linearised_mass_scale")
-"""The posterior tree's attributes of the spring and link-mass scale the exact model's correction was linearised about,
-when not the config's spring and the URDF's masses."""
+def linearisation_attrs(law: tuple[LawParameter, ...]) -> tuple[str, ...]:
+    """The posterior tree's attributes of the law's values and link-mass scale the exact model's correction was
+    linearised about, when not the config's and the URDF's masses (``linearised_K_c_N_per_mm``, ``linearised_s0_mm``,
+    ``linearised_mass_scale`` for the spring)."""
+    return (*(f"linearised_{p.key}" for p in law), "linearised_mass_scale")
+
+
+def edge_point(point: tuple[float, ...], law: tuple[LawParameter, ...]) -> tuple[float, ...]:
+    """``(*law values, mass scale)`` from SI to the law's edge units (N/mm, mm for the spring) and 1."""
+    return (*(v / p.si_factor for v, p in zip(point[:-1], law)), point[-1])
+
+
+def stored_point(tree, law: tuple[LawParameter, ...]) -> tuple[float, ...] | None:
+    """The linearisation point (SI) a saved posterior records; None when it was the config's."""
+    names = linearisation_attrs(law)
+    if not all(name in tree.attrs for name in names):
+        return None
+    *values, masses = (float(tree.attrs[name]) for name in names)
+    return (*(v * p.si_factor for v, p in zip(values, law)), masses)
 
 
 @dataclass(frozen=True)
@@ -46,7 +63,8 @@ class ElastostaticDraws:
         ``{"k1": ..., "k2": ..., ...}`` joint compliances (rad/(N·m)) of the sampled joints;
         ``k2`` is ``1/K_theta2^0`` (joint 2 without its compensator) in the compensated model.
     spring : numpy.ndarray or None
-        ``(chain, draw, 3)``: ``K_theta2^0`` (N·m/rad), ``K_c`` (N/m), ``s0`` (m); None in the per-angle model.
+        ``(chain, draw, 1 + p)``: ``K_theta2^0`` (N·m/rad) and the law's values in SI (``K_c`` N/m, ``s0`` m for the
+        spring); None in the per-angle model.
     k2 : numpy.ndarray
         ``(chain, draw, m)`` equivalent joint-2 compliance (rad/(N·m)) at each campaign angle.
     sigma : numpy.ndarray
@@ -71,7 +89,7 @@ class ElastostaticDraws:
         z = raw[..., p : p + block.ndim]
         k2 = block.evaluate(z.reshape(-1, block.ndim))[0].reshape(*raw.shape[:2], -1)
         compliances = {f"k{j + 1}": raw[..., i] for i, j in enumerate(joints)}
-        spring = block.spring(z.reshape(-1, block.ndim)).reshape(*raw.shape[:2], 3)
+        spring = block.spring(z.reshape(-1, block.ndim)).reshape(*raw.shape[:2], -1)
         compliances[f"k{joint + 1}"] = 1.0 / spring[..., 0]
         gravity = block.gravity_scale(z.reshape(-1, block.ndim))
         a = block.n_adapted
@@ -134,8 +152,10 @@ class ElastostaticDraws:
         joints = [p for p in registry.parameters if p.name.startswith("k")]
         compliances = {p.name: p.to_si(values(p.name)) for p in joints if p.name in posterior}
         spring = None
-        if "K_c" in posterior:
-            spring = np.stack([1.0 / compliances[f"k{equations.joint + 1}"], registry["K_c"].to_si(values("K_c")), registry["s0"].to_si(values("s0"))], axis=-1)
+        law = registry.law_names
+        if law and law[0] in posterior:
+            own = 1.0 / compliances[f"k{equations.joint + 1}"]
+            spring = np.stack([own, *(registry[name].to_si(values(name)) for name in law)], axis=-1)
         geometry = None
         if "L" in posterior:
             geometry = np.stack([p.to_si(values(p.name)) for p in GEOMETRY_PARAMETERS], axis=-1)
@@ -153,7 +173,7 @@ class ElastostaticDraws:
         dims: dict[str, list[str]] = {"sigma": ["noise_group"]}
         coords: dict[str, list[str]] = {"noise_group": list(equations.group_names)}
         if self.spring is not None:
-            for i, name in ((1, "K_c"), (2, "s0")):
+            for i, name in enumerate(registry.law_names, start=1):
                 values[name] = registry[name].to_edge(self.spring[..., i])
                 units[name] = registry[name].unit
         variable = registry.per_angle_variable
@@ -216,6 +236,8 @@ class ElastostaticResults:
         Index (0-based) of the compensated joint, whose compliance is per angle; None without a compensator.
     prismatic : tuple of bool
         Which joints are prismatic (compliance in μm/N at the edges); empty: all revolute.
+    law : CompensatorLaw or None
+        The compensator's law at the geometry prior's mean; None: the spring of eqs 4-9.
     """
 
     tree: object
@@ -238,11 +260,12 @@ class ElastostaticResults:
     prismatic: tuple[bool, ...] = ()
     sampler_name: str = "gibbs"
     lack_of_fit: LackOfFit | None = None
+    law: CompensatorLaw | None = None
 
     @property
     def registry(self) -> ParameterRegistry:
         """The identified parameters of this robot: names, units, SI factors (no published values: the cell has them)."""
-        return ParameterRegistry(self.closed_form.compliances.size, self.prismatic, self.joint)
+        return ParameterRegistry(self.closed_form.compliances.size, self.prismatic, self.joint, law=(self.law or Compensator).PARAMETERS)
 
     @property
     def parameter_units(self) -> dict[str, str]:
@@ -322,8 +345,8 @@ class ElastostaticResults:
             "chi2_per_dof": self.chi2_per_dof,
             "nonlinearity_mm": self.nonlinearity / MM,
             "relinearisations": self.iterations,
-            "linearised_at": {name.removeprefix("linearised_"): float(self.tree.attrs[name]) for name in LINEARISATION_ATTRS}
-            if all(name in self.tree.attrs for name in LINEARISATION_ATTRS)
+            "linearised_at": {name.removeprefix("linearised_"): float(self.tree.attrs[name]) for name in linearisation_attrs(self.registry.law)}
+            if all(name in self.tree.attrs for name in linearisation_attrs(self.registry.law))
             else None,
             "lack_of_fit": None if self.lack_of_fit is None else self.lack_of_fit.to_json(),
         }
@@ -377,12 +400,10 @@ class ElastostaticResults:
         d = self.draws
         if d.spring is None:
             raise ValueError("the campaign does not identify the compensator model (fewer than three q2 angles)")
-        spring = d.spring.reshape(-1, 3)
+        spring = d.spring.reshape(-1, d.spring.shape[-1])
         geometry = d.geometry.reshape(-1, 4) if d.geometry is not None else np.broadcast_to(self.geometry.mean, (spring.shape[0], 4))
-        q2 = np.asarray(q2, dtype=float)
-        C = stiffness_regressor(q2[None, :], *(geometry[:, i, None] for i in range(4)))
-        w = np.column_stack([spring[:, 0], spring[:, 1], spring[:, 2] * spring[:, 1]])
-        return 1.0 / np.einsum("smk,sk->sm", C, w)
+        law = law_on(self.law, self.geometry.mean)
+        return 1.0 / law.joint_stiffness_of(np.asarray(q2, dtype=float), geometry, spring)
 
     def linear_vs_exact(self) -> pd.DataFrame | None:
         """How far the linear model of eq 30 would be from the exact one, in posterior sd.
@@ -403,8 +424,9 @@ class ElastostaticResults:
             pairs[name] = (exact.per_angle[index] / URAD_PER_NM, linear.per_angle[index] / URAD_PER_NM, ratio)
         if exact.spring is not None and linear.spring is not None:
             pairs[f"k{self.joint + 1}"] = (1.0 / exact.spring[0] / URAD_PER_NM, 1.0 / linear.spring[0] / URAD_PER_NM, math.nan)
-            pairs["K_c"] = (exact.spring[1] / N_PER_MM, linear.spring[1] / N_PER_MM, math.nan)
-            pairs["s0"] = (exact.spring[2] / MM, linear.spring[2] / MM, math.nan)
+            for i, name in enumerate(self.registry.law_names, start=1):
+                parameter = self.registry[name]
+                pairs[name] = (parameter.to_edge(exact.spring[i]), parameter.to_edge(linear.spring[i]), math.nan)
         summary = self.summary()
         names = [name for name in summary.index if name in pairs]
         shift = np.array([pairs[n][1] - pairs[n][0] for n in names])

@@ -96,6 +96,10 @@ class ArmDeflection:
         if missing:
             raise InputError(f"marker '{missing[0]}' of the cell of measured points is not on the elastostatic cell's tool "
                              f"(its markers: {', '.join(cell.markers)})", source=points.source)
+        if compensator is not None and not isinstance(compensator, Compensator):
+            # The refined parameters below are the spring's static coordinates (K_c, K_c·s0) by name.
+            raise InputError(f"the elastic rung refines a spring compensator's K_c and K_c·s0; the cell's is of kind "
+                             f"'{compensator.kind}'", source=cell.source)
         self.cell, self.points = cell, points
         self.compliances = np.asarray(compliances, dtype=float)
         self.compensator, self.gravity_scale = compensator, float(gravity_scale)

@@ -46,7 +46,7 @@ from bayescal.reports.review_parameters import (
 )
 from bayescal.reports.figures import plot_error_distribution, plot_pairs, plot_rank
 from bayescal.reports.plots import plot_eta_curves, plot_joint2_compliance
-from bayescal.robot.compensator import CompensatorGeometry
+from bayescal.robot.compensator import Compensator, CompensatorGeometry
 from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, diagnostics, summarize
 from bayescal.studies.precision import equivalent_compliance_band
 from bayescal.units import DEG, MM, UM, URAD_PER_NM
@@ -276,20 +276,9 @@ def _compensator_section(page: Page, results: ElastostaticResults, cell: Cell) -
     if cell.compensator is None:
         return
     page.heading("compensator", "The compensator: η(q2) and joint 2's compliance")
-    tree = results.tree["posterior"]
-    mean = results.geometry.mean
-    if "L" in tree:
-        mean = np.array([float(tree[p.name].mean()) * p.si_factor for p in GEOMETRY_PARAMETERS])
-    geometry = CompensatorGeometry(*mean)
-    s0 = float(tree["s0"].mean()) * MM if "s0" in tree else cell.compensator.s0
-    values = sorted({*(v * MM for v in ETA_S0_MM), s0})
-    page.record("eta_s0_mm", {"curves": [v / MM for v in values], "highlighted": s0 / MM})
-    page.figure(
-        "eta",
-        plot_eta_curves(geometry, values, highlight=s0),
-        f"η(q2) of eq 9 for several spring free lengths (the paper's Fig. 3); thick: s0 = {s0 / MM:.0f} mm "
-        f"({'posterior mean' if 's0' in tree else 'the cell’s'}).",
-    )
+    # η of eq 9 is the spring's: another law's compensator has the compliance band alone.
+    if isinstance(cell.compensator, Compensator):
+        _eta_figure(page, results, cell)
     if results.draws.spring is not None:
         # The cell's compliance and spring are nominal values, not a truth, for measured data.
         band = equivalent_compliance_band(results, cell).drop(columns="truth_urad_per_Nm")
@@ -306,6 +295,24 @@ def _compensator_section(page: Page, results: ElastostaticResults, cell: Cell) -
     else:
         page.paragraph("The campaign has fewer than three q2 angles: joint 2's compliance is known only at its own angles (table above).")
     page.close()
+
+
+def _eta_figure(page: Page, results: ElastostaticResults, cell: Cell) -> None:
+    """η(q2) of eq 9 for several free lengths of the cell's spring (the paper's Fig. 3)."""
+    tree = results.tree["posterior"]
+    mean = results.geometry.mean
+    if "L" in tree:
+        mean = np.array([float(tree[p.name].mean()) * p.si_factor for p in GEOMETRY_PARAMETERS])
+    geometry = CompensatorGeometry(*mean)
+    s0 = float(tree["s0"].mean()) * MM if "s0" in tree else cell.compensator.s0
+    values = sorted({*(v * MM for v in ETA_S0_MM), s0})
+    page.record("eta_s0_mm", {"curves": [v / MM for v in values], "highlighted": s0 / MM})
+    page.figure(
+        "eta",
+        plot_eta_curves(geometry, values, highlight=s0),
+        f"η(q2) of eq 9 for several spring free lengths (the paper's Fig. 3); thick: s0 = {s0 / MM:.0f} mm "
+        f"({'posterior mean' if 's0' in tree else 'the cell’s'}).",
+    )
 
 
 def _test_pose_section(page: Page, prediction: TestPosePrediction, cell: Cell | None) -> None:

@@ -88,10 +88,10 @@ def _parameter_section(page: Page, results: ElastostaticResults, facts: _Facts, 
             | ({"Table IV": _as_published, "Table IV ±3σ": _as_published, "Table IV ±3σ [%]": fixed(1)} if table_iv is not None else {}),
         ),
         caption=(
-            "k1..k6 in μrad/(N·m) (k2 without the compensator), K_c in N/mm, s0 in mm; "
+            f"k1..k6 in μrad/(N·m) (k2 without the compensator), {_law_units(results)}; "
             if table_iv is not None
             else f"k1..k{results.closed_form.compliances.size} in the unit of their row"
-            + ("; " if results.joint is None else f" (k{results.joint + 1} without the compensator), K_c in N/mm, s0 in mm; ")
+            + ("; " if results.joint is None else f" (k{results.joint + 1} without the compensator), {_law_units(results)}; ")
         )
         + "each mean rounded to two digits of its ±3σ; not identifiable parameters have no estimate (see the next section)",
     )
@@ -160,9 +160,14 @@ def _weak_table(page: Page, summary: pd.DataFrame) -> None:
     )
 
 
+def _law_units(results: ElastostaticResults) -> str:
+    """``K_c in N/mm, s0 in mm``: the compensator law's parameters and their edge units."""
+    return ", ".join(f"{name} in {results.registry[name].unit}" for name in results.registry.law_names)
+
+
 def _pairs_section(page: Page, results: ElastostaticResults, seed: int, table_iv: dict | None) -> None:
     tree = results.tree["posterior"]
-    names = [name for name in ("K_c", "s0", "k2", "k3") if name in tree]
+    names = [name for name in (*results.registry.law_names, "k2", "k3") if name in tree]
     if len(names) < 2:
         return
     page.heading("pairs", "Posterior pairs")
@@ -175,7 +180,8 @@ def _pairs_section(page: Page, results: ElastostaticResults, seed: int, table_iv
     page.figure(
         "pairs_elastostatic",
         plot_pairs(draws, reference=reference, reference_label="Table IV", seed=seed),
-        "Pairs of K_c, s0, k2 (joint 2 without compensator) and k3, with their correlation ρ; dashed: Table IV."
+        f"Pairs of {', '.join(results.registry.law_names)}, k2 (joint 2 without compensator) and k3, with their correlation ρ; "
+        "dashed: Table IV."
         if compared
         else f"Pairs of {', '.join(names)}"
         + ("" if results.joint is None else f" (k{results.joint + 1} without its compensator)")

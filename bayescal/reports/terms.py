@@ -10,6 +10,8 @@ the JSON written beside the page keeps the keys.
 
 from __future__ import annotations
 
+from bayescal.robot.kinds import LAWS
+
 __all__ = ["TERMS", "LABELS", "label"]
 
 TERMS = {
@@ -47,6 +49,9 @@ TERMS = {
     "Table II": "The compensator geometry, with ±3σ, that Klimchik et al. publish.",
 }
 """Term → one-line explanation; the page marks each term with a hover title and lists those it used."""
+# Every other compensator law's parameters, in its own words (the spring's are above).
+TERMS |= {p.name: f"{p.description[0].upper()}{p.description[1:]} ({p.unit})." for law in LAWS.values() for p in law.PARAMETERS if p.name not in TERMS}
+
 
 LABELS = {
     "rms": "rms over the draws",

@@ -29,10 +29,8 @@ import numpy as np
 from bayescal.robot.kinematics import Robot
 from bayescal.robot.stiffness import EquilibriumError
 
-from bayescal.robot.compensator import spring_stiffness, spring_torque
-
 if TYPE_CHECKING:
-    from bayescal.robot.compensator import Compensator
+    from bayescal.robot.laws import CompensatorLaw
 
 __all__ = ["BatchedChain", "Poses", "equilibria"]
 
@@ -282,7 +280,7 @@ class _Springs:
     """What the springs and the compensator add to the equilibrium of ``N`` configurations."""
 
     compliances: np.ndarray
-    compensator: Compensator | None
+    compensator: CompensatorLaw | None
     joint: int | None
     gravity: bool
     spring: np.ndarray | None = None
@@ -306,9 +304,8 @@ def _joint_load(chain: BatchedChain, q: np.ndarray, theta: np.ndarray, loads: _L
             torque[:, j] -= springs.compensator.torque(linked[:, j])
             derivative[:, j, j] -= springs.compensator.stiffness(linked[:, j])
         else:
-            K_c, s0 = springs.spring[:, 0], springs.spring[:, 1]
-            torque[:, j] -= spring_torque(springs.compensator, K_c, s0, linked[:, j])
-            derivative[:, j, j] -= spring_stiffness(springs.compensator, K_c, s0, linked[:, j])
+            torque[:, j] -= springs.compensator.torque_of(springs.spring, linked[:, j])
+            derivative[:, j, j] -= springs.compensator.stiffness_of(springs.spring, linked[:, j])
     return torque, derivative
 
 
@@ -318,7 +315,7 @@ def equilibria(
     wrench: np.ndarray,
     compliances: np.ndarray,
     *,
-    compensator: Compensator | None = None,
+    compensator: CompensatorLaw | None = None,
     compensated_joint: int | None = None,
     load_point: np.ndarray | None = None,
     gravity: bool = True,
@@ -349,8 +346,9 @@ def equilibria(
     gravity
         Include the links' weights.
     springs
-        ``(N, 2)`` or ``(2,)`` each configuration's compensator spring ``[K_c, s0]`` (N/m, m) in place of
-        ``compensator``'s, whose linkage stays: many springs solved in one call; None: ``compensator``'s own.
+        ``(N, p)`` or ``(p,)`` each configuration's values of the compensator law's parameters (SI; the spring's
+        ``[K_c, s0]``, N/m and m) in place of ``compensator``'s, whose linkage stays: many variants solved in one
+        call; None: ``compensator``'s own.
     tol, max_iter
         Convergence threshold on the Newton step (rad) and the largest number of iterations.
 
@@ -369,7 +367,7 @@ def equilibria(
     return _solve_in_chunks(chain, q, _loads(chain, q, wrench, load_point), joint_springs, tol, max_iter)
 
 
-def _checked_springs(q: np.ndarray, compliances, compensator: Compensator | None, compensated_joint: int | None, gravity: bool,
+def _checked_springs(q: np.ndarray, compliances, compensator: CompensatorLaw | None, compensated_joint: int | None, gravity: bool,
                      springs) -> _Springs:
     """The joints' springs of :func:`equilibria`'s arguments, refusing non-positive compliances and a half-given compensator."""
     k = np.broadcast_to(np.asarray(compliances, dtype=float), q.shape)
@@ -380,7 +378,7 @@ def _checked_springs(q: np.ndarray, compliances, compensator: Compensator | None
     if springs is not None:
         if compensator is None:
             raise ValueError("springs replace a compensator's spring: give the compensator too")
-        springs = np.array(np.broadcast_to(np.asarray(springs, dtype=float), (len(q), 2)))
+        springs = np.array(np.broadcast_to(np.asarray(springs, dtype=float), (len(q), len(compensator.PARAMETERS))))
     return _Springs(np.array(k), compensator, compensated_joint, gravity, springs)
 
 

@@ -23,35 +23,38 @@ the generalized force ``-M_c(q2)``: it opposes gravity, which pulls the arm
 toward increasing q2.  Its stiffness contribution ``dM_c/dq2 = K_c a L eta``
 adds to the joint's own stiffness (eq 8).
 
-The spring of eqs 4-9 is the one kind of compensator; it sits on any joint
-(``[compensator] joint`` of the cell) or on none.  Klimchik et al. note that
-the approach "can be evidently applied to other compensator types" (a gas or
-hydraulic balancer).  Another kind is one class beside :class:`Compensator`
-with its two laws in SI, both vectorised over the joint angle:
-``torque(q)``, the generalized force ``M_c(q)`` it takes off the joint
-(N·m), and ``stiffness(q) = dM_c/dq``, what it adds to the joint's stiffness
-(N·m/rad), with ``equivalent_compliance`` and ``own_compliance`` following
-from it as here.  The static equilibria of :mod:`bayescal.robot.stiffness`
-(hence the twin, the exact model, the test pose and ``bayescal compensate``)
-ask only these.  The identification then takes the compensated joint's
-compliance per angle (eq 33) for any kind; separating the kind's own
-parameters from that joint's stiffness, as eq 34 does for ``K_c`` and ``s0``,
-needs the kind's regressor in place of :func:`stiffness_regressor` in
-:mod:`bayescal.inference.likelihood` and :mod:`bayescal.inference.closedform`.
+The spring of eqs 4-9 is one law of :class:`~bayescal.robot.laws.CompensatorLaw`
+(``kind = "spring"`` in the cell's ``[compensator]``, the default); it sits on
+any joint (``[compensator] joint`` of the cell) or on none.  Klimchik et al.
+note that the approach "can be evidently applied to other compensator types":
+:mod:`bayescal.robot.hydro` is the hydro-pneumatic balancer on the same linkage.
+The static equilibria of :mod:`bayescal.robot.stiffness` ask a law only its
+``torque(q)`` and ``stiffness(q)``; the identification asks its regressor (eq
+35 here) and the map from its linear parameters (``K_c``, ``s0·K_c``) back to
+its own.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["CompensatorGeometry", "Compensator", "MIN_ANGLES", "alpha", "spring_stiffness", "spring_torque", "stiffness_regressor"]
+from bayescal.robot.laws import LawParameter
+from bayescal.units import MM, N_PER_MM
+
+__all__ = ["CompensatorGeometry", "Compensator", "JointCompliance", "MIN_ANGLES", "SPRING_SCALE", "law_on", "alpha", "spring_stiffness", "spring_torque", "stiffness_regressor"]
 
 MIN_ANGLES = 3
 """Distinct angles of the compensated joint that eq 34 needs: one per unknown, K_θ^0, K_c and s0·K_c."""
+
+
+SPRING_SCALE = np.array([0.05, 0.02])
+"""Typical posterior sd of ``log K_c`` and ``s0`` (relative) when the data determine them: the scale of the Gibbs
+sampler's mode search and of emcee's initial ball."""
 
 
 def _out(value: np.ndarray) -> np.ndarray | float:
@@ -129,6 +132,11 @@ class CompensatorGeometry:
             raise ValueError("a equals L: the spring length reaches zero")
 
     @property
+    def vector(self) -> np.ndarray:
+        """``[L, a_x, a_y, phi]`` (m, rad)."""
+        return np.array([self.L, self.a_x, self.a_y, self.phi])
+
+    @property
     def a(self) -> float:
         """Distance ``|P0 P2|`` in m."""
         return math.hypot(self.a_x, self.a_y)
@@ -156,8 +164,36 @@ class CompensatorGeometry:
         return Compensator(self.L, self.a_x, self.a_y, self.phi, K_c, s0)
 
 
+class JointCompliance:
+    """What follows of a law's ``stiffness(q)`` for the joint it acts on (eq 8); a mixin of every law."""
+
+    def joint_stiffness(self, q2: ArrayLike, K0: float) -> np.ndarray | float:
+        """Equivalent stiffness of joint 2, ``K_θ2 = K0 + dM_c/dq`` in N·m/rad, eq 8.
+
+        Parameters
+        ----------
+        q2
+            Joint angle(s) in rad.
+        K0
+            Stiffness of joint 2 without its compensator, ``K_θ2^0``, in N·m/rad.
+        """
+        return _out(K0 + np.asarray(self.stiffness(q2)))
+
+    def equivalent_compliance(self, q2: ArrayLike, own: ArrayLike) -> np.ndarray | float:
+        """Compliance of joint 2 with its compensator, ``1 / (1/own + dM_c/dq)`` (eq 8), in rad/(N·m).
+
+        ``own`` is the joint's compliance without the compensator, ``1/K_θ2^0``.
+        """
+        return _out(1.0 / (1.0 / np.asarray(own, dtype=float) + np.asarray(self.stiffness(q2))))
+
+    def own_compliance(self, q2: ArrayLike, equivalent: ArrayLike) -> np.ndarray | float:
+        """The inverse of :meth:`equivalent_compliance`: joint 2's own compliance ``1/K_θ2^0`` (rad/(N·m))
+        that, with this compensator at ``q2``, gives the ``equivalent`` compliance."""
+        return _out(1.0 / (1.0 / np.asarray(equivalent, dtype=float) - np.asarray(self.stiffness(q2))))
+
+
 @dataclass(frozen=True)
-class Compensator(CompensatorGeometry):
+class Compensator(CompensatorGeometry, JointCompliance):
     """A spring compensator: the linkage geometry plus the spring (eqs 5-9).
 
     Parameters
@@ -173,12 +209,33 @@ class Compensator(CompensatorGeometry):
     K_c: float
     s0: float
 
+    kind: ClassVar[str] = "spring"
+    PARAMETERS: ClassVar[tuple[LawParameter, ...]] = (
+        LawParameter("K_c", "K_c", N_PER_MM, "N/mm", "K_c_N_per_mm", "stiffness of the compensator's spring (eq 7)", "non_negative"),
+        LawParameter("s0", "s_0", MM, "mm", "s0_mm", "free length of the compensator's spring (eq 7)", "non_negative"),
+    )
+    CONSTANTS: ClassVar[tuple[LawParameter, ...]] = ()
+    COORDINATES: ClassVar[tuple[str, ...]] = ("log_K_c", "s0")
+    LINEAR: ClassVar[tuple[str, ...]] = ("K_c", "s0*K_c")
+    REQUIRES: ClassVar[dict[str, str]] = {"s0": "K_c"}
+    THROUGH: ClassVar[dict[str, str]] = {"s0": "the product s0·K_c"}
+    EXACT_REGRESSOR: ClassVar[bool] = True
+
     def __post_init__(self) -> None:
         super().__post_init__()
         if not (math.isfinite(self.K_c) and self.K_c >= 0):
             raise ValueError(f"K_c must be finite and non-negative, got {self.K_c}")
         if not (math.isfinite(self.s0) and self.s0 >= 0):
             raise ValueError(f"s0 must be finite and non-negative, got {self.s0}")
+
+    @property
+    def values(self) -> tuple[float, float]:
+        """``(K_c, s0)`` in N/m and m."""
+        return (self.K_c, self.s0)
+
+    def at(self, geometry: ArrayLike, values: ArrayLike) -> Compensator:
+        """A spring ``values`` ``(K_c, s0)`` (N/m, m) on ``geometry`` ``[L, a_x, a_y, phi]`` (m, rad)."""
+        return Compensator(*(float(v) for v in geometry), *(float(v) for v in values))
 
     @property
     def geometry(self) -> CompensatorGeometry:
@@ -204,29 +261,99 @@ class Compensator(CompensatorGeometry):
         """The compensator's contribution ``K_c a L eta = dM_c/dq2`` to joint 2, in N·m/rad."""
         return _out(spring_stiffness(self, self.K_c, self.s0, q2))
 
-    def joint_stiffness(self, q2: ArrayLike, K0: float) -> np.ndarray | float:
-        """Equivalent stiffness of joint 2, ``K_θ2 = K0 + K_c a L eta`` in N·m/rad, eq 8.
+    def linear(self, values: ArrayLike) -> np.ndarray:
+        """``[K_c, s0·K_c]`` (N/m, N) of ``(..., 2)`` values ``[K_c, s0]``: the unknowns of eq 35."""
+        values = np.asarray(values, dtype=float)
+        return np.stack([values[..., 0], values[..., 1] * values[..., 0]], axis=-1)
 
-        Parameters
-        ----------
-        q2
-            Joint angle(s) in rad.
-        K0
-            Stiffness of joint 2 without its compensator, ``K_θ2^0``, in N·m/rad.
-        """
-        return _out(K0 + np.asarray(self.stiffness(q2)))
+    def from_linear(self, w: ArrayLike) -> np.ndarray:
+        """``[K_c, s0]`` of eq 35's ``w = [K_c, s0·K_c]`` (``s0`` nan when ``K_c`` is 0)."""
+        return np.array([w[0], w[1] / w[0] if w[0] != 0 else np.nan])
 
-    def equivalent_compliance(self, q2: ArrayLike, own: ArrayLike) -> np.ndarray | float:
-        """Compliance of joint 2 with its compensator, ``1 / (1/own + K_c a L eta)`` (eq 8), in rad/(N·m).
+    def linear_jacobian(self, w: ArrayLike) -> np.ndarray:
+        """``(2, 2)`` derivatives of ``[K_c, s0] = [w0, w1 / w0]`` with respect to ``w``."""
+        return np.array([[1.0, 0.0], [-w[1] / w[0] ** 2, 1.0 / w[0]]])
 
-        ``own`` is the joint's compliance without the compensator, ``1/K_θ2^0``.
-        """
-        return _out(1.0 / (1.0 / np.asarray(own, dtype=float) + np.asarray(self.stiffness(q2))))
+    def torque_of(self, values: np.ndarray, q: ArrayLike) -> np.ndarray:
+        """``M_c`` (N·m) of springs ``values`` ``(N, 2)`` ``[K_c, s0]`` on this linkage at angles ``q`` ``(N,)``."""
+        return spring_torque(self, values[:, 0], values[:, 1], q)
 
-    def own_compliance(self, q2: ArrayLike, equivalent: ArrayLike) -> np.ndarray | float:
-        """The inverse of :meth:`equivalent_compliance`: joint 2's own compliance ``1/K_θ2^0`` (rad/(N·m))
-        that, with this compensator at ``q2``, gives the ``equivalent`` compliance."""
-        return _out(1.0 / (1.0 / np.asarray(equivalent, dtype=float) - np.asarray(self.stiffness(q2))))
+    def stiffness_of(self, values: np.ndarray, q: ArrayLike) -> np.ndarray:
+        """``dM_c/dq`` (N·m/rad) of springs ``values`` ``(N, 2)`` on this linkage at angles ``q`` ``(N,)``."""
+        return spring_stiffness(self, values[:, 0], values[:, 1], q)
+
+    def compliance_gradient(self, q: ArrayLike, effective: ArrayLike) -> np.ndarray:
+        """``(..., 2)`` derivatives in ``K_c`` and ``s0`` of the joint's equivalent compliance ``effective``
+        (rad/(N·m)) at angle(s) ``q``: ``-effective²`` times those of ``K_c a L eta``, which with eq 35's
+        ``C1·K_c + C2·s0·K_c`` are ``C1 + s0·C2`` and ``K_c·C2``."""
+        regressor = self.regressor(q)
+        c1, c2 = regressor[..., 1], regressor[..., 2]
+        return np.stack([-effective**2 * (c1 + self.s0 * c2), -effective**2 * self.K_c * c2], axis=-1)
+
+    def prior_sd(self) -> dict[str, float | None]:
+        """``{name: prior sd}`` in edge units, None for K_c's flat prior on the half-line; s0's is flat on
+        ``(0, a + L)`` (:meth:`block_inside`): its sd is the width over sqrt(12)."""
+        return {"K_c": None, "s0": (math.hypot(self.a_x, self.a_y) + self.L) / math.sqrt(12.0) / MM}
+
+    def joint_stiffness_of(self, q: ArrayLike, geometry: np.ndarray, spring: np.ndarray) -> np.ndarray:
+        """``(S, m)`` eq 8's ``K_θ^0 + K_c a L eta`` at ``(m,)`` angles for ``(S, 4)`` geometries and ``(S, 3)`` springs."""
+        C = stiffness_regressor(np.asarray(q, dtype=float)[None, :], *(geometry[:, i, None] for i in range(4)))
+        w = np.column_stack([spring[:, 0], spring[:, 1], spring[:, 2] * spring[:, 1]])
+        return np.einsum("smk,sk->sm", C, w)
+
+    def block_rows(self, q: np.ndarray, geometry: np.ndarray | None) -> np.ndarray:
+        """``(c|1, m + 1, 3)`` eq-35 rows at ``q`` for ``(c, 4)`` geometries (this spring's own when None)."""
+        if geometry is None:
+            return stiffness_regressor(q, self.L, self.a_x, self.a_y, self.phi)[None]
+        return stiffness_regressor(q[None, :], *(geometry[:, i, None] for i in range(4)))
+
+    def block_change(self, z: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """``(c, m)`` ``K_c a L (eta(q) - eta(q_ref))`` at ``z = [log K_c, s0]``."""
+        change = rows[..., :-1, 1:] - rows[..., -1:, 1:]
+        return np.exp(z[:, 0])[:, None] * (change[..., 0] + change[..., 1] * z[:, 1:2])
+
+    def block_reference(self, z: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """``(c,)`` ``K_c a L eta(q_ref)`` at ``z = [log K_c, s0]``."""
+        reference = rows[..., -1, :]
+        return np.exp(z[:, 0]) * (reference[..., 1] + reference[..., 2] * z[:, 1])
+
+    def block_values(self, z: np.ndarray) -> np.ndarray:
+        """``(c, 2)`` ``[K_c, s0]`` of ``z = [log K_c, s0]``."""
+        return np.column_stack([np.exp(z[:, 0]), z[:, 1]])
+
+    def block_coordinates(self, values: ArrayLike) -> np.ndarray:
+        """``(..., 2)`` ``[log K_c, s0]`` of ``(..., 2)`` ``[K_c, s0]`` (``-inf`` or nan outside the support)."""
+        values = np.asarray(values, dtype=float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.stack([np.log(values[..., 0]), values[..., 1]], axis=-1)
+
+    def block_log_jacobian(self, z: np.ndarray) -> np.ndarray:
+        """``log K_c``: K_c's flat prior on the positive half-line in ``log K_c``."""
+        return z[:, 0]
+
+    def block_inside(self, z: np.ndarray, geometry: np.ndarray) -> np.ndarray:
+        """``0 < s0 < a + L``, the longest the spring can be (s0's flat prior; an unbounded one would leave the
+        posterior improper whenever the data do not exclude ``K_c = 0``, where s0 has no effect)."""
+        return (z[:, 1] > 0) & (z[:, 1] < np.hypot(geometry[:, 1], geometry[:, 2]) + geometry[:, 0])
+
+    def block_scale(self, values: ArrayLike) -> np.ndarray:
+        """:data:`SPRING_SCALE` of ``log K_c`` and of ``s0`` relative to ``values[1]``."""
+        return SPRING_SCALE * np.abs([1.0, values[1]])
+
+    def static_point(self, values: ArrayLike) -> np.ndarray:
+        """``(..., 2)`` ``[K_c, K_c s0]`` (N/m, N): the static torque of eq 7 is linear in them."""
+        values = np.asarray(values, dtype=float)
+        return np.stack([values[..., 0], values[..., 0] * values[..., 1]], axis=-1)
+
+    def from_static(self, u: ArrayLike) -> tuple[float, float]:
+        """``(K_c, s0)`` of ``u = [K_c, K_c s0]``."""
+        return float(u[0]), float(u[1] / u[0])
+
+    def static_steps(self, values: ArrayLike, steps: ArrayLike) -> list[tuple[float, tuple[float, float]]]:
+        """``K_c`` moved by ``steps[0]`` of itself at fixed ``K_c s0``, then ``K_c s0`` by ``steps[1]`` of itself."""
+        Kc, s0 = values
+        dKc, dP = steps[0] * Kc, steps[1] * Kc * s0
+        return [(dKc, (Kc + dKc, Kc * s0 / (Kc + dKc))), (dP, (Kc, s0 + dP / Kc))]
 
 
 def spring_torque(geometry: CompensatorGeometry, K_c: ArrayLike, s0: ArrayLike, q2: ArrayLike) -> np.ndarray:
@@ -247,3 +374,14 @@ def _eta(geometry: CompensatorGeometry, s0: ArrayLike, q2: ArrayLike) -> np.ndar
 def spring_stiffness(geometry: CompensatorGeometry, K_c: ArrayLike, s0: ArrayLike, q2: ArrayLike) -> np.ndarray:
     """:meth:`Compensator.stiffness` (N·m/rad, ``K_c a L eta``) of springs ``K_c`` and ``s0`` on one ``geometry``, arguments broadcast."""
     return K_c * geometry.a * geometry.L * np.asarray(_eta(geometry, s0, q2))
+
+
+def law_on(law, geometry: ArrayLike, values: ArrayLike | None = None):
+    """The law ``law`` on ``geometry`` ``[L, a_x, a_y, phi]`` (m, rad) with ``values`` (default: its own).
+
+    ``law`` None stands for the spring of eqs 4-9 (its ``values`` zero unless given): what a caller that names no
+    law (a model built by hand rather than from a cell) meant before there was more than one.
+    """
+    if law is None:
+        return Compensator(*(float(g) for g in geometry), *((0.0, 0.0) if values is None else (float(v) for v in values)))
+    return law.at(geometry, law.values if values is None else values)

@@ -34,7 +34,7 @@ import numpy as np
 from bayescal.robot.kinematics import Robot, Workspace
 
 if TYPE_CHECKING:
-    from bayescal.robot.compensator import Compensator
+    from bayescal.robot.laws import CompensatorLaw
 
 __all__ = [
     "EquilibriumError",
@@ -106,7 +106,7 @@ def compliance_design(robot: Robot | Workspace, q, point_in_flange, wrench) -> n
     return workspace.point_jacobian(q, point_in_flange) * torques[np.newaxis, :]
 
 
-def joint_stiffness(q, compliances, compensator: Compensator | None = None, joint: int | None = None) -> np.ndarray:
+def joint_stiffness(q, compliances, compensator: CompensatorLaw | None = None, joint: int | None = None) -> np.ndarray:
     """(nq, nq) joint stiffness ``K_θ(q)`` in N·m/rad: ``diag(1/k)`` plus the compensator on ``joint`` (0-based; eq 8).
 
     ``compliances[joint]`` is the compliance of that joint without its compensator, ``1/K_θ2^0``.
@@ -174,7 +174,7 @@ class ElasticArm:
 
     robot: Robot
     joints: JointLaw
-    compensator: Compensator | None = None
+    compensator: CompensatorLaw | None = None
     gravity: bool = True
     load_point: np.ndarray | None = None
     compensated_joint: int | None = None

@@ -146,8 +146,8 @@ def _one_campaign(index: int, rng: np.random.Generator, *, cell, sampler, spread
 
 @dataclasses.dataclass(frozen=True)
 class Truth:
-    """What the twin simulates where the cell only guesses: joint compliances (rad/(N·m)), the spring
-    ``(K_c (N/m), s0 (m))`` (None without a compensator) and a factor on every link's mass."""
+    """What the twin simulates where the cell only guesses: joint compliances (rad/(N·m)), the compensator law's
+    values (SI; the spring's ``(K_c (N/m), s0 (m))``; None without a compensator) and a factor on every link's mass."""
 
     compliances: np.ndarray
     spring: tuple[float, float] | None
@@ -201,7 +201,7 @@ def fit_against_truth(
         cell,
         robot=scale_masses(cell.robot, truth.masses),
         compliances=truth.compliances,
-        compensator=None if truth.spring is None else cell.compensator.geometry.with_spring(*truth.spring),
+        compensator=None if truth.spring is None else cell.compensator.at(cell.compensator.vector, truth.spring),
         tracker=tracker,
     )
     plan = random_plan(cell, *size[:2], rng)

@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pinocchio as pin
 
-from bayescal.robot.compensator import Compensator
+from bayescal.robot.laws import CompensatorLaw
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
 from bayescal.robot.stiffness import JointLaw
@@ -46,7 +46,7 @@ __all__ = [
 class Effect(Planted):
     """Base class: an effect of the twin that changes nothing.  ``magnitude`` is in the effect's :attr:`unit`."""
 
-    def compensator(self, compensator: Compensator | None) -> Compensator | None:
+    def compensator(self, compensator: CompensatorLaw | None) -> CompensatorLaw | None:
         """The compensator the twin uses."""
         return compensator
 
@@ -82,10 +82,12 @@ class CompensatorScale(Effect):
     default = 1.0
     summary = "the cell's spring compensator, K_c scaled by the magnitude (0: a plain serial robot)"
 
-    def compensator(self, compensator: Compensator | None) -> Compensator | None:
+    def compensator(self, compensator: CompensatorLaw | None) -> CompensatorLaw | None:
         if compensator is None or self.magnitude == 0:
             return None
-        return replace(compensator, K_c=compensator.K_c * self.magnitude)
+        # The law's first parameter sets its force's scale: the spring's K_c.
+        name = compensator.PARAMETERS[0].name
+        return replace(compensator, **{name: getattr(compensator, name) * self.magnitude})
 
 
 def _beam_compliance(length: float, EI: float, GJ: float, EA: float) -> np.ndarray:
