@@ -161,7 +161,7 @@ def _text(results, test_pose, args, reference_file) -> str:
 
     from bayescal.inference.identifiability import grouped
     from bayescal.reference import beside_published, read_paper_reference, width_3sd_pct
-    from bayescal.reports.numbers import rounded_pair, with_uncertainty
+    from bayescal.numbers import rounded_pair, with_uncertainty
 
     parameters = results.parameters()
     estimates = pd.DataFrame(
@@ -220,7 +220,7 @@ def _closing_lines(results, test_pose, reasons) -> list[str]:
     """Diagnostics, the test pose (errors in μm, deflections in mm) and what to do next."""
     from bayescal.inference.equations import HANGING_ONLY_REASON
     from bayescal.reports.next_steps import calibration_next_steps
-    from bayescal.reports.numbers import error_um
+    from bayescal.numbers import error_um
     from bayescal.reports.test_pose import test_pose_lines
     from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, converged
 

@@ -97,7 +97,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
 
 def _text(args, summary, closed_table, result, paper) -> str:
-    from bayescal.reports.numbers import decimals_of, fixed, rounded_pair
+    from bayescal.numbers import decimals_of, fixed, rounded_pair
 
     header = (
         f"{'parameter':<16}{'unit':<5}{'mean':>11}{'sd':>9}{'mean-3sd':>11}{'mean+3sd':>11}{'r_hat':>7}"
@@ -110,7 +110,7 @@ def _text(args, summary, closed_table, result, paper) -> str:
         "-" * len(header),
     ]
     for name, row in summary.iterrows():
-        # Every number of a row to the decimal of the second significant digit of its sd (bayescal.reports.numbers).
+        # Every number of a row to the decimal of the second significant digit of its sd (bayescal.numbers).
         shown = fixed(decimals_of(row["sd"]))
         closed = f"{shown(closed_table.loc[name, 'value']):>13}" if name in closed_table.index else " " * 13
         published = ""

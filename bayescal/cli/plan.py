@@ -96,7 +96,7 @@ def _text(payload: dict, table, cell) -> list[str]:
     import math
     import textwrap
 
-    from bayescal.reports.numbers import rounded_pair
+    from bayescal.numbers import rounded_pair
 
     criterion = payload["criterion"]
     lines = []
@@ -104,7 +104,7 @@ def _text(payload: dict, table, cell) -> list[str]:
         loads = f", forces of {payload['force_max_N']:.0f} N in directions of the design" if "force_max_N" in payload else ""
         angles = ", ".join(f"{v:.1f}" for v in payload["q2_deg"])
         lines.append(f"wrote {payload['output']}: {payload['configurations']} configurations at q2 = {angles} deg{loads}")
-    from bayescal.reports.numbers import error_length
+    from bayescal.numbers import error_length
 
     if criterion is None:
         lines.append("predicted rms error left at the test pose after compensation (ρ0, eq 38): not predictable")
@@ -182,7 +182,7 @@ def _discriminate(args: argparse.Namespace, cell) -> CommandOutput:
     from bayescal.design.constraints import load_design_space
     from bayescal.design.discriminate import PER_ANGLE, STARTS, DiscriminatingDesigner
     from bayescal.errors import InputError
-    from bayescal.reports.numbers import fixed, table_texts
+    from bayescal.numbers import fixed, table_texts
 
     if args.criterion != "discriminate" or args.between is None or args.campaign is None:
         raise InputError("--between A,B and --campaign CAMPAIGN.csv go together with --criterion discriminate", source="--criterion")

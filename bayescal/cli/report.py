@@ -11,7 +11,6 @@ from bayescal.output import guard_outputs, record_read, write_folder
 from ._command import CommandOutput, add_common_options
 from ._nests import add_nests_option, read_nests_in_base
 from ._registered import read_campaign_in_base
-from .paper_reports import add_options as add_paper_options, run_paper_reports
 
 __all__ = ["add_parser", "run", "MAX_CHI2_PER_DOF"]
 
@@ -64,7 +63,6 @@ def add_parser(subparsers) -> None:
     )
     parser.add_argument("-o", "--output", metavar="FOLDER", help="report folder, created when missing (its parent must exist)")
     add_nests_option(parser)
-    add_paper_options(parser)
     add_common_options(parser)
     parser.set_defaults(run=run)
 
@@ -72,12 +70,8 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.errors import InputError
 
-    if args.paper_reports:
-        return run_paper_reports(args)
-    if args.only:
-        raise InputError("--only selects among the --paper-reports; give --paper-reports FOLDER", source="--only")
     if not args.output:
-        raise InputError("expected -o FOLDER, the folder of the review (or --paper-reports FOLDER)", source="-o")
+        raise InputError("expected -o FOLDER, the folder of the review", source="-o")
     inputs = {
         "the --geometry posterior": args.geometry,
         "the --calibration posterior": args.calibration,
@@ -148,7 +142,7 @@ def _read_inputs(args: argparse.Namespace):
             read_frame(args.registration, name, cell)
     if args.calibration:
         from bayescal.compensation.calibration import check_calibration_robot
-        from bayescal.studies.review import calibration_findings
+        from bayescal.compensation.review import calibration_findings
 
         sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
         campaign, cell, _ = read_campaign_in_base(args, args.campaign, cell)

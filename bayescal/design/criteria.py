@@ -81,7 +81,7 @@ CRITERIA = ("test-pose", "compensator", "d-optimal")
 
 UNEXCITED = 1e-18
 """A parameter whose information is below this fraction of the largest is not excited by the plan
-(the square of the 1e-9 column-norm ratio of :mod:`bayescal.studies.precision`)."""
+(the square of the 1e-9 column-norm ratio of :mod:`bayescal_studies.studies.precision`)."""
 
 SINGULAR = 1e-14
 """Smallest eigenvalue, relative to the largest, of an information matrix that can still be inverted

@@ -9,7 +9,7 @@ from collections.abc import Mapping
 
 import pandas as pd
 
-from bayescal.reports.numbers import fixed, table_texts
+from bayescal.numbers import fixed, table_texts
 from bayescal.reports.page import Page
 
 __all__ = ["ladder_section"]

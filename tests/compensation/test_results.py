@@ -9,7 +9,7 @@ import pandas as pd
 
 from bayescal.compensation import compensate_program
 from bayescal.compensation.calibration import Calibration
-from bayescal.studies.compensation import random_program
+from bayescal_studies.studies.compensation import random_program
 
 
 def _results(cell, tolerance=None):

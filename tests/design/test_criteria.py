@@ -20,7 +20,7 @@ from bayescal.design.criteria import (
 )
 from bayescal.design.linearisation import ExactLinearisation
 from bayescal.design.prediction import predict
-from bayescal.studies.precision import design_precision
+from bayescal_studies.studies.precision import design_precision
 
 
 def _information(cell, plan, repeats=3, exact=None):
@@ -96,7 +96,7 @@ def test_exact_linearisation_agrees_with_eq_31_on_the_joints(cell, plan):
 
 
 def test_a_hanging_plan_and_one_with_sideways_loads_are_scored_on_one_footing(cell, plan):
-    from bayescal.studies.load_directions import sideways
+    from bayescal_studies.studies.load_directions import sideways
 
     hanging = predict(cell, _information(cell, plan))
     turned_plan = sideways(cell, plan, 3)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from bayescal.registration.critique import CANDIDATES, critique_sweeps
-from bayescal.studies.sweep_critique import FOUND_AS, HOME_DEG, _as_sweeps, false_alarms, found, sweep_critique_study
+from bayescal_studies.studies.sweep_critique import FOUND_AS, HOME_DEG, _as_sweeps, false_alarms, found, sweep_critique_study
 from bayescal.twin.independent.sweeps import SweepEffect, independent_sweeps
 from bayescal.twin.sweeps import random_placement
 
