@@ -12,14 +12,13 @@ from bayescal.design.criteria import (
     CRITERIA,
     configuration_design,
     configuration_information,
-    criterion_value,
     criterion_values,
     prior_mean_square,
     test_pose_design,
     wrench_information,
 )
 from bayescal.design.linearisation import ExactLinearisation
-from bayescal.design.prediction import predict
+from bayescal.design.prediction import criterion_value, predict
 from bayescal_studies.studies.precision import design_precision
 
 
