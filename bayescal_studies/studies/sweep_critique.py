@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from bayescal.cell.config import Cell
-from bayescal.registration.critique import critique_sweeps
+from bayescal.critique.sweeps import critique_sweeps
 from bayescal.registration.sweeps import Sweeps
 from bayescal.design.parallel import seeded_map
 from bayescal.twin.independent.sweeps import SweepEffect, independent_sweeps

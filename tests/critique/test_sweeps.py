@@ -1,4 +1,4 @@
-"""The sweep critique (bayescal.registration.critique), measured on sweeps it was not built from.
+"""The sweep critique (bayescal.critique.sweeps), measured on sweeps it was not built from.
 
 The rule was set on the digital twin's clean sweeps (bayescal.twin.sweeps); the effects are planted by the
 independent generator (bayescal.twin.independent.sweeps), in forms of its own and with its own noise.
@@ -12,7 +12,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from bayescal.registration.critique import CANDIDATES, critique_sweeps
+from bayescal.critique.sweeps import CANDIDATES, critique_sweeps
 from bayescal_studies.studies.sweep_critique import FOUND_AS, HOME_DEG, _as_sweeps, false_alarms, found, sweep_critique_study
 from bayescal.twin.independent.sweeps import SweepEffect, independent_sweeps
 from bayescal.twin.sweeps import random_placement
