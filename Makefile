@@ -29,9 +29,10 @@ demo: $(STAMP)
 	$(BIN)/bayescal report --geometry build/geometry_posterior.nc --calibration build/elastostatic_posterior.nc \
 	    --campaign build/campaign.csv --config data/kr270.toml --plan build/plan.json --critique build/critique.json -o build/report
 
-# Regenerate the committed reports from the code and the data (bayescal report --help).
+# Regenerate the committed reports from the code and the data (python -m bayescal_studies reports --help): the
+# research package beside bayescal, run in place, never imported by it.
 reports: $(STAMP)
-	$(BIN)/bayescal report --paper-reports reports
+	$(BIN)/python -m bayescal_studies reports reports
 
 # One pytest worker per core (pytest-xdist): the tests are independent.  On the 2-core development
 # machine two workers spent 115 s of CPU in all against 105 s for one process.

@@ -89,7 +89,7 @@ def measure(n: int, config: Path, baseline: bool) -> None:
     import numpy as np
 
     from bayescal.cell.config import load_cell
-    from bayescal.studies.elastostatic_coverage import random_plan
+    from bayescal_studies.studies.elastostatic_coverage import random_plan
     from bayescal.twin.simulator import DigitalTwin
 
     warnings.simplefilter("ignore")
@@ -125,7 +125,7 @@ def equilibrium_costs(config: Path, n: int = 20000, looped: int = 500) -> None:
     from bayescal.cell.config import load_cell
     from bayescal.robot.batched import BatchedChain, equilibria
     from bayescal.robot.stiffness import ElasticArm
-    from bayescal.studies.elastostatic_coverage import random_plan
+    from bayescal_studies.studies.elastostatic_coverage import random_plan
 
     cell = load_cell(config)
     q = random_plan(cell, n, 1, np.random.default_rng(0)).q
@@ -166,7 +166,7 @@ def simulation_costs(n: int, config: Path, looped: int) -> None:
 
     from bayescal.cell.config import load_cell
     from bayescal.cell.plan import Plan
-    from bayescal.studies.elastostatic_coverage import random_plan
+    from bayescal_studies.studies.elastostatic_coverage import random_plan
     from bayescal.twin.simulator import DigitalTwin
 
     cell = load_cell(config)

@@ -57,7 +57,7 @@ def main(sizes: list[int]) -> None:
     from bayescal.compensation import compensate_program, load_calibration
     from bayescal.inference.elastostatic import ElastostaticModel
     from bayescal.inference.samplers import elastostatic_sampler
-    from bayescal.studies.compensation import random_program
+    from bayescal_studies.studies.compensation import random_program
     from bayescal.twin.simulator import DigitalTwin
 
     cell = load_cell(ROOT / "data" / "kr270.toml")

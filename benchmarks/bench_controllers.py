@@ -55,7 +55,7 @@ def _programs(cell, n: int, folder: Path) -> dict[str, Path]:
     from bayescal.controllers import configuration as conf
     from bayescal.controllers.poses import compose, inverse, kuka_angles, kuka_rotation, rotation_quaternion
     from bayescal.robot.batched import BatchedChain
-    from bayescal.studies.compensation import random_program
+    from bayescal_studies.studies.compensation import random_program
 
     program = random_program(cell, 2 * n, np.random.default_rng(n))
     # Poses whose wrist point is near axis 1 (the shoulder singularity) or on the line of the upper arm (the

@@ -32,7 +32,7 @@ from bayescal.cell.config import load_cell
 from bayescal.cell.plan import read_plan
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.samplers import elastostatic_sampler
-from bayescal.studies.elastostatic_coverage import random_plan
+from bayescal_studies.studies.elastostatic_coverage import random_plan
 from bayescal.twin.simulator import DigitalTwin
 from smoke import SAMPLER, SMOKE
 

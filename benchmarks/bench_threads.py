@@ -56,7 +56,7 @@ def _campaigns(folder: Path) -> tuple[Path, Path]:
 
 def _random_campaign(cell, n: int):
     """``n`` random configurations within the joint limits, one repeat, simulated on the digital twin."""
-    from bayescal.studies.elastostatic_coverage import random_plan
+    from bayescal_studies.studies.elastostatic_coverage import random_plan
     from bayescal.twin.simulator import DigitalTwin
 
     rng = np.random.default_rng(n)

@@ -168,14 +168,15 @@ def test_every_function_that_opens_a_file_for_reading_records_it():
     import ast
     from pathlib import Path
 
-    package = Path(__file__).resolve().parents[1] / "bayescal"
+    root = Path(__file__).resolve().parents[1]
     silent = []
-    for path in sorted(package.rglob("*.py")):
+    # the product and the research beside it
+    for path in sorted([*(root / "bayescal").rglob("*.py"), *(root / "bayescal_studies").rglob("*.py")]):
         for function in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if not isinstance(function, ast.FunctionDef | ast.AsyncFunctionDef):
                 continue
             calls = [node for node in ast.walk(function) if isinstance(node, ast.Call)]
             recorded = any(getattr(call.func, "id", None) == "record_read" for call in calls)
             if not recorded and any(_reads_a_file(call) for call in calls):
-                silent.append(f"{path.relative_to(package.parent)}:{function.lineno} {function.name}")
+                silent.append(f"{path.relative_to(root)}:{function.lineno} {function.name}")
     assert not silent, "reads a file without bayescal.output.record_read: " + ", ".join(silent)

@@ -10,7 +10,8 @@ from pathlib import Path
 import pytest
 
 from bayescal.cli import build_parser, main
-from bayescal.reports.numbers import with_uncertainty
+from bayescal_studies.cli import build_parser as build_research_parser
+from bayescal.numbers import with_uncertainty
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text(encoding="utf-8")
@@ -101,7 +102,8 @@ def test_the_elastostatic_widths_and_diagnostics_the_readme_quotes_are_the_demos
 def test_every_option_of_every_command_is_documented():
     documented = README + "".join(path.read_text(encoding="utf-8") for path in sorted((ROOT / "docs").glob("*.md")))
     missing = []
-    for action in build_parser()._actions:
+    # the product's commands, and the research's (python -m bayescal_studies) beside them
+    for action in (*build_parser()._actions, *build_research_parser()._actions):
         if not isinstance(action, argparse._SubParsersAction):
             continue
         for command, parser in action.choices.items():

@@ -15,6 +15,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,6 +25,9 @@ from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
 from bayescal.tables import read_header
 from bayescal.units import DEG, MM
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["FORCE_COLUMNS", "COUPLE_COLUMNS", "Plan", "position_columns", "prismatic_flags", "read_plan", "write_plan"]
 

@@ -22,19 +22,19 @@ import signal
 import sys
 import threading
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 
 from bayescal.errors import InputError
 
 from bayescal.output import forget_reads, forget_written, written_paths
 
-__all__ = ["main"]
+__all__ = ["CommandParser", "main"]
 
 COMMANDS = ("geometry", "simulate", "calibrate", "plan", "study", "critique", "report", "compensate", "axes", "kinematics", "predict", "export")
 
 
-class _Parser(argparse.ArgumentParser):
+class CommandParser(argparse.ArgumentParser):
     """An argument parser whose errors are one line, like the errors on files."""
 
     def error(self, message: str):
@@ -42,7 +42,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(
+    parser = CommandParser(
         prog="bayescal",
         description="Probabilistic identification of geometric and elastostatic parameters of heavy industrial robots.",
     )
@@ -89,25 +89,32 @@ def _signals_end_the_run() -> Iterator[None]:
             signal.signal(number, handler)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line and return the exit status (0 success, 2 bad input, 128 + the signal when interrupted)."""
+def main(
+    argv: Sequence[str] | None = None, *, program: str = "bayescal", build: Callable[[], argparse.ArgumentParser] = build_parser
+) -> int:
+    """Run the command line and return the exit status (0 success, 2 bad input, 128 + the signal when interrupted).
+
+    ``program`` names the command in its messages and ``build`` gives its parser: ``bayescal``'s by default; the
+    research commands (``python -m bayescal_studies``) pass theirs, so that their errors, warnings, output and
+    signals are handled as the product's.
+    """
     # One BLAS thread unless the user asks for more, set before a command first imports numpy: every matrix
     # here is a few rows wide, and on a shared machine BLAS threads spin instead of helping (calibrate on the
     # Table III twin campaign: 3.5 s of CPU with one thread, 5.2 s with the default two, same process load).
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     forget_written()
     forget_reads()
-    command = "bayescal"
+    command = program
     with _signals_end_the_run():
         try:
-            parser = build_parser()
+            parser = build()
             try:
                 args = parser.parse_args(argv)
             except SystemExit as exit:
                 # A bad option value (status 2) or --help (status 0): the message is printed already.
                 return exit.code if isinstance(exit.code, int) else 0
-            command = f"bayescal {args.command}"
-            return _run(args)
+            command = f"{program} {args.command}"
+            return _run(args, command)
         except KeyboardInterrupt as interrupt:
             # The writers rename whole files into place and remove their temporary files, so what was written is complete.
             kept = written_paths()
@@ -118,21 +125,21 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 128 + interrupt.number if isinstance(interrupt, _Ended) else INTERRUPTED
 
 
-def _run(args: argparse.Namespace) -> int:
+def _run(args: argparse.Namespace, command: str) -> int:
     """Run the parsed command, print its result or its one-line error, and return the exit status."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
             output = args.run(args)
         except InputError as error:
-            print(f"bayescal {args.command}: error: {error}", file=sys.stderr)
+            print(f"{command}: error: {error}", file=sys.stderr)
             return 2
         except RuntimeError as error:
             from bayescal.robot.stiffness import EquilibriumError
 
             if not isinstance(error, EquilibriumError):
                 raise
-            print(f"bayescal {args.command}: error: {_named_inputs(args)}: no static equilibrium of the loaded arm "
+            print(f"{command}: error: {_named_inputs(args)}: no static equilibrium of the loaded arm "
                   f"({error}); are the cell's compensator, loads and tool plausible?", file=sys.stderr)
             return 2
         except ValueError as error:
@@ -141,19 +148,19 @@ def _run(args: argparse.Namespace) -> int:
 
             if not isinstance(error, np.linalg.LinAlgError):
                 raise
-            print(f"bayescal {args.command}: error: {_named_inputs(args)}: a linear-algebra step failed ({error}); "
+            print(f"{command}: error: {_named_inputs(args)}: a linear-algebra step failed ({error}); "
                   "is a posterior degenerate (constant or repeated draws) or a plan without spread?", file=sys.stderr)
             return 2
         except OSError as error:
             # An output path that cannot be written is the user's to fix, not a bug.
             where = f"{error.filename}: " if error.filename is not None else ""
-            print(f"bayescal {args.command}: error: {where}{error.strerror or error}", file=sys.stderr)
+            print(f"{command}: error: {where}{error.strerror or error}", file=sys.stderr)
             return 2
     # Warnings go out before the result, so that a reader of a terminal sees them
     # above the table and a JSON consumer still gets clean stdout.
     messages = [str(warning.message) for warning in caught if issubclass(warning.category, UserWarning)]
     for message in dict.fromkeys(messages):
-        print(f"bayescal {args.command}: warning: {message}", file=sys.stderr)
+        print(f"{command}: warning: {message}", file=sys.stderr)
     sys.stderr.flush()
     try:
         if args.json:

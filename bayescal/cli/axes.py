@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     import numpy as np
 
     from bayescal.registration import read_sweeps, register
-    from bayescal.registration.critique import critique_sweeps
+    from bayescal.critique.sweeps import critique_sweeps
     from bayescal.registration.register import exclude
 
     from ._command import options_for

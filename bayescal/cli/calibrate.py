@@ -140,7 +140,7 @@ def _on_identified_geometry(cell, path: str):
     import dataclasses
 
     from bayescal.kinematics.axes import corrected_robot
-    from bayescal.kinematics.results import read_joint_corrections
+    from bayescal.kinematics.saved import read_joint_corrections
 
     corrections, corrected = read_joint_corrections(path, cell.robot.joint_names)
     identified = dataclasses.replace(cell, robot=corrected_robot(cell.robot, corrections))

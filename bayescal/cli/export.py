@@ -37,7 +37,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     if is_points_cell(args.config):
         from bayescal.controllers.urdf import kinematic_urdf
         from bayescal.kinematics import load_points_cell
-        from bayescal.kinematics.results import load_kinematic_calibration
+        from bayescal.kinematics.saved import load_kinematic_calibration
 
         cell = load_points_cell(args.config)
         urdf_path = cell.tree.source

@@ -10,7 +10,6 @@ from bayescal.output import guard_outputs, record_read, write_folder
 from ._command import CommandOutput, add_common_options
 from ._nests import add_nests_option, read_nests_in_base
 from ._registered import read_campaign_in_base
-from .paper_reports import add_options as add_paper_options, run_paper_reports
 
 __all__ = ["add_parser", "run"]
 
@@ -45,7 +44,6 @@ def add_parser(subparsers) -> None:
     )
     parser.add_argument("-o", "--output", metavar="FOLDER", help="report folder, created when missing (its parent must exist)")
     add_nests_option(parser)
-    add_paper_options(parser)
     add_common_options(parser)
     parser.set_defaults(run=run)
 
@@ -53,12 +51,8 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.errors import InputError
 
-    if args.paper_reports:
-        return run_paper_reports(args)
-    if args.only:
-        raise InputError("--only selects among the --paper-reports; give --paper-reports FOLDER", source="--only")
     if not args.output:
-        raise InputError("expected -o FOLDER, the folder of the review (or --paper-reports FOLDER)", source="-o")
+        raise InputError("expected -o FOLDER, the folder of the review", source="-o")
     inputs = {
         "the --geometry posterior": args.geometry,
         "the --calibration posterior": args.calibration,
@@ -154,7 +148,7 @@ def _read_calibration(args: argparse.Namespace, cell, geometry, review) -> None:
     from bayescal.inference.fit_checks import check_fits_campaign
     from bayescal.inference.parameters import ParameterRegistry
     from bayescal.sampling.summary import read_posterior_of
-    from bayescal.studies.review import calibration_findings
+    from bayescal.compensation.review import calibration_findings
 
     review.sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
     campaign, cell, _ = read_campaign_in_base(args, args.campaign, cell)

@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.design.optimise import PlanDesigner
     from bayescal.errors import InputError
     from bayescal.jsonsafe import json_safe
-    from bayescal.studies.angles import identification_cost, q2_angle_study, width_targets
+    from bayescal.design.angles import identification_cost, q2_angle_study, width_targets
 
     outputs = {"--output": args.output, "--markdown": args.markdown}
     guard_outputs({"the config": args.config}, outputs)
@@ -87,8 +87,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
 
 def _shown(table, cost) -> str:
     """The study's two tables as Markdown, each number as a person reads it: the error left in μm to 0.01, widths in %
-    to 0.1, noise fractions to two significant digits (:mod:`bayescal.reports.numbers`); the CSV keeps every digit."""
-    from bayescal.reports.numbers import fixed, table_texts
+    to 0.1, noise fractions to two significant digits (:mod:`bayescal.numbers`); the CSV keeps every digit."""
+    from bayescal.numbers import fixed, table_texts
     from bayescal.tables import markdown_table
 
     columns = ["angles", "per_angle", "noise_fraction", "test_pose_rms_mm", "k2_width_3sd_pct", "K_c_width_3sd_pct", "s0_width_3sd_pct"]

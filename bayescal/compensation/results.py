@@ -129,7 +129,7 @@ class CompensationResults:
     def save(self, path: str | PathLike[str], decimals: int = DECIMALS) -> None:
         """Write :meth:`table` as CSV: the input's columns as written, the new numbers with ``decimals``
         fixed decimals (a controller reads ``-0.0000``, not ``-7.9e-19``), the share with 3."""
-        from bayescal.reports.numbers import fixed
+        from bayescal.numbers import fixed
 
         table = self.table()
         added = [name for name in table.columns if name not in self.program.table.columns and name != "flag"]
@@ -167,7 +167,7 @@ class CompensationResults:
     def document(self) -> Summary:
         """The compensation as one document (:mod:`bayescal.summary`), the text ``bayescal compensate`` prints: the poses,
         the deflection removed, the worst 99.73 % bound and what dominates it, the flags."""
-        from bayescal.reports.numbers import error_length
+        from bayescal.numbers import error_length
 
         summary = self._summary_json()
         lines = []

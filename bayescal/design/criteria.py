@@ -48,7 +48,7 @@ cannot excite them.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
@@ -57,10 +57,6 @@ from bayescal.inference.parameters import ParameterRegistry
 from bayescal.robot.batched import BatchedChain
 from bayescal.robot.stiffness import compliance_design
 
-if TYPE_CHECKING:
-    from bayescal.design.linearisation import ExactLinearisation
-    from bayescal.design.prediction import PlanPrediction
-
 __all__ = [
     "CRITERIA",
     "compliance_chain",
@@ -68,13 +64,13 @@ __all__ = [
     "configuration_designs",
     "designs_information",
     "configuration_information",
-    "criterion_value",
     "criterion_values",
     "nominal_parameters",
     "parameter_names",
     "prior_mean_square",
     "test_pose_design",
     "wrench_information",
+    "WrenchDesigner",
 ]
 
 CRITERIA = ("test-pose", "compensator", "d-optimal")
@@ -82,7 +78,7 @@ CRITERIA = ("test-pose", "compensator", "d-optimal")
 
 UNEXCITED = 1e-18
 """A parameter whose information is below this fraction of the largest is not excited by the plan
-(the square of the 1e-9 column-norm ratio of :mod:`bayescal.studies.precision`)."""
+(the square of the 1e-9 column-norm ratio of :mod:`bayescal_studies.studies.precision`)."""
 
 SINGULAR = 1e-14
 """Smallest eigenvalue, relative to the largest, of an information matrix that can still be inverted
@@ -93,6 +89,15 @@ DECIDED_MARGIN = 100.0
 scored without its eigenvalues: the bound's own rounding grows with the condition number, and plans within
 this factor of the limit are left to ``eigh`` to decide (none of the 126,644 information matrices that
 ``bayescal plan --config data/kr270.toml --model linear`` scores, nor of the 100,769 of the exact model's search)."""
+
+
+class WrenchDesigner(Protocol):
+    """What gives a configuration's design under a wrench other than eq 31: the exact model's linearisation
+    (:class:`bayescal.design.linearisation.ExactLinearisation`, which builds on this module)."""
+
+    def wrench_design(self, q: np.ndarray, wrench: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(3·markers, p)`` design in the relative parameters and ``(3·markers,)`` noise sd (m) of ``q`` under ``wrench``."""
+        ...
 
 
 def parameter_names(cell: Cell) -> list[str]:
@@ -208,7 +213,7 @@ def designs_information(design: np.ndarray, sigma: np.ndarray, repeats: int = 1)
     return repeats * np.swapaxes(weighted, -1, -2) @ weighted
 
 
-def configuration_information(cell: Cell, q, mass: float, repeats: int = 1, *, exact: ExactLinearisation | None = None) -> np.ndarray:
+def configuration_information(cell: Cell, q, mass: float, repeats: int = 1, *, exact: WrenchDesigner | None = None) -> np.ndarray:
     """(p, p) information ``r Bᵀ W B`` of one configuration loaded with ``mass`` kg, relative parameters.
 
     ``exact``: take ``B`` from the exact model's linearisation instead of eq 31.
@@ -216,7 +221,7 @@ def configuration_information(cell: Cell, q, mass: float, repeats: int = 1, *, e
     return wrench_information(cell, q, cell.load_wrench(q, mass), repeats, exact=exact)
 
 
-def wrench_information(cell: Cell, q, wrench, repeats: int = 1, *, exact: ExactLinearisation | None = None) -> np.ndarray:
+def wrench_information(cell: Cell, q, wrench, repeats: int = 1, *, exact: WrenchDesigner | None = None) -> np.ndarray:
     """(p, p) information of one configuration under any (6,) ``wrench`` (flange origin, base axes, its force
     through the load point: :meth:`~bayescal.cell.config.Cell.wrench`), relative parameters."""
     if exact is None:
@@ -237,28 +242,10 @@ def test_pose_design(cell: Cell) -> np.ndarray:
 test_pose_design.__test__ = False  # a library function, not a pytest test
 
 
-def criterion_value(prediction: PlanPrediction, criterion: str) -> float:
-    """The number ``criterion`` minimises (inf for a plan that cannot deliver it).
-
-    ``test-pose``: ``ρ0`` (m); ``compensator``: the sum of the relative variances of
-    the compensator law's parameters; ``d-optimal``: ``-log det`` of the information matrix.
-    """
-    if criterion == "test-pose":
-        return prediction.rho0
-    if criterion == "compensator":
-        if not prediction.registry.compensated:
-            raise ValueError("the compensator criterion needs a cell with a compensator")
-        variance = np.diag(prediction.covariance)[-len(prediction.registry.law_names) :]
-        return float(np.sum(variance)) if np.all(np.isfinite(variance)) else math.inf
-    if criterion == "d-optimal":
-        return -prediction.log_det
-    raise ValueError(f"unknown criterion {criterion!r}; expected one of {', '.join(CRITERIA)}")
-
-
 def criterion_values(
     cell: Cell, information: np.ndarray, criterion: str, *, test_design: np.ndarray | None = None, groups: np.ndarray | None = None
 ) -> np.ndarray:
-    """:func:`criterion_value` of many information matrices at once, as the exchange algorithm needs.
+    """:func:`~bayescal.design.prediction.criterion_value` of many information matrices at once, as the exchange algorithm needs.
 
     Parameters
     ----------

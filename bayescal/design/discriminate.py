@@ -65,7 +65,7 @@ PER_ANGLE = 12
 """Configurations per q2 angle of a discriminating plan by default: 5 × 12 at 3 repeats, four times Table III's.
 On campaigns where lost motion and a torque-dependent compliance tie, 5 × 6 separated the twin's in 57 of 58
 and 56 of 60, and the independent generator's two lost motions and its knee in 83, 64 and 66 %; 5 × 12 the
-latter in 92, 89 and 80 % (``bayescal.studies.discrimination``, docs/critique.md)."""
+latter in 92, 89 and 80 % (``bayescal_studies.studies.discrimination``, docs/critique.md)."""
 
 MASS_LEVELS = 4
 """Masses each candidate configuration is offered at, evenly over the design's range: two tell an

@@ -24,7 +24,7 @@ HANGING_ONLY_NOTE = ("This cell hangs masses only ([load] directions = \"down\")
 
 def _criterion(payload: dict) -> list[Paragraph]:
     """The error predicted at the test pose, everything counted, and the part the plan's data alone leave."""
-    from bayescal.reports.numbers import error_length
+    from bayescal.numbers import error_length
 
     criterion = payload["criterion"]
     if criterion is None:
@@ -42,7 +42,7 @@ def _criterion(payload: dict) -> list[Paragraph]:
 
 def _width_table(table: pd.DataFrame) -> Table:
     """Each parameter's value, predicted ±3σ (two digits) and width (3 sd / value), and Table IV's width when known."""
-    from bayescal.reports.numbers import rounded_pair
+    from bayescal.numbers import rounded_pair
 
     published = "table_iv_pct" in table
     columns = (Column("parameter", width=10, align="<"), Column("unit", width=12, align="<"), Column("value", width=8),
@@ -87,7 +87,7 @@ def plan_document(payload: dict, table: pd.DataFrame, hanging_only: bool) -> Sum
 def _configuration_table(table: pd.DataFrame) -> Table:
     """One row per configuration, its angles (deg) and load (kg) to 0.1 as a person sets them on the robot, laid out as
     pandas prints a table of texts (each column one space wider than its longest text, one space apart)."""
-    from bayescal.reports.numbers import fixed, table_texts
+    from bayescal.numbers import fixed, table_texts
 
     texts = table_texts(table, {}, {column: fixed(1) for column in table.columns})
     index = [str(i) for i in texts.index]

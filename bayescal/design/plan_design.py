@@ -16,7 +16,7 @@ import pandas as pd
 
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.cell.plan import Plan, write_plan
-from bayescal.design.criteria import criterion_value
+from bayescal.design.prediction import criterion_value
 from bayescal.design.loads import loads_json
 from bayescal.design.prediction import PlanPrediction
 from bayescal.inference.parameters import ANGLE_DECIMALS

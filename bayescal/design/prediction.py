@@ -15,6 +15,7 @@ import pandas as pd
 
 from bayescal.cell.config import Cell
 from bayescal.design.criteria import (
+    CRITERIA,
     SINGULAR,
     UNEXCITED,
     _prior_term,
@@ -26,7 +27,7 @@ from bayescal.inference.parameters import ParameterRegistry
 from bayescal.jsonsafe import json_safe
 from bayescal.units import MM
 
-__all__ = ["PlanPrediction", "predict"]
+__all__ = ["PlanPrediction", "criterion_value", "predict"]
 
 
 @dataclass(frozen=True)
@@ -160,3 +161,21 @@ def predict(cell: Cell, information: np.ndarray, *, test_design: np.ndarray | No
         registry=ParameterRegistry.of_cell(cell),
         rho0_identified=rho0_identified,
     )
+
+
+def criterion_value(prediction: PlanPrediction, criterion: str) -> float:
+    """The number ``criterion`` minimises (inf for a plan that cannot deliver it).
+
+    ``test-pose``: ``ρ0`` (m); ``compensator``: the sum of the relative variances of
+    the compensator law's parameters; ``d-optimal``: ``-log det`` of the information matrix.
+    """
+    if criterion == "test-pose":
+        return prediction.rho0
+    if criterion == "compensator":
+        if not prediction.registry.compensated:
+            raise ValueError("the compensator criterion needs a cell with a compensator")
+        variance = np.diag(prediction.covariance)[-len(prediction.registry.law_names) :]
+        return float(np.sum(variance)) if np.all(np.isfinite(variance)) else math.inf
+    if criterion == "d-optimal":
+        return -prediction.log_det
+    raise ValueError(f"unknown criterion {criterion!r}; expected one of {', '.join(CRITERIA)}")

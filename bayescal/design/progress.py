@@ -33,7 +33,7 @@ class Progress:
 
 def best_text(score: float, criterion: str, law: tuple[str, ...] = ("K_c", "s0")) -> str:
     """The note on the best plan so far, ending with the criterion's unit (``score`` as
-    :func:`bayescal.design.criteria.criterion_value` gives it; ``law`` the compensator law's parameters)."""
+    :func:`bayescal.design.prediction.criterion_value` gives it; ``law`` the compensator law's parameters)."""
     if criterion == "test-pose":
         return f"best: ρ0 = {score * 1e6:.2f} μm"
     if criterion == "compensator":

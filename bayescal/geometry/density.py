@@ -4,21 +4,46 @@
 samples; with σ integrated out under a bounded prior, each marker group carries
 ``log[P(a, hi) - P(a, lo)]`` of a regularized incomplete gamma function, and its
 σ conditional is a truncated gamma, both computed stably here.  The markers are
-placed by the one marker-layout model (:mod:`bayescal.geometry.layout`).
+placed by the one marker-layout model (:mod:`bayescal.geometry.layout`).  Its
+priors (:class:`GeometryPriors`) and cylinder models are defined here, below the
+posterior that names them, so that the density imports nothing of it.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from bayescal.geometry.arcs import LEVER_MARKER, GeometryFit, MarkerPoints
 from bayescal.geometry.layout import circular_mean, cylinder_direction, lever_angle, lever_points, marker_offset
 
-if TYPE_CHECKING:
-    from bayescal.geometry.posterior import CylinderModel, GeometryPriors
+__all__ = ["CylinderModel", "GeometryPriors"]
+
+CylinderModel = Literal["concentric", "rigid"]
+
+
+@dataclass(frozen=True)
+class GeometryPriors:
+    """Bounds and scales of the weakly informative priors (SI).
+
+    Attributes
+    ----------
+    position_sd
+        Standard deviation (m) of the zero-mean normal prior on each coordinate of p2 and p0.
+    length_max
+        Upper bound (m) of the uniform priors on ``L`` and the marker radii.
+    sigma_min, sigma_max
+        Bounds (m) of the log-uniform prior on each marker group's noise σ.
+    """
+
+    position_sd: float = 10.0
+    length_max: float = 10.0
+    sigma_min: float = 1e-6
+    sigma_max: float = 1e-2
+
 
 class _Density:
     """Log-posterior of the geometry with the noise σ's integrated out (SI).

@@ -29,7 +29,7 @@ def beside_table_ii(summary: pd.DataFrame, reference: pd.DataFrame) -> pd.DataFr
 
 def _parameter_table(result, summary: pd.DataFrame, paper: pd.DataFrame | None) -> Table:
     """Every posterior variable to the decimal of its sd's second significant digit, its closed form, and Table II."""
-    from bayescal.reports.numbers import decimals_of, fixed, rounded_pair
+    from bayescal.numbers import decimals_of, fixed, rounded_pair
 
     closed_table = result.closed_form.summary()
     columns = (Column("parameter", width=16, align="<"), Column("unit", width=5, align="<"), Column("mean", width=11),
@@ -37,7 +37,7 @@ def _parameter_table(result, summary: pd.DataFrame, paper: pd.DataFrame | None) 
                Column("closed form", width=13), Column("Table II", width=10), Column("±3σ", width=7))
     rows, values = [], []
     for name, row in summary.iterrows():
-        # Every number of a row to the decimal of the second significant digit of its sd (bayescal.reports.numbers).
+        # Every number of a row to the decimal of the second significant digit of its sd (bayescal.numbers).
         shown = fixed(decimals_of(row["sd"]))
         closed = closed_table.loc[name, "value"] if name in closed_table.index else None
         mean, sd = rounded_pair(row["mean"], row["sd"])

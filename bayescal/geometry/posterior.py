@@ -43,7 +43,6 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 from os import PathLike
-from typing import Literal
 
 import numpy as np
 import pandas as pd
@@ -54,7 +53,7 @@ from bayescal.robot.compensator import CompensatorGeometry, alpha
 from bayescal.errors import InputError
 from bayescal.geometry.arcs import CompensatorGeometryModel, GeometryFit, MarkerPoints
 from bayescal.jsonsafe import json_safe
-from bayescal.geometry.density import _Density
+from bayescal.geometry.density import CylinderModel, GeometryPriors, _Density
 from bayescal.sampling.ensemble import EnsembleSampler
 from bayescal.sampling.independence import IndependenceSampler
 from bayescal.sampling.protocol import Sampler
@@ -62,29 +61,6 @@ from bayescal.threads import one_blas_thread
 from bayescal.units import DEG, MM
 
 __all__ = ["GeometryPriors", "GeometryPosteriorModel", "GeometryPosterior", "geometry_sampler"]
-
-CylinderModel = Literal["concentric", "rigid"]
-
-
-@dataclass(frozen=True)
-class GeometryPriors:
-    """Bounds and scales of the weakly informative priors (SI).
-
-    Attributes
-    ----------
-    position_sd
-        Standard deviation (m) of the zero-mean normal prior on each coordinate of p2 and p0.
-    length_max
-        Upper bound (m) of the uniform priors on ``L`` and the marker radii.
-    sigma_min, sigma_max
-        Bounds (m) of the log-uniform prior on each marker group's noise σ.
-    """
-
-    position_sd: float = 10.0
-    length_max: float = 10.0
-    sigma_min: float = 1e-6
-    sigma_max: float = 1e-2
-
 
 @dataclass(frozen=True)
 class GeometryPosterior:

@@ -20,7 +20,7 @@ def _parameter_table(results, reference_file) -> tuple[Table, Paragraph]:
     import pandas as pd
 
     from bayescal.reference import beside_published, read_paper_reference, width_3sd_pct
-    from bayescal.reports.numbers import rounded_pair
+    from bayescal.numbers import rounded_pair
 
     parameters = results.parameters()
     estimates = pd.DataFrame(
@@ -72,7 +72,7 @@ def _identifiability_section(results, reasons: dict[str, str]) -> list[Section]:
 
 def _per_angle_section(results) -> list[Section]:
     """The compensated joint's compliance at each campaign angle (±3σ), the paper's Fig. 7; none without a compensator."""
-    from bayescal.reports.numbers import with_uncertainty
+    from bayescal.numbers import with_uncertainty
 
     j = -1 if results.joint is None else results.joint + 1
     lines = [
@@ -87,7 +87,7 @@ def _closing_sections(results, test_pose, reasons: dict[str, str]) -> list[Secti
     """Diagnostics and the test pose (errors in μm, deflections in mm), then what to do next."""
     from bayescal.inference.equations import HANGING_ONLY_REASON
     from bayescal.reports.next_steps import calibration_next_steps
-    from bayescal.reports.numbers import error_um
+    from bayescal.numbers import error_um
     from bayescal.reports.test_pose import test_pose_lines
     from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, converged
 

@@ -10,7 +10,6 @@ did determine (:func:`practical_identifiability`).
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np

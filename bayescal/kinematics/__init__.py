@@ -9,7 +9,8 @@ from bayescal.kinematics.cell import PointsCell, load_points_cell
 from bayescal.kinematics.fit import KinematicCalibration
 from bayescal.kinematics.model import EXTENSIONS, GROUPS, RUNGS, PointModel
 from bayescal.kinematics.positions import Positions, read_positions
-from bayescal.kinematics.results import KinematicResults, load_kinematic_calibration
+from bayescal.kinematics.results import KinematicResults
+from bayescal.kinematics.saved import load_kinematic_calibration
 
 __all__ = ["EXTENSIONS", "GROUPS", "RUNGS", "KinematicCalibration", "KinematicResults", "PointModel", "PointsCell", "Positions",
            "load_kinematic_calibration", "load_points_cell", "read_positions"]

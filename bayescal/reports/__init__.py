@@ -1,9 +1,8 @@
-"""Reports: text and figures rendered from findings, never computed here.
+"""Reports: text and figures rendered from results, never computed here.
 
-``geometry``, ``twin`` and ``elastostatic`` render the findings of
-:mod:`bayescal.studies.geometry_findings`, :mod:`~bayescal.studies.twin_findings` and
-:mod:`~bayescal.studies.elastostatic_findings` into their files (name to bytes), ``paper``
-dispatches on the kind of findings, ``review`` renders the calibration review and ``plots``
-and ``figures`` draw the figures; ``bayescal report`` writes them all through
-:mod:`bayescal.output`.
+``review`` renders the calibration review (with ``review_data``, ``review_files``,
+``review_parameters``, ``compensation``, ``test_pose`` and ``ladder``), on ``page``;
+``plots`` and ``figures`` draw the figures; ``bayescal report`` writes them all
+through :mod:`bayescal.output`.  The paper's committed reports are rendered by
+:mod:`bayescal_studies.reports`, which uses these and is never used by them.
 """

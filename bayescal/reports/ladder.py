@@ -6,10 +6,9 @@ beside the published values of :mod:`bayescal.kinematics.ladder`; it computes no
 
 from __future__ import annotations
 
-import pandas as pd
 
 from bayescal.kinematics.ladder import PUBLISHED, PUBLISHED_SOURCE, PUBLISHED_WITHOUT, LadderFindings
-from bayescal.reports.numbers import fixed, table_texts
+from bayescal.numbers import fixed, table_texts
 from bayescal.reports.page import Page
 
 __all__ = ["ladder_section"]

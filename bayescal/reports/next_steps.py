@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from bayescal.reports.numbers import error_length
+from bayescal.numbers import error_length
 
 from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL
 

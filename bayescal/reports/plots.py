@@ -163,7 +163,7 @@ def plot_joint2_compliance(
     band
         Indexed by ``q2_deg``, columns ``low_urad_per_Nm``, ``median_urad_per_Nm``,
         ``high_urad_per_Nm`` and, for simulations, ``truth_urad_per_Nm``
-        (:func:`~bayescal.studies.precision.equivalent_compliance_band`).
+        (:func:`~bayescal.inference.compliance_band.equivalent_compliance_band`).
     angles, per_angle_mean, per_angle_sd
         The campaign's q2 angles (rad) and the per-angle estimates (rad/(N·m)) of eq 33,
         drawn with ±3 sd bars.

@@ -28,7 +28,7 @@ from bayescal.inference.results import ElastostaticResults
 from bayescal.compensation.testpose import TestPosePrediction
 from bayescal.reference import beside_published
 from bayescal.reports.compensation import compensation_section
-from bayescal.reports.numbers import error_length, fixed, table_texts
+from bayescal.numbers import error_length, fixed, table_texts
 from bayescal.reports.test_pose import unidentified_sentence
 from bayescal.reports.page import HTML_FILE, JSON_FILE, MARKDOWN_FILE, Page
 from bayescal.reports.review_data import data_section, residual_section
@@ -48,7 +48,7 @@ from bayescal.reports.figures import plot_error_distribution, plot_pairs, plot_r
 from bayescal.reports.plots import plot_eta_curves, plot_joint2_compliance
 from bayescal.robot.compensator import Compensator, CompensatorGeometry
 from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, diagnostics, summarize
-from bayescal.studies.precision import equivalent_compliance_band
+from bayescal.inference.compliance_band import equivalent_compliance_band
 from bayescal.units import DEG, MM, UM, URAD_PER_NM
 
 __all__ = ["ReviewInputs", "render_review", "HTML_FILE", "MARKDOWN_FILE", "JSON_FILE"]
@@ -74,7 +74,7 @@ class ReviewInputs:
     campaign, cell
         The campaign and the cell of ``results`` (required with it).
     residuals : pandas.DataFrame or None
-        :func:`~bayescal.studies.residuals.residual_table` of ``results``.
+        :func:`~bayescal.inference.residuals.residual_table` of ``results``.
     test_pose : TestPosePrediction or None
         The prediction at the cell's test pose.
     plan, critique : dict or None

@@ -4,7 +4,7 @@
 loads, deflections and tracker noise; :func:`residual_section` plots the
 residuals against their covariates and lists the rows furthest from the
 tracker's noise.  Both render; the numbers come from the results and
-:func:`bayescal.studies.residuals.residual_table`.
+:func:`bayescal.inference.residuals.residual_table`.
 """
 
 from __future__ import annotations
@@ -17,10 +17,10 @@ from bayescal.cell.config import Cell
 from bayescal.inference.equations import deflection_noise
 from bayescal.inference.results import ElastostaticResults
 from bayescal.reports.figures import plot_residuals
-from bayescal.reports.numbers import fixed, table_texts
+from bayescal.numbers import fixed, table_texts
 from bayescal.reports.page import Page
 from bayescal.sampling.summary import summarize
-from bayescal.studies.residuals import COVARIATES
+from bayescal.inference.residuals import COVARIATES
 from bayescal.units import DEG, MM, UM
 
 __all__ = ["data_section", "residual_section"]

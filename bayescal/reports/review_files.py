@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from bayescal.reports.figures import plot_evidence
-from bayescal.reports.numbers import fixed, rounded_pair, table_texts
+from bayescal.numbers import fixed, rounded_pair, table_texts
 from bayescal.reports.page import Page, finite_number, generic
 from bayescal.reports.terms import label
 
@@ -245,7 +245,7 @@ def _gain(page: Page, gain) -> None:
 def registration_section(page: Page, registration: Mapping, source: str) -> None:
     """The tracker's registration as ``bayescal axes -o`` wrote it: axes, frames with their sd, arc residuals.
 
-    Every coordinate is rounded to its own sd (:mod:`bayescal.reports.numbers`): an axis point about 2 m
+    Every coordinate is rounded to its own sd (:mod:`bayescal.numbers`): an axis point about 2 m
     from the tracker, known to 0.2 mm, reads ``-1850.88``, not four significant digits' ``-1851``.
     """
     page.heading("registration", "Tracker registration")

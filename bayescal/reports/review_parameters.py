@@ -18,7 +18,7 @@ from bayescal.inference.parameters import label_angle
 from bayescal.inference.results import ElastostaticResults
 from bayescal.reference import read_paper_reference
 from bayescal.reports.figures import plot_pairs
-from bayescal.reports.numbers import fixed, table_texts
+from bayescal.numbers import fixed, table_texts
 from bayescal.reports.page import Page
 
 __all__ = ["DISPLAY_UNITS"]

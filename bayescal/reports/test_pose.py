@@ -9,7 +9,7 @@ from __future__ import annotations
 import textwrap
 
 from bayescal.compensation.results import DECIMALS
-from bayescal.reports.numbers import deflection_mm, error_length, fixed
+from bayescal.numbers import deflection_mm, error_length, fixed
 
 __all__ = ["test_pose_lines", "unidentified_sentence"]
 

@@ -25,7 +25,7 @@ its own physical terms rather than in the critique's parametrisation:
   ``K_c (s - s0)``, as a lever bending under the spring would; the cylinder
   markers still follow the unbent lever axis.
 
-:func:`bayescal.studies.geometry_critique.geometry_detection` runs the geometry critique on
+:func:`bayescal_studies.studies.geometry_critique.geometry_detection` runs the geometry critique on
 such campaigns.  The markers are placed by :mod:`bayescal.geometry.layout`; the effects are
 written here, apart from the critique's parametrisation of its extensions.
 """

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 import bayescal.cli as cli
-from bayescal.studies.compensation import random_program
+from bayescal_studies.studies.compensation import random_program
 
 
 @pytest.fixture

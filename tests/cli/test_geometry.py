@@ -59,7 +59,7 @@ def test_text_output_sets_table2_beside(capsys, table1_csv):
 
 
 def test_text_rounds_every_row_to_its_sd_as_the_json_gives_it(capsys, table1_csv):
-    from bayescal.reports.numbers import decimals_of, rounded_pair
+    from bayescal.numbers import decimals_of, rounded_pair
 
     payload = run_json(capsys, table1_csv)
     assert main(["geometry", table1_csv, *LIGHT]) == 0

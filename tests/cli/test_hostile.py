@@ -174,7 +174,7 @@ def _interrupt(*args, **kwargs):
     ("argv", "target"),
     [
         ("plan --config {f}/cell.toml --model linear -o {f}/p.csv", "bayescal.design.optimise.PlanDesigner.optimise"),
-        ("study q2-angles --config {f}/cell.toml -o {f}/s.csv", "bayescal.studies.angles.q2_angle_study"),
+        ("study q2-angles --config {f}/cell.toml -o {f}/s.csv", "bayescal.design.angles.q2_angle_study"),
         ("report --plan {f}/plan.json -o {f}/out", "bayescal.reports.review.render_review"),
         ("calibrate {f}/campaign.csv --config {f}/cell.toml --posterior {f}/c.nc", "bayescal.inference.elastostatic.ElastostaticModel.fit"),
     ],
@@ -218,7 +218,7 @@ def test_a_failed_svd_names_the_inputs(files, capsys, monkeypatch):
     def degenerate(*args, **kwargs):
         raise np.linalg.LinAlgError("SVD did not converge")
 
-    monkeypatch.setattr("bayescal.studies.review.restore_results", degenerate)
+    monkeypatch.setattr("bayescal.compensation.review.restore_results", degenerate)
     argv = ["report", "--calibration", str(files / "calibration.nc"), "--campaign", str(files / "campaign.csv"),
             "--config", str(files / "cell.toml"), "-o", str(files / "out")]
     code, lines = _run(capsys, argv)

@@ -17,7 +17,7 @@ import pytest
 
 from bayescal.cell.campaign import write_campaign
 from bayescal.cli import main
-from bayescal.studies.compensation import random_program
+from bayescal_studies.studies.compensation import random_program
 from bayescal.twin.sweeps import random_placement, simulate_sweeps
 
 DATA = Path(__file__).resolve().parents[2] / "data"

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from bayescal.reports.numbers import error_length
+from bayescal.numbers import error_length
 
 import bayescal.cli as cli
 from bayescal.cell.plan import read_plan

@@ -13,7 +13,7 @@ from bayescal.cell.campaign import read_campaign
 from bayescal.cell.config import load_cell
 from bayescal.cell.plan import write_plan
 from bayescal.cli import main
-from bayescal.studies.elastostatic_coverage import random_plan
+from bayescal_studies.studies.elastostatic_coverage import random_plan
 
 ROBOTS = ("arm7", "arm6", "arm6_j3", "track_arm6")
 

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from bayescal.cli import main
-from bayescal.studies.compensation import random_program
+from bayescal_studies.studies.compensation import random_program
 
 DATA = Path(__file__).resolve().parents[2] / "data"
 PROC = Path("/proc")

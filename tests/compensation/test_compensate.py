@@ -11,7 +11,7 @@ from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.compensation.testpose import predict_cell_test_pose, test_pose_program
 from bayescal.robot.stiffness import ElasticArm
 from bayescal.sampling.gibbs import GibbsSampler
-from bayescal.studies.compensation import random_program
+from bayescal_studies.studies.compensation import random_program
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import DEG
 

@@ -9,7 +9,7 @@ import pandas as pd
 
 from bayescal.compensation import compensate_program
 from bayescal.compensation.calibration import Calibration
-from bayescal.studies.compensation import random_program
+from bayescal_studies.studies.compensation import random_program
 
 
 def _results(cell, tolerance=None):
@@ -57,7 +57,7 @@ def test_a_program_may_not_carry_the_columns_the_compensated_file_adds_and_those
 
 
 def test_the_document_names_the_worst_pose_and_the_flags(cell):
-    from bayescal.reports.numbers import error_length
+    from bayescal.numbers import error_length
 
     results = _results(cell, tolerance=1e-6)
     payload = results.to_json()

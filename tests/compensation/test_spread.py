@@ -5,7 +5,7 @@ import numpy as np
 from bayescal.compensation.spread import designs
 from bayescal.robot.batched import BatchedChain
 from bayescal.robot.stiffness import compliance_design
-from bayescal.studies.compensation import random_program
+from bayescal_studies.studies.compensation import random_program
 
 
 def test_the_batched_designs_are_pinocchios_pose_by_pose(cell):

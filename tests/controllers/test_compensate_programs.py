@@ -9,7 +9,7 @@ import pytest
 
 from bayescal.compensation import load_calibration
 from bayescal.controllers.compensate import compensate_controller_program, program_joints, read_controller_program, read_wrenches
-from bayescal.studies.compensation import twin_misses
+from bayescal_studies.studies.compensation import twin_misses
 
 
 @pytest.fixture(scope="module")

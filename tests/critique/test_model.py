@@ -140,7 +140,7 @@ def test_markers_off_the_cell_file_by_millimetres_leave_the_campaign_adequate(ce
 def _robot_campaign(data_dir, name, seed):
     """A campaign of a test robot (data/robots/) without any effect, its compliances drawn ±20 % around the cell's."""
     from bayescal.cell.config import load_cell
-    from bayescal.studies.elastostatic_coverage import random_plan
+    from bayescal_studies.studies.elastostatic_coverage import random_plan
     from bayescal.twin.simulator import DigitalTwin
 
     cell = load_cell(data_dir / "robots" / f"{name}.toml")

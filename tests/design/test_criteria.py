@@ -12,15 +12,14 @@ from bayescal.design.criteria import (
     CRITERIA,
     configuration_design,
     configuration_information,
-    criterion_value,
     criterion_values,
     prior_mean_square,
     test_pose_design,
     wrench_information,
 )
 from bayescal.design.linearisation import ExactLinearisation
-from bayescal.design.prediction import predict
-from bayescal.studies.precision import design_precision
+from bayescal.design.prediction import criterion_value, predict
+from bayescal_studies.studies.precision import design_precision
 
 
 def _information(cell, plan, repeats=3, exact=None):
@@ -96,7 +95,7 @@ def test_exact_linearisation_agrees_with_eq_31_on_the_joints(cell, plan):
 
 
 def test_a_hanging_plan_and_one_with_sideways_loads_are_scored_on_one_footing(cell, plan):
-    from bayescal.studies.load_directions import sideways
+    from bayescal_studies.studies.load_directions import sideways
 
     hanging = predict(cell, _information(cell, plan))
     turned_plan = sideways(cell, plan, 3)

@@ -36,7 +36,7 @@ def test_a_plan_written_to_a_file_says_so_first(cell):
 def test_a_discriminating_plan_lists_its_configurations_as_pandas_prints_them(cell, twin_campaign):
     from bayescal.design.constraints import load_design_space
     from bayescal.design.discriminate import DiscriminatingDesigner
-    from bayescal.reports.numbers import fixed, table_texts
+    from bayescal.numbers import fixed, table_texts
 
     campaign = twin_campaign(["backlash"], seed=2)
     designer = DiscriminatingDesigner(cell, ("backlash", "nonlinear_stiffness"), campaign, load_design_space(cell))

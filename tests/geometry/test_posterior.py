@@ -10,8 +10,8 @@ from bayescal.geometry.arcs import CompensatorGeometryModel, MarkerLayout, Marke
 from bayescal.geometry.density import _Density, _inner_range, _log_gamma_mass, _regularized_gamma, _truncated_gamma
 from bayescal.geometry.posterior import GeometryPosteriorModel, GeometryPriors, geometry_sampler
 from bayescal.reference import read_paper_reference
-from bayescal.studies.arc_fit import TABLE_I_NOISE
-from bayescal.studies.geometry_coverage import coverage_study
+from bayescal_studies.studies.arc_fit import TABLE_I_NOISE
+from bayescal_studies.studies.geometry_coverage import coverage_study
 from bayescal.twin.arcs import simulate_markers
 from bayescal.units import DEG, MM
 

@@ -2,7 +2,7 @@
 
 Linear-Gaussian problems with both samplers; the coverage of the full
 identification on twin campaigns unlike the config is tested with its study,
-in tests/studies/test_coverage.py.
+in tests/research/studies/test_coverage.py.
 """
 
 import numpy as np

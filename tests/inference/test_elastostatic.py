@@ -361,7 +361,7 @@ def test_default_calibration_converges_on_misspecified_campaigns(cell, twin_camp
 def test_a_spring_far_from_the_configs_is_relinearised_until_the_chains_agree(cell, tmp_path):
     from bayescal.inference.elastostatic import restore_results
     from bayescal.sampling.summary import converged, load
-    from bayescal.studies.elastostatic_coverage import random_plan
+    from bayescal_studies.studies.elastostatic_coverage import random_plan
 
     # The spring 4.6 times stiffer than the config's at 0.3 μm: linearised about the config's spring, the exact model's
     # correction misses by more than the noise and the chains disagree (R-hat 1.99 without relinearising).
@@ -388,7 +388,7 @@ def test_a_spring_far_from_the_configs_is_relinearised_until_the_chains_agree(ce
 def test_default_calibration_converges_on_campaigns_unlike_the_config_at_a_precise_trackers_noise(cell, spring, masses):
     from bayescal.inference.elastostatic import EXTENSIONS
     from bayescal.sampling.summary import converged
-    from bayescal.studies.elastostatic_coverage import random_plan
+    from bayescal_studies.studies.elastostatic_coverage import random_plan
 
     precise = dataclasses.replace(cell, tracker=dataclasses.replace(cell.tracker, U0=0.3e-6 / cell.tracker.factor, U1=0.0))
     compensator = cell.compensator.geometry.with_spring(spring[0] * N_PER_MM, spring[1] * MM)
@@ -403,7 +403,7 @@ def test_default_calibration_converges_on_campaigns_unlike_the_config_at_a_preci
 def _robot_fit(data_dir, name, seed=3):
     """A cell of data/robots/, a random campaign of it on the twin and its fit."""
     from bayescal.cell.config import load_cell
-    from bayescal.studies.elastostatic_coverage import random_plan
+    from bayescal_studies.studies.elastostatic_coverage import random_plan
 
     robot_cell = load_cell(data_dir / "robots" / f"{name}.toml")
     rng = np.random.default_rng(seed)

@@ -10,7 +10,7 @@ from bayescal.cell.config import load_cell
 from bayescal.inference.equations import deflection_equations
 from bayescal.inference.exact import ExactCorrection, campaign_deflections, exact_deflections, linearisation_offset, scale_masses
 from bayescal.robot.stiffness import compliance_design
-from bayescal.studies.elastostatic_coverage import random_plan
+from bayescal_studies.studies.elastostatic_coverage import random_plan
 from bayescal.twin.simulator import DigitalTwin
 from bayescal.units import DEG
 

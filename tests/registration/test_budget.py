@@ -15,7 +15,7 @@ from scipy.stats import norm
 from bayescal.registration.axes import LABEL_GAIN
 from bayescal.registration.register import register
 from bayescal.registration.robust import interval_factor
-from bayescal.studies.registration_budget import HOME_DEG, _as_sweeps, coverage, coverage_study, label_study
+from bayescal_studies.studies.registration_budget import HOME_DEG, _as_sweeps, coverage, coverage_study, label_study
 from bayescal.twin.independent.cell_sweeps import cell_sweeps, swap_labels
 
 

@@ -15,7 +15,7 @@ from bayescal.cell.campaign import read_campaign
 from bayescal.cli import main
 from bayescal.inference.elastostatic import restore_results
 from bayescal.inference.priors import posterior_geometry
-from bayescal.reports.numbers import rounded_pair
+from bayescal.numbers import rounded_pair
 from bayescal.reports.page import Page
 from bayescal.reports.review import HTML_FILE, JSON_FILE, MARKDOWN_FILE, ReviewInputs, render_review
 from bayescal.reports.review_parameters import _weak_table

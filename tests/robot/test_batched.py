@@ -6,7 +6,7 @@ import pytest
 from bayescal.cell.config import load_cell
 from bayescal.robot.batched import BatchedChain, equilibria
 from bayescal.robot.stiffness import ElasticArm, EquilibriumError
-from bayescal.studies.elastostatic_coverage import random_plan
+from bayescal_studies.studies.elastostatic_coverage import random_plan
 
 CELLS = ("kr270.toml", "robots/arm7.toml", "robots/arm6.toml", "robots/arm6_j3.toml", "robots/track_arm6.toml")
 

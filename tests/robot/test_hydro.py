@@ -14,7 +14,7 @@ from bayescal.errors import InputError
 from bayescal.inference.closedform import regress
 from bayescal.robot.hydro import HydroCompensator
 from bayescal.robot.stiffness import ElasticArm
-from bayescal.studies.elastostatic_coverage import Truth, fit_against_truth, random_plan
+from bayescal_studies.studies.elastostatic_coverage import Truth, fit_against_truth, random_plan
 from bayescal.twin.simulator import DigitalTwin
 
 ANGLES = np.radians(np.linspace(-150.0, 50.0, 41))

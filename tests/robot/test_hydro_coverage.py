@@ -2,7 +2,7 @@
 
 Each campaign draws its own truth about the test cell's values, its own random plan and noise,
 simulates it on the twin and identifies it with the unchanged cell
-(:func:`bayescal.studies.elastostatic_coverage.fit_against_truth`).  At the KR-270's tracker noise the
+(:func:`bayescal_studies.studies.elastostatic_coverage.fit_against_truth`).  At the KR-270's tracker noise the
 cylinder changes joint 2's stiffness by about 0.1 %, which no campaign resolves (docs/elastostatic.md);
 at 0.3 μm per coordinate F0 and h0 are identified to a few percent (median sd 1.7 % and 2.6 % at seed 46),
 and their intervals are checked there.
@@ -18,8 +18,8 @@ import pytest
 from scipy import stats
 
 from bayescal.cell.config import load_cell
-from bayescal.studies.elastostatic_coverage import Truth, fit_against_truth
-from bayescal.studies.parallel import seeded_map
+from bayescal_studies.studies.elastostatic_coverage import Truth, fit_against_truth
+from bayescal.design.parallel import seeded_map
 
 LEVELS = np.array([1.0, 2.0, 3.0])
 NOMINAL = 2 * stats.norm.cdf(LEVELS) - 1  # 0.6827, 0.9545, 0.9973

@@ -8,7 +8,7 @@ import pytest
 from bayescal.cell.config import load_cell
 from bayescal.kinematics.cell import load_points_cell
 from bayescal.kinematics.model import PointModel
-from bayescal.studies.kinematic_worlds import placement_corrections
+from bayescal_studies.studies.kinematic_worlds import placement_corrections
 from bayescal.twin.independent.geometry import GeometryErrors
 from bayescal.twin.kinematic_errors import COMPONENTS, KinematicErrors, with_kinematic_errors
 from bayescal.twin.simulator import DigitalTwin

@@ -27,7 +27,7 @@ import numpy as np
 
 from bayescal.twin.beams.beam import Section, timoshenko_compliance
 
-__all__ = ["Item", "PointMass", "Compensator", "JointLaws", "Tool", "Robot", "urdf_chain", "kr270_class", "rotation"]
+__all__ = ["Item", "PointMass", "Compensator", "JointLaws", "Tool", "Robot", "urdf_chain", "rotation"]
 
 URDF = Path(__file__).resolve().parents[3] / "data" / "robots" / "kr270.urdf"
 """The robot description whose joint origins and axes the generator's chain starts from."""

@@ -1,6 +1,6 @@
 """Joint sweeps with the errors a circle model of the arcs leaves out, in this generator's own forms.
 
-Written before, and apart from, the sweep critique (:mod:`bayescal.registration.critique`),
+Written before, and apart from, the sweep critique (:mod:`bayescal.critique.sweeps`),
 so that it can be measured on data it was not built from.  A sweep moves one
 joint from a home pose; the reflectors' true positions come from the robot's
 forward kinematics (Pinocchio) at the joint's *true* angle, which differs from

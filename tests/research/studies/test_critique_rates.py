@@ -1,0 +1,76 @@
+from concurrent.futures import ThreadPoolExecutor
+
+import pytest
+
+from bayescal.critique.extensions import CATALOGUE
+from bayescal_studies.studies.critique_rates import GENERATORS, SET_ON, _judged, confusion, critique_rates, markdown_rates, rates
+from bayescal.twin.beams import EFFECTS as BEAMS_EFFECTS
+from bayescal.twin.effects import EFFECTS as TWIN_EFFECTS
+
+
+def test_every_effect_of_each_generator_has_a_right_verdict():
+    assert set(GENERATORS["beams"].expected) == set(BEAMS_EFFECTS)
+    assert set(GENERATORS["twin"].expected) == set(TWIN_EFFECTS) | {"none", "drift"}
+    for generator in GENERATORS.values():
+        assert set(generator.expected.values()) <= set(CATALOGUE) | {"adequate", "unexplained"}
+    assert set(SET_ON) == set(GENERATORS)
+
+
+def test_the_independent_generators_right_verdicts_are_its_effects_causes():
+    from bayescal_studies.studies.independent_detection import INDEPENDENT_EFFECTS
+    from bayescal.twin.independent import EFFECTS
+
+    expected = dict(GENERATORS["independent"].expected)
+    assert expected.pop("none") == "adequate"
+    assert expected == {name: EFFECTS[name].cause or "unexplained" for name in INDEPENDENT_EFFECTS}
+
+
+def test_a_tie_is_right_but_not_alone_and_a_lone_wrong_cause_is_wrong():
+    tied = _judged(["outliers", "backlash"], {"outliers": ["backlash"]}, {}, "backlash")
+    assert (tied["first"], tied["partners"], tied["right"], tied["alone"], tied["wrong_single"]) == ("outliers", "backlash", True, False, False)
+    alone = _judged(["backlash", "unexplained"], {}, {}, "backlash")
+    assert alone["alone"] and alone["right"] and not alone["wrong_single"]
+    wrong = _judged(["unexplained"], {}, {}, "backlash")
+    assert wrong["wrong_single"] and not wrong["right"]
+    false_alarm = _judged(["outliers"], {}, {}, "adequate")
+    assert false_alarm["wrong_single"] and false_alarm["first"] == "outliers"
+    assert _judged([], {}, {}, "adequate")["alone"]
+    assert not _judged(["link_compliance", "unexplained"], {}, {}, "unexplained")["alone"]
+
+
+def test_the_harness_runs_the_third_generator_with_and_without_nests(data_dir):
+    with ThreadPoolExecutor(1) as executor:
+        table = critique_rates(data_dir / "kr270.toml", data_dir / "table3_plan.csv", "beams", ("none", "drift"),
+                               nests=(False, True), seeds=(3,), executor=executor)
+    assert len(table) == 4
+    expected = dict(zip(zip(table.effect, table.nests), table.expected))
+    # with nests the drift is measured and removed before the critique: nothing is left to name
+    assert expected == {("none", False): "adequate", ("drift", False): "drift", ("none", True): "adequate", ("drift", True): "adequate"}
+    summary = rates(table)
+    assert len(summary) == 4 and (summary["n"] == 1).all()
+    assert {"alone", "alone_se", "right", "right_se", "wrong_single", "wrong_single_se", "adequate", "adequate_se"} <= set(summary)
+    assert confusion(table)["campaigns"].sum() == 4
+    assert markdown_rates(table).count("\n| beams |") == 4
+
+
+def test_an_unknown_generator_or_effect_is_refused(data_dir):
+    with pytest.raises(ValueError, match="unknown generator"):
+        critique_rates(data_dir / "kr270.toml", data_dir / "table3_plan.csv", "nowhere", ("none",))
+    with pytest.raises(ValueError, match="gear_play"):
+        critique_rates(data_dir / "kr270.toml", data_dir / "table3_plan.csv", "beams", ("gear_play",))
+
+
+@pytest.mark.slow
+def test_on_the_third_generator_the_compliances_and_outliers_meet_the_bounds(data_dir):
+    # Seeds 0-9 of the rates in docs/critique.md: the cases of the third generator where the bounds hold there
+    # (nothing planted is not one: its arm's own beams are a misfit the repeats show, see docs/critique.md).
+    effects = ("none", "link_compliance", "tool_compliance", "outliers")
+    with ThreadPoolExecutor(2) as executor:
+        table = critique_rates(data_dir / "kr270.toml", data_dir / "table3_plan.csv", "beams", effects, seeds=range(10), executor=executor)
+    summary = rates(table).set_index("effect")
+    assert list(summary.index) == list(effects) and (summary["n"] == 10).all()
+    assert summary.loc["outliers", "alone"] >= 0.8
+    for effect in effects[1:]:
+        assert summary.loc[effect, "right"] >= 0.95 and summary.loc[effect, "wrong_single"] <= 0.05
+    # no candidate is named on the arm without a planted effect at these seeds: its misfits are called unexplained
+    assert set(table.loc[table.effect == "none", "first"]) <= {"adequate", "unexplained"}

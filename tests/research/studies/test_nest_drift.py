@@ -1,0 +1,29 @@
+"""The tracker's drift measured from reference nests, and the compliances after its removal, on planted drifts (slow)."""
+
+import numpy as np
+import pytest
+
+from bayescal_studies.studies.nest_drift import nest_drift_coverage
+
+NOMINAL = np.array([0.6827, 0.9545, 0.9973])
+"""Probability of a normal variable within 1, 2 and 3 sd."""
+
+
+def coverage(table, prefix: str) -> np.ndarray:
+    """Fractions of the compliances' errors within 1, 2 and 3 posterior sd, over every campaign and compliance."""
+    z = np.abs(table.filter(like=prefix).to_numpy(dtype=float).ravel())
+    z = z[np.isfinite(z)]
+    return np.array([np.mean(z <= k) for k in (1, 2, 3)]), z.size
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("generator", ["twin", "independent"])
+def test_drift_is_measured_within_its_sd_and_the_compliances_cover_after_its_removal(data_dir, generator):
+    table = nest_drift_coverage(data_dir / "kr270.toml", (1.0,), n_seeds=100, generator=generator,
+                                plan_path=data_dir / "table3_plan.csv")
+    # the drift at every reading and in every deflection, each coordinate, within its own 3 sd
+    assert table["reading_within_3sd"].mean() >= 0.95 and table["deflection_within_3sd"].mean() >= 0.95
+    rates, n = coverage(table, "removed_z_")
+    # the compliances' errors within their 1, 2, 3 sd as often as a normal's, to four binomial sd
+    tolerance = 4 * np.sqrt(NOMINAL * (1 - NOMINAL) / n) + 1.0 / n
+    assert np.all(np.abs(rates - NOMINAL) <= tolerance), (rates, tolerance)
