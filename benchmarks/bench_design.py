@@ -1,7 +1,7 @@
 """``bayescal plan``'s searches against the previous code, in one run: the same plans, in a fraction of the time.
 
 For each case the designer of the package and the previous one
-(:data:`PREVIOUS`: the plan designer and the batched chain before this round's work on the search's overheads,
+(:data:`PREVIOUS`: the plan designer and the batched chain of the last merged round,
 loaded from the repository's history by ``previous.py``)
 design a plan from the same seed in this process, one after the other:
 
@@ -36,10 +36,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from previous import NoHistory, previous  # noqa: E402
 from smoke import SMOKE  # noqa: E402
 
-PREVIOUS = "5b37cd4"
-"""The commit whose ``bayescal/design`` and ``bayescal/robot/batched.py`` are the baseline: the last before the
-feasibility checks, the criteria's masks, the exchange's pools and the chain's cross products lost their overheads.
-(Against the searches before batching, commit f4e0a75, docs/design.md.)"""
+PREVIOUS = "ca6c3fb"
+"""The commit whose ``bayescal/design`` and ``bayescal/robot/batched.py`` are the baseline: the last merged round's.
+(Commit 5b37cd4 is the one before the feasibility checks, the criteria's masks, the exchange's pools and the chain's
+cross products lost their overheads, docs/speed.md; f4e0a75 the searches before batching, docs/design.md.)"""
 MODULES = ("criteria", "linearisation", "loads", "constraints", "exchange", "refinement", "optimise", "discriminating_search", "discriminate")
 """The design modules at :data:`PREVIOUS`, in an order in which each imports only those before it."""
 
