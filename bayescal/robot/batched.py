@@ -187,7 +187,7 @@ class BatchedChain:
         """The frames of the ``(N, nq)`` configurations ``q`` (rad or m), :data:`CHUNK` configurations at a time.
 
         Each configuration's frames are computed alone, so the chunks change no bit; their arrays stay in the
-        processor's cache: 200,000 configurations in 0.15 s of CPU instead of 0.94 s at once.
+        processor's cache: 200,000 configurations in 0.15-0.37 s of CPU, joined, instead of 0.94 s at once.
         """
         if len(q) <= CHUNK:
             return self._poses(q)
