@@ -52,10 +52,10 @@ def _previous_design():
 ROOT = Path(__file__).resolve().parents[1]
 SEED = 0
 CRITERION_AGREEMENT = 1e-12
-"""Largest relative difference allowed between the criterion values each start reached under the two designers: the
-criteria are now scored from a Cholesky factor where they were from eigenvalues, which moves their last digits
+"""Largest relative difference allowed between the criterion values each start reached under the two designers.  Against
+5b37cd4 the criteria were scored from eigenvalues where they are now from a Cholesky factor, which moves their last digits
 (measured on the linear model: 0 for the test-pose criterion, 2.2e-16 for d-optimal, 1.1e-14 for the compensator's), and
-the discriminating search ranks its candidates by separations summed in another order (6.1e-15)."""
+the discriminating search ranked its candidates by separations summed in another order (6.1e-15); against ca6c3fb, 0."""
 OPTIONS = {"exact": {}, "linear": {}} if not SMOKE else {"linear": {"starts": 1, "refine_steps": 5, "candidates_per_angle": 3}}
 """Options of the plan searches: the command's defaults, or one linear start on a few candidates at the smoke size."""
 DISCRIMINATE = {} if not SMOKE else {"per_angle": 2, "starts": 1, "candidates_per_angle": 2}
