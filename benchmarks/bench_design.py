@@ -51,6 +51,9 @@ def _previous_design():
 
 ROOT = Path(__file__).resolve().parents[1]
 SEED = 0
+FIXED = ("ca6c3fb", "5b37cd4", "f4e0a75")
+"""Baselines whose discriminating designs scored option ``o`` at candidate ``o // 12`` instead of ``o // 4``: the
+discriminating plans differ from theirs, and only the times compare."""
 CRITERION_AGREEMENT = 1e-12
 """Largest relative difference allowed between the criterion values each start reached under the two designers.  Against
 5b37cd4 the criteria were scored from eigenvalues where they are now from a Cholesky factor, which moves their last digits
@@ -67,19 +70,20 @@ def _timed(function):
     return result, time.perf_counter() - began, time.process_time() - cpu
 
 
-def _line(name: str, new: tuple, old: tuple, plans: tuple[np.ndarray, np.ndarray], starts: tuple) -> None:
-    same = plans[0].shape == plans[1].shape and np.array_equal(plans[0], plans[1])
+def _line(name: str, new: tuple, old: tuple, plans: tuple[np.ndarray, np.ndarray], starts: tuple, *, same: bool = True) -> None:
+    """Print one case's times and agreement; stop when plans or criterion values that should agree (``same``) do not."""
+    same_plan = plans[0].shape == plans[1].shape and np.array_equal(plans[0], plans[1])
     moved = np.max(np.abs(plans[0] - plans[1])) if plans[0].shape == plans[1].shape else np.inf
     values = np.abs(np.array(starts[0]) / np.array(starts[1]) - 1.0).max()
     print(
         f"{name:<13} new {new[2]:6.2f} s CPU ({new[1]:6.2f} s wall)  previous {old[2]:6.2f} s CPU ({old[1]:6.2f} s wall)  "
-        f"ratio {old[2] / new[2]:5.1f}x CPU  same plan: {'yes' if same else 'NO'} (largest angle difference {np.degrees(moved):.1e} deg), "
+        f"ratio {old[2] / new[2]:5.1f}x CPU  same plan: {'yes' if same_plan else 'NO'} (largest angle difference {np.degrees(moved):.1e} deg), "
         f"criterion of each start within {values:.1e} (relative)",
         flush=True,
     )
-    if not same:
+    if not same_plan and same:
         sys.exit(f"{name}: the package's plan differs from the previous code's for the same seed")
-    if values > CRITERION_AGREEMENT:
+    if values > CRITERION_AGREEMENT and same:
         sys.exit(f"{name}: the starts' criterion values differ from the previous code's by a relative {values:.1e}, above {CRITERION_AGREEMENT:g}")
 
 
@@ -109,7 +113,8 @@ def discriminate(cell) -> None:
     between = ("backlash", "nonlinear_stiffness")
     new = _timed(lambda: DiscriminatingDesigner(cell, between, tie, load_design_space(cell, mass_range=(50, 280))).optimise(rng=SEED, **DISCRIMINATE))
     old = _timed(lambda: Previous(cell, between, tie, previous_space(cell, mass_range=(50, 280))).optimise(rng=SEED, **DISCRIMINATE))
-    _line("discriminate", new, old, (new[0].plan.q, old[0].plan.q), (new[0].starts, old[0].starts))
+    # ca6c3fb scored each option at another candidate's joints (docs/critique.md): its plans are not this one's
+    _line("discriminate", new, old, (new[0].plan.q, old[0].plan.q), (new[0].starts, old[0].starts), same=PREVIOUS not in FIXED)
 
 
 def main() -> None:

@@ -222,8 +222,10 @@ class DiscriminatingDesigner:
         markers = np.array(list(self.cell.markers.values()))
         # candidate c at mass level l is option c·L + l; one row per marker
         option = np.repeat(np.arange(len(configurations) * MASS_LEVELS), len(markers))
-        q = configurations[option // len(markers) // MASS_LEVELS]
-        wrench = np.array([self.cell.load_wrench(qi, masses[o % MASS_LEVELS]) for qi, o in zip(q, option)])
+        q = configurations[option // MASS_LEVELS]
+        # one wrench an option, the same on each of its markers' rows
+        each = [self.cell.load_wrench(configurations[o // MASS_LEVELS], masses[o % MASS_LEVELS]) for o in range(option[-1] + 1)]
+        wrench = np.repeat(np.array(each), len(markers), axis=0)
         pool = pose_rows(self.cell, q, wrench, np.tile(markers, (len(configurations) * MASS_LEVELS, 1)), config=option)
         # the first loading of each candidate, measured after a load that took the plan joint the other way
         first = replace(pool, marker=np.full(len(pool), REVERSED_MARKER))
