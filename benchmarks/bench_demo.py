@@ -66,7 +66,8 @@ def run_demo(tree: Path, steps) -> list[tuple[float, float]]:
     """Wall and CPU seconds of each step of the demo run in the folder ``tree`` (into its ``build/``)."""
     (tree / "build").mkdir(exist_ok=True)
     times = []
-    environment = os.environ | {"OPENBLAS_NUM_THREADS": "1"}
+    # this checkout's package where the folder has none of its own (``python -m`` puts the folder first on the path)
+    environment = os.environ | {"OPENBLAS_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
     for arguments, output in steps:
         began, cpu = time.perf_counter(), _cpu()
         with open(tree / output, "w") if output else open(os.devnull, "w") as stdout:

@@ -31,7 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+# this checkout's package, not the one installed (a second working tree of the repository shares one virtualenv)
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1])]
 
 from previous import NoHistory, previous  # noqa: E402
 from smoke import SMOKE  # noqa: E402
