@@ -28,9 +28,9 @@ from previous import NoHistory, previous_tree
 from smoke import SMOKE, sized
 
 ROOT = Path(__file__).resolve().parents[1]
-PREVIOUS = "5b37cd4"
-"""The commit the demo is timed against: the last before the plan search, the critique's and the review's
-start-up and the compensation were made faster this round."""
+PREVIOUS = "ca6c3fb"
+"""The commit the demo is timed against: the last merged round's.  (Commit 5b37cd4 is the one before the plan
+search, the critique's and the review's start-up and the compensation were made faster, docs/speed.md.)"""
 REPEATS = sized(3, 1)
 """Runs of the demo in each tree; the medians damp the shared machine's noise."""
 COMPARED = ("campaign.csv", "plan.csv", "plan.json", "critique.json", "report")
@@ -66,7 +66,8 @@ def run_demo(tree: Path, steps) -> list[tuple[float, float]]:
     """Wall and CPU seconds of each step of the demo run in the folder ``tree`` (into its ``build/``)."""
     (tree / "build").mkdir(exist_ok=True)
     times = []
-    environment = os.environ | {"OPENBLAS_NUM_THREADS": "1"}
+    # this checkout's package where the folder has none of its own (``python -m`` puts the folder first on the path)
+    environment = os.environ | {"OPENBLAS_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
     for arguments, output in steps:
         began, cpu = time.perf_counter(), _cpu()
         with open(tree / output, "w") if output else open(os.devnull, "w") as stdout:

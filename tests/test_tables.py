@@ -95,3 +95,17 @@ def test_read_header_finds_the_first_row_after_comments(tmp_path):
     assert read_header(write(tmp_path, "\ufeff# note\n\nq2_deg, marker\n1,P1\n")) == (3, ["q2_deg", "marker"])
     assert read_header(write(tmp_path, "# only a note\n")) is None
     assert read_header(tmp_path / "absent.csv") is None
+
+
+def test_columns_read_at_once_equal_those_parsed_value_by_value(tmp_path):
+    from bayescal.tables import _parse
+
+    path = tmp_path / "t.csv"
+    path.write_text("a,b,c,d\n1, -2.5e-3 ,x,+.5\n7,3.,y z,-0\n-4,1E2,w,12\n")
+    kinds = {"a": "integer", "b": "number", "c": "text", "d": "number"}
+    frame = read_table(path, kinds)
+    rows = [line.split(",") for line in path.read_text().splitlines()[1:]]
+    for k, (name, kind) in enumerate(kinds.items()):
+        expected = [_parse(row[k].strip(), kind, name, None, str(path), 0) for row in rows]
+        assert frame[name].tolist() == expected
+        assert [type(v) for v in frame[name].tolist()] == [type(v) for v in expected]

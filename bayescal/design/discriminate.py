@@ -201,7 +201,11 @@ class DiscriminatingDesigner:
         sigma2 = 2.0 * np.repeat(self.cell.tracker.sigma(rows.position), 3) ** 2
         weighted = Z / sigma2[:, None]
         label = np.repeat(per, 3)
-        return np.array([repeats * Z[label == k].T @ weighted[label == k] for k in range(per.max() + 1)])
+        # each group's rows in their order, from one stable sort: a mask over all the rows per group took 0.26 s of the 5 × 12
+        # design's 6.2 s under the profiler
+        order = np.argsort(label, kind="stable")
+        edges = np.searchsorted(label[order], np.arange(per.max() + 2))
+        return np.array([repeats * Z[order[a:b]].T @ weighted[order[a:b]] for a, b in zip(edges[:-1], edges[1:])])
 
     def optimise(
         self,
@@ -225,8 +229,10 @@ class DiscriminatingDesigner:
         markers = np.array(list(self.cell.markers.values()))
         # candidate c at mass level l is option c·L + l; one row per marker
         option = np.repeat(np.arange(len(configurations) * MASS_LEVELS), len(markers))
-        q = configurations[option // len(markers) // MASS_LEVELS]
-        wrench = np.array([self.cell.load_wrench(qi, masses[o % MASS_LEVELS]) for qi, o in zip(q, option)])
+        q = configurations[option // MASS_LEVELS]
+        # one wrench an option, the same on each of its markers' rows
+        each = [self.cell.load_wrench(configurations[o // MASS_LEVELS], masses[o % MASS_LEVELS]) for o in range(option[-1] + 1)]
+        wrench = np.repeat(np.array(each), len(markers), axis=0)
         pool = pose_rows(self.cell, q, wrench, np.tile(markers, (len(configurations) * MASS_LEVELS, 1)), config=option)
         # the first loading of each candidate, measured after a load that took the plan joint the other way
         first = replace(pool, marker=np.full(len(pool), REVERSED_MARKER))

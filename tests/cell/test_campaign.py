@@ -335,3 +335,33 @@ def test_the_reading_times_round_trip_must_come_together_and_run_forward(tmp_pat
     table.assign(t0_s=[None] + list(table["t0_s"][1:])).to_csv(blank, index=False)
     with pytest.raises(InputError, match="column 't0_s'"):
         read_campaign(blank)
+
+
+def _written_one_value_at_a_time(campaign: Campaign) -> str:
+    """The campaign's CSV as the csv module writes it, each number rounded by ``round`` (write_campaign's rule)."""
+    import csv
+    import io
+
+    frame = campaign.to_frame()
+    places = {name: 6 for name in frame.columns if name.startswith("q")} | {name: 4 for name in WRENCH_COLUMNS}
+    places |= {name: 5 for name in frame.columns if name.endswith("_mm")}
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(frame.columns)
+    for row in frame.itertuples(index=False):
+        writer.writerow(f"{round(float(v), places[n]) + 0.0:.{places[n]}f}" if n in places else v for n, v in zip(frame.columns, row))
+    return out.getvalue()
+
+
+def test_the_written_numbers_are_those_rounded_one_at_a_time(tmp_path):
+    # ties of the binary value (2.675 is below its decimal), values that round to -0, -0.0 itself, NaN and
+    # magnitudes where the last place is below the float's resolution; a marker name that needs quoting
+    campaign = _campaign(n_configs=3, repeats=2, markers=("M1", "M,2", 'M"3'))
+    edge = np.array([2.675, -2.675, -4e-6, -5e-6, -6e-6, -0.0, 0.0, 1e-300, -1e-300, 5e9 + 0.123, -7.5e15, np.nan, 1.0000005, -0.0000049])
+    p0 = np.resize(edge, campaign.p0.size).reshape(campaign.p0.shape) * MM
+    wrench = campaign.wrench.copy()
+    wrench[:, :2] = np.resize([-0.00004, -0.00005, 0.00005, -0.0], (len(wrench), 2))
+    odd = Campaign(**{**campaign.__dict__, "p0": p0, "p1": p0[::-1].copy(), "wrench": wrench})
+    path = tmp_path / "c.csv"
+    write_campaign(odd, path)
+    assert path.read_text() == _written_one_value_at_a_time(odd)

@@ -96,3 +96,23 @@ def test_a_groups_slots_alternate_the_plan_joints_side_from_positive_and_take_ei
 def test_a_pair_that_is_not_two_different_physical_candidates_is_an_input_error(cell, twin_campaign, between):
     with pytest.raises(InputError):
         DiscriminatingDesigner(cell, between, twin_campaign((), seed=0))
+
+
+def test_each_option_is_scored_at_its_own_configuration(cell, twin_campaign, monkeypatch):
+    # option o is candidate o // MASS_LEVELS at mass level o % MASS_LEVELS: its rows must carry that candidate's joints
+    import bayescal.design.discriminate as discriminate
+
+    seen, real = {}, discriminate.pose_rows
+
+    def spy(cell, q, wrench, point, config=None):
+        seen["q"], seen["option"] = q, config
+        return real(cell, q, wrench, point, config=config)
+
+    monkeypatch.setattr(discriminate, "pose_rows", spy)
+    tied = twin_campaign(("backlash=0.002",), seed=0)
+    space = load_design_space(cell, mass_range=(50.0, 280.0))
+    DiscriminatingDesigner(cell, ("backlash", "nonlinear_stiffness"), tied, space).optimise(5, 3, 0, starts=1, candidates_per_angle=2)
+    option, q = seen["option"], seen["q"]
+    first = q[np.searchsorted(option, np.unique(option))].reshape(-1, discriminate.MASS_LEVELS, q.shape[1])
+    assert np.all(first == first[:, :1])
+    assert len(np.unique(first[:, 0], axis=0)) == len(first)

@@ -117,3 +117,18 @@ def test_equilibria_equal_the_independent_generators_solver(data_dir, name):
     for i, qi in enumerate(q):
         expected, _ = statics.solve(qi, [Load(force=force, point=point, couple=couple)])
         np.testing.assert_allclose(theta[i], expected, rtol=0, atol=1e-11)
+
+
+def test_poses_of_more_configurations_than_a_chunk_equal_each_chunks_bit_for_bit(setting):
+    from dataclasses import fields
+
+    from bayescal.robot.batched import CHUNK
+
+    cell = setting[0]
+    chain = BatchedChain.of(cell.robot)
+    q = np.random.default_rng(3).uniform(cell.robot.lower, cell.robot.upper, size=(2 * CHUNK + 5, cell.robot.nq))
+    whole = chain.poses(q)
+    for start in (0, CHUNK, 2 * CHUNK):
+        alone = chain.poses(q[start : start + CHUNK])
+        for field in fields(alone):
+            assert np.array_equal(getattr(whole, field.name)[start : start + CHUNK], getattr(alone, field.name)), field.name
