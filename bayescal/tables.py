@@ -108,16 +108,23 @@ def read_table(
     position = {name: header.index(name) for name in wanted}
     values = _columns_at_once(rows[1:], len(header), wanted, position)
     if values is None:
-        # a value is missing or not what its column wants: read row by row, to name the first such
-        values = {name: [] for name in wanted}
-        for (number, _), fields in zip(numbered[1:], rows[1:]):
-            if len(fields) != len(header):
-                raise InputError(f"expected {len(header)} fields as in the header, got {len(fields)}", source=source, line=number)
-            for name, kind in wanted.items():
-                values[name].append(_parse(fields[position[name]].strip(), kind, name, units.get(name), source, number))
+        values = _row_by_row(numbered[1:], rows[1:], len(header), wanted, position, units, source)
     frame = pd.DataFrame(values, index=pd.Index([number for number, _ in numbered[1:]], name="line"))
     frame.attrs["source"] = source
     return frame
+
+
+def _row_by_row(numbered, rows, width: int, wanted: Mapping[str, ColumnKind], position: Mapping[str, int],
+                units: Mapping[str, str], source: str) -> dict[str, list]:
+    """The wanted columns read one row at a time, which names the first row whose field count or value is wrong
+    (taken when a value is missing or not what its column wants: reading the columns at once cannot say where)."""
+    values = {name: [] for name in wanted}
+    for (number, _), fields in zip(numbered, rows):
+        if len(fields) != width:
+            raise InputError(f"expected {width} fields as in the header, got {len(fields)}", source=source, line=number)
+        for name, kind in wanted.items():
+            values[name].append(_parse(fields[position[name]].strip(), kind, name, units.get(name), source, number))
+    return values
 
 
 def _checked_header(fields: list[str], columns: Mapping[str, ColumnKind], source: str, header_line: int) -> list[str]:

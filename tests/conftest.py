@@ -156,3 +156,19 @@ def twin_campaign(cell, plan):
         return twin.simulate(plan_ or plan, repeats, rng)
 
     return make
+
+
+@pytest.fixture(scope="session")
+def short_exact_fit(cell, plan):
+    """A short exact-model fit (Gibbs, 2 chains of 100 draws) of a Table III campaign on the twin, seed 1."""
+    import warnings
+
+    from bayescal.inference.elastostatic import ElastostaticModel
+    from bayescal.sampling.gibbs import GibbsSampler
+    from bayescal.twin.simulator import DigitalTwin
+
+    campaign = DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(1))
+    with warnings.catch_warnings():
+        # short chains on a campaign that cannot identify k1 and the spring
+        warnings.simplefilter("ignore")
+        return ElastostaticModel.from_cell(cell, sampler=GibbsSampler(n_chains=2, n_tune=50, n_draws=100)).fit(campaign, 1)

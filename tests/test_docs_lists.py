@@ -122,7 +122,7 @@ def test_the_help_texts_list_the_registries(command, capsys):
 
 
 def test_the_sweep_critiques_candidates_table_is_the_catalogue():
-    from bayescal.registration.critique import CANDIDATES, UNITS
+    from bayescal.critique.sweeps import CANDIDATES, UNITS
 
     rows = _table("registration.md", "| candidate | what | parameters | size reported in |")
     assert _names(rows) == list(CANDIDATES)

@@ -25,6 +25,7 @@ from bayescal.compensation.calibration import Calibration, calibration_from_tree
 from bayescal.compensation.compensate import compensate_program
 from bayescal.compensation.program import Program
 from bayescal.compensation.spread import error_quantiles
+from bayescal.compensation.test_pose_text import test_pose_lines
 from bayescal.errors import InputError
 from bayescal.units import MM
 
@@ -83,6 +84,10 @@ class TestPosePrediction:
             "q99.73": float(stats["q9973"] / MM),
             "correction": float(np.linalg.norm(self.applied - truth) / MM),
         }
+
+    def lines(self) -> list[str]:
+        """The error budget in words, as ``bayescal calibrate`` prints it (:func:`~bayescal.compensation.test_pose_text.test_pose_lines`)."""
+        return test_pose_lines(self.to_json())
 
     def to_json(self) -> dict:
         """The ``test_pose`` block of ``calibrate --json`` and the review, in mm and the joints' units."""

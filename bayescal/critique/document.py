@@ -131,7 +131,7 @@ def critique_document(results, figures: Sequence[str] = ()) -> Summary:
 
     ``figures``: the files the figures were written to, named in the document when given.
     """
-    from bayescal.reports.next_steps import critique_next_steps
+    from bayescal.inference.next_steps import critique_next_steps
 
     before, after = results.before, results.after
     verdict, evidence = _outcome(results, "configurations", "the classical model")

@@ -86,9 +86,8 @@ def _per_angle_section(results) -> list[Section]:
 def _closing_sections(results, test_pose, reasons: dict[str, str]) -> list[Section]:
     """Diagnostics and the test pose (errors in μm, deflections in mm), then what to do next."""
     from bayescal.inference.equations import HANGING_ONLY_REASON
-    from bayescal.reports.next_steps import calibration_next_steps
+    from bayescal.inference.next_steps import calibration_next_steps
     from bayescal.numbers import error_um
-    from bayescal.reports.test_pose import test_pose_lines
     from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, converged
 
     d = results.diagnostics()
@@ -104,7 +103,7 @@ def _closing_sections(results, test_pose, reasons: dict[str, str]) -> list[Secti
     q9973 = None
     if block.get("available", True):
         q9973 = block["residual_error_mm"]["q99.73"]
-        lines += test_pose_lines(block)
+        lines += test_pose.lines()
     else:
         lines.append(f"test pose: not predicted: {block['reason']}")
     limited = [name for name, reason in reasons.items() if reason.endswith(HANGING_ONLY_REASON)]

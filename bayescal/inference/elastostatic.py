@@ -380,28 +380,12 @@ class ElastostaticModel:
             draws = ElastostaticDraws.from_tree(tree, prepared.equations)
         except (KeyError, ValueError) as exc:
             raise InputError(f"the posterior is not one of this campaign and model: {exc}", source=campaign.source) from None
-        ident = prepared.identifiability
-        saved = set(np.flatnonzero(~np.all(np.isnan(draws.k2), axis=(0, 1))).tolist())
-        expected = set(range(prepared.equations.compensated_angles.size)) if draws.spring is not None else {
-            angle for (_, angle), keep in zip(prepared.equations.per_angle_columns(), ident.identifiable) if angle is not None and keep
-        }
-        if saved != expected:
-            raise InputError(
-                f"the posterior is not one of this campaign: it has joint-2 compliances at {len(saved)} q2 angles, "
-                f"the campaign identifies them at {len(expected)}",
-                source=campaign.source,
-            )
-        if prepared.identifiability.compensator != (draws.spring is not None):
-            raise InputError(
-                "the posterior is not one of this campaign: "
-                f"it {'has' if draws.spring is not None else 'lacks'} the compensator's {' and '.join(p.name for p in self.registry_law)}, which the campaign "
-                f"{'does not determine' if draws.spring is not None else 'determines'}",
-                source=campaign.source,
-            )
+        self._check_restored(campaign, prepared, draws)
         equations, offset, cf = prepared.equations, prepared.offset, prepared.closed_form
         corrected = replace(equations, y=equations.y - offset)
         static = self._static_columns(campaign, prepared)
         whitened = corrected.whitened()
+        ident = prepared.identifiability
         posterior, joints = posterior_density(whitened, ident, self.geometry, static, self.law)
         if (static is None) != (draws.gravity is None):
             has = "has" if draws.gravity is not None else "lacks"
@@ -421,6 +405,27 @@ class ElastostaticModel:
         sampler = str(tree.attrs.get("sampler", "not recorded"))
         misfit = calibration_lack_of_fit(self.tracker, campaign, equations, offset)
         return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, sampler, misfit)
+
+    def _check_restored(self, campaign: Campaign, prepared, draws: ElastostaticDraws) -> None:
+        """Refuse saved draws that are not of this campaign: their per-angle compliances and compensator against its own."""
+        ident = prepared.identifiability
+        saved = set(np.flatnonzero(~np.all(np.isnan(draws.k2), axis=(0, 1))).tolist())
+        expected = set(range(prepared.equations.compensated_angles.size)) if draws.spring is not None else {
+            angle for (_, angle), keep in zip(prepared.equations.per_angle_columns(), ident.identifiable) if angle is not None and keep
+        }
+        if saved != expected:
+            raise InputError(
+                f"the posterior is not one of this campaign: it has joint-2 compliances at {len(saved)} q2 angles, "
+                f"the campaign identifies them at {len(expected)}",
+                source=campaign.source,
+            )
+        if prepared.identifiability.compensator != (draws.spring is not None):
+            raise InputError(
+                "the posterior is not one of this campaign: "
+                f"it {'has' if draws.spring is not None else 'lacks'} the compensator's {' and '.join(p.name for p in self.registry_law)}, which the campaign "
+                f"{'does not determine' if draws.spring is not None else 'determines'}",
+                source=campaign.source,
+            )
 
     def _results(self, campaign, prepared, tree, draws, residual, chi2, summary, practical, sampler_name, misfit) -> ElastostaticResults:
         """The results object of a fit or a restored fit."""

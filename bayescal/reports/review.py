@@ -29,7 +29,7 @@ from bayescal.compensation.testpose import TestPosePrediction
 from bayescal.reference import beside_published
 from bayescal.reports.compensation import compensation_section
 from bayescal.numbers import error_length, fixed, table_texts
-from bayescal.reports.test_pose import unidentified_sentence
+from bayescal.compensation.test_pose_text import unidentified_sentence
 from bayescal.reports.page import HTML_FILE, JSON_FILE, MARKDOWN_FILE, Page
 from bayescal.reports.review_data import data_section, residual_section
 from bayescal.kinematics.ladder import LadderFindings

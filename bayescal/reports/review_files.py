@@ -159,7 +159,7 @@ def critique_section(page: Page, critique: Mapping, source: str) -> None:
 
 def _next_step(critique: Mapping, named: list[str] | None) -> str:
     """The critique's next step, from the findings in its file (the same sentence ``bayescal critique`` prints)."""
-    from bayescal.reports.next_steps import critique_next_steps
+    from bayescal.inference.next_steps import critique_next_steps
 
     gain = critique.get("gain")
     test_pose = gain.get("test_pose") if isinstance(gain, Mapping) else None

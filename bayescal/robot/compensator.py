@@ -46,7 +46,7 @@ from numpy.typing import ArrayLike
 from bayescal.robot.laws import LawParameter
 from bayescal.units import MM, N_PER_MM
 
-__all__ = ["CompensatorGeometry", "Compensator", "JointCompliance", "MIN_ANGLES", "SPRING_SCALE", "law_on", "alpha", "spring_stiffness", "spring_torque", "stiffness_regressor"]
+__all__ = ["CompensatorGeometry", "Compensator", "JointCompliance", "MagnitudeAndLength", "MIN_ANGLES", "SPRING_SCALE", "law_on", "alpha", "spring_stiffness", "spring_torque", "stiffness_regressor"]
 
 MIN_ANGLES = 3
 """Distinct angles of the compensated joint that eq 34 needs: one per unknown, K_θ^0, K_c and s0·K_c."""
@@ -192,8 +192,33 @@ class JointCompliance:
         return _out(1.0 / (1.0 / np.asarray(equivalent, dtype=float) - np.asarray(self.stiffness(q2))))
 
 
+class MagnitudeAndLength:
+    """The sampled coordinates of a law whose identified parameters are a positive magnitude and a length that the
+    linkage bounds (the spring's ``[K_c, s0]``, the gas cylinder's ``[F0, h0]``), ``z = [log magnitude, length]``: a
+    mixin of such laws' eq-34 block."""
+
+    def block_values(self, z: np.ndarray) -> np.ndarray:
+        """``(c, 2)`` ``[magnitude, length]`` of ``z = [log magnitude, length]``."""
+        return np.column_stack([np.exp(z[:, 0]), z[:, 1]])
+
+    def block_coordinates(self, values: ArrayLike) -> np.ndarray:
+        """``(..., 2)`` ``[log magnitude, length]`` of ``(..., 2)`` ``[magnitude, length]`` (``-inf`` or nan outside the support)."""
+        values = np.asarray(values, dtype=float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.stack([np.log(values[..., 0]), values[..., 1]], axis=-1)
+
+    def block_log_jacobian(self, z: np.ndarray) -> np.ndarray:
+        """``log magnitude``: the magnitude's flat prior on the positive half-line, in its log."""
+        return z[:, 0]
+
+    def block_inside(self, z: np.ndarray, geometry: np.ndarray) -> np.ndarray:
+        """``0 < length < a + L``, the longest the linkage P0-P1 can be (the length's flat prior; an unbounded one would
+        leave the posterior improper whenever the data do not exclude a zero magnitude, where the length has no effect)."""
+        return (z[:, 1] > 0) & (z[:, 1] < np.hypot(geometry[:, 1], geometry[:, 2]) + geometry[:, 0])
+
+
 @dataclass(frozen=True)
-class Compensator(CompensatorGeometry, JointCompliance):
+class Compensator(CompensatorGeometry, JointCompliance, MagnitudeAndLength):
     """A spring compensator: the linkage geometry plus the spring (eqs 5-9).
 
     Parameters
@@ -316,25 +341,6 @@ class Compensator(CompensatorGeometry, JointCompliance):
         """``(c,)`` ``K_c a L eta(q_ref)`` at ``z = [log K_c, s0]``."""
         reference = rows[..., -1, :]
         return np.exp(z[:, 0]) * (reference[..., 1] + reference[..., 2] * z[:, 1])
-
-    def block_values(self, z: np.ndarray) -> np.ndarray:
-        """``(c, 2)`` ``[K_c, s0]`` of ``z = [log K_c, s0]``."""
-        return np.column_stack([np.exp(z[:, 0]), z[:, 1]])
-
-    def block_coordinates(self, values: ArrayLike) -> np.ndarray:
-        """``(..., 2)`` ``[log K_c, s0]`` of ``(..., 2)`` ``[K_c, s0]`` (``-inf`` or nan outside the support)."""
-        values = np.asarray(values, dtype=float)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.stack([np.log(values[..., 0]), values[..., 1]], axis=-1)
-
-    def block_log_jacobian(self, z: np.ndarray) -> np.ndarray:
-        """``log K_c``: K_c's flat prior on the positive half-line in ``log K_c``."""
-        return z[:, 0]
-
-    def block_inside(self, z: np.ndarray, geometry: np.ndarray) -> np.ndarray:
-        """``0 < s0 < a + L``, the longest the spring can be (s0's flat prior; an unbounded one would leave the
-        posterior improper whenever the data do not exclude ``K_c = 0``, where s0 has no effect)."""
-        return (z[:, 1] > 0) & (z[:, 1] < np.hypot(geometry[:, 1], geometry[:, 2]) + geometry[:, 0])
 
     def block_scale(self, values: ArrayLike) -> np.ndarray:
         """:data:`SPRING_SCALE` of ``log K_c`` and of ``s0`` relative to ``values[1]``."""

@@ -40,7 +40,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 
-from bayescal.robot.compensator import CompensatorGeometry, JointCompliance, alpha
+from bayescal.robot.compensator import CompensatorGeometry, JointCompliance, MagnitudeAndLength, alpha
 from bayescal.robot.laws import LawParameter
 from bayescal.units import MM
 
@@ -97,7 +97,7 @@ def _stiffness_h0(rows: np.ndarray, F0: ArrayLike, h0: ArrayLike, n: float) -> n
 
 
 @dataclass(frozen=True)
-class HydroCompensator(CompensatorGeometry, JointCompliance):
+class HydroCompensator(CompensatorGeometry, JointCompliance, MagnitudeAndLength):
     """A hydro-pneumatic compensator on the linkage of eq 4 (SI: m, rad, N).
 
     Parameters
@@ -219,25 +219,6 @@ class HydroCompensator(CompensatorGeometry, JointCompliance):
     def block_reference(self, z: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """``(c,)`` ``dM_c/dq`` at the reference angle."""
         return self._block_stiffness(z, rows)[:, -1]
-
-    def block_values(self, z: np.ndarray) -> np.ndarray:
-        """``(c, 2)`` ``[F0, h0]`` of ``z = [log F0, h0]``."""
-        return np.column_stack([np.exp(z[:, 0]), z[:, 1]])
-
-    def block_coordinates(self, values: ArrayLike) -> np.ndarray:
-        """``(..., 2)`` ``[log F0, h0]`` of ``(..., 2)`` ``[F0, h0]``."""
-        values = np.asarray(values, dtype=float)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.stack([np.log(values[..., 0]), values[..., 1]], axis=-1)
-
-    def block_log_jacobian(self, z: np.ndarray) -> np.ndarray:
-        """``log F0``: F0's flat prior on the positive half-line in ``log F0``."""
-        return z[:, 0]
-
-    def block_inside(self, z: np.ndarray, geometry: np.ndarray) -> np.ndarray:
-        """``0 < h0 < a + L``: the gas column is shorter than the longest the cylinder P0-P1 can be (a flat prior;
-        an unbounded one would leave the posterior improper where the data do not exclude ``F0 = 0``)."""
-        return (z[:, 1] > 0) & (z[:, 1] < np.hypot(geometry[:, 1], geometry[:, 2]) + geometry[:, 0])
 
     def block_scale(self, values: ArrayLike) -> np.ndarray:
         """:data:`HYDRO_SCALE` of ``log F0`` and of ``h0`` relative to ``values[1]``."""

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from bayescal.numbers import deflection_mm, error_length, fixed, rounded_pair, table_texts, with_uncertainty
-from bayescal.reports.test_pose import unidentified_sentence
+from bayescal.compensation.test_pose_text import unidentified_sentence
 from bayescal.reports.plots import plot_joint2_compliance
 from bayescal.sampling.summary import R_HAT_LIMIT
 from bayescal_studies.studies.balance import BALANCE_Q2_DEG

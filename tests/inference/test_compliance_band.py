@@ -2,25 +2,15 @@
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import pytest
 
 from bayescal.inference.compliance_band import equivalent_compliance_band
-from bayescal.inference.elastostatic import ElastostaticModel
-from bayescal.sampling.gibbs import GibbsSampler
-from bayescal.twin.simulator import DigitalTwin
 
 
 @pytest.fixture(scope="module")
-def results(cell, plan):
-    """A short exact-model fit of a Table III campaign on the twin."""
-    campaign = DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(1))
-    with warnings.catch_warnings():
-        # short chains on a campaign that cannot identify k1 and the spring
-        warnings.simplefilter("ignore")
-        return ElastostaticModel.from_cell(cell, sampler=GibbsSampler(n_chains=2, n_tune=50, n_draws=100)).fit(campaign, 1)
+def results(short_exact_fit):
+    return short_exact_fit
 
 
 def test_the_band_of_the_equivalent_compliance_is_the_posteriors_99_73_percent(cell, results):

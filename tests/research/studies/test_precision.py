@@ -3,15 +3,12 @@
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import replace
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from bayescal.sampling.gibbs import GibbsSampler
-from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.reference import published
 from bayescal_studies.studies.precision import (
     compensator_precision,
@@ -20,17 +17,11 @@ from bayescal_studies.studies.precision import (
     table_iv_width_ratio,
 )
 from bayescal.twin.effects import parse_effect
-from bayescal.twin.simulator import DigitalTwin
 
 
 @pytest.fixture(scope="module")
-def results(cell, plan):
-    """A short exact-model fit of a Table III campaign on the twin."""
-    campaign = DigitalTwin(cell).simulate(plan, 3, np.random.default_rng(1))
-    with warnings.catch_warnings():
-        # short chains on a campaign that cannot identify k1 and the spring
-        warnings.simplefilter("ignore")
-        return ElastostaticModel.from_cell(cell, sampler=GibbsSampler(n_chains=2, n_tune=50, n_draws=100)).fit(campaign, 1)
+def results(short_exact_fit):
+    return short_exact_fit
 
 
 def test_design_precision_is_of_the_order_of_table_iv(cell, plan):

@@ -1,6 +1,6 @@
 """The calibration's next step follows from its results, in order: convergence, lack of fit, identifiability, use."""
 
-from bayescal.reports.next_steps import calibration_next_steps, critique_next_steps
+from bayescal.inference.next_steps import calibration_next_steps, critique_next_steps
 
 FIT = {"model": "exact", "lack_of_fit": {"p_value": 0.4, "factor": 1.1}}
 
