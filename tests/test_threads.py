@@ -6,7 +6,6 @@ import threading
 import warnings
 from pathlib import Path
 
-import numpy as np
 import pytest
 from threadpoolctl import threadpool_info, threadpool_limits
 

@@ -6,7 +6,6 @@ import pytest
 
 from bayescal.compensation import compensate_poses, compensate_program, load_calibration
 from bayescal.compensation.calibration import GRID_STEP, Calibration
-from bayescal.compensation.program import Program
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.compensation.testpose import predict_cell_test_pose, test_pose_program
 from bayescal.robot.stiffness import ElasticArm
