@@ -4,19 +4,21 @@ Each results class that writes a JSON states its shape once, beside its ``to_jso
 (the keys a reader relies on, with their types, and the command that writes the file); whatever reads such a
 file (``bayescal report``'s ``--plan``, ``--critique``, ``--registration``) reads it with
 :func:`read_json_object` and checks it against that schema, so that a wrong file is one line naming the file,
-the key and the command that writes the right one.
+the key and the command that writes the right one.  A file that cannot rebuild its results object is read into a
+*findings* record (a frozen dataclass beside the ``to_json``): :func:`findings_fields` and :func:`findings_json`
+move a file's keys into the record's fields and back, the keys it does not name kept as they came.
 """
 
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from os import PathLike
 
 from bayescal.errors import InputError
 from bayescal.output import record_read
 
-__all__ = ["JsonSchema", "read_json_object"]
+__all__ = ["JsonSchema", "read_json_object", "findings_fields", "findings_json"]
 
 
 def read_json_object(path: str | PathLike[str], what: str):
@@ -69,3 +71,22 @@ class JsonSchema:
         for key, allowed in self.values.items():
             if data[key] not in allowed:
                 raise InputError(f"expected a {key} {' or '.join(allowed)}, got {data[key]!r}", source=source, column=key)
+
+
+def findings_fields(record_class: type, data: dict) -> dict:
+    """The keyword arguments of the findings dataclass ``record_class`` for the JSON object ``data``.
+
+    Each key named by a field goes to that field; the others go to ``extra`` (in the file's order), and ``keys``
+    keeps every key in the file's order, so that a key the file holds as null stays apart from one it lacks.
+    """
+    named = {f.name for f in fields(record_class)} - {"keys", "extra"}
+    return {key: value for key, value in data.items() if key in named} | {
+        "keys": tuple(data), "extra": {key: value for key, value in data.items() if key not in named}}
+
+
+def findings_json(record) -> dict:
+    """The JSON object a findings record was read from: its file's keys in their order, each from its field or ``extra``
+    (a record built without ``keys``: its fields that are not None, then ``extra``)."""
+    order = record.keys or (*(f.name for f in fields(record) if f.name not in ("keys", "extra") and getattr(record, f.name) is not None),
+                            *record.extra)
+    return {key: record.extra[key] if key in record.extra else getattr(record, key) for key in order}

@@ -55,3 +55,22 @@ def test_the_critique_schema_takes_what_a_critique_writes():
     CRITIQUE_JSON.check_keys(payload, "critique.json")
     with pytest.raises(InputError, match="expected a verdict adequate or misfit"):
         CRITIQUE_JSON.check_keys(payload | {"verdict": "fine"}, "critique.json")
+
+
+def test_a_findings_record_keeps_a_null_key_apart_from_a_missing_one_and_the_file_s_order():
+    from dataclasses import dataclass, field
+
+    from bayescal.jsonfiles import findings_fields, findings_json
+
+    @dataclass(frozen=True)
+    class Record:
+        verdict: str
+        note: str | None = None
+        keys: tuple[str, ...] = ()
+        extra: dict = field(default_factory=dict)
+
+    data = {"newer": [1, 2], "note": None, "verdict": "yes"}
+    record = Record(**findings_fields(Record, data))
+    assert (record.verdict, record.note, record.extra) == ("yes", None, {"newer": [1, 2]})
+    assert list(findings_json(record).items()) == list(data.items())
+    assert findings_json(Record(**findings_fields(Record, {"verdict": "no"}))) == {"verdict": "no"}

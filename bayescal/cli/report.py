@@ -117,16 +117,19 @@ def _read_inputs(args: argparse.Namespace):
         geometry = posterior_geometry(args.geometry, None if cell is None else cell.compensator)
     if args.registration:
         from bayescal.registration import read_frame
+        from bayescal.registration.register import RegistrationFindings
 
         sources["registration"] = args.registration
-        review.registration = _read_json(args.registration, "--registration")
-        for name in review.registration["frames"]:
+        review.registration = RegistrationFindings.load(args.registration, "--registration")
+        for name in review.registration.frames:
             read_frame(args.registration, name, cell)
     if args.calibration:
         _read_calibration(args, cell, geometry, review)
     if args.plan:
+        from bayescal.design.plan_design import PlanFindings
+
         sources["plan"] = args.plan
-        review.plan = _read_json(args.plan, "--plan")
+        review.plan = PlanFindings.load(args.plan, "--plan")
     if args.critique:
         sources["critique"] = args.critique
         review.critique, review.ladder = _read_critique(args.critique)
@@ -170,29 +173,21 @@ def _read_calibration(args: argparse.Namespace, cell, geometry, review) -> None:
     review.residuals, review.test_pose = calibration.residuals, calibration.test_pose
 
 
-def _read_json(path: str, option: str):
-    """The JSON file of ``option``, checked against the schema of the results class that writes it: a dict, or the
-    :class:`~bayescal.kinematics.ladder.LadderFindings` a model ladder's file holds."""
-    from bayescal.critique.results import CRITIQUE_JSON
-    from bayescal.design.plan_design import PLAN_JSON
+def _read_critique(path: str):
+    """The --critique file, checked against the schema of the results class that wrote it: a campaign's critique as its
+    :class:`~bayescal.critique.results.CritiqueFindings`, or a points cell's model ladder as its
+    :class:`~bayescal.kinematics.ladder.LadderFindings` (the pair, the other None)."""
+    from bayescal.critique.results import CRITIQUE_JSON, CritiqueFindings
     from bayescal.jsonfiles import read_json_object
     from bayescal.kinematics.ladder import LADDER_JSON, LADDER_KIND, LadderFindings
-    from bayescal.registration.register import REGISTRATION_JSON
 
-    data = read_json_object(path, f"the {option} file")
-    schema = {"--plan": PLAN_JSON, "--critique": CRITIQUE_JSON, "--registration": REGISTRATION_JSON}[option]
-    schema.check_kind(data, path, option)
-    if option == "--critique" and data.get("kind") == LADDER_KIND:
+    data = read_json_object(path, "the --critique file")
+    # Both files share the critique's writer in errors until the ladder's kind tells them apart.
+    CRITIQUE_JSON.check_kind(data, path, "--critique")
+    if data.get("kind") == LADDER_KIND:
         LADDER_JSON.check_keys(data, path)
-        return LadderFindings.from_json(data)
-    schema.check_keys(data, path)
-    return data
-
-
-def _read_critique(path: str):
-    """The --critique file: a campaign's critique as its checked JSON, or a points cell's model ladder as its findings."""
-    critique = _read_json(path, "--critique")
-    return (critique, None) if isinstance(critique, dict) else (None, critique)
+        return None, LadderFindings.from_json(data)
+    return CritiqueFindings.from_json(data, path), None
 
 
 def _read_csv(path: str, option: str):

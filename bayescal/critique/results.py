@@ -1,7 +1,8 @@
 """What a critique found: :class:`Outcome` for any greedy critique, :class:`CritiqueResults` for the campaign's.
 
 Plain data with the house's verbs (``summary()``, ``diagnostics()``, ``to_json()``, ``save()``);
-:class:`~bayescal.critique.model.Critique` computes them.
+:class:`~bayescal.critique.model.Critique` computes them.  :class:`CritiqueFindings` is what a critique's JSON
+file holds, read back (the file keeps each candidate at its last step only: it cannot rebuild the results).
 """
 
 from __future__ import annotations
@@ -18,10 +19,10 @@ from bayescal.critique.compare import Comparison, CrossValidation
 from bayescal.critique.covariates import COVARIATES
 from bayescal.critique.rule import DECISIVE_GAIN, DECISIVE_Z, DETECTION_FLOOR, DETECTION_Z, TIE_NOISE
 from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit
-from bayescal.jsonfiles import JsonSchema
+from bayescal.jsonfiles import JsonSchema, findings_fields, findings_json, read_json_object
 from bayescal.summary import Summary
 
-__all__ = ["Outcome", "CritiqueResults", "CRITIQUE_JSON", "VERDICTS"]
+__all__ = ["Outcome", "CritiqueResults", "CritiqueFindings", "CRITIQUE_JSON", "VERDICTS"]
 
 VERDICTS = ("adequate", "misfit")
 """The verdicts a critique gives (:attr:`Outcome.verdict`)."""
@@ -200,3 +201,57 @@ class CritiqueResults(Outcome):
     def save(self, path: str | PathLike[str]) -> None:
         """Write :meth:`to_json` to ``path``."""
         Path(path).write_text(json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n")
+
+
+@dataclass(frozen=True)
+class CritiqueFindings:
+    """What a critique's JSON file (:meth:`CritiqueResults.to_json`, or the geometry critique's) holds.
+
+    Attributes
+    ----------
+    verdict : str
+        One of :data:`VERDICTS`.
+    causes : list
+        The causes named, in the order added (str each, in a file this version writes).
+    evidence : dict
+        Candidate -> its held-out comparison at the step it was named, or at the last step: ``delta_elpd`` and
+        ``se`` (nats), ``n_configs``, ``step``, ``named``.
+    gain : dict
+        The final model against the classical one: ``delta_elpd``, ``se`` (nats); ``before``, ``after`` (held-out
+        residual statistics, mm); ``test_pose`` (``classical_error_mm``, mm) for a campaign's critique.
+    covariates, rule, lack_of_fit : dict or None
+        Each covariate probe's comparison (nats) with its meaning; the naming rule (SE multiples and nats); the
+        lack-of-fit test against the repeats (``factor``, ``statistic``, ``dof``, ``p_value``, ``level``).
+    negligible : list or None
+        Named causes detectable but too small to matter.
+    keys : tuple of str
+        The file's keys in its order (a key held as null apart from one missing).
+    extra : dict
+        The file's other keys, as they came.
+    """
+
+    verdict: str
+    causes: list
+    evidence: dict
+    gain: dict
+    covariates: dict | None = None
+    rule: dict | None = None
+    lack_of_fit: dict | None = None
+    negligible: list | None = None
+    keys: tuple[str, ...] = ()
+    extra: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        return findings_json(self)
+
+    @classmethod
+    def from_json(cls, data, source: str = "the critique's JSON", option: str = "--critique") -> CritiqueFindings:
+        """The findings in ``data``, checked against :data:`CRITIQUE_JSON`; ``source`` and ``option`` name it in errors."""
+        CRITIQUE_JSON.check_kind(data, source, option)
+        CRITIQUE_JSON.check_keys(data, source)
+        return cls(**findings_fields(cls, data))
+
+    @classmethod
+    def load(cls, path: str | PathLike[str], option: str = "--critique") -> CritiqueFindings:
+        """The findings in the JSON file at ``path`` (``bayescal critique --json``); ``option`` names it in errors."""
+        return cls.from_json(read_json_object(path, f"the {option} file"), str(path), option)

@@ -1,7 +1,8 @@
 """A calibration plan with what it is predicted to deliver: the results of :class:`~bayescal.design.optimise.PlanDesigner`.
 
 :class:`PlanDesign` is a plan the designer optimised (:meth:`~bayescal.design.optimise.PlanDesigner.optimise`),
-:class:`PlanEvaluation` a given plan it scored (:meth:`~bayescal.design.optimise.PlanDesigner.assess`).
+:class:`PlanEvaluation` a given plan it scored (:meth:`~bayescal.design.optimise.PlanDesigner.assess`),
+:class:`PlanFindings` what a plan's JSON file holds, read back.
 """
 
 from __future__ import annotations
@@ -20,11 +21,11 @@ from bayescal.design.prediction import criterion_value
 from bayescal.design.loads import loads_json
 from bayescal.design.prediction import PlanPrediction
 from bayescal.inference.parameters import ANGLE_DECIMALS
-from bayescal.jsonfiles import JsonSchema
+from bayescal.jsonfiles import JsonSchema, findings_fields, findings_json, read_json_object
 from bayescal.jsonsafe import json_safe
 from bayescal.units import DEG, MM
 
-__all__ = ["PlanDesign", "PlanEvaluation", "PLAN_JSON"]
+__all__ = ["PlanDesign", "PlanEvaluation", "PlanFindings", "PLAN_JSON"]
 
 PLAN_JSON = JsonSchema({"criterion": (float, int, type(None)), "parameters": dict, "configurations": int}, "bayescal plan --json",
                        foreign="verdict")
@@ -181,3 +182,70 @@ class PlanEvaluation:
         """Write :meth:`to_json` to a JSON file."""
         with open(path, "w", encoding="utf-8") as out:
             json.dump(self.to_json(), out, indent=2, allow_nan=False)
+
+
+@dataclass(frozen=True)
+class PlanFindings:
+    """What a plan's JSON file (:meth:`PlanDesign.to_json`, :meth:`PlanEvaluation.to_json`) holds.
+
+    Attributes
+    ----------
+    criterion : float or None
+        ρ0 predicted at the test pose, in ``criterion_unit`` (mm rms), everything counted.
+    parameters : dict
+        Parameter -> ``value``, ``width_3sd``, ``width_3sd_pct``, ``excited`` and ``unit`` (the parameter's).
+    configurations : int
+    criterion_unit, criterion_includes : str or None
+    criterion_identified_only : float or None
+        ρ0 from the plan's data alone (``criterion_unit``).
+    criterion_prior_share_of_mean_square : float or None
+        The prior's share of ρ0's mean square, in [0, 1].
+    linear_model : dict or None
+        The same prediction by the linear model of eq 31 (``criterion``, in ``criterion_unit``).
+    optimised_for, search_model : str or None
+        The criterion the plan was designed for and the model the search used.
+    repeats : int or None
+    q2_deg, load_kg : list or None
+        The plan's q2 angles (deg) and hanging loads (kg).
+    starts : list or None
+        The optimised criterion each random start reached (SI: m for the test-pose criterion).
+    candidates : int or None
+        Candidate configurations of the search.
+    keys : tuple of str
+        The file's keys in its order (a key held as null apart from one missing).
+    extra : dict
+        The file's other keys, as they came.
+    """
+
+    criterion: float | None
+    parameters: dict
+    configurations: int
+    criterion_unit: str | None = None
+    criterion_includes: str | None = None
+    criterion_identified_only: float | None = None
+    criterion_prior_share_of_mean_square: float | None = None
+    linear_model: dict | None = None
+    optimised_for: str | None = None
+    search_model: str | None = None
+    repeats: int | None = None
+    q2_deg: list | None = None
+    load_kg: list | None = None
+    starts: list | None = None
+    candidates: int | None = None
+    keys: tuple[str, ...] = ()
+    extra: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        return findings_json(self)
+
+    @classmethod
+    def from_json(cls, data, source: str = "the plan's JSON", option: str = "--plan") -> PlanFindings:
+        """The findings in ``data``, checked against :data:`PLAN_JSON`; ``source`` and ``option`` name it in errors."""
+        PLAN_JSON.check_kind(data, source, option)
+        PLAN_JSON.check_keys(data, source)
+        return cls(**findings_fields(cls, data))
+
+    @classmethod
+    def load(cls, path: str | PathLike[str], option: str = "--plan") -> PlanFindings:
+        """The findings in the JSON file at ``path`` (``bayescal plan --json``); ``option`` names it in errors."""
+        return cls.from_json(read_json_object(path, f"the {option} file"), str(path), option)

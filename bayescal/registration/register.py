@@ -11,14 +11,14 @@ import pandas as pd
 
 from bayescal.cell.config import Cell
 from bayescal.errors import InputError
-from bayescal.jsonfiles import JsonSchema
+from bayescal.jsonfiles import JsonSchema, findings_fields, findings_json, read_json_object
 from bayescal.output import record_read
 from bayescal.registration.axes import AxisFit, fit_axis, span_needed
 from bayescal.registration.frames import Frame, common_perpendicular, draw_axis, frames_with_uncertainty, urdf_axes
 from bayescal.registration.sweeps import Sweeps
 from bayescal.units import DEG, MM
 
-__all__ = ["Registration", "exclude", "read_frame", "register", "MIRROR_Z", "REGISTRATION_JSON"]
+__all__ = ["Registration", "RegistrationFindings", "exclude", "read_frame", "register", "MIRROR_Z", "REGISTRATION_JSON"]
 
 REGISTRATION_JSON = JsonSchema({"axes": dict, "frames": dict}, "bayescal axes -o", foreign="parameters")
 """What a reader of :meth:`Registration.save`'s file relies on; ``parameters`` is a calibration's key."""
@@ -93,6 +93,56 @@ class Registration:
         """Write :meth:`to_json` to a JSON file."""
         with open(path, "w", encoding="utf-8") as out:
             json.dump(self.to_json(), out, indent=2)
+
+
+
+@dataclass(frozen=True)
+class RegistrationFindings:
+    """What a registration's JSON file (:meth:`Registration.save`) holds.
+
+    Attributes
+    ----------
+    axes : dict
+        Joint ("1", …) -> its axis in the tracker frame: ``direction`` (unit vector) and ``direction_sd_mrad`` (mrad),
+        ``point_mm`` and ``point_sd_mm`` (mm), ``rms_mm`` (mm), ``chi2``, ``dof``, ``reflectors`` (arc residuals, mm and
+        deg) and, in a newer file, ``half_width`` and ``direction_dof``, ``point_dof``.
+    frames : dict
+        Frame name -> ``rotation`` (3 x 3), ``rotation_sd_mrad`` (mrad, 3), ``translation_mm`` and ``translation_sd_mm``
+        (mm, 3), ``from_nominal`` when built from the nominal geometry.
+    left_out : dict or None
+        Joint -> why its sweep gave no axis.
+    missing : str or None
+        What the registration lacks, in words.
+    critique : dict or None
+        The sweep critique: ``verdict`` and, per joint, each candidate's held-out ``evidence``.
+    keys : tuple of str
+        The file's keys in its order (a key held as null apart from one missing).
+    extra : dict
+        The file's other keys, as they came.
+    """
+
+    axes: dict
+    frames: dict
+    left_out: dict | None = None
+    missing: str | None = None
+    critique: dict | None = None
+    keys: tuple[str, ...] = ()
+    extra: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        return findings_json(self)
+
+    @classmethod
+    def from_json(cls, data, source: str = "the registration's JSON", option: str = "--registration") -> RegistrationFindings:
+        """The findings in ``data``, checked against :data:`REGISTRATION_JSON`; ``source`` and ``option`` name it in errors."""
+        REGISTRATION_JSON.check_kind(data, source, option)
+        REGISTRATION_JSON.check_keys(data, source)
+        return cls(**findings_fields(cls, data))
+
+    @classmethod
+    def load(cls, path: str | PathLike[str], option: str = "--registration") -> RegistrationFindings:
+        """The findings in the JSON file at ``path`` (``bayescal axes -o``); ``option`` names it in errors."""
+        return cls.from_json(read_json_object(path, f"the {option} file"), str(path), option)
 
 
 

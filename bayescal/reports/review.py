@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -51,6 +51,12 @@ from bayescal.sampling.summary import ESS_LIMIT, R_HAT_LIMIT, diagnostics, summa
 from bayescal.inference.compliance_band import equivalent_compliance_band
 from bayescal.units import DEG, MM, UM, URAD_PER_NM
 
+if TYPE_CHECKING:
+    # Read at run time from their files by the CLI; the review only reads their attributes.
+    from bayescal.critique.results import CritiqueFindings
+    from bayescal.design.plan_design import PlanFindings
+    from bayescal.registration.register import RegistrationFindings
+
 __all__ = ["ReviewInputs", "render_review", "HTML_FILE", "MARKDOWN_FILE", "JSON_FILE"]
 
 ETA_S0_MM = (300.0, 400.0, 500.0, 600.0)
@@ -77,16 +83,18 @@ class ReviewInputs:
         :func:`~bayescal.inference.residuals.residual_table` of ``results``.
     test_pose : TestPosePrediction or None
         The prediction at the cell's test pose.
-    plan, critique : dict or None
-        The JSON printed by ``bayescal plan --json`` and ``bayescal critique --json`` of a campaign.
+    plan : PlanFindings or None
+        The JSON printed by ``bayescal plan --json`` (:meth:`PlanFindings.load`).
+    critique : CritiqueFindings or None
+        The JSON printed by ``bayescal critique --json`` of a campaign (:meth:`CritiqueFindings.load`).
     ladder : LadderFindings or None
         The model ladder of a cell of measured points (``bayescal critique POSITIONS.csv --json``, :meth:`LadderFindings.load`).
     study : pandas.DataFrame or None
         A q2-angle study table.
     compensation : pandas.DataFrame or None
         A compensated program (:func:`~bayescal.reports.compensation.read_compensated`).
-    registration : dict or None
-        The registration file written by ``bayescal axes -o``.
+    registration : RegistrationFindings or None
+        The registration file written by ``bayescal axes -o`` (:meth:`RegistrationFindings.load`).
     seed : int
         Seed of the choice of draws shown in the pair plots.
     """
@@ -98,12 +106,12 @@ class ReviewInputs:
     cell: Cell | None = None
     residuals: pd.DataFrame | None = None
     test_pose: TestPosePrediction | None = None
-    plan: dict | None = None
-    critique: dict | None = None
+    plan: PlanFindings | None = None
+    critique: CritiqueFindings | None = None
     ladder: LadderFindings | None = None
     study: pd.DataFrame | None = None
     compensation: pd.DataFrame | None = None
-    registration: dict | None = None
+    registration: RegistrationFindings | None = None
     seed: int = 0
 
 
@@ -183,8 +191,8 @@ def _overview(page: Page, inputs: ReviewInputs, facts: _Facts | None) -> None:
             + (f"; from the identified parameters alone {error_length(error['identified_only']['q99.73'])} (99.73 %), the rest from "
                f"{', '.join(error['unidentified'])}, which the campaign does not identify." if error["unidentified"] else ".")
         )
-    if inputs.critique is not None and "verdict" in inputs.critique:
-        lines.append(f"Critique: {str(inputs.critique['verdict']).removeprefix('verdict: ')}.")
+    if inputs.critique is not None:
+        lines.append(f"Critique: {str(inputs.critique.verdict).removeprefix('verdict: ')}.")
     if inputs.ladder is not None:
         lines.append(f"Model ladder: {inputs.ladder.verdict.removeprefix('verdict: ')}.")
     page.items(lines or ["No posterior was given: only the files below are shown."])

@@ -1,9 +1,11 @@
-"""The review's sections for the JSON files it is given as they are: a plan, a critique and a registration.
+"""The review's sections for the JSON files it is given: a plan, a critique and a registration, as findings records.
 
-``bayescal plan --json`` and ``bayescal critique --json`` print findings; these
-sections put their known keys in words and tables rounded to their uncertainty
+``bayescal plan --json`` and ``bayescal critique --json`` print findings, read back as
+:class:`~bayescal.design.plan_design.PlanFindings` and :class:`~bayescal.critique.results.CritiqueFindings`
+(``bayescal axes -o``'s file as :class:`~bayescal.registration.register.RegistrationFindings`); these
+sections put their known fields in words and tables rounded to their uncertainty
 (the criterion in μm, the ±3σ widths to two digits, ΔELPD and SE to 0.1 nat),
-and show any other key in a generic table under its name in words, so that a
+and show any other key of the file in a generic table under its name in words, so that a
 file from a newer version still renders.
 """
 
@@ -11,6 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -19,6 +22,11 @@ from bayescal.reports.figures import plot_evidence
 from bayescal.numbers import fixed, rounded_pair, table_texts
 from bayescal.reports.page import Page, finite_number, generic
 from bayescal.reports.terms import label
+
+if TYPE_CHECKING:
+    from bayescal.critique.results import CritiqueFindings
+    from bayescal.design.plan_design import PlanFindings
+    from bayescal.registration.register import RegistrationFindings
 
 __all__ = ["plan_section", "critique_section", "registration_section"]
 
@@ -30,59 +38,58 @@ CRITIQUE_SHOWN = ("verdict", "causes", "evidence", "gain", "covariates", "lack_o
 """Keys of the critique's JSON the critique section shows in words."""
 
 
-def plan_section(page: Page, plan: Mapping, source: str) -> None:
+def plan_section(page: Page, plan: PlanFindings, source: str) -> None:
     """The plan ``bayescal plan --json`` printed: what it was designed for, its angles, the predicted widths."""
     page.heading("plan", "Experiment plan")
     if source:
         page.paragraph(f"From {source}.")
-    criterion, unit = plan.get("criterion"), str(plan.get("criterion_unit", ""))
+    criterion, unit = plan.criterion, str(plan.criterion_unit if "criterion_unit" in plan.keys else "")
     page.record("criterion", criterion)
     page.record("criterion_unit", unit)
     if finite_number(criterion):
-        linear = plan.get("linear_model", {}).get("criterion") if isinstance(plan.get("linear_model"), Mapping) else None
+        linear = plan.linear_model.get("criterion") if isinstance(plan.linear_model, Mapping) else None
         designed = (
-            f"Designed for the {plan['optimised_for']} criterion"
-            + (f" (searched with the {plan['search_model']} model)" if "search_model" in plan else "")
-            if "optimised_for" in plan
+            f"Designed for the {plan.optimised_for} criterion"
+            + (f" (searched with the {plan.search_model} model)" if "search_model" in plan.keys else "")
+            if "optimised_for" in plan.keys
             else "Scored"
         )
-        identified = plan.get("criterion_identified_only")
-        share = plan.get("criterion_prior_share_of_mean_square")
+        identified = plan.criterion_identified_only
+        share = plan.criterion_prior_share_of_mean_square
         page.paragraph(
             f"{designed}: predicted ρ0 = {_criterion_text(criterion, unit)} (linearised at the design, the exact model; "
             "everything counted)"
             + (f"; the linear model of eq 31 predicts {_criterion_text(linear, unit)}" if finite_number(linear) else "")
             + (
                 f". From the plan's data alone {_criterion_text(identified, unit)}; the rest ({share:.0%} of the mean square) "
-                f"from {str(plan.get('criterion_includes', '')).split('the prior of ', 1)[-1]}"
+                f"from {str(plan.criterion_includes if 'criterion_includes' in plan.keys else '').split('the prior of ', 1)[-1]}"
                 if finite_number(identified) and finite_number(share) and share > 0
                 else ""
             )
             + ".",
             css="verdict",
         )
-    angles = plan.get("q2_deg")
+    angles = plan.q2_deg
     if isinstance(angles, list) and angles:
-        loads = plan.get("load_kg")
+        loads = plan.load_kg
         page.paragraph(
-            f"{plan.get('configurations', '?')} configurations, each measured {plan.get('repeats', '?')} times, at q2 = "
+            f"{plan.configurations} configurations, each measured {plan.repeats if 'repeats' in plan.keys else '?'} times, at q2 = "
             + ", ".join(f"{v:.1f}" for v in angles)
             + " deg"
             + (f"; hanging loads of {', '.join(f'{v:g}' for v in loads)} kg" if isinstance(loads, list) and loads else "")
             + "."
         )
-    parameters = plan.get("parameters")
-    if isinstance(parameters, Mapping) and parameters:
-        _plan_widths(page, parameters)
-    starts = plan.get("starts")
-    if isinstance(starts, list) and starts and "candidates" in plan and plan.get("optimised_for") == "test-pose":
+    if plan.parameters:
+        _plan_widths(page, plan.parameters)
+    starts = plan.starts
+    if isinstance(starts, list) and starts and "candidates" in plan.keys and plan.optimised_for == "test-pose":
         # The starts hold the optimised criterion in SI: ρ0 in m for the test-pose criterion.
         reached = ", ".join(_criterion_text(v * 1e3, "mm rms") if finite_number(v) else "–" for v in starts)
-        model = f", by the {plan['search_model']} model's reckoning" if "search_model" in plan else ""
-        page.paragraph(f"Search: {plan['candidates']} candidate configurations; the {len(starts)} random starts reached {reached}{model}.")
+        model = f", by the {plan.search_model} model's reckoning" if "search_model" in plan.keys else ""
+        page.paragraph(f"Search: {plan.candidates} candidate configurations; the {len(starts)} random starts reached {reached}{model}.")
     # For the test-pose criterion the optimised value is ρ0 itself, in m: shown above in μm.
-    shown = PLAN_SHOWN + (("starts", "candidates", "criterion_value") if plan.get("optimised_for") == "test-pose" else ())
-    rest = {key: value for key, value in plan.items() if key not in shown}
+    shown = PLAN_SHOWN + (("starts", "candidates", "criterion_value") if plan.optimised_for == "test-pose" else ())
+    rest = {key: value for key, value in plan.to_json().items() if key not in shown}
     if rest:
         generic(page, rest)
     page.close()
@@ -114,21 +121,20 @@ def _plan_widths(page: Page, parameters: Mapping) -> None:
     )
 
 
-def critique_section(page: Page, critique: Mapping, source: str) -> None:
+def critique_section(page: Page, critique: CritiqueFindings, source: str) -> None:
     """The critique ``bayescal critique --json`` printed: verdict, next step, evidence, lack of fit, gain."""
     page.heading("critique", "Critique of the model")
     if source:
         page.paragraph(f"From {source}.")
-    causes = critique.get("causes")
+    causes = critique.causes
     named = [str(c) for c in causes] if isinstance(causes, list) and all(isinstance(c, str) for c in causes) else None
-    if "verdict" in critique:
-        verdict = str(critique["verdict"])
-        page.paragraph(
-            f"Verdict: {verdict}" + (f": causes in order of gain: {', '.join(named)}" if named else "")
-            + (" (no extension predicts held-out configurations clearly better than the calibrated model)" if verdict == "adequate" else ""),
-            css="verdict",
-        )
-        page.record("verdict", verdict)
+    verdict = str(critique.verdict)
+    page.paragraph(
+        f"Verdict: {verdict}" + (f": causes in order of gain: {', '.join(named)}" if named else "")
+        + (" (no extension predicts held-out configurations clearly better than the calibrated model)" if verdict == "adequate" else ""),
+        css="verdict",
+    )
+    page.record("verdict", verdict)
     if named is not None:
         page.record("causes", named)
     elif causes is not None:
@@ -136,39 +142,39 @@ def critique_section(page: Page, critique: Mapping, source: str) -> None:
     advice = _next_step(critique, named)
     if advice:
         page.paragraph(advice)
-    _evidence(page, critique.get("evidence"))
-    _lack_of_fit(page, critique.get("lack_of_fit"))
-    _gain(page, critique.get("gain"))
-    covariates = critique.get("covariates")
+    _evidence(page, critique.evidence)
+    _lack_of_fit(page, critique.lack_of_fit)
+    _gain(page, critique.gain)
+    covariates = critique.covariates
     if isinstance(covariates, Mapping) and covariates and all(isinstance(v, Mapping) for v in covariates.values()):
         frame = _elpd_frame(covariates, ("meaning",))
         frame.index.name = "covariate"
         _elpd_table(page, "covariates", frame, "Held-out gain of a smooth term in each covariate: what an effect outside the catalogue would follow")
-    rule = critique.get("rule")
+    rule = critique.rule
     if isinstance(rule, Mapping) and {"delta_elpd_over_se", "floor_nats"} <= set(rule):
         page.paragraph(
             f"Rule: a cause is named when ΔELPD > {rule['delta_elpd_over_se']:g} SE and > {rule['floor_nats']:g} nats"
             + (f", or > {rule['decisive_nats']:g} nats" if "decisive_nats" in rule else "")
             + (f" and > {rule['decisive_over_se']:g} SE" if "decisive_over_se" in rule else "") + "."
         )
-    rest = {key: value for key, value in critique.items() if key not in CRITIQUE_SHOWN}
+    rest = {key: value for key, value in critique.to_json().items() if key not in CRITIQUE_SHOWN}
     if rest:
         generic(page, rest)
     page.close()
 
 
-def _next_step(critique: Mapping, named: list[str] | None) -> str:
+def _next_step(critique: CritiqueFindings, named: list[str] | None) -> str:
     """The critique's next step, from the findings in its file (the same sentence ``bayescal critique`` prints)."""
     from bayescal.inference.next_steps import critique_next_steps
 
-    gain = critique.get("gain")
+    gain = critique.gain
     test_pose = gain.get("test_pose") if isinstance(gain, Mapping) else None
     error = test_pose.get("classical_error_mm") if isinstance(test_pose, Mapping) else None
-    lack = critique.get("lack_of_fit")
+    lack = critique.lack_of_fit
     if named is None or not finite_number(error):
         return ""
     misfit = isinstance(lack, Mapping) and finite_number(lack.get("p_value")) and lack["p_value"] < lack.get("level", 0.01)
-    negligible = critique.get("negligible")
+    negligible = critique.negligible
     return critique_next_steps(named, bool(misfit), float(error), [n for n in negligible if isinstance(n, str)] if isinstance(negligible, list) else ())
 
 
@@ -242,7 +248,7 @@ def _gain(page: Page, gain) -> None:
     page.paragraph("; ".join(words) + ".")
 
 
-def registration_section(page: Page, registration: Mapping, source: str) -> None:
+def registration_section(page: Page, registration: RegistrationFindings, source: str) -> None:
     """The tracker's registration as ``bayescal axes -o`` wrote it: axes, frames with their sd, arc residuals.
 
     Every coordinate is rounded to its own sd (:mod:`bayescal.numbers`): an axis point about 2 m
@@ -254,15 +260,15 @@ def registration_section(page: Page, registration: Mapping, source: str) -> None
         "frames built from axes 1 and 2 (p_tracker = R p + t); a campaign or arcs given with this registration were "
         "moved into these frames, the rotation's uncertainty added to each reading (docs/registration.md)."
     )
-    axes = {str(joint): axis for joint, axis in registration.get("axes", {}).items() if isinstance(axis, Mapping)}
+    axes = {str(joint): axis for joint, axis in registration.axes.items() if isinstance(axis, Mapping)}
     if axes:
         frame, shown = _axes_table(axes)
         page.table("axes", frame, shown=shown, caption="Joint axes in the tracker frame: unit direction and the point nearest the tracker's origin")
-    frames = {str(name): entry for name, entry in registration.get("frames", {}).items() if isinstance(entry, Mapping)}
-    for joint, why in (registration.get("left_out") or {}).items():
+    frames = {str(name): entry for name, entry in registration.frames.items() if isinstance(entry, Mapping)}
+    for joint, why in (registration.left_out or {}).items():
         page.paragraph(f"joint {joint}: no axis: the sweep {why}.")
-    if registration.get("missing"):
-        page.paragraph(f"{registration['missing']}.")
+    if registration.missing:
+        page.paragraph(f"{registration.missing}.")
     for name, entry in frames.items():
         if entry.get("from_nominal"):
             page.paragraph(f"{name} frame: {entry['from_nominal']}.")
@@ -278,7 +284,7 @@ def registration_section(page: Page, registration: Mapping, source: str) -> None
         formats = {c: fixed(2 if c == "z_rms" else 3) for c in frame.columns if c.endswith(("_mm", "_deg")) or c == "z_rms"}
         page.table("reflectors", frame, shown=table_texts(frame, {}, formats), words=label,
                    caption="Arc residuals per reflector (z_rms: rms standardised residual, about 1 when the tracker model holds)")
-    critique = registration.get("critique")
+    critique = registration.critique
     if isinstance(critique, Mapping):
         page.paragraph(f"Sweep critique (held out one angle at a time): {critique.get('verdict', '–')}", css="verdict")
         evidence = {f"{joint} {name}": row for joint, entry in critique.get("joints", {}).items() if isinstance(entry, Mapping)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -10,6 +12,7 @@ from scipy.stats import norm
 
 from bayescal.errors import InputError
 from bayescal.registration import read_frame, read_sweeps, register
+from bayescal.registration.register import RegistrationFindings
 from bayescal.registration.frames import paper_frame, urdf_axes
 from bayescal.registration.robust import interval_factor
 from bayescal.twin.sweeps import random_placement, simulate_sweeps
@@ -124,3 +127,20 @@ def test_a_registration_without_frames_is_refused(cell, tmp_path):
     registration.save(tmp_path / "one_joint.json")
     with pytest.raises(InputError, match=r"no base frame: sweep joint 1 \(it holds the axis of joint 2 only"):
         read_frame(tmp_path / "one_joint.json", "base")
+
+
+def test_the_registration_s_json_round_trips_through_its_findings(cell, tmp_path):
+    _, registration = _registration(cell, np.random.default_rng(3), tmp_path)
+    registration.save(tmp_path / "reg.json")
+    data = json.loads((tmp_path / "reg.json").read_text())
+    findings = RegistrationFindings.load(tmp_path / "reg.json")
+    assert findings.to_json() == data and list(findings.to_json()) == list(data)
+    assert set(findings.frames) == {"paper", "base"} and findings.axes["1"]["point_mm"] == data["axes"]["1"]["point_mm"]
+    assert findings.critique is None and findings.extra["home_deg"] == data["home_deg"]
+
+
+def test_a_file_that_is_not_a_registration_is_one_line_naming_it(tmp_path):
+    path = tmp_path / "reg.json"
+    path.write_text(json.dumps({"axes": {}, "frames": [], "robot": "kr270"}))
+    with pytest.raises(InputError, match="reg.json.*expected the key 'frames' of the output of bayescal axes -o, found a list"):
+        RegistrationFindings.load(path)

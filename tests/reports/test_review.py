@@ -169,7 +169,10 @@ def test_sections_appear_only_for_what_was_given(short_calibration):
     numbers = json.loads(files[JSON_FILE])
     assert list(numbers) == ["overview", "geometry", "convergence"]
     assert sorted(name for name in files if name.endswith(".png")) == ["geometry_pairs.png", "rank_geometry.png"]
-    critique_only = render_review(ReviewInputs(critique={"verdict": "misfit", "something_new": {"a": 1}}))
+    from bayescal.critique.results import CritiqueFindings
+
+    critique = CritiqueFindings.from_json({"verdict": "misfit", "causes": [], "evidence": {}, "gain": {}, "something_new": {"a": 1}})
+    critique_only = render_review(ReviewInputs(critique=critique))
     numbers = json.loads(critique_only[JSON_FILE])
     assert list(numbers) == ["overview", "critique"] and numbers["critique"]["something_new.values"] == {"a": 1}
 

@@ -2,6 +2,7 @@
 
 import numpy as np
 
+from bayescal.registration.register import RegistrationFindings
 from bayescal.reports.page import Page
 from bayescal.reports.review_files import registration_section
 
@@ -31,7 +32,7 @@ def _rows(page: Page, caption_start: str) -> list[list[str]]:
 
 def test_the_registration_rounds_each_coordinate_to_its_own_sd_and_keeps_the_numbers_in_the_json():
     page = Page("T")
-    registration_section(page, REGISTRATION, "reg.json")
+    registration_section(page, RegistrationFindings.from_json(REGISTRATION), "reg.json")
     axis = _rows(page, "Joint axes")[0]
     # direction to 0.083 mrad (6 decimals), point to 0.23 mm (2 decimals), rms to 1 μm, χ²/dof to 0.01
     assert axis == ["1", "-0.050330", "0.062172", "-0.996796", "0.083", "-1850.88", "-3092.62", "-99.44", "0.23", "0.052", "1.30"]
@@ -46,7 +47,7 @@ def test_the_registration_shows_each_axis_s_student_t_interval_and_degrees_of_fr
     axis = {**REGISTRATION["axes"]["1"], "direction_dof": 3.4, "point_dof": 2.9,
             "half_width": {"direction_mrad": {"3": 0.6531}, "point_mm": {"3": 2.2427}}}
     page = Page("T")
-    registration_section(page, {**REGISTRATION, "axes": {"1": axis}}, "reg.json")
+    registration_section(page, RegistrationFindings.from_json({**REGISTRATION, "axes": {"1": axis}}), "reg.json")
     row = _rows(page, "Joint axes")[0]
     # ±3σ half-widths to the digits of their sds (0.083 mrad, 0.23 mm), the smaller degrees of freedom to 0.1.
     assert row[9:12] == ["0.653", "2.24", "2.9"]
