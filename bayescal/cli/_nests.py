@@ -8,11 +8,18 @@ from __future__ import annotations
 
 import argparse
 
-__all__ = ["add_nests_option", "read_nests_in_base", "nests_lines"]
+__all__ = ["add_nests_option", "read_nests_in_base", "nests_lines", "measured_drift"]
 
 
 def add_nests_option(parser: argparse.ArgumentParser) -> None:
-    """Add ``--nests``."""
+    """Add ``--nests`` and ``--drift-from-repeats``."""
+    parser.add_argument(
+        "--drift-from-repeats",
+        action="store_true",
+        help="measure the tracker's drift from the campaign's repeats alone (a marker's readings of one state at one "
+        "configuration taken at distinct times t0_s, t1_s; bayescal plan --order passes spreads them) and remove it "
+        "as --nests does; with --nests the repeats are always taken with the nests",
+    )
     parser.add_argument(
         "--nests",
         metavar="NESTS.csv",
@@ -36,12 +43,35 @@ def read_nests_in_base(args: argparse.Namespace, campaign):
     return nests.moved(read_frame(args.registration, "base").from_tracker)
 
 
+def measured_drift(args: argparse.Namespace, campaign, cell):
+    """The campaign with the drift that ``--nests`` and the repeats (or ``--drift-from-repeats`` alone) measure taken
+    out, and what was removed (:meth:`~bayescal.registration.nest_drift.NestDrift.to_json`); unchanged and None
+    without either option."""
+    nests = read_nests_in_base(args, campaign)
+    if nests is None and not args.drift_from_repeats:
+        return campaign, None
+    from bayescal.cell.nests import require_times
+    from bayescal.critique.drift import MAKE_TESTABLE
+    from bayescal.errors import InputError
+    from bayescal.registration.repeats import fit_drift
+
+    require_times(campaign.times, campaign.source, "--drift-from-repeats")
+    track = fit_drift(campaign, cell.tracker, nests)
+    if track is None:
+        raise InputError("--drift-from-repeats: no marker's state is read twice at different times: " + MAKE_TESTABLE,
+                         source=campaign.source)
+    return track.remove(campaign), track.to_json(campaign) | ({"file": args.nests} if args.nests else {})
+
+
 def nests_lines(drift: dict | None) -> list[str]:
     """The line a command's text gives the drift the nests measured and removed."""
     if not drift:
         return []
+    evidence = [f"{n} {kind} ({readings} readings)" for n, kind, readings in
+                ((drift["nests"], "reference nests", drift["nest_readings"]),
+                 (drift["repeat_groups"], "repeat groups", drift["repeat_readings"])) if n]
     return [
-        f"drift from {drift['nests']} reference nests ({drift['nest_readings']} readings over {drift['span_s'] / 3600:.1f} h): "
+        f"drift from {' and '.join(evidence)} over {drift['span_s'] / 3600:.1f} h: "
         f"removed {drift['deflection_removed_rms_um']:.1f} μm rms (at most {drift['deflection_removed_max_um']:.1f} μm) from the "
         f"deflections, readings moved by up to {drift['readings_moved_max_mm']:.3f} mm; its uncertainty adds "
         f"{drift['deflection_sd_added_median_um']:.1f} μm sd to a deflection (median, at most {drift['deflection_sd_added_max_um']:.1f})"

@@ -9,7 +9,7 @@ from pathlib import Path
 from bayescal.output import guard_outputs, record_read, write_folder
 
 from ._command import CommandOutput, add_common_options
-from ._nests import add_nests_option, read_nests_in_base
+from ._nests import add_nests_option, measured_drift
 from ._registered import read_campaign_in_base
 from .paper_reports import add_options as add_paper_options, run_paper_reports
 
@@ -95,9 +95,9 @@ def run(args: argparse.Namespace) -> CommandOutput:
                          "--registration", source="bayescal report")
     if args.calibration and not (args.campaign and args.config):
         raise InputError("--calibration needs the --campaign and the --config it was computed from", source="--calibration")
-    if args.nests and not args.calibration:
-        raise InputError("expected with --calibration and its --campaign: the drift the nests measure is removed from the campaign",
-                         source="--nests")
+    if (args.nests or args.drift_from_repeats) and not args.calibration:
+        raise InputError("expected with --calibration and its --campaign: the drift measured is removed from the campaign",
+                         source="--nests" if args.nests else "--drift-from-repeats")
     for option, path in (("--geometry", args.geometry), ("--calibration", args.calibration), ("--campaign", args.campaign),
                          ("--config", args.config), ("--plan", args.plan), ("--critique", args.critique), ("--study", args.study),
                          ("--compensation", args.compensation), ("--registration", args.registration), ("--nests", args.nests)):
@@ -152,12 +152,9 @@ def _read_inputs(args: argparse.Namespace):
 
         sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
         campaign, cell, _ = read_campaign_in_base(args, args.campaign, cell)
-        nests = read_nests_in_base(args, campaign)
-        if nests is not None:
-            from bayescal.registration.nest_drift import fit_nest_drift
-
-            # the campaign as `calibrate --nests` fitted it: the drift the nests measure taken out
-            campaign = fit_nest_drift(nests, cell.tracker).remove(campaign)
+        # the campaign as `calibrate --nests` (or --drift-from-repeats) fitted it: the drift measured taken out
+        campaign, drift = measured_drift(args, campaign, cell)
+        if drift is not None and args.nests:
             sources["nests"] = args.nests
         from bayescal.inference.parameters import ParameterRegistry
 
