@@ -2,7 +2,8 @@
 
 The frame moves a point ``p`` to ``p + T(t) + Ω(t) × (p - c)`` (``c`` the tracker): six
 functions of time, a translation ``T`` (m) and a small rotation ``Ω`` (rad) about the
-tracker, the same first-order motion :mod:`bayescal.critique.drift` fits as steady rates.
+tracker.  The evidence is fixed points read at several times: reference nests, and a campaign's
+repeat groups (:mod:`bayescal.registration.repeats`), both of unknown position.
 
 *Form in time: a random walk.*  Each of the six is a Wiener process, of diffusion ``q``
 (m²/s) for the translation and ``q / L²`` for the rotation (``L`` the nests' rms distance
@@ -19,7 +20,7 @@ deflections' drift coordinates fell within 3 sd (ten Table III campaigns, seeds 
 alone takes the trend into q and covers the cycle.
 
 *Unknowns*: the frame at every nest reading's time and each nest's position (a nuisance
-with a flat prior).  The gauge is the frame at the first nest reading: only the frame's
+with a flat prior; a repeat group is a nest).  The gauge is the frame at the first nest reading: only the frame's
 changes are seen, and a constant offset is a registration's, not a drift's.
 
 :func:`fit_nest_drift` returns a :class:`NestDrift`; :meth:`NestDrift.remove` takes it out
