@@ -143,10 +143,10 @@ class Critique:
             return cv.full.predict(model.design(rows, self.cell)[:, cv.columns])
 
         base = validate(_Model(()))
-        drift = drift_evidence(rows, self.cell)
-        # without readings that can show a drift, a drift fitted to the deflections would be a catch-all;
-        # measured drift is removed already, not a candidate
-        remaining = [CATALOGUE[name] for name in self.catalogue if name != "drift" or (drift.testable and measured is None)]
+        # measured drift is removed already, not a candidate; without readings that can show a drift, a drift fitted to
+        # the deflections would be a catch-all
+        drift = None if measured is not None else drift_evidence(rows, self.cell)
+        remaining = [CATALOGUE[name] for name in self.catalogue if name != "drift" or (drift is not None and drift.testable)]
         search = _greedy_search(base, remaining, validate, fitted, lambda cv: cv.full.level[group] * scale)
         model, current, causes = search.model, search.current, search.causes
         probes = {name: compare(current, validate(model.plus(PROBES[name]))) for name in self.probes}
