@@ -236,7 +236,10 @@ def _save(design, path, comments: tuple[str, ...], args: argparse.Namespace) -> 
     if args.order == "passes":
         note, extra[PASSES_COLUMN] = passes_column(len(design.plan.q), args.repeats)
         notes.append(note)
-    design.save(path, comments=comments + tuple(notes), extra=extra or None)
+    if extra:
+        design.save(path, comments=comments + tuple(notes), extra=extra)
+    else:
+        design.save(path, comments=comments)
 
 
 def _command(args: argparse.Namespace, starts: int) -> str:
