@@ -7,6 +7,11 @@ load: either the mass ``load_kg`` hung at the tool's load point, or a force
 that can push or pull in any direction (:mod:`bayescal.cell.loading`); either may
 come with a couple ``mx_Nm, my_Nm, mz_Nm`` (base axes).  Configurations are
 numbered 1, 2, … in file order; lines starting with ``#`` are provenance notes.
+
+An optional column :data:`PASSES_COLUMN` (``in_passes``, 1 on every line) says that the plan is
+measured whole once per repeat, in passes, rather than each configuration's repeats one after
+another: a configuration's repeats then lie a pass apart in time, so that its readings of one
+state show the tracker's drift (:mod:`bayescal.registration.repeats`).
 """
 
 from __future__ import annotations
@@ -29,7 +34,11 @@ from bayescal.units import DEG, MM
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["FORCE_COLUMNS", "COUPLE_COLUMNS", "Plan", "position_columns", "prismatic_flags", "read_plan", "write_plan"]
+__all__ = ["FORCE_COLUMNS", "COUPLE_COLUMNS", "Plan", "position_columns", "prismatic_flags", "read_plan", "write_plan",
+           "PASSES_COLUMN", "passes_column", "read_passes"]
+
+PASSES_COLUMN = "in_passes"
+"""A plan's column saying, 1 on every line, that the plan is measured once per pass; plan readers ignore it."""
 
 FORCE_COLUMNS = ("fx_N", "fy_N", "fz_N")
 """A plan's force columns: the force through the load point, base axes, N."""
@@ -259,3 +268,33 @@ def write_plan(plan: Plan, path: str | PathLike[str], *, comments: Sequence[str]
 def _decimal(value: float, places: int) -> str:
     # "+ 0.0" turns a rounded -0.0 into 0.0 so the file does not depend on rounding sign.
     return f"{round(float(value), places) + 0.0:.{places}f}"
+
+
+def passes_column(n_configurations: int, repeats: int) -> tuple[str, np.ndarray]:
+    """The plan's :data:`PASSES_COLUMN` ``(n_configurations,)`` of ones, and the note that says how to measure it."""
+    note = (f"{PASSES_COLUMN} = 1: measure the plan whole, in this order, once per pass, {repeats} passes (each pass one repeat "
+            "of every configuration): a configuration's repeats then lie a pass apart in time, and with the readings' "
+            "times (t0_s, t1_s) they measure the tracker's drift (calibrate --drift-from-repeats)")
+    return note, np.ones(n_configurations, dtype=int)
+
+
+def read_passes(path: str | PathLike[str]) -> bool:
+    """Whether the plan CSV at ``path`` is measured in passes (:data:`PASSES_COLUMN`; False without the column).
+
+    Raises
+    ------
+    InputError
+        A value other than 0 or 1, or one that differs from the first line's, naming its line.
+    """
+    from bayescal.tables import read_table
+
+    header = read_header(path)
+    if header is None or PASSES_COLUMN not in header[1]:
+        return False
+    frame = read_table(path, {PASSES_COLUMN: "integer"})
+    values = frame[PASSES_COLUMN].to_numpy(dtype=int)
+    wrong = np.flatnonzero((values != values[0]) | ((values != 0) & (values != 1)))
+    if wrong.size:
+        raise InputError(f"expected {values[0] if values[0] in (0, 1) else 1} on every line (the plan is measured in passes "
+                         f"or not), got {values[wrong[0]]}", source=str(path), line=int(frame.index[wrong[0]]), column=PASSES_COLUMN)
+    return bool(values[0])

@@ -8,11 +8,18 @@ from __future__ import annotations
 
 import argparse
 
-__all__ = ["add_nests_option", "read_nests_in_base", "nests_lines"]
+__all__ = ["add_nests_option", "read_nests_in_base", "nests_lines", "measured_drift"]
 
 
 def add_nests_option(parser: argparse.ArgumentParser) -> None:
-    """Add ``--nests``."""
+    """Add ``--nests`` and ``--drift-from-repeats``."""
+    parser.add_argument(
+        "--drift-from-repeats",
+        action="store_true",
+        help="measure the tracker's drift from the campaign's repeats alone (a marker's readings of one state at one "
+        "configuration taken at distinct times t0_s, t1_s; bayescal plan --order passes spreads them) and remove it "
+        "as --nests does; with --nests the repeats are always taken with the nests",
+    )
     parser.add_argument(
         "--nests",
         metavar="NESTS.csv",
@@ -34,6 +41,26 @@ def read_nests_in_base(args: argparse.Namespace, campaign):
     from bayescal.registration import read_frame
 
     return nests.moved(read_frame(args.registration, "base").from_tracker)
+
+
+def measured_drift(args: argparse.Namespace, campaign, cell):
+    """The campaign with the drift that ``--nests`` and the repeats (or ``--drift-from-repeats`` alone) measure taken
+    out, and what was removed (:meth:`~bayescal.registration.nest_drift.NestDrift.to_json`); unchanged and None
+    without either option."""
+    nests = read_nests_in_base(args, campaign)
+    if nests is None and not args.drift_from_repeats:
+        return campaign, None
+    from bayescal.cell.nests import require_times
+    from bayescal.critique.drift import MAKE_TESTABLE
+    from bayescal.errors import InputError
+    from bayescal.registration.repeats import fit_drift
+
+    require_times(campaign.times, campaign.source, "--drift-from-repeats")
+    track = fit_drift(campaign, cell.tracker, nests)
+    if track is None:
+        raise InputError("--drift-from-repeats: no marker's state is read twice at different times: " + MAKE_TESTABLE,
+                         source=campaign.source)
+    return track.remove(campaign), track.to_json(campaign) | ({"file": args.nests} if args.nests else {})
 
 
 def nests_lines(drift: dict | None) -> list[str]:

@@ -8,7 +8,7 @@ import json
 from bayescal.jsonsafe import json_safe
 
 from ._command import CommandOutput, add_common_options, check_output, whole_number, write_atomically
-from ._nests import add_nests_option, nests_lines, read_nests_in_base
+from ._nests import add_nests_option, nests_lines, measured_drift
 from ._registered import add_registration_option, read_campaign_in_base, registration_lines
 
 __all__ = ["add_parser", "run"]
@@ -74,13 +74,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     check_output("--posterior", args.posterior, inputs | {"the robot URDF": cell.robot.source})
     geometry = _geometry_prior(args, cell) if args.geometry else None
     campaign, cell, transfer = read_campaign_in_base(args, args.campaign, cell)
-    nests, drift = read_nests_in_base(args, campaign), None
-    if nests is not None:
-        from bayescal.registration.nest_drift import fit_nest_drift
-
-        track = fit_nest_drift(nests, cell.tracker)
-        drift = track.to_json(campaign)
-        campaign = track.remove(campaign)
+    campaign, drift = measured_drift(args, campaign, cell)
     model = ElastostaticModel.from_cell(
         cell,
         geometry,
@@ -97,7 +91,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         raise InputError(f"the exact model found no static equilibrium ({exc}); try --model linear", source=args.campaign) from None
     if drift is not None:
         # the posterior file says what was taken out of the campaign it was fitted to
-        results.tree.attrs["nest_drift"] = json.dumps({"file": args.nests} | drift)
+        results.tree.attrs["nest_drift"] = json.dumps(drift)
     if args.posterior:
         write_atomically("--posterior", args.posterior, results.save)
 
@@ -107,7 +101,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     if transfer is not None:
         payload["registration"] = {"source": args.registration} | transfer.to_json()
     if drift is not None:
-        payload["drift"] = {"file": args.nests} | drift
+        payload["drift"] = drift
     document = results.document(test_pose, args.campaign, args.seed, cell.reference)
     text = "\n".join([*_geometry_lines(identified), document.as_text(),
                       *registration_lines(transfer, args.registration), *nests_lines(drift)])

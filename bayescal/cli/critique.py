@@ -74,8 +74,9 @@ def run(args: argparse.Namespace) -> CommandOutput:
     from bayescal.errors import InputError
 
     if args.geometry is not None:
-        if args.campaign is not None or args.config is not None or args.nests is not None:
-            raise InputError("--geometry takes the points file only: drop the campaign, --config and --nests", source="--geometry")
+        if args.campaign is not None or args.config is not None or args.nests is not None or args.drift_from_repeats:
+            raise InputError("--geometry takes the points file only: drop the campaign, --config, --nests and "
+                             "--drift-from-repeats", source="--geometry")
         return _run_geometry(args)
     if args.campaign is None or args.config is None:
         raise InputError("expected a campaign CSV and --config CELL.toml, or --geometry POINTS.csv")
@@ -94,7 +95,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
     cell = load_cell(args.config)
     guard_outputs(inputs | {"the robot URDF": cell.robot.source}, folders={"--figures": (args.figures, FIGURES)})
     campaign, cell, transfer = read_campaign_in_base(args, args.campaign, cell)
-    results = Critique(cell).run(campaign, np.random.default_rng(args.seed), nests=read_nests_in_base(args, campaign))
+    results = Critique(cell).run(campaign, np.random.default_rng(args.seed), nests=read_nests_in_base(args, campaign),
+                                 repeats=args.drift_from_repeats)
     figures = []
     if args.figures is not None:
         figures = [str(path) for path in write_folder("--figures", args.figures, lambda folder: write_figures(results, folder))]
@@ -113,8 +115,9 @@ def _run_ladder(args: argparse.Namespace) -> CommandOutput:
     from bayescal.kinematics import load_points_cell, read_positions
     from bayescal.kinematics.ladder import ModelLadder
 
-    if args.figures is not None or args.registration is not None or args.nests is not None:
-        given = next(flag for flag, value in (("--figures", args.figures), ("--registration", args.registration), ("--nests", args.nests)) if value is not None)
+    if args.figures is not None or args.registration is not None or args.nests is not None or args.drift_from_repeats:
+        given = next(flag for flag, value in (("--figures", args.figures), ("--registration", args.registration), ("--nests", args.nests),
+                                              ("--drift-from-repeats", args.drift_from_repeats or None)) if value is not None)
         raise InputError("on a positions file the critique takes --config, --folds and --json only", source=given)
     cell = load_points_cell(args.config)
     positions = read_positions(args.campaign, cell)

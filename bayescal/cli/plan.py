@@ -62,6 +62,13 @@ def add_parser(subparsers) -> None:
         "every nest while its load hangs and after it is removed, at each repeat), so that `calibrate --nests` can "
         "measure the tracker's drift; K = 1 reads them every 5-8 min at a hanging mass's pace",
     )
+    parser.add_argument(
+        "--order", choices=("together", "passes"), default="together",
+        help="the order of measurement the plan says: together (default) a configuration's repeats one after another; "
+        "passes: a column in_passes, the plan measured whole once per repeat, so that a configuration's repeats lie a "
+        "pass apart in time and show the tracker's drift (`simulate --plan` follows it, `calibrate --drift-from-repeats` "
+        "removes the drift they show)",
+    )
     add_common_options(parser)
     parser.set_defaults(run=run)
 
@@ -113,8 +120,9 @@ def _design_or_evaluate(args: argparse.Namespace, cell):
             )
         design = designer.optimise(args.angles, args.per_angle, args.criterion, rng=args.seed, starts=starts, progress=not args.json)
         comments = (_command(args, starts),)
-        write_atomically("--output", args.output, lambda path: _save(design, path, comments, args.nests))
+        write_atomically("--output", args.output, lambda path: _save(design, path, comments, args))
         payload = design.to_json() | {"output": str(args.output)} | ({} if args.nests is None else {"read_nests_every": args.nests})
+        payload |= {} if args.order == "together" else {"order": args.order}
         document = design.document(str(args.output), cell.loading.hanging_only)
     return payload, document
 
@@ -143,15 +151,23 @@ def _discriminate(args: argparse.Namespace, cell) -> CommandOutput:
     return CommandOutput(payload=payload, text=design.document(str(args.output), args.campaign).as_text())
 
 
-def _save(design, path, comments: tuple[str, ...], nests_every: int | None) -> None:
-    """Write the designed plan, with the column of the configurations at which to read the reference nests when asked."""
+def _save(design, path, comments: tuple[str, ...], args: argparse.Namespace) -> None:
+    """Write the designed plan, with the columns of the configurations at which to read the reference nests and of the
+    order of measurement when asked."""
     from bayescal.cell.nests import NEST_PLAN_COLUMN, nest_plan_column
+    from bayescal.cell.plan import PASSES_COLUMN, passes_column
 
-    if nests_every is None:
+    notes, extra = [], {}
+    if args.nests is not None:
+        note, extra[NEST_PLAN_COLUMN] = nest_plan_column(len(design.plan.q), args.nests)
+        notes.append(note)
+    if args.order == "passes":
+        note, extra[PASSES_COLUMN] = passes_column(len(design.plan.q), args.repeats)
+        notes.append(note)
+    if extra:
+        design.save(path, comments=comments + tuple(notes), extra=extra)
+    else:
         design.save(path, comments=comments)
-        return
-    note, column = nest_plan_column(len(design.plan.q), nests_every)
-    design.save(path, comments=comments + (note,), extra={NEST_PLAN_COLUMN: column})
 
 
 def _command(args: argparse.Namespace, starts: int) -> str:
@@ -164,6 +180,8 @@ def _command(args: argparse.Namespace, starts: int) -> str:
         words.append(f"--mass-kg {args.mass_kg[0]:g} {args.mass_kg[1]:g}")
     if args.nests is not None:
         words.append(f"--nests {args.nests}")
+    if args.order != "together":
+        words.append(f"--order {args.order}")
     return " ".join(words)
 
 

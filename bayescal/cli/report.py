@@ -8,7 +8,7 @@ from pathlib import Path
 from bayescal.output import guard_outputs, record_read, write_folder
 
 from ._command import CommandOutput, add_common_options
-from ._nests import add_nests_option, read_nests_in_base
+from ._nests import add_nests_option, measured_drift
 from ._registered import read_campaign_in_base
 
 __all__ = ["add_parser", "run"]
@@ -70,9 +70,9 @@ def run(args: argparse.Namespace) -> CommandOutput:
                          "--registration", source="bayescal report")
     if args.calibration and not (args.campaign and args.config):
         raise InputError("--calibration needs the --campaign and the --config it was computed from", source="--calibration")
-    if args.nests and not args.calibration:
-        raise InputError("expected with --calibration and its --campaign: the drift the nests measure is removed from the campaign",
-                         source="--nests")
+    if (args.nests or args.drift_from_repeats) and not args.calibration:
+        raise InputError("expected with --calibration and its --campaign: the drift measured is removed from the campaign",
+                         source="--nests" if args.nests else "--drift-from-repeats")
     for option, path in (("--geometry", args.geometry), ("--calibration", args.calibration), ("--campaign", args.campaign),
                          ("--config", args.config), ("--plan", args.plan), ("--critique", args.critique), ("--study", args.study),
                          ("--compensation", args.compensation), ("--registration", args.registration), ("--nests", args.nests)):
@@ -145,7 +145,7 @@ def _read_inputs(args: argparse.Namespace):
 
 
 def _read_calibration(args: argparse.Namespace, cell, geometry, review) -> None:
-    """The --calibration posterior restored on its --campaign (the nests' drift taken out as calibrate took it) into ``review``,
+    """The --calibration posterior restored on its --campaign (the drift taken out as calibrate took it) into ``review``,
     refused when it is not a calibration of this cell's robot or does not fit this campaign."""
     from bayescal.compensation.calibration import check_calibration_robot
     from bayescal.inference.fit_checks import check_fits_campaign
@@ -155,12 +155,9 @@ def _read_calibration(args: argparse.Namespace, cell, geometry, review) -> None:
 
     review.sources |= {"calibration posterior": args.calibration, "campaign": args.campaign, "cell": args.config}
     campaign, cell, _ = read_campaign_in_base(args, args.campaign, cell)
-    nests = read_nests_in_base(args, campaign)
-    if nests is not None:
-        from bayescal.registration.nest_drift import fit_nest_drift
-
-        # the campaign as `calibrate --nests` fitted it: the drift the nests measure taken out
-        campaign = fit_nest_drift(nests, cell.tracker).remove(campaign)
+    # the campaign as `calibrate --nests` (or --drift-from-repeats) fitted it: the drift measured taken out
+    campaign, drift = measured_drift(args, campaign, cell)
+    if drift is not None and args.nests:
         review.sources["nests"] = args.nests
     # A robot without a compensator has no per-angle compliances; the geometry's own 'R' tells the other kind apart.
     per_angle = ParameterRegistry.of_cell(cell).per_angle_variable if cell is not None else None

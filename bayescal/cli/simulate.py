@@ -66,9 +66,10 @@ def add_parser(subparsers) -> None:
         "random walk; the campaign then carries its reading times t0_s, t1_s",
     )
     parser.add_argument(
-        "--order", choices=("together", "passes"), default="together",
-        help="together (default): a configuration's repeats one after another; passes: the plan measured once per "
-        "repeat, so that each configuration's repeats lie a pass apart in time (the campaign then carries its times)",
+        "--order", choices=("together", "passes"), default=None,
+        help="together: a configuration's repeats one after another; passes: the plan measured once per repeat, so "
+        "that each configuration's repeats lie a pass apart in time (the campaign then carries its times); default: "
+        "as the plan's in_passes column says (`bayescal plan --order passes`), together without it",
     )
     parser.add_argument(
         "--nests", metavar="NESTS.csv",
@@ -151,13 +152,14 @@ def _simulated(args: argparse.Namespace, cell, plan, effects: list, errors):
     import numpy as np
 
     from bayescal.cell.nests import read_nest_column
+    from bayescal.cell.plan import read_passes
     from bayescal.errors import InputError
     from bayescal.twin.drift import TrackerDrift
     from bayescal.twin.kinematic_errors import with_kinematic_errors
     from bayescal.twin.simulator import DigitalTwin
 
     drift = None if args.drift is None else TrackerDrift(args.drift)
-    passes = args.order == "passes"
+    passes = args.order == "passes" if args.order is not None else read_passes(args.plan)
     twin = DigitalTwin(cell if errors is None else with_kinematic_errors(cell, errors), effects, drift=drift, passes=passes)
     try:
         if args.nests is None and not passes:

@@ -111,16 +111,15 @@ def _importance_lines(results) -> list[str]:
 
 
 def _drift_lines(results) -> list[str]:
-    """The drift the nests removed, or the one the repeated readings show, or why they cannot."""
+    """The drift measured and removed (nests, repeats or both), or the one the repeated readings show, or why they cannot."""
     from bayescal.registration.nest_drift import removed_drift_sentence
 
     drift = results.drift
-    if drift.get("source") == "reference nests":
+    if "source" in drift:
         return [removed_drift_sentence(drift)]
     if drift.get("testable"):
-        rate = ", ".join(f"{v:+.3f}" for v in drift["translation_mm_per_h"])
         return [
-            f"drift from {drift['evidence']}: ({rate}) mm/h, {1000 * drift['deflection_rms_mm']:.1f} μm rms in the deflections"
+            f"drift from {drift['evidence']}: {1000 * drift['deflection_rms_mm']:.1f} μm rms in the deflections"
             + (" (removed)" if "drift" in results.causes else "")
         ]
     return [f"drift: not testable on this campaign: {drift['evidence']}"] if drift else []

@@ -36,8 +36,8 @@ parameters where the physics allows:
 ``outliers``
     Student-t tracker noise instead of Gaussian (no new columns).
 ``drift``
-    The tracker's frame moving between a row's unloaded and loaded reading, at the
-    rates the campaign's readings of one state repeated in time show
+    The tracker's frame moving between a row's unloaded and loaded reading, as the
+    campaign's readings of one state repeated in time show it
     (:mod:`bayescal.critique.drift`; one column, its amplitude; not tried where the
     campaign holds no such readings).
 
@@ -334,8 +334,9 @@ def _nonlinear_stiffness(rows: Rows, cell: Cell) -> np.ndarray:
 
 def _drift(rows: Rows, cell: Cell) -> np.ndarray:
     """The tracker's frame moving between each row's unloaded and loaded reading, as the campaign's readings of one
-    state repeated in time show it (:func:`~bayescal.critique.drift.drift_evidence`): one column, the drift's
-    amplitude (1 where the evidence is right).
+    state repeated in time show it (:func:`~bayescal.critique.drift.drift_evidence`: the frame's random walk, each
+    repeat's rows from the walk fitted to the other repeats): one column, the drift's amplitude (1 where the evidence
+    is right).
 
     Its direction comes from readings the deflections do not enter, so that it cannot take up a load-correlated
     misfit (the twelve free frame-motion columns fitted to the deflections did: they tied with every link and tool

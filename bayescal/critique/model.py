@@ -36,7 +36,7 @@ from bayescal.cell.nests import Nests, require_times
 from bayescal.critique.checks import residual_summary
 from bayescal.critique.compare import Comparison, CrossValidation, compare, cross_validate, fit
 from bayescal.critique.covariates import Rows, campaign_rows, pose_rows
-from bayescal.critique.drift import DriftEvidence, drift_deflection, drift_evidence
+from bayescal.critique.drift import MAKE_TESTABLE, DriftEvidence, drift_deflection, drift_evidence
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
 from bayescal.critique.results import CritiqueResults
 from bayescal.critique.rule import DETECTION_Z, TIE_NOISE, UNEXPLAINED, check_candidates, passes, strongest
@@ -45,7 +45,7 @@ from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.equations import check_campaign
 from bayescal.inference.identifiability import independent_columns
 from bayescal.inference.lack_of_fit import least_squares_lack_of_fit, line_of_sight, replicate_cells
-from bayescal.registration.nest_drift import fit_nest_drift
+from bayescal.registration.repeats import fit_drift
 from bayescal.robot.stiffness import EquilibriumError
 from bayescal.threads import one_blas_thread
 from bayescal.units import DEG, MM
@@ -100,12 +100,14 @@ class Critique:
         check_candidates(self.catalogue, CATALOGUE)
         check_candidates(self.probes, PROBES)
 
-    def run(self, campaign: Campaign, rng: np.random.Generator | int | None = None, nests: Nests | None = None) -> CritiqueResults:
-        """Criticise the classical model on ``campaign``; with ``nests``, after removing the drift they measure.
+    def run(self, campaign: Campaign, rng: np.random.Generator | int | None = None, nests: Nests | None = None,
+            repeats: bool = False) -> CritiqueResults:
+        """Criticise the classical model on ``campaign``; with ``nests`` (or ``repeats``: from the repeat groups alone),
+        after removing the drift they measure.
 
-        With reference-nest readings the tracker's drift is measured (:mod:`bayescal.registration.nest_drift`),
-        taken out of the readings with its uncertainty added to the deflections, and reported: it is then no
-        candidate.  ``nests`` needs the campaign's reading times.
+        With reference-nest readings the tracker's drift is measured from them and the campaign's repeat groups
+        together (:mod:`bayescal.registration.repeats`), taken out of the readings with its uncertainty added to the
+        deflections, and reported: it is then no candidate.  ``nests`` needs the campaign's reading times.
 
         ``rng`` is accepted for the command line's ``--seed``; the critique itself is
         deterministic (closed-form predictive densities, no sampling).  BLAS runs on one
@@ -114,9 +116,11 @@ class Critique:
         the demo's critique took 0.4-1.6 s (four runs) with BLAS's default two threads, 0.15 s with one.
         """
         measured = None
-        if nests is not None:
-            require_times(campaign.times, campaign.source, "nests", nests)
-            track = fit_nest_drift(nests, self.cell.tracker)
+        if nests is not None or repeats:
+            require_times(campaign.times, campaign.source, "nests" if nests is not None else "repeats", nests)
+            track = fit_drift(campaign, self.cell.tracker, nests)
+            if track is None:
+                raise InputError("no marker's state is read twice at different times: " + MAKE_TESTABLE, source=campaign.source)
             measured = track.to_json(campaign) | {"testable": True, "candidate": False}
             campaign = track.remove(campaign)
         with one_blas_thread():
@@ -139,10 +143,10 @@ class Critique:
             return cv.full.predict(model.design(rows, self.cell)[:, cv.columns])
 
         base = validate(_Model(()))
-        drift = drift_evidence(rows, self.cell)
-        # without readings that can show a drift, a drift fitted to the deflections would be a catch-all;
-        # measured drift is removed already, not a candidate
-        remaining = [CATALOGUE[name] for name in self.catalogue if name != "drift" or (drift.testable and measured is None)]
+        # measured drift is removed already, not a candidate; without readings that can show a drift, a drift fitted to
+        # the deflections would be a catch-all
+        drift = None if measured is not None else drift_evidence(rows, self.cell)
+        remaining = [CATALOGUE[name] for name in self.catalogue if name != "drift" or (drift is not None and drift.testable)]
         search = _greedy_search(base, remaining, validate, fitted, lambda cv: cv.full.level[group] * scale)
         model, current, causes = search.model, search.current, search.causes
         probes = {name: compare(current, validate(model.plus(PROBES[name]))) for name in self.probes}
@@ -377,7 +381,7 @@ def _rivals(best: str, trials: dict, evidence: dict[str, Comparison], fitted: Ca
 
 
 def _drift_report(drift: DriftEvidence, rows: Rows, tried: bool) -> dict:
-    """Whether the campaign can show a drift, the rates its repeated readings give, and the drift that puts into the deflections."""
+    """Whether the campaign can show a drift, what its repeated readings give, and the drift that puts into the deflections."""
     payload = drift.to_json() | {"candidate": tried and drift.testable}
     if drift.testable:
         mean, sd = drift_deflection(drift, rows)

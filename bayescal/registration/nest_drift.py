@@ -2,7 +2,8 @@
 
 The frame moves a point ``p`` to ``p + T(t) + Ω(t) × (p - c)`` (``c`` the tracker): six
 functions of time, a translation ``T`` (m) and a small rotation ``Ω`` (rad) about the
-tracker, the same first-order motion :mod:`bayescal.critique.drift` fits as steady rates.
+tracker.  The evidence is fixed points read at several times: reference nests, and a campaign's
+repeat groups (:mod:`bayescal.registration.repeats`), both of unknown position.
 
 *Form in time: a random walk.*  Each of the six is a Wiener process, of diffusion ``q``
 (m²/s) for the translation and ``q / L²`` for the rotation (``L`` the nests' rms distance
@@ -19,7 +20,7 @@ deflections' drift coordinates fell within 3 sd (ten Table III campaigns, seeds 
 alone takes the trend into q and covers the cycle.
 
 *Unknowns*: the frame at every nest reading's time and each nest's position (a nuisance
-with a flat prior).  The gauge is the frame at the first nest reading: only the frame's
+with a flat prior; a repeat group is a nest).  The gauge is the frame at the first nest reading: only the frame's
 changes are seen, and a constant offset is a registration's, not a drift's.
 
 :func:`fit_nest_drift` returns a :class:`NestDrift`; :meth:`NestDrift.remove` takes it out
@@ -36,6 +37,7 @@ from scipy import linalg
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.nests import Nests
 from bayescal.cell.tracker import TrackerNoise
+from bayescal.threads import one_blas_thread
 from bayescal.units import MM
 
 __all__ = ["NestDrift", "fit_nest_drift", "DIFFUSION_GRID", "motion_matrix", "removed_drift_sentence"]
@@ -148,6 +150,9 @@ class NestDrift:
     tracker : numpy.ndarray
         (3,) the tracker's position, m.
     n_nests, n_readings : int
+        Reference nests and their readings.
+    n_groups, n_group_readings : int
+        Repeat groups (:mod:`bayescal.registration.repeats`) and their readings.
     """
 
     knots: np.ndarray
@@ -158,6 +163,8 @@ class NestDrift:
     tracker: np.ndarray
     n_nests: int
     n_readings: int
+    n_groups: int = 0
+    n_group_readings: int = 0
 
     def _place(self, times: np.ndarray):
         """For each time (k,): the knots either side (k, 2), their weights (k, 2), the Brownian bridge's variance factor
@@ -194,8 +201,15 @@ class NestDrift:
 
     def deflection(self, campaign: Campaign) -> tuple[np.ndarray, np.ndarray]:
         """(N, 3) the drift in each row's deflection (m), and (N, 3, 3) its covariance (m²)."""
-        t0, t1 = campaign.times[:, 0], campaign.times[:, 1]
-        m0, m1 = motion_matrix(campaign.p0, self.tracker), motion_matrix(campaign.p1, self.tracker)
+        return self.change(campaign.p0, campaign.p1, campaign.times)
+
+    def change(self, p0: np.ndarray, p1: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(N, 3) the drift between readings ``p0`` and ``p1`` (N, 3) m taken at ``times`` (N, 2) s, and (N, 3, 3)
+        its covariance (m²); zero for rows without times (poses to predict)."""
+        timed = np.all(np.isfinite(times), axis=1)
+        # a row without times is read at no time: its change is zero at the gauge's
+        t0, t1 = (np.where(timed, times[:, k], self.knots[0]) for k in (0, 1))
+        m0, m1 = motion_matrix(p0, self.tracker), motion_matrix(p1, self.tracker)
         mean = np.einsum("kij,kj->ki", m1, self.frame(t1)) - np.einsum("kij,kj->ki", m0, self.frame(t0))
         knots0, weights0, v0, stretch0 = self._place(t0)
         knots1, weights1, v1, stretch1 = self._place(t1)
@@ -209,6 +223,27 @@ class NestDrift:
         cov += np.einsum("kai,i,kbi,k->kab", m1, q, m1, v1) + np.einsum("kai,i,kbi,k->kab", m0, q, m0, v0)
         cov -= np.einsum("kai,i,kbi,k->kab", m1, q, m0, shared) + np.einsum("kai,i,kbi,k->kab", m0, q, m1, shared)
         return mean, cov
+
+    def draws(self, times: np.ndarray, rng: np.random.Generator, count: int) -> np.ndarray:
+        """(count, k, 6) draws of the frame at ``times`` (k,) s from its posterior, jointly over the times: the knots'
+        frames from their covariance, and between and beyond the knots the walk's own bridges (a Wiener path on the
+        knots and the times, less its interpolation at the knots: a bridge independent of the knots and of every
+        other stretch's)."""
+        n, t = len(self.knots), np.asarray(times, dtype=float)
+        free = self.cov[1:, :, 1:, :].reshape(6 * (n - 1), 6 * (n - 1))
+        # a relative jitter: the covariance is the inverse of a positive definite precision, up to rounding
+        factor = np.linalg.cholesky(free + 1e-12 * np.diag(np.diag(free)) + np.diag(np.full(len(free), 1e-300)))
+        place, weights, _, _ = self._place(t)
+        grid, index = np.unique(np.concatenate([self.knots, t]), return_inverse=True)
+        spacing = np.diff(grid, prepend=grid[0])[:, None] * self.diffusion * self.scale
+        out = np.empty((count, len(t), 6))
+        for k in range(count):
+            knots = np.zeros((n, 6))
+            knots[1:] = self.mean[1:] + (factor @ rng.normal(size=len(free))).reshape(n - 1, 6)
+            path = np.cumsum(rng.normal(size=(len(grid), 6)) * np.sqrt(spacing), axis=0)
+            bridge = path[index[n:]] - np.einsum("ku,kuj->kj", weights, path[index[:n]][place])
+            out[k] = np.einsum("ku,kuj->kj", weights, knots[place]) + bridge
+        return out
 
     def remove(self, campaign: Campaign) -> Campaign:
         """The campaign with the drift taken out of both readings at their times, its deflections' variance added.
@@ -225,14 +260,17 @@ class NestDrift:
         return replace(campaign, p0=campaign.p0 - motion0, p1=campaign.p1 - motion1, added_variance=added)
 
     def to_json(self, campaign: Campaign) -> dict:
-        """What the nests show and what removing the drift changes in ``campaign``, in mm and μm."""
+        """What the nests and repeats show and what removing the drift changes in ``campaign``, in mm and μm."""
         mean, cov = self.deflection(campaign)
         motion0, _ = self.motion(campaign.p0, campaign.times[:, 0])
         sd = np.sqrt(np.linalg.eigvalsh(cov)[:, -1])
+        kinds = [kind for kind, n in (("reference nests", self.n_nests), ("repeats", self.n_groups)) if n]
         return {
-            "source": "reference nests",
+            "source": " and ".join(kinds),
             "nests": self.n_nests,
             "nest_readings": self.n_readings,
+            "repeat_groups": self.n_groups,
+            "repeat_readings": self.n_group_readings,
             "span_s": round(float(self.knots[-1] - self.knots[0]), 1),
             "diffusion_um2_per_s": float(self.diffusion / MM**2 * 1e6),
             "readings_moved_max_mm": round(float(np.linalg.norm(motion0, axis=1).max() / MM), 4),
@@ -244,25 +282,40 @@ class NestDrift:
 
 
 def removed_drift_sentence(drift: dict) -> str:
-    """The drift the nests measured and removed, in words: ``drift`` is :meth:`NestDrift.to_json`'s block."""
+    """The drift measured and removed, in words: ``drift`` is :meth:`NestDrift.to_json`'s block (its evidence: reference
+    nests, repeat groups or both)."""
+    evidence = [f"{n} {kind} ({readings} readings)" for n, kind, readings in
+                ((drift["nests"], "reference nests", drift["nest_readings"]),
+                 (drift["repeat_groups"], "repeat groups", drift["repeat_readings"])) if n]
     return (
-        f"drift from {drift['nests']} reference nests ({drift['nest_readings']} readings over {drift['span_s'] / 3600:.1f} h): "
+        f"drift from {' and '.join(evidence)} over {drift['span_s'] / 3600:.1f} h: "
         f"removed {drift['deflection_removed_rms_um']:.1f} μm rms (at most {drift['deflection_removed_max_um']:.1f} μm) from the "
         f"deflections, readings moved by up to {drift['readings_moved_max_mm']:.3f} mm; its uncertainty adds "
         f"{drift['deflection_sd_added_median_um']:.1f} μm sd to a deflection (median, at most {drift['deflection_sd_added_max_um']:.1f})"
     )
 
 
+def _most_likely(system: _System) -> float:
+    """The diffusion of :data:`DIFFUSION_GRID` of largest marginal likelihood: every fourth first, then the grid around
+    the best of those (a fourth of the solves; several hundred knots take about 30 ms a solve)."""
+    coarse = np.arange(0, len(DIFFUSION_GRID), 4)
+    best = coarse[int(np.argmax([_solve(system, q)[2] for q in DIFFUSION_GRID[coarse]]))]
+    fine = np.arange(max(best - 3, 0), min(best + 4, len(DIFFUSION_GRID)))
+    return float(DIFFUSION_GRID[fine[int(np.argmax([_solve(system, q)[2] for q in DIFFUSION_GRID[fine]]))]])
+
+
 def fit_nest_drift(nests: Nests, tracker: TrackerNoise) -> NestDrift:
     """The frame's random walk fitted to ``nests`` with the tracker's noise model (module documentation)."""
-    system = _system(nests, tracker)
-    scores = [_solve(system, q)[2] for q in DIFFUSION_GRID]
-    q = float(DIFFUSION_GRID[int(np.argmax(scores))])
-    d, _, _, chol, t_inv_c, schur = _solve(system, q)
-    free, n = len(d), len(system.knots)
-    t_inv = linalg.cho_solve_banded((chol, True), np.eye(free))
-    cov = np.zeros((n, 6, n, 6))
-    cov[1:, :, 1:, :] = (t_inv + t_inv_c @ np.linalg.solve(schur, t_inv_c.T)).reshape(n - 1, 6, n - 1, 6)
+    # the solves are banded and small: BLAS's threads only contend (on 2 cores a fit of 225 knots and 90 nuisance
+    # nests took 13 s with them, 2 s on one)
+    with one_blas_thread():
+        system = _system(nests, tracker)
+        q = _most_likely(system)
+        d, _, _, chol, t_inv_c, schur = _solve(system, q)
+        free, n = len(d), len(system.knots)
+        t_inv = linalg.cho_solve_banded((chol, True), np.eye(free))
+        cov = np.zeros((n, 6, n, 6))
+        cov[1:, :, 1:, :] = (t_inv + t_inv_c @ np.linalg.solve(schur, t_inv_c.T)).reshape(n - 1, 6, n - 1, 6)
     mean = np.concatenate([np.zeros(6), d]).reshape(n, 6)
     return NestDrift(system.knots, mean, cov, q, system.scale, np.asarray(tracker.position, float),
                      int(np.unique(nests.name).size), len(nests))

@@ -7,8 +7,7 @@ never set on it; :func:`independent_rates` sums them up against the detection
 targets, with the lack-of-fit test's size and power.  :func:`independent_lack_of_fit`
 fits only the calibration's model to the same campaigns at several multiples of each
 effect's default, and :func:`lack_of_fit_power` tabulates the test's size and power
-against magnitude.  :func:`drift_coverage` measures the tracker's drift from the
-repeated readings of the generator's ``thermal_drift`` campaigns.
+against magnitude.
 """
 
 from __future__ import annotations
@@ -27,7 +26,6 @@ __all__ = [
     "LACK_OF_FIT_SIZE_LEVEL",
     "independent_detection",
     "independent_rates",
-    "drift_coverage",
     "POWER_MULTIPLES",
     "independent_lack_of_fit",
     "lack_of_fit_power",
@@ -185,59 +183,6 @@ def independent_rates(table: pd.DataFrame) -> pd.DataFrame:
             }
         )
     return pd.DataFrame.from_records(rows)
-
-
-def _drift_one(case: tuple, rng: np.random.Generator, cell) -> dict:
-    """The drift one campaign of the independent generator's ``thermal_drift`` shows in its repeated readings, against
-    the planted steady drift (a task of :func:`~bayescal.design.parallel.seeded_map`)."""
-    from bayescal.critique.covariates import campaign_rows
-    from bayescal.critique.drift import drift_evidence
-
-    multiple, seed = case
-    campaign, truth = _independent_campaign("thermal_drift", multiple, rng, cell)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)
-        evidence = drift_evidence(campaign_rows(cell, campaign), cell)
-    planted = np.concatenate([truth.world.drift.velocity, truth.world.drift.spin])
-    z = (evidence.rate - planted) / np.sqrt(np.diag(evidence.cov))
-    return {"multiple": multiple, "seed": seed, "testable": evidence.testable, "p_value": evidence.p_value,
-            "translation_z": float(np.abs(z[:3]).max()), "rotation_z": float(np.abs(z[3:]).max())}
-
-
-def drift_coverage(
-    config: str | PathLike[str],
-    multiples: Sequence[float] = (1.0,),
-    *,
-    n_seeds: int = 40,
-    first_seed: int = INDEPENDENT_FIRST_SEED,
-    executor: Executor | None = None,
-) -> pd.DataFrame:
-    """The tracker's drift measured from the repeated readings of the independent generator's ``thermal_drift`` campaigns.
-
-    Parameters
-    ----------
-    config
-        The cell TOML around which the generator draws its truths.
-    multiples
-        Magnitudes of the drift, as multiples of its default.
-    n_seeds
-        Campaigns per multiple (campaign ``k`` seeded ``first_seed + k``, the campaigns of :func:`independent_detection`).
-    executor
-        Runs the campaigns; default a :class:`concurrent.futures.ProcessPoolExecutor`.
-
-    Returns
-    -------
-    pandas.DataFrame
-        ``multiple, seed, testable, p_value, translation_z, rotation_z``: the largest error of the three translation
-        and of the three rotation rates against the planted steady drift, in the estimates' sd, and the F test's
-        p-value of all six rates zero.
-    """
-    from bayescal.cell.config import load_cell
-    from bayescal.design.parallel import seeded_map
-
-    tasks = [(float(m), first_seed + k) for m in multiples for k in range(n_seeds)]
-    streams = [np.random.SeedSequence(seed) for _, seed in tasks]
-    return pd.DataFrame.from_records(seeded_map(_drift_one, tasks, streams, executor=executor, cell=load_cell(config)))
 
 
 POWER_MULTIPLES: tuple[float, ...] = (0.5, 1.0, 1.5, 2.0, 3.0)

@@ -195,7 +195,7 @@ def test_ctrl_c_while_the_figures_are_written_leaves_no_half_png(files, capsys, 
         raise KeyboardInterrupt
 
     monkeypatch.setattr(figures, "write_figures", half_then_interrupt)
-    monkeypatch.setattr("bayescal.critique.Critique.run", lambda self, campaign, rng, nests=None: None)
+    monkeypatch.setattr("bayescal.critique.Critique.run", lambda self, campaign, rng, nests=None, repeats=False: None)
     (tmp_path / "figures").mkdir()
     code, lines = _run(capsys, ["critique", str(files / "campaign.csv"), "--config", str(files / "cell.toml"), "--figures", str(tmp_path / "figures")])
     assert code == 130 and len(lines) == 1 and lines[0].endswith("interrupted; nothing written")

@@ -94,11 +94,11 @@ def test_the_plan_file_records_every_option_that_shapes_it():
 
     args = argparse.Namespace(
         config="cell.toml", angles=10, per_angle=3, repeats=2, criterion="compensator", model="linear", seed=4, mass_kg=[250.0, 280.0],
-        nests=2,
+        nests=2, order="passes",
     )
     assert _command(args, 3) == (
         "bayescal plan --config cell.toml --angles 10 --per-angle 3 --repeats 2 --criterion compensator --model linear "
-        "--starts 3 --seed 4 --mass-kg 250 280 --nests 2"
+        "--starts 3 --seed 4 --mass-kg 250 280 --nests 2 --order passes"
     )
 
 

@@ -242,11 +242,17 @@ def test_a_tracker_drifting_in_time_is_named_drift_from_the_reading_times(cell, 
     campaign = twin_campaign(seed=seed)
     drifting, velocity = _stamped_with_drift(campaign, 0.4, rng)
     results = Critique(cell).run(drifting)
-    assert results.causes == ["drift"]
-    # measured from the repeated readings, within 3 sd of the planted rate
-    drift = results.drift
-    estimate, sd = np.array(drift["translation_mm_per_h"]), np.array(drift["translation_sd_mm_per_h"])
-    assert np.all(np.abs(estimate - velocity * 3600.0 / 1e-3) < 3 * sd + 1e-3), (estimate, sd, velocity)
+    # the random walk sees no increment over a configuration's first repeat (no reading of one state spans it), so
+    # repeats back to back leave part of a steady drift unexplained: drift comes first, not alone
+    assert results.causes[0] == "drift" and results.drift["candidate"], results.causes
+    # measured from the repeated readings: the planted drift in the deflections within 3 sd of the estimate
+    from bayescal.critique.covariates import campaign_rows
+    from bayescal.critique.drift import drift_deflection, drift_evidence
+
+    rows = campaign_rows(cell, drifting)
+    mean, sd = drift_deflection(drift_evidence(rows, cell), rows)
+    planted = (drifting.times[:, 1:] - drifting.times[:, :1]) * velocity
+    assert np.mean(np.abs(mean - planted) < 3 * sd) >= 0.95, np.abs(mean - planted).max() / sd.min()
     # the same stamps without a drift: nothing to name
     assert Critique(cell).run(_stamped_with_drift(campaign, 0.0, np.random.default_rng(seed))[0]).causes == []
 
@@ -266,7 +272,7 @@ def test_drift_evidence_ignores_a_configurations_first_unloaded_reading_and_need
     import dataclasses
 
     from bayescal.critique.covariates import campaign_rows
-    from bayescal.critique.drift import drift_evidence
+    from bayescal.critique.drift import drift_deflection, drift_evidence
 
     campaign, _ = _stamped_with_drift(twin_campaign(seed=5), 0.0, np.random.default_rng(5))
     evidence = drift_evidence(campaign_rows(cell, campaign), cell)
@@ -274,7 +280,9 @@ def test_drift_evidence_ignores_a_configurations_first_unloaded_reading_and_need
     arrived = dataclasses.replace(campaign, p0=campaign.p0 + first[:, np.newaxis] * np.array([0.0, 0.0, -1e-3]))
     moved = drift_evidence(campaign_rows(cell, arrived), cell)
     assert evidence.testable and moved.testable
-    assert np.allclose(moved.rate, evidence.rate, atol=1e-3 * np.sqrt(np.diag(evidence.cov)).max())
+    rows, moved_rows = campaign_rows(cell, campaign), campaign_rows(cell, arrived)
+    (mean, sd), (moved_mean, _) = drift_deflection(evidence, rows), drift_deflection(moved, moved_rows)
+    assert np.allclose(moved_mean, mean, atol=1e-3 * sd.max())
     single = twin_campaign(seed=5, repeats=1)
     once, _ = _stamped_with_drift(single, 0.4, np.random.default_rng(5))
     assert not drift_evidence(campaign_rows(cell, once), cell).testable

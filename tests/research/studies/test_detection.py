@@ -7,7 +7,6 @@ import pytest
 from bayescal_studies.studies.detection import detection_power, markdown_table, power_threshold
 from bayescal_studies.studies.independent_detection import (
     INDEPENDENT_EFFECTS,
-    drift_coverage,
     independent_detection,
     independent_lack_of_fit,
     independent_rates,
@@ -61,8 +60,9 @@ def test_the_lack_of_fit_power_study_tests_the_campaigns_the_critique_sees():
         critique = independent_detection(DATA / "kr270.toml", {"thermal_drift": 3.0}, n_seeds=1, n_null=1, executor=executor)
     assert power["effect"].tolist() == ["none", "thermal_drift"] and power["multiple"].tolist() == [0.0, 3.0]
     assert power["p_value"].tolist() == pytest.approx(critique["classical_lof_p"].tolist(), rel=1e-12)
-    # the drift is named from the repeated readings that show it, alone
-    assert critique["causes"].tolist() == ["", "drift"] and critique["alone"].tolist() == [True, True]
+    # the drift is named first from the repeated readings that show it; with repeats back to back the random walk sees no
+    # change over a configuration's first repeat, and its 30 min cycle is left unexplained (docs/critique.md, *Drift*)
+    assert critique["causes"].tolist() == ["", "drift,unexplained"]
     summary = lack_of_fit_power(power)
     assert summary["n"].tolist() == [1, 1] and summary.loc[1, "at_5"] == 1.0
     assert (summary["expected_statistic"] > 1.0).all()
@@ -81,18 +81,3 @@ def test_on_40_campaigns_of_the_independent_generator_the_detection_targets_hold
         assert rates["right"] >= 0.95 and rates["lack_of_fit"] <= 0.1, table.to_string()
     else:
         assert rates["misfit"] >= 0.95 and rates["right"] >= 0.9 and rates["wrong_single"] <= 0.05, table.to_string()
-
-
-def test_the_drift_is_measured_from_the_repeated_readings_within_its_uncertainty():
-    # two campaigns (seeds 9000, 9001) at the default drift; the rates are the slow test's below
-    with ThreadPoolExecutor(1) as executor:
-        table = drift_coverage(DATA / "kr270.toml", n_seeds=2, executor=executor)
-    assert table["testable"].all() and (table["p_value"] < 0.05).all()
-    assert (table["translation_z"] < 3).all() and (table["rotation_z"] < 3).all(), table.to_string()
-
-
-@pytest.mark.slow
-def test_on_40_campaigns_the_drift_is_measured_within_three_sd_in_at_least_95_percent():
-    # measured (docs/critique.md): 40 of 40 translations and 39 of 40 rotations within 3 sd at the default
-    table = drift_coverage(DATA / "kr270.toml", n_seeds=40)
-    assert (table["translation_z"] < 3).mean() >= 0.95 and (table["rotation_z"] < 3).mean() >= 0.95, table.to_string()

@@ -1,4 +1,4 @@
-"""The tracker's drift measured from reference nests, and the compliances after its removal, on planted drifts (slow)."""
+"""The tracker's drift measured from reference nests and repeats, and the compliances after its removal, on planted drifts (slow)."""
 
 import numpy as np
 import pytest
@@ -17,13 +17,24 @@ def coverage(table, prefix: str) -> np.ndarray:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("generator", ["twin", "independent"])
-def test_drift_is_measured_within_its_sd_and_the_compliances_cover_after_its_removal(data_dir, generator):
-    table = nest_drift_coverage(data_dir / "kr270.toml", (1.0,), n_seeds=100, generator=generator,
-                                plan_path=data_dir / "table3_plan.csv")
+@pytest.mark.parametrize(
+    ("generator", "evidence", "magnitude", "n_draws", "kind"),
+    [
+        ("twin", "nests", 1.0, 0, "removed"),
+        ("independent", "nests", 1.0, 0, "removed"),
+        # at three times the default the per-row variance undercovers on the twin (docs/critique.md): integrated
+        ("twin", "nests", 3.0, 4, "integrated"),
+        ("independent", "nests", 3.0, 4, "integrated"),
+        ("twin", "repeats", 3.0, 4, "integrated"),
+    ],
+)
+def test_drift_is_measured_within_its_sd_and_the_compliances_cover_after_its_removal(data_dir, generator, evidence, magnitude,
+                                                                                    n_draws, kind):
+    table = nest_drift_coverage(data_dir / "kr270.toml", (magnitude,), n_seeds=100, generator=generator, evidence=evidence,
+                                n_draws=n_draws, plan_path=data_dir / "table3_plan.csv")
     # the drift at every reading and in every deflection, each coordinate, within its own 3 sd
     assert table["reading_within_3sd"].mean() >= 0.95 and table["deflection_within_3sd"].mean() >= 0.95
-    rates, n = coverage(table, "removed_z_")
+    rates, n = coverage(table, f"{kind}_z_")
     # the compliances' errors within their 1, 2, 3 sd as often as a normal's, to four binomial sd
     tolerance = 4 * np.sqrt(NOMINAL * (1 - NOMINAL) / n) + 1.0 / n
     assert np.all(np.abs(rates - NOMINAL) <= tolerance), (rates, tolerance)
