@@ -173,20 +173,33 @@ def _read_calibration(args: argparse.Namespace, cell, geometry, review) -> None:
 def _read_json(path: str, option: str):
     """The JSON file of ``option``, checked against the schema of the results class that writes it: a dict, or the
     :class:`~bayescal.kinematics.ladder.LadderFindings` a model ladder's file holds."""
-    from bayescal.critique.results import CRITIQUE_JSON
-    from bayescal.design.plan_design import PLAN_JSON
     from bayescal.jsonfiles import read_json_object
     from bayescal.kinematics.ladder import LADDER_JSON, LADDER_KIND, LadderFindings
-    from bayescal.registration.register import REGISTRATION_JSON
 
     data = read_json_object(path, f"the {option} file")
-    schema = {"--plan": PLAN_JSON, "--critique": CRITIQUE_JSON, "--registration": REGISTRATION_JSON}[option]
+    schema = _schema(option)
     schema.check_kind(data, path, option)
     if option == "--critique" and data.get("kind") == LADDER_KIND:
         LADDER_JSON.check_keys(data, path)
         return LadderFindings.from_json(data)
     schema.check_keys(data, path)
     return data
+
+
+def _schema(option: str):
+    """The :class:`~bayescal.jsonfiles.JsonSchema` of ``option``'s file, its module alone imported: the registration's
+    brings SciPy's optimiser, which a review without --registration does without."""
+    if option == "--plan":
+        from bayescal.design.plan_design import PLAN_JSON
+
+        return PLAN_JSON
+    if option == "--critique":
+        from bayescal.critique.results import CRITIQUE_JSON
+
+        return CRITIQUE_JSON
+    from bayescal.registration.register import REGISTRATION_JSON
+
+    return REGISTRATION_JSON
 
 
 def _read_critique(path: str):
