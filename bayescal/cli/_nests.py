@@ -64,7 +64,10 @@ def measured_drift(args: argparse.Namespace, campaign, cell):
 
 
 def nests_lines(drift: dict | None) -> list[str]:
-    """The line a command's text gives the drift the nests measured and removed."""
+    """The line a command's text gives the drift measured and removed (the registration, and SciPy's optimiser with it,
+    imported only when there is one)."""
+    if not drift:
+        return []
     from bayescal.registration.nest_drift import removed_drift_sentence
 
-    return [removed_drift_sentence(drift)] if drift else []
+    return [removed_drift_sentence(drift)]

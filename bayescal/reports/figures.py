@@ -13,6 +13,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
+from matplotlib.patches import StepPatch
 from numpy.typing import ArrayLike
 
 __all__ = ["plot_rank", "plot_pairs", "plot_residuals", "plot_error_distribution", "plot_evidence", "AXIS_COLOURS"]
@@ -47,9 +48,14 @@ def plot_rank(draws: Mapping[str, ArrayLike], *, columns: int = 3) -> Figure:
         ranks = np.argsort(np.argsort(values, axis=None)).reshape(values.shape)
         edges = np.linspace(0, values.size, RANK_BINS + 1)
         expected = values.shape[1] / RANK_BINS
-        for chain in range(values.shape[0]):
-            counts, _ = np.histogram(ranks[chain], bins=edges)
-            ax.stairs(counts / expected, edges / values.size, baseline=None, lw=1.0, label=f"chain {chain + 1}")
+        quantiles = edges / values.size
+        heights = [np.histogram(ranks[chain], bins=edges)[0] / expected for chain in range(values.shape[0])]
+        # The step patches ax.stairs() would add, in the colour cycle's order, with the data limits set once from their
+        # corners: stairs() takes each patch's limits from every segment of its path, half of building 32 chains' panels.
+        for chain, height in enumerate(heights):
+            ax.add_artist(StepPatch(height, quantiles, baseline=None, fill=False, edgecolor=f"C{chain}", lw=1.0, label=f"chain {chain + 1}"))
+        ax.update_datalim([(quantiles[0], min(map(np.min, heights))), (quantiles[-1], max(map(np.max, heights)))])
+        ax.autoscale_view()
         ax.axhline(1.0, color="0.5", lw=0.8, ls="--")
         ax.set_title(name, fontsize=9)
         ax.set_xlabel("rank quantile [-]", fontsize=8)

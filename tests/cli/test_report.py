@@ -61,6 +61,23 @@ def test_bad_input_is_one_line_and_status_2(capsys, short_calibration, tmp_path,
     assert not (tmp_path / "r").exists()
 
 
+def test_the_garbage_collector_is_left_as_it_was_found(capsys, tmp_path):
+    # The review pauses it while it reads and renders; a refused input, raised inside the pause, restores it too.
+    import gc
+
+    bad = tmp_path / "critique.json"
+    bad.write_text("{not json\n")
+    assert gc.isenabled()
+    assert run(capsys, ["--critique", str(bad), "-o", str(tmp_path / "r")])[0] == 2
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        assert run(capsys, ["--critique", str(bad), "-o", str(tmp_path / "r")])[0] == 2
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
+
+
 def test_bad_json_names_its_line_and_column(capsys, tmp_path):
     bad = tmp_path / "critique.json"
     bad.write_text('{\n  "verdict": "misfit",\n  "causes": [1, 2,]\n}\n')

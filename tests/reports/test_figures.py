@@ -51,3 +51,36 @@ def test_error_distribution_and_evidence_mark_what_they_claim():
     figure = plot_evidence(["clear", "unclear"], [6.0, 1.0], [1.0, 1.0])
     colours = [patch.get_facecolor() for patch in figure.axes[0].patches]
     assert colours[0] == to_rgba("C2") and colours[1] == to_rgba("0.5")
+
+
+def test_rank_plot_draws_what_stairs_draws():
+    # The chains' step patches are added with their limits set once: the same limits, colours and pixels as ax.stairs()'s.
+    import io
+
+    from matplotlib.figure import Figure
+
+    draws = np.random.default_rng(2).normal(size=(12, 300))
+    figure = plot_rank({"x [mm]": draws}, columns=1)
+    ranks = np.argsort(np.argsort(draws, axis=None)).reshape(draws.shape)
+    edges = np.linspace(0, draws.size, 21)
+    reference = Figure(figsize=figure.get_size_inches(), layout="constrained")
+    ax = reference.add_subplot()
+    for chain in range(draws.shape[0]):
+        ax.stairs(np.histogram(ranks[chain], bins=edges)[0] / (draws.shape[1] / 20), edges / draws.size, baseline=None, lw=1.0,
+                  label=f"chain {chain + 1}")
+    ax.axhline(1.0, color="0.5", lw=0.8, ls="--")
+    ax.set_title("x [mm]", fontsize=9)
+    ax.set_xlabel("rank quantile [-]", fontsize=8)
+    ax.set_ylabel("count / uniform [-]", fontsize=8)
+    ax.set_ylim(0, None)
+    ax.tick_params(labelsize=7)
+    reference.legend(*ax.get_legend_handles_labels(), loc="outside upper center", ncols=8, fontsize=8)
+    drawn = figure.axes[0]
+    assert drawn.get_xlim() == ax.get_xlim() and drawn.get_ylim() == ax.get_ylim()
+    assert [patch.get_edgecolor() for patch in drawn.patches] == [patch.get_edgecolor() for patch in ax.patches]
+    images = []
+    for each in (figure, reference):
+        buffer = io.BytesIO()
+        each.savefig(buffer, format="png", dpi=60)
+        images.append(buffer.getvalue())
+    assert images[0] == images[1]
