@@ -18,13 +18,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from bayescal.cell.config import Cell
 from bayescal.critique.covariates import Rows
-from bayescal.registration.nest_drift import NestDrift
-from bayescal.registration.repeats import fit_anchors, repeat_groups
+
+if TYPE_CHECKING:
+    # The walk (and SciPy's optimiser with it) is imported where a campaign's drift is fitted, not where a critique's
+    # results are read back.
+    from bayescal.registration.nest_drift import NestDrift
 
 __all__ = ["DriftEvidence", "drift_evidence", "drift_deflection", "MAKE_TESTABLE"]
 
@@ -81,6 +85,8 @@ def drift_evidence(rows: Rows, cell: Cell) -> DriftEvidence:
 
     Cached per ``rows``: the critique asks for it with every model that holds ``drift``.
     """
+    from bayescal.registration.repeats import fit_anchors, repeat_groups
+
     if not np.any(np.all(np.isfinite(rows.times), axis=1)):
         return DriftEvidence(False, "the campaign gives no reading times: " + MAKE_TESTABLE)
     groups = repeat_groups(rows.position, rows.position + rows.y, rows.times, rows.config, rows.marker)
@@ -105,6 +111,8 @@ def _held_out(rows: Rows, cell: Cell) -> tuple[tuple[int, NestDrift | None], ...
     several hundred knots), and a drift column built from it fits the deflections' noise (a campaign without any
     drift had `drift` named).  Each repeat's rows take their drift from the walk fitted to the other repeats.
     """
+    from bayescal.registration.repeats import fit_anchors, repeat_groups
+
     folds = []
     for repeat in np.unique(rows.repeat):
         other = rows.repeat != repeat
