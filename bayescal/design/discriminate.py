@@ -30,7 +30,8 @@ arrived.  The criterion counts that first loading from the far side of the play
 as repeats.  Measured as a plan's candidates alone, without that order, the
 designed plans separated the independent generator's tied lost motion taken up
 on the side last driven to in 7 of 15 campaigns; ordered, 9 of 15; ordered and
-counted, 13 of 15 (``docs/critique.md``).
+counted, 13 of 15 (``docs/critique.md``; 5 × 6 plans, measured before commit
+1adf04f, while the search scored options at other candidates' configurations).
 """
 
 from __future__ import annotations
