@@ -30,7 +30,8 @@ arrived.  The criterion counts that first loading from the far side of the play
 as repeats.  Measured as a plan's candidates alone, without that order, the
 designed plans separated the independent generator's tied lost motion taken up
 on the side last driven to in 7 of 15 campaigns; ordered, 9 of 15; ordered and
-counted, 13 of 15 (``docs/critique.md``).
+counted, 13 of 15 (``docs/critique.md``; 5 × 6 plans, measured before commit
+1adf04f, while the search scored options at other candidates' configurations).
 """
 
 from __future__ import annotations
@@ -63,9 +64,10 @@ DISCRIMINATE = "discriminate"
 
 PER_ANGLE = 12
 """Configurations per q2 angle of a discriminating plan by default: 5 × 12 at 3 repeats, four times Table III's.
-On campaigns where lost motion and a torque-dependent compliance tie, 5 × 6 separated the twin's in 57 of 58
-and 56 of 60, and the independent generator's two lost motions and its knee in 83, 64 and 66 %; 5 × 12 the
-latter in 92, 89 and 80 % (``bayescal_studies.studies.discrimination``, docs/critique.md)."""
+On campaigns where lost motion and a torque-dependent compliance tie, 5 × 12 plans separated the twin's in
+28 of 29 and 30 of 30, and the independent generator's lost motion with memory, its knee and its lost motion
+on the side last driven to in 17 of 19, 23 of 28 and 17 of 24 (the slow test's 30 seeds; the size was chosen
+on rates measured before commit 1adf04f; ``bayescal_studies.studies.discrimination``, docs/critique.md)."""
 
 MASS_LEVELS = 4
 """Masses each candidate configuration is offered at, evenly over the design's range: two tell an

@@ -31,8 +31,10 @@ which :class:`Discrimination` reports beside the nats.  Maximised instead of
 the separation, it resolved the twin's tied torque-dependent compliance more
 often and its tied lost motion less often, and with the command's search (four
 starts on eight candidates per angle) lost motion in 8 of 20 seeds against 13
-of 20 (``docs/critique.md``): the better the search, the more it fits the noise
-of coefficients taken from a campaign that could not tell the two apart.
+of 20 (``docs/critique.md``; measured before commit 1adf04f, while the search
+scored options at other candidates' configurations, and not measured since):
+the better the search, the more it fits the noise of coefficients taken from a
+campaign that could not tell the two apart.
 """
 
 from __future__ import annotations
