@@ -18,7 +18,7 @@ from os import PathLike
 from bayescal.errors import InputError
 from bayescal.output import record_read
 
-__all__ = ["JsonSchema", "read_json_object", "findings_fields", "findings_json"]
+__all__ = ["JsonSchema", "JsonFindings", "read_json_object", "findings_fields", "findings_json"]
 
 
 def read_json_object(path: str | PathLike[str], what: str):
@@ -90,3 +90,33 @@ def findings_json(record) -> dict:
     order = record.keys or (*(f.name for f in fields(record) if f.name not in ("keys", "extra") and getattr(record, f.name) is not None),
                             *record.extra)
     return {key: record.extra[key] if key in record.extra else getattr(record, key) for key in order}
+
+
+class JsonFindings:
+    """What a findings record (a frozen dataclass with ``keys`` and ``extra`` fields) reads and writes: the JSON file
+    a command printed, checked against the one schema of the results class that wrote it.
+
+    A record sets ``SCHEMA`` (its :class:`JsonSchema`), ``OPTION`` (the option that names its file in errors) and
+    ``NAME`` (what a JSON object handed over without a file is called in errors).
+    """
+
+    SCHEMA: JsonSchema
+    OPTION: str
+    NAME: str
+
+    def to_json(self) -> dict:
+        return findings_json(self)
+
+    @classmethod
+    def from_json(cls, data, source: str | None = None, option: str | None = None):
+        """The findings in ``data``, checked against ``SCHEMA``; ``source`` and ``option`` name it in errors."""
+        source, option = source or cls.NAME, option or cls.OPTION
+        cls.SCHEMA.check_kind(data, source, option)
+        cls.SCHEMA.check_keys(data, source)
+        return cls(**findings_fields(cls, data))
+
+    @classmethod
+    def load(cls, path: str | PathLike[str], option: str | None = None):
+        """The findings in the JSON file at ``path`` (the output of ``SCHEMA.writer``); ``option`` names it in errors."""
+        option = option or cls.OPTION
+        return cls.from_json(read_json_object(path, f"the {option} file"), str(path), option)

@@ -19,7 +19,7 @@ from bayescal.critique.compare import Comparison, CrossValidation
 from bayescal.critique.covariates import COVARIATES
 from bayescal.critique.rule import DECISIVE_GAIN, DECISIVE_Z, DETECTION_FLOOR, DETECTION_Z, TIE_NOISE
 from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit
-from bayescal.jsonfiles import JsonSchema, findings_fields, findings_json, read_json_object
+from bayescal.jsonfiles import JsonFindings, JsonSchema
 from bayescal.summary import Summary
 
 __all__ = ["Outcome", "CritiqueResults", "CritiqueFindings", "CRITIQUE_JSON", "VERDICTS"]
@@ -205,7 +205,7 @@ class CritiqueResults(Outcome):
 
 
 @dataclass(frozen=True)
-class CritiqueFindings:
+class CritiqueFindings(JsonFindings):
     """What a critique's JSON file (:meth:`CritiqueResults.to_json`, or the geometry critique's) holds.
 
     Attributes
@@ -242,17 +242,6 @@ class CritiqueFindings:
     keys: tuple[str, ...] = ()
     extra: dict = field(default_factory=dict)
 
-    def to_json(self) -> dict:
-        return findings_json(self)
-
-    @classmethod
-    def from_json(cls, data, source: str = "the critique's JSON", option: str = "--critique") -> CritiqueFindings:
-        """The findings in ``data``, checked against :data:`CRITIQUE_JSON`; ``source`` and ``option`` name it in errors."""
-        CRITIQUE_JSON.check_kind(data, source, option)
-        CRITIQUE_JSON.check_keys(data, source)
-        return cls(**findings_fields(cls, data))
-
-    @classmethod
-    def load(cls, path: str | PathLike[str], option: str = "--critique") -> CritiqueFindings:
-        """The findings in the JSON file at ``path`` (``bayescal critique --json``); ``option`` names it in errors."""
-        return cls.from_json(read_json_object(path, f"the {option} file"), str(path), option)
+    SCHEMA = CRITIQUE_JSON
+    OPTION = "--critique"
+    NAME = "the critique's JSON"

@@ -21,7 +21,7 @@ from bayescal.design.prediction import criterion_value
 from bayescal.design.loads import loads_json
 from bayescal.design.prediction import PlanPrediction
 from bayescal.inference.parameters import ANGLE_DECIMALS
-from bayescal.jsonfiles import JsonSchema, findings_fields, findings_json, read_json_object
+from bayescal.jsonfiles import JsonFindings, JsonSchema
 from bayescal.jsonsafe import json_safe
 from bayescal.units import DEG, MM
 
@@ -185,7 +185,7 @@ class PlanEvaluation:
 
 
 @dataclass(frozen=True)
-class PlanFindings:
+class PlanFindings(JsonFindings):
     """What a plan's JSON file (:meth:`PlanDesign.to_json`, :meth:`PlanEvaluation.to_json`) holds.
 
     Attributes
@@ -235,17 +235,6 @@ class PlanFindings:
     keys: tuple[str, ...] = ()
     extra: dict = field(default_factory=dict)
 
-    def to_json(self) -> dict:
-        return findings_json(self)
-
-    @classmethod
-    def from_json(cls, data, source: str = "the plan's JSON", option: str = "--plan") -> PlanFindings:
-        """The findings in ``data``, checked against :data:`PLAN_JSON`; ``source`` and ``option`` name it in errors."""
-        PLAN_JSON.check_kind(data, source, option)
-        PLAN_JSON.check_keys(data, source)
-        return cls(**findings_fields(cls, data))
-
-    @classmethod
-    def load(cls, path: str | PathLike[str], option: str = "--plan") -> PlanFindings:
-        """The findings in the JSON file at ``path`` (``bayescal plan --json``); ``option`` names it in errors."""
-        return cls.from_json(read_json_object(path, f"the {option} file"), str(path), option)
+    SCHEMA = PLAN_JSON
+    OPTION = "--plan"
+    NAME = "the plan's JSON"

@@ -11,7 +11,7 @@ import pandas as pd
 
 from bayescal.cell.config import Cell
 from bayescal.errors import InputError
-from bayescal.jsonfiles import JsonSchema, findings_fields, findings_json, read_json_object
+from bayescal.jsonfiles import JsonFindings, JsonSchema
 from bayescal.output import record_read
 from bayescal.registration.axes import AxisFit, fit_axis, span_needed
 from bayescal.registration.frames import Frame, common_perpendicular, draw_axis, frames_with_uncertainty, urdf_axes
@@ -97,7 +97,7 @@ class Registration:
 
 
 @dataclass(frozen=True)
-class RegistrationFindings:
+class RegistrationFindings(JsonFindings):
     """What a registration's JSON file (:meth:`Registration.save`) holds.
 
     Attributes
@@ -129,20 +129,9 @@ class RegistrationFindings:
     keys: tuple[str, ...] = ()
     extra: dict = field(default_factory=dict)
 
-    def to_json(self) -> dict:
-        return findings_json(self)
-
-    @classmethod
-    def from_json(cls, data, source: str = "the registration's JSON", option: str = "--registration") -> RegistrationFindings:
-        """The findings in ``data``, checked against :data:`REGISTRATION_JSON`; ``source`` and ``option`` name it in errors."""
-        REGISTRATION_JSON.check_kind(data, source, option)
-        REGISTRATION_JSON.check_keys(data, source)
-        return cls(**findings_fields(cls, data))
-
-    @classmethod
-    def load(cls, path: str | PathLike[str], option: str = "--registration") -> RegistrationFindings:
-        """The findings in the JSON file at ``path`` (``bayescal axes -o``); ``option`` names it in errors."""
-        return cls.from_json(read_json_object(path, f"the {option} file"), str(path), option)
+    SCHEMA = REGISTRATION_JSON
+    OPTION = "--registration"
+    NAME = "the registration's JSON"
 
 
 
