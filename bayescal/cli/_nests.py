@@ -18,7 +18,8 @@ def add_nests_option(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="measure the tracker's drift from the campaign's repeats alone (a marker's readings of one state at one "
         "configuration taken at distinct times t0_s, t1_s; bayescal plan --order passes spreads them) and remove it "
-        "as --nests does; with --nests the repeats are always taken with the nests",
+        "as --nests does; with --nests, the repeats join the nests (without it, the nests alone: a walk fitted to the "
+        "campaign's own readings takes up some of their noise)",
     )
     parser.add_argument(
         "--nests",
@@ -56,7 +57,7 @@ def measured_drift(args: argparse.Namespace, campaign, cell):
     from bayescal.registration.repeats import fit_drift
 
     require_times(campaign.times, campaign.source, "--drift-from-repeats")
-    track = fit_drift(campaign, cell.tracker, nests)
+    track = fit_drift(campaign, cell.tracker, nests, repeats=args.drift_from_repeats)
     if track is None:
         raise InputError("--drift-from-repeats: no marker's state is read twice at different times: " + MAKE_TESTABLE,
                          source=campaign.source)

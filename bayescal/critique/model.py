@@ -105,8 +105,8 @@ class Critique:
         """Criticise the classical model on ``campaign``; with ``nests`` (or ``repeats``: from the repeat groups alone),
         after removing the drift they measure.
 
-        With reference-nest readings the tracker's drift is measured from them and the campaign's repeat groups
-        together (:mod:`bayescal.registration.repeats`), taken out of the readings with its uncertainty added to the
+        With reference-nest readings the tracker's drift is measured from them (and the campaign's repeat groups
+        with ``repeats``: :mod:`bayescal.registration.repeats`), taken out of the readings with its uncertainty added to the
         deflections, and reported: it is then no candidate.  ``nests`` needs the campaign's reading times.
 
         ``rng`` is accepted for the command line's ``--seed``; the critique itself is
@@ -118,7 +118,7 @@ class Critique:
         measured = None
         if nests is not None or repeats:
             require_times(campaign.times, campaign.source, "nests" if nests is not None else "repeats", nests)
-            track = fit_drift(campaign, self.cell.tracker, nests)
+            track = fit_drift(campaign, self.cell.tracker, nests, repeats=repeats)
             if track is None:
                 raise InputError("no marker's state is read twice at different times: " + MAKE_TESTABLE, source=campaign.source)
             measured = track.to_json(campaign) | {"testable": True, "candidate": False}

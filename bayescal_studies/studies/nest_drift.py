@@ -130,7 +130,7 @@ def _one(case: tuple, rng: np.random.Generator, cell, plan, n_draws: int) -> dic
         campaign, nests, drift, compliances = _independent(magnitude, rng, cell)
     else:
         campaign, nests, drift, compliances = _twin(magnitude, rng, cell, plan, passes=evidence == "repeats")
-    track = fit_drift(campaign, cell.tracker, nests if evidence == "nests" else None)
+    track = fit_drift(campaign, cell.tracker, nests if evidence == "nests" else None, repeats=evidence == "repeats")
     planted = _planted(drift, campaign, track)
     readings = []
     for state, (p, t) in enumerate(((campaign.p0, campaign.times[:, 0]), (campaign.p1, campaign.times[:, 1]))):

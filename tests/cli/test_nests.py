@@ -48,7 +48,7 @@ def test_critique_measures_the_drift_instead_of_trying_it(capsys, files):
     status, out, _ = run(capsys, "critique", [str(files["campaign"]), "--config", files["config"], "--nests", str(files["nests"]), "--json"])
     assert status == 0
     payload = json.loads(out)
-    assert payload["drift"]["source"] == "reference nests and repeats" and payload["drift"]["candidate"] is False
+    assert payload["drift"]["source"] == "reference nests" and payload["drift"]["candidate"] is False
     assert "drift" not in payload["causes"] and "drift" not in payload["evidence"]
 
 
@@ -83,7 +83,7 @@ def test_simulate_writes_a_timed_twin_campaign_and_its_nests(capsys, data_dir, t
     assert payload["drift_mm_per_h"] == 0.4 and payload["nests"]["readings"] == 3 * (1 + 2 * 15 * 3)
     assert "t0_s" in campaign.read_text(encoding="utf-8") and nests.read_text(encoding="utf-8").count("\nR1,") == 91
     status, out, _ = run(capsys, "critique", [str(campaign), "--config", str(data_dir / "kr270.toml"), "--nests", str(nests), "--json"])
-    assert status == 0 and json.loads(out)["drift"]["source"] == "reference nests and repeats"
+    assert status == 0 and json.loads(out)["drift"]["source"] == "reference nests"
 
 
 def test_simulate_refuses_to_write_the_nests_over_the_campaign(capsys, data_dir, tmp_path):
