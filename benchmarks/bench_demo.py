@@ -1,11 +1,12 @@
 """``make demo`` step by step against the previous code, in one run: each command's time and the same files.
 
-The demo's commands are read from the Makefile's ``demo`` recipe and run as ``python -m bayescal``
+The demo's commands are read from the Makefile's demo recipes and run as ``python -m bayescal``
 in two folders, alternately, ``REPEATS`` times each: a temporary one holding a link to the
 repository's ``data/`` (the package is the installed working tree's), and the repository's files at
 :data:`PREVIOUS` (``previous.py``'s :func:`~previous.previous_tree`), each writing its own
 ``build/`` (the repository's own ``build/`` is left alone).  Printed: the median wall and CPU seconds (user + system) of every step and of the
-whole demo in each tree and their ratio; then which of the outputs that carry no time stamp
+whole demo in each tree and their ratio; the wall seconds of ``make demo`` as each tree's Makefile runs it (its steps
+at once where they can be); then which of the outputs that carry no time stamp
 (the campaign, the plan, the critique's JSON, the review's files) are byte for byte the same.
 CPU time is the steadier figure on a shared machine.  At the smoke size: the first two steps,
 once, with the working tree's package alone.
@@ -37,17 +38,18 @@ COMPARED = ("campaign.csv", "plan.csv", "plan.json", "critique.json", "report")
 """Outputs compared byte for byte (the posterior files carry their creation time)."""
 
 
-def demo_steps() -> list[tuple[list[str], str | None]]:
-    """The ``demo`` recipe of the Makefile: each command's arguments after ``bayescal`` and the file its stdout goes to."""
-    lines = (ROOT / "Makefile").read_text().splitlines()
+def demo_steps(makefile: Path = ROOT / "Makefile") -> list[tuple[list[str], str | None]]:
+    """The commands of ``makefile``'s demo, in the order written: each one's arguments after ``bayescal`` and the file its
+    stdout goes to.  The demo's steps are the recipes of the ``demo`` target itself, or of its ``demo-*`` targets where the
+    demo runs them through make's own scheduling."""
     recipe, started = [], False
-    for line in lines:
-        if line.startswith("demo:"):
+    for line in makefile.read_text().splitlines():
+        if line.startswith("demo:") or line.startswith("demo-"):
             started = True
         elif started and line.startswith("\t"):
             recipe.append(line.strip())
-        elif started:
-            break
+        elif started and line and not line.startswith("#"):
+            started = False
     commands = " ".join(recipe).replace("\\ ", " ").split("$(BIN)/bayescal ")[1:]
     steps = []
     for command in commands:
@@ -79,6 +81,23 @@ def run_demo(tree: Path, steps) -> list[tuple[float, float]]:
     return times
 
 
+def make_demo(tree: Path, makefile: Path) -> float:
+    """Wall seconds of ``make demo`` as ``makefile`` runs it, in the folder ``tree``: its steps one after another or
+    several at once, as that Makefile says.  ``bayescal`` is ``python -m bayescal`` run in ``tree``, whose own package,
+    if it has one, comes first on the path."""
+    with tempfile.TemporaryDirectory() as folder:
+        command = Path(folder) / "bayescal"
+        command.write_text(f'#!/bin/sh\nexec {shlex.quote(sys.executable)} -m bayescal "$@"\n')
+        command.chmod(0o755)
+        environment = os.environ | {"OPENBLAS_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
+        began = time.perf_counter()
+        done = subprocess.run(["make", "-s", "-f", str(makefile), "demo", f"BIN={folder}", "STAMP="], cwd=tree,
+                              capture_output=True, text=True, env=environment)
+        if done.returncode != 0:
+            raise SystemExit(f"make demo failed in {tree}: {(done.stderr.strip().splitlines() or ['?'])[-1]}")
+        return time.perf_counter() - began
+
+
 def _same(a: Path, b: Path) -> bool:
     if a.is_dir():
         comparison = filecmp.dircmp(a, b)
@@ -90,6 +109,11 @@ def _same(a: Path, b: Path) -> bool:
 
 def _medians(runs: list[list[tuple[float, float]]]) -> list[tuple[float, float]]:
     return [(statistics.median(r[k][0] for r in runs), statistics.median(r[k][1] for r in runs)) for k in range(len(runs[0]))]
+
+
+def makefile(tree: Path) -> Path:
+    """The Makefile of ``tree``: its own where it has one (an earlier revision's), the working tree's otherwise."""
+    return tree / "Makefile" if (tree / "Makefile").exists() else ROOT / "Makefile"
 
 
 def compare(steps, trees: dict[str, Path]) -> None:
@@ -108,6 +132,9 @@ def compare(steps, trees: dict[str, Path]) -> None:
     old_total = [sum(t[k] for t in old) for k in (0, 1)]
     print(f"  {'all':10s} {total[0]:6.2f} s wall {total[1]:6.2f} s CPU   before {old_total[0]:6.2f} s wall {old_total[1]:6.2f} s CPU   "
           f"{old_total[1] / total[1]:4.2f}x the CPU")
+    whole = {name: statistics.median(make_demo(tree, makefile(tree)) for _ in range(REPEATS)) for name, tree in trees.items()}
+    print(f"  make demo as its Makefile runs it (the steps at once where they can be): {whole[now]:6.2f} s wall   "
+          f"before {whole[before]:6.2f} s wall   {whole[before] / whole[now]:4.2f}x")
     for name in COMPARED:
         same = _same(now_tree / "build" / name, before_tree / "build" / name)
         print(f"  build/{name}: {'the same, byte for byte' if same else 'DIFFERENT'}")
