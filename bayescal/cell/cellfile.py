@@ -95,6 +95,16 @@ def read_cell_file(path: str | PathLike[str]) -> CellFileReader:
     return reader
 
 
+def is_points_cell(path: str | PathLike[str]) -> bool:
+    """Whether the cell file at ``path`` describes measured points (it has a ``[markers]`` table): a cell of
+    :mod:`bayescal.kinematics`, told apart here so that a command learns which cell it reads without importing that
+    calibration."""
+    try:
+        return "markers" in read_cell_file(path).data
+    except InputError:
+        return False
+
+
 class CellFileReader:
     """Typed access to the TOML tables with errors naming the file, the line and the key."""
 

@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
         return _run_geometry(args)
     if args.campaign is None or args.config is None:
         raise InputError("expected a campaign CSV and --config CELL.toml, or --geometry POINTS.csv")
-    from bayescal.kinematics.cell import is_points_cell
+    from bayescal.cell.cellfile import is_points_cell
 
     if is_points_cell(args.config):
         return _run_ladder(args)

@@ -29,7 +29,7 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> CommandOutput:
     from pathlib import Path
 
-    from bayescal.kinematics.cell import is_points_cell
+    from bayescal.cell.cellfile import is_points_cell
     from bayescal.output import guard_outputs, record_read
 
     inputs = {"the calibration": args.calibration, "the config": args.config}

@@ -4,11 +4,14 @@ from __future__ import annotations
 
 from os import PathLike
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from bayescal.critique.geometry import GeometryCritiqueResults
-from bayescal.critique.results import CritiqueResults
+if TYPE_CHECKING:
+    # annotations only: the geometry critique loads SciPy's optimiser, which the figures never call
+    from bayescal.critique.geometry import GeometryCritiqueResults
+    from bayescal.critique.results import CritiqueResults
 
 __all__ = ["write_figures", "write_geometry_figures"]
 

@@ -45,7 +45,6 @@ from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.equations import check_campaign
 from bayescal.inference.identifiability import independent_columns
 from bayescal.inference.lack_of_fit import least_squares_lack_of_fit, line_of_sight, replicate_cells
-from bayescal.registration.repeats import fit_drift
 from bayescal.robot.stiffness import EquilibriumError
 from bayescal.threads import one_blas_thread
 from bayescal.units import DEG, MM
@@ -117,6 +116,10 @@ class Critique:
         """
         measured = None
         if nests is not None or repeats:
+            # here, not at the module's top: the registration package loads SciPy's optimiser, which a critique
+            # without drift evidence never needs (a tenth of the demo's critique)
+            from bayescal.registration.repeats import fit_drift
+
             require_times(campaign.times, campaign.source, "nests" if nests is not None else "repeats", nests)
             track = fit_drift(campaign, self.cell.tracker, nests, repeats=repeats)
             if track is None:

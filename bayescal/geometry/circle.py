@@ -16,7 +16,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike
-from scipy.optimize import least_squares
 
 __all__ = [
     "CircleFit",
@@ -129,6 +128,10 @@ def geometric_fit(points: ArrayLike, start: CircleFit | None = None) -> CircleFi
         diff = p - theta[:2]
         dist = np.linalg.norm(diff, axis=1)
         return np.column_stack([-diff / dist[:, None], -np.ones(len(p))])
+
+    # imported here, as in the registration's axis fit: a campaign critique loads this module through the registration
+    # and never fits a circle
+    from scipy.optimize import least_squares
 
     theta0 = np.r_[start.centre, start.radius]
     solution = least_squares(residuals, theta0, jac=jacobian, method="lm", xtol=1e-14, ftol=1e-14)

@@ -31,7 +31,7 @@ from bayescal.kinematics.tree import BatchedTree
 from bayescal.output import record_read
 from bayescal.units import DEG, MM, UM, URAD_PER_NM
 
-__all__ = ["Marker", "PointsCell", "Priors", "is_points_cell", "load_points_cell"]
+__all__ = ["Marker", "PointsCell", "Priors", "load_points_cell"]
 
 
 @dataclass(frozen=True)
@@ -142,14 +142,6 @@ class PointsCell:
     def model_configuration(self, commanded: np.ndarray) -> np.ndarray:
         """``(N, nq)`` the model's joint angles (rad) of ``(N, n_commanded)`` commanded ones."""
         return np.asarray(commanded, dtype=float) @ self.coupling.T
-
-
-def is_points_cell(path: str | PathLike[str]) -> bool:
-    """Whether the cell file at ``path`` describes measured points (it has a ``[markers]`` table)."""
-    try:
-        return "markers" in read_cell_file(path).data
-    except InputError:
-        return False
 
 
 def load_points_cell(path: str | PathLike[str]) -> PointsCell:

@@ -49,7 +49,6 @@ from os import PathLike
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import least_squares
 
 from bayescal.cell.tracker import TrackerNoise
 from bayescal.errors import InputError
@@ -328,6 +327,10 @@ def _model(x: np.ndarray, start: AxisStart, index: np.ndarray) -> np.ndarray:
 
 def _solve(start: AxisStart, index: np.ndarray, sigma: np.ndarray, x0: np.ndarray):
     """Weighted least squares of the circle model, each reading's noise sd ``sigma`` (n,) m."""
+    # imported here: the registration package is loaded by every campaign critique (its drift evidence), which
+    # never fits an axis, and SciPy's optimiser is a tenth of that command's start-up
+    from scipy.optimize import least_squares
+
     return least_squares(lambda x: ((_model(x, start, index) - start.xyz) / sigma[:, None]).ravel(), x0,
                          method="lm", x_scale="jac")
 
