@@ -197,7 +197,11 @@ class _Exchange:
         return _flat(groups), current
 
     def _move(self, groups, chosen_angles, g, current):
-        """The best other q2 angle for group ``g``, filled greedily, when it beats ``current``."""
+        """The best other q2 angle for group ``g``, filled greedily, when it beats ``current``.
+
+        Only the angles whose fill could beat it are filled (:meth:`_fill_bounds`): the others' fills could not be
+        the best, nor tie with it.
+        """
         rest = _flat(groups[:g] + groups[g + 1 :])
         others = chosen_angles[:g] + chosen_angles[g + 1 :]
         angles = [
@@ -207,12 +211,32 @@ class _Exchange:
         # The fills depend only on the other groups: unchanged since the last pass, they are not computed again.
         key = (tuple(angles), len(groups[g]), tuple(rest))
         if key not in self._filled:
-            self._filled[key] = self._greedy_fills(angles, len(groups[g]), rest)
+            self._filled[key] = (self._fill_bounds(angles, len(groups[g]), rest), {})
+        bounds, fills = self._filled[key]
+        wanted = [angle for angle in angles if angle not in fills and bounds[angle] * (1 + BOUND_MARGIN) >= current]
+        if len(wanted) == 1 and len(angles) > 1:
+            # filled beside another angle: a batch of one rounds its separation otherwise than a batch of several
+            wanted += ([angle for angle in angles if angle not in fills and angle != wanted[0]] or [a for a in angles if a != wanted[0]])[:1]
+        if wanted:
+            fills.update(zip(wanted, self._greedy_fills(wanted, len(groups[g]), rest)))
         best = None
-        for angle, (members, score) in zip(angles, self._filled[key]):
+        for angle in (angle for angle in angles if angle in fills):
+            members, score = fills[angle]
             if score > current * (1 + 1e-9) and (best is None or score > best[2]):
                 best = (angle, list(members), score)
         return best
+
+    def _fill_bounds(self, angles: list[int], size: int, fixed: list[int]) -> dict[int, float]:
+        """Each of ``angles``' bound on the worse separation (nats) of plan ``fixed`` with ``size`` of its options added,
+        whichever they are: :func:`~bayescal.design.separation.separation_bound` of the options' sum, with the
+        ``size`` largest of the group's terms (each of A and B true)."""
+        partial = self.information[np.asarray(fixed, dtype=int)].sum(axis=0)[np.newaxis]
+        constant, weights = separation_bound(partial, ranked_fits(partial, self.blocks, *self.beta)[1], self.blocks)
+        weights = weights.reshape(2, -1)
+        return {
+            angle: float((0.5 * np.maximum(constant[0] + np.sort(self._flat[angle] @ weights.T, axis=0)[-size:].sum(axis=0), 0.0)).min())
+            for angle in angles
+        }
 
     def _greedy_fills(self, angles: list[int], per_angle: int, fixed: list[int]) -> list[tuple[list[int], float]]:
         """Every group of ``angles`` filled slot by slot, each the best option added to ``fixed``, the groups scored together, and the

@@ -114,6 +114,28 @@ def test_the_search_takes_the_option_ranking_every_one_would_and_the_first_of_a_
     assert chosen == expected and ranked == values
 
 
+def test_a_move_fills_only_the_angles_that_could_beat_the_plan_and_finds_the_move_filling_every_one_finds():
+    rng = np.random.default_rng(5)
+    blocks = (slice(0, 6), slice(6, 18), slice(18, 24))
+    beta = (rng.normal(size=12), rng.normal(size=6))
+    angles, per, size = 8, 12, 4
+    information = _plans(rng, angles * per, 6)
+    group = np.repeat(np.arange(angles), per)
+    search = _Exchange(information, group, np.tile([1.0, -1.0], angles * per // 2), np.arange(angles, dtype=float), 0.0, blocks, beta, rng)
+    # group 0 to move, the six others a plan of 24 configurations
+    chosen_angles = list(range(7))
+    groups = [list(range(a * per, a * per + size)) for a in chosen_angles]
+    others = list(range(1, angles))
+    every = search._greedy_fills(others, size, [o for members in groups[1:] for o in members])
+    # a plan better than half the fills: the move is the best of the others, the first of equals
+    current = float(np.median([score for _, score in every]))
+    better = [(angle, members, score) for angle, (members, score) in zip(others, every) if score > current * (1 + 1e-9)]
+    expected = max(better, key=lambda move: move[2])
+    assert search._move(groups, chosen_angles, 0, current) == expected
+    (_, fills), = search._filled.values()
+    assert len(fills) < len(others)
+
+
 def test_a_separation_in_one_configuration_is_expected_within_its_own_standard_error_and_the_same_spread_far_clear_of_it():
     k, total = 15, 60.0
     spread = np.full(k, total / k)
