@@ -27,9 +27,9 @@ best-bounded option, those that reach it) took as long as one batch of 30 to 70 
 BOUND_MARGIN = 1e-9
 """Relative margin by which a bound (:func:`~bayescal.design.separation.separation_bound`) must fall short of an option's
 ranked separation for the option to be left unranked, or of the plan's for a move's angle to be left unfilled: far
-above the rounding of either (about 10⁻¹⁵), and
-far below what the bound exceeds the ranked separation by (at least 5 × 10⁻⁸ of it over the 99,000 options ranked in
-the 5 × 12 searches between backlash and nonlinear_stiffness, and backlash and compensator, on the tie of docs/critique.md)."""
+above the rounding of either (about 10⁻¹⁵), and far below what the bound exceeds the ranked separation by (at least
+5 × 10⁻⁸ of it over the 99,000 options ranked in the 5 × 12 searches between backlash and nonlinear_stiffness, and
+backlash and compensator, on the tie of docs/critique.md)."""
 
 
 @dataclass
