@@ -37,11 +37,14 @@ sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve
 from previous import NoHistory, previous  # noqa: E402
 from smoke import SMOKE  # noqa: E402
 
-PREVIOUS = "ca6c3fb"
-"""The commit whose ``bayescal/design`` and ``bayescal/robot/batched.py`` are the baseline: the last merged round's.
-(Commit 5b37cd4 is the one before the feasibility checks, the criteria's masks, the exchange's pools and the chain's
-cross products lost their overheads, docs/speed.md; f4e0a75 the searches before batching, docs/design.md.)"""
-MODULES = ("criteria", "linearisation", "loads", "constraints", "exchange", "refinement", "optimise", "discriminating_search", "discriminate")
+PREVIOUS = "6f68a1f"
+"""The commit whose ``bayescal/design`` and ``bayescal/robot/batched.py`` are the baseline: the one before the discriminating
+search ranked only the options its bound cannot rule out (docs/speed.md).  (Commit ca6c3fb is the round before that;
+5b37cd4 the one before the feasibility checks, the criteria's masks, the exchange's pools and the chain's cross products
+lost their overheads, docs/speed.md; f4e0a75 the searches before batching, docs/design.md.)"""
+MODULES = (
+    "criteria", "linearisation", "loads", "constraints", "exchange", "refinement", "optimise", "separation", "discriminating_search", "discriminate"
+)
 """The design modules at :data:`PREVIOUS`, in an order in which each imports only those before it."""
 
 

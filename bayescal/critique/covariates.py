@@ -150,9 +150,10 @@ class Rows:
         return Rows(**{name: np.concatenate([getattr(self, name), getattr(other, name)]) for name in fields}, plan_joint=self.plan_joint)
 
 
-def _static_torque(cell: Cell, q: np.ndarray) -> np.ndarray:
-    """Torque the joint springs carry with the arm unloaded at ``q``: minus gravity minus the compensator's moment."""
-    torque = -cell.robot.gravity_torque(q)
+def _static_torque(cell: Cell, q: np.ndarray, workspace) -> np.ndarray:
+    """Torque the joint springs carry with the arm unloaded at ``q``: minus gravity minus the compensator's moment
+    (computed in ``workspace``, one of ``cell.robot``'s)."""
+    torque = -workspace.gravity_torque(q)
     if cell.compensator is not None:
         torque[cell.compensated_joint] -= cell.compensator.torque(float(q[cell.compensated_joint]))
     return torque
@@ -167,20 +168,22 @@ def _build(cell: Cell, q, wrench, point, position, y, config, repeat, marker, no
     frames = np.empty((n, nq, 4, 4))
     flange = np.empty((n, 4, 4))
     data = robot.model.createData()
+    # one workspace for the loop's other kinematic calls: creating one per call cost as much as the calls
+    workspace = robot.workspace()
     cache: dict[bytes, tuple] = {}
     for i in range(n):
         key = q[i].tobytes() + wrench[i].tobytes()
         if key not in cache:
             pin.forwardKinematics(robot.model, data, q[i])
-            rotation, origin = robot.flange_pose(q[i])
+            rotation, origin = workspace.flange_pose(q[i])
             cache[key] = (
-                robot.flange_jacobian(q[i]).T @ wrench[i],
-                _static_torque(cell, q[i]),
+                workspace.flange_jacobian(q[i]).T @ wrench[i],
+                _static_torque(cell, q[i], workspace),
                 np.array([data.oMi[j + 1].homogeneous for j in range(nq)]),
                 np.block([[rotation, origin[:, np.newaxis]], [np.zeros((1, 3)), np.ones((1, 1))]]),
             )
         load_torque[i], static[i], frames[i], flange[i] = cache[key]
-        jacobian[i] = robot.point_jacobian(q[i], point[i])
+        jacobian[i] = workspace.point_jacobian(q[i], point[i])
     # Order of measurement: configurations as first met in the file, then repeats.
     first = {c: k for k, c in enumerate(dict.fromkeys(config.tolist()))}
     order = np.array([first[c] for c in config.tolist()]) * (int(repeat.max()) + 1) + repeat
@@ -335,7 +338,8 @@ def pose_rows(cell: Cell, q, wrench, point, config=None) -> Rows:
     q = np.asarray(q, dtype=float).reshape(-1, cell.robot.nq)
     n = len(q)
     point = np.broadcast_to(np.asarray(point, dtype=float).reshape(-1, 3), (n, 3)).copy()
-    position = np.array([cell.robot.point_position(qi, p.reshape(1, 3)).reshape(3) for qi, p in zip(q, point)])
+    workspace = cell.robot.workspace()
+    position = np.array([workspace.point_position(qi, p.reshape(1, 3)).reshape(3) for qi, p in zip(q, point)])
     return _build(
         cell,
         q,

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Discrimination", "separation", "ranked_separation", "shares", "expected_z", "plan_z"]
+__all__ = ["Discrimination", "separation", "ranked_separation", "ranked_fits", "separation_bound", "shares", "expected_z", "plan_z"]
 
 _RIDGE = 1e-9
 """Ridge on the rival model's unit-diagonal information: a direction whose eigenvalue is below it (k1
@@ -135,10 +135,43 @@ def ranked_separation(information: np.ndarray, blocks: tuple[slice, slice, slice
     search.  The sums' order moves the last digits (at most 4.4 × 10⁻¹⁵ relative on random plans,
     ``tests/design/test_discriminate.py``), and the starts of ``benchmarks/bench_design.py``'s search reach plans
     whose separations tie to those digits: a search ranks its candidates by this and keeps :func:`separation`'s value
-    of the plan it takes, the value that decides between starts.
+    of the plan it takes, the value that decides between starts.  Each plan's value is its own whatever the batch, but
+    for a batch of one, which NumPy multiplies by ``β`` in another order (its last digits differ).
     """
+    return ranked_fits(information, blocks, beta_a, beta_b)[0]
+
+
+def ranked_fits(information: np.ndarray, blocks: tuple[slice, slice, slice], beta_a: np.ndarray, beta_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`ranked_separation` (..., 2) of plans of information (..., p, p), and the fits ``v`` (..., 2, p) it is
+    computed from, A then B true: the true model's coefficients on its columns, the rival's fit negated on the rival's."""
     v = _directions(information, blocks, beta_a, beta_b)
-    return np.maximum(0.5 * np.einsum("...ti,...ti->...t", v @ np.asarray(information), v), 0.0)
+    return np.maximum(0.5 * np.einsum("...ti,...ti->...t", v @ np.asarray(information), v), 0.0), v
+
+
+def separation_bound(partial: np.ndarray, fits: np.ndarray, blocks: tuple[slice, slice, slice]) -> tuple[np.ndarray, np.ndarray]:
+    """Upper bounds on the separation of each of K plans of information ``partial`` (K, p, p) with one configuration added.
+
+    ``fits`` (K, 2, p) are, for each plan and A then B true, the true model's coefficients on its columns and any fit
+    of the rival, negated, on the rival's (:func:`ranked_fits`).  Returns ``constant`` (K, 2) and ``weights``
+    (K, 2, p, p): with a configuration of information ``A`` added to plan k, ``λ_A / 2`` (t = 0) and ``λ_B / 2``
+    (t = 1), as :func:`separation` and :func:`ranked_separation` give them, are at most
+    ``max(constant[k, t] + Σ_ij weights[k, t, i, j] A_ij, 0) / 2`` nats, to rounding.
+
+    The rival's fit ``γ`` minimises its residual plus the ridge's penalty ``ε γᵀ D² γ`` (``D²`` the rival's diagonal
+    of the plan's information, 1 where it is 0), so the residual it leaves is at most the residual plus penalty of
+    any other fit ``v``: ``vᵀ P v + vᵀ A v`` and the penalty on the larger plan.  No solve; the bound is as close as
+    the fit given is to the larger plan's, the plan's own fit moved by one configuration for instance.
+    """
+    partial, v = np.asarray(partial), np.asarray(fits)
+    # the ridge on the rival's columns, those where v is the fit's
+    ridge = np.full((2, partial.shape[-1]), _RIDGE)
+    ridge[0, blocks[1]], ridge[1, blocks[2]] = 0.0, 0.0
+    penalty = v * v * ridge
+    diagonal = np.einsum("kii->ki", partial)
+    constant = np.einsum("kti,kti->kt", v @ partial, v) + np.einsum("kti,ki->kt", penalty, np.where(diagonal > 0, diagonal, 1.0))
+    weights = v[..., :, np.newaxis] * v[..., np.newaxis, :]
+    np.einsum("ktii->kti", weights)[...] += penalty
+    return constant, weights
 
 
 def expected_z(mean: np.ndarray, variance: np.ndarray) -> np.ndarray:

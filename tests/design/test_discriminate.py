@@ -7,8 +7,8 @@ import pytest
 
 from bayescal.design.constraints import load_design_space
 from bayescal.design.discriminate import DiscriminatingDesigner
-from bayescal.design.discriminating_search import _Exchange
-from bayescal.design.separation import expected_z, ranked_separation, separation, shares
+from bayescal.design.discriminating_search import RANKED_OUTRIGHT, _Exchange
+from bayescal.design.separation import expected_z, ranked_fits, ranked_separation, separation, separation_bound, shares
 from bayescal.design.optimise import PlanDesigner
 from bayescal.errors import InputError
 
@@ -52,6 +52,88 @@ def test_the_ranked_separations_are_the_separations_to_rounding():
         kept, ranked = separation(information, blocks, *beta), ranked_separation(information, blocks, *beta)
         assert np.all(kept > 1.0)
         np.testing.assert_allclose(ranked, kept, rtol=RANKED_AGREEMENT, atol=0)
+
+
+def _plans(rng, count, rows, columns=24):
+    """(count, columns, columns) the information of ``count`` random plans of ``rows`` rows each."""
+    Z = rng.normal(size=(count, rows, columns))
+    return np.swapaxes(Z, 1, 2) @ Z
+
+
+@pytest.mark.parametrize("collinear", [False, True])
+def test_the_bound_is_above_the_separation_of_every_plan_one_configuration_larger_and_tight_where_the_fit_stays(collinear):
+    rng = np.random.default_rng(3)
+    blocks = (slice(0, 6), slice(6, 18), slice(18, 24))
+    beta = (rng.normal(size=12), rng.normal(size=6))
+    partial, added = _plans(rng, 300, 40), _plans(rng, 300, 6)
+    if collinear:
+        # two of the rival's columns in proportion: its fit along their difference is the ridge's
+        partial[:, 23, :] = partial[:, 22, :] * (1 + 1e-7)
+        partial[:, :, 23] = partial[:, :, 22] * (1 + 1e-7)
+        partial[:, 23, 23] = partial[:, 22, 22] * (1 + 1e-7) ** 2
+    larger = partial + added
+    # the bound from the partial plans' own fits, and from fits of other plans (as a search's last step leaves them)
+    for fits in (ranked_fits(partial, blocks, *beta)[1], ranked_fits(partial[::-1], blocks, *beta)[1]):
+        constant, weights = separation_bound(partial, fits, blocks)
+        bound = 0.5 * np.maximum(constant + np.einsum("ktij,kij->kt", weights, added), 0.0)
+        assert np.all(bound >= ranked_separation(larger, blocks, *beta) * (1 - 1e-12))
+        assert np.all(bound >= separation(larger, blocks, *beta) * (1 - 1e-12))
+    # a configuration that moves no column of A's rival leaves its fit where it was: the bound from that fit is the
+    # separation, and the ridge's penalty
+    constant, weights = separation_bound(partial, ranked_fits(partial, blocks, *beta)[1], blocks)
+    own = np.zeros_like(added)
+    own[:, blocks[1], blocks[1]] = added[:, blocks[1], blocks[1]]
+    bound = 0.5 * np.maximum(constant + np.einsum("ktij,kij->kt", weights, own), 0.0)
+    np.testing.assert_allclose(bound[:, 0], separation(partial + own, blocks, *beta)[:, 0], rtol=1e-7)
+
+
+def test_the_search_takes_the_option_ranking_every_one_would_and_the_first_of_a_tie():
+    rng = np.random.default_rng(4)
+    blocks = (slice(0, 6), slice(6, 18), slice(18, 24))
+    beta = (rng.normal(size=12), rng.normal(size=6))
+    angles, per = 4, 40
+    information = _plans(rng, angles * per, 6)
+    group = np.repeat(np.arange(angles), per)
+    pools = [np.flatnonzero(group == g) for g in range(angles)]
+    assert angles * per > RANKED_OUTRIGHT
+    partials = np.array([information[rng.choice(len(information), 30, replace=False)].sum(axis=0) for _ in range(angles)])
+    options, owner = np.concatenate(pools), np.repeat(np.arange(angles), per)
+
+    def every(information):
+        ranked = ranked_separation(partials[owner] + information[options], blocks, *beta).min(axis=-1).reshape(angles, per)
+        return [int(pool[np.argmax(row)]) for pool, row in zip(pools, ranked)], ranked.max(axis=1).tolist()
+
+    best, _ = every(information)
+    # the first angle's best option copied to its first option: a tie ranking every option resolves to the first
+    assert best[0] != pools[0][0]
+    information[pools[0][0]] = information[best[0]]
+    expected, values = every(information)
+    assert expected[0] == pools[0][0]
+    search = _Exchange(information, group, np.tile([1.0, -1.0], angles * per // 2), np.arange(angles, dtype=float), 0.0, blocks, beta, rng)
+    chosen, ranked, _ = search._best(partials, list(range(angles)), pools)
+    assert chosen == expected and ranked == values
+
+
+def test_a_move_fills_only_the_angles_that_could_beat_the_plan_and_finds_the_move_filling_every_one_finds():
+    rng = np.random.default_rng(5)
+    blocks = (slice(0, 6), slice(6, 18), slice(18, 24))
+    beta = (rng.normal(size=12), rng.normal(size=6))
+    angles, per, size = 8, 12, 4
+    information = _plans(rng, angles * per, 6)
+    group = np.repeat(np.arange(angles), per)
+    search = _Exchange(information, group, np.tile([1.0, -1.0], angles * per // 2), np.arange(angles, dtype=float), 0.0, blocks, beta, rng)
+    # group 0 to move, the six others a plan of 24 configurations
+    chosen_angles = list(range(7))
+    groups = [list(range(a * per, a * per + size)) for a in chosen_angles]
+    others = list(range(1, angles))
+    every = search._greedy_fills(others, size, [o for members in groups[1:] for o in members])
+    # a plan better than half the fills: the move is the best of the others, the first of equals
+    current = float(np.median([score for _, score in every]))
+    better = [(angle, members, score) for angle, (members, score) in zip(others, every) if score > current * (1 + 1e-9)]
+    expected = max(better, key=lambda move: move[2])
+    assert search._move(groups, chosen_angles, 0, current) == expected
+    (_, fills), = search._filled.values()
+    assert len(fills) < len(others)
 
 
 def test_a_separation_in_one_configuration_is_expected_within_its_own_standard_error_and_the_same_spread_far_clear_of_it():
