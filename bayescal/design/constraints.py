@@ -244,7 +244,16 @@ class Feasibility:
             reasons[rows[k]] = reason
         keep &= np.array([reasons[row] is None for row in rows], dtype=bool)
         if solve:
-                self._equilibria(q[rows[keep]], force[rows[keep]], couple[rows[keep]], rows[keep], reasons)
+            self._equilibria(q[rows[keep]], force[rows[keep]], couple[rows[keep]], rows[keep], reasons)
+        return reasons
+
+    def equilibrium_violations(self, q: np.ndarray, force: np.ndarray, couple: np.ndarray) -> list[str | None]:
+        """Why each of ``N`` configurations ``(N, nq)`` under forces and couples ``(N, 3)`` has no loaded equilibrium (None
+        where it has one): :meth:`violations_under`'s last check alone, for a caller that ran the others with ``solve=False``
+        and gathers the configurations that passed them into one solve."""
+        q, force, couple = (np.asarray(v, dtype=float) for v in (q, force, couple))
+        reasons: list[str | None] = [None] * len(q)
+        self._equilibria(q, force, couple, np.arange(len(q)), reasons)
         return reasons
 
     def _equilibria(self, q: np.ndarray, force: np.ndarray, couple: np.ndarray, rows: np.ndarray, reasons: list) -> None:

@@ -169,6 +169,10 @@ class PlanDesigner(Exchange, Refinement):
         ``solve=False`` leaves out the loaded equilibrium's existence (:meth:`Feasibility.violations_under`)."""
         return self.feasibility.violations_under(q, *self._forces(loads), solve=solve)
 
+    def _equilibrium_violations(self, q: np.ndarray, loads: np.ndarray) -> list[str | None]:
+        """Why each configuration of ``q`` has no loaded equilibrium under its designed load (None where it has one), solved together."""
+        return self.feasibility.equilibrium_violations(q, *self._forces(loads))
+
     def evaluate(self, plan: Plan, model: str = "exact") -> PlanPrediction:
         """The prediction for any plan (its own masses or forces, or the cell's load where it has none)."""
         information = self.informations(plan.q, plan.wrenches(self.cell), model).sum(axis=0)
@@ -254,10 +258,12 @@ class PlanDesigner(Exchange, Refinement):
         found = self._random_configurations(q2, rng, 1, tries, reasons)
         return found[0] if found else None
 
-    def _random_configurations(self, q2: float, rng: np.random.Generator, wanted: int, tries: int, reasons: Counter) -> list[np.ndarray]:
+    def _random_configurations(self, q2: float, rng: np.random.Generator, wanted: int, tries: int, reasons: Counter, *,
+                               solve: bool = True) -> list[np.ndarray]:
         """Up to ``wanted`` feasible configurations at ``q2``, each from at most ``tries`` uniform draws; the first
         that finds none ends the search.  The draws are checked by blocks, and the random stream is left
-        where drawing one configuration after another would leave it."""
+        where drawing one configuration after another would leave it.  ``solve=False`` takes the loaded
+        equilibrium to exist (:meth:`Feasibility.violations_under`): the caller solves it."""
         robot = self.cell.robot
         found: list[np.ndarray] = []
         failed = 0
@@ -265,7 +271,7 @@ class PlanDesigner(Exchange, Refinement):
             state = rng.bit_generator.state
             block = rng.uniform(robot.lower, robot.upper, size=(DRAW_BLOCK * wanted, robot.nq))
             block[:, self.cell.plan_joint] = q2
-            for used, reason in enumerate(self._violations(block, np.tile(self._down, (len(block), 1))), start=1):
+            for used, reason in enumerate(self._violations(block, np.tile(self._down, (len(block), 1)), solve=solve), start=1):
                 if reason is None:
                     found.append(block[used - 1])
                     failed = 0
@@ -289,14 +295,14 @@ class PlanDesigner(Exchange, Refinement):
             When no configuration is feasible (e.g. a tracker that sees no marker).
         """
         grid = self._grid()
-        configurations, index, reasons = [], [], Counter()
-        bar = Progress(len(grid), "plan: candidates", progress)
-        for g, q2 in enumerate(grid):
-            found = self._random_configurations(q2, rng, per_angle, TRIES_PER_CANDIDATE, reasons)
-            configurations += found
-            index += [g] * len(found)
-            bar.step()
-        bar.close()
+        state = rng.bit_generator.state
+        configurations, index, reasons = self._draw_candidates(grid, rng, per_angle, progress, solve=False)
+        # The loaded equilibria of every angle's candidates in one solve, not one solve an angle: they all exist on a
+        # usable cell, and where one does not, the draws are made again as the sequential search makes them.
+        down = np.tile(self._down, (len(configurations), 1))
+        if configurations and any(reason is not None for reason in self._equilibrium_violations(np.array(configurations), down)):
+            rng.bit_generator.state = state
+            configurations, index, reasons = self._draw_candidates(grid, rng, per_angle, progress, solve=True)
         if not configurations:
             common = reasons.most_common(1)[0][0] if reasons else "no draws"
             raise InputError(f"no feasible configuration found in the cell (most frequent reason: {common})", source=self.cell.source)
@@ -306,6 +312,19 @@ class PlanDesigner(Exchange, Refinement):
             return grid, configurations, index, self._load_informations(configurations, loads), loads
         exact = self.exact if self.model == "exact" else None
         return (grid, *free_candidates(self.cell, configurations, index, rng, self.force_size, self.couple_size, exact, self.repeats))
+
+    def _draw_candidates(self, grid: np.ndarray, rng: np.random.Generator, per_angle: int, progress: bool, *,
+                         solve: bool) -> tuple[list[np.ndarray], list[int], Counter]:
+        """Each angle's :meth:`_random_configurations` in turn: the configurations, their grid index and why draws failed."""
+        configurations, index, reasons = [], [], Counter()
+        bar = Progress(len(grid), "plan: candidates", progress)
+        for g, q2 in enumerate(grid):
+            found = self._random_configurations(q2, rng, per_angle, TRIES_PER_CANDIDATE, reasons, solve=solve)
+            configurations += found
+            index += [g] * len(found)
+            bar.step()
+        bar.close()
+        return configurations, index, reasons
 
     def random_plan(self, angles: int, per_angle: int, rng: np.random.Generator) -> Plan:
         """A random feasible plan: ``angles`` q2 values uniform over the range and apart, random other joints."""

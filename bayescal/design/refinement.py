@@ -2,7 +2,7 @@
 
 :class:`Refinement` is a part of :class:`~bayescal.design.optimise.PlanDesigner`, not used alone: its
 methods read the designer's ``cell``, ``model`` and ``free`` and call its ``_score``,
-``_load_informations``, ``_violations`` and ``_separated``.
+``_load_informations``, ``_violations``, ``_equilibrium_violations`` and ``_separated``.
 """
 
 from __future__ import annotations
@@ -31,12 +31,34 @@ class Refinement:
     """Random steps on a plan's q2 angles, other joints and load directions, kept when they improve it."""
 
     def _refine(self, q: np.ndarray, loads: np.ndarray, angles: int, per_angle: int, criterion: str, rng: np.random.Generator, steps: int):
+        # information of each configuration and load met so far, None when infeasible
+        known: dict[bytes, np.ndarray | None] = {}
+        # configurations and loads the linear model's look-ahead found feasible but for the loaded equilibrium, not yet solved
+        unsolved: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        begin = rng.bit_generator.state
+        while True:
+            result, taken = self._refine_steps(q, loads, angles, per_angle, criterion, rng, steps, known, unsolved)
+            # The equilibria of the configurations the steps took, solved at once: they exist on a usable cell, and where
+            # one does not, the steps are taken again from the start knowing it infeasible, as the first pass should have.
+            taken = list(taken)
+            reasons = self._equilibrium_violations(np.array([unsolved[key][0] for key in taken]), np.array([unsolved[key][1] for key in taken])) if taken else []
+            for key, reason in zip(taken, reasons):
+                del unsolved[key]
+                if reason is not None:
+                    known[key] = None
+            if all(reason is None for reason in reasons):
+                return result
+            rng.bit_generator.state = begin
+
+    def _refine_steps(self, q, loads, angles, per_angle, criterion, rng, steps, known: dict, unsolved: dict):
+        """The refinement's steps from the plan ``q``, ``loads``: the plan reached with its criterion, and the keys (a dict's
+        keys, in order) of the configurations it took whose equilibrium is in ``unsolved``."""
         q, loads = q.copy(), loads.copy()
         parts = self._load_informations(q, loads)
         current = self._score(parts.sum(axis=0), criterion)
-        # information of each configuration and load met so far, None when infeasible: one step after another as
-        # drawn, the configurations evaluated ahead in batches (a row a step does not change keeps its evaluation)
-        known: dict[bytes, np.ndarray | None] = {}
+        taken: dict[bytes, None] = {}
+        # one step after another as drawn, the configurations evaluated ahead in batches (a row a step does not change
+        # keeps its evaluation)
         for step in range(steps):
             before = rng.bit_generator.state
             proposal = self._proposal(q, loads, step, steps, angles, per_angle, rng)
@@ -47,7 +69,7 @@ class Refinement:
             if any(key not in known for key in keys):
                 after = rng.bit_generator.state
                 rng.bit_generator.state = before
-                self._look_ahead(q, loads, step, steps, angles, per_angle, rng, known)
+                self._look_ahead(q, loads, step, steps, angles, per_angle, rng, known, unsolved)
                 rng.bit_generator.state = after
             if any(known[key] is None for key in keys):
                 continue
@@ -57,10 +79,14 @@ class Refinement:
             score = self._score(trial.sum(axis=0), criterion)
             if score < current:
                 q, loads, parts, current = moved, turn, trial, score
-        return q, loads, current
+                taken.update((key, None) for key in keys if key in unsolved)
+        return (q, loads, current), taken
 
-    def _look_ahead(self, q, loads, step, steps, angles, per_angle, rng, known: dict) -> None:
-        """Evaluate at once the configurations the next :data:`REFINE_BLOCK` steps would propose from the plan ``q``, ``loads``."""
+    def _look_ahead(self, q, loads, step, steps, angles, per_angle, rng, known: dict, unsolved: dict) -> None:
+        """Evaluate at once the configurations the next :data:`REFINE_BLOCK` steps would propose from the plan ``q``, ``loads``.
+
+        The linear model's information needs no equilibrium: the configurations that pass the other checks go to
+        ``unsolved``, and their equilibria are solved for those a step takes (:meth:`_refine`)."""
         wanted: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         for s in range(step, min(step + REFINE_BLOCK, steps)):
             proposal = self._proposal(q, loads, s, steps, angles, per_angle, rng)
@@ -73,15 +99,18 @@ class Refinement:
         keys = list(wanted)
         new_q = np.array([wanted[key][0] for key in keys])
         new_loads = np.array([wanted[key][1] for key in keys])
+        feasible = np.array([reason is None for reason in self._violations(new_q, new_loads, solve=False)], dtype=bool)
         information = None
         if self.model == "exact":
             # The exact designs solve each loaded equilibrium at the cell's values, the feasibility's last check: solved
-            # once, unless one fails (then the feasibility finds which, as it does for the linear model).
-            feasible = np.array([reason is None for reason in self._violations(new_q, new_loads, solve=False)], dtype=bool)
+            # once, unless one fails (then the feasibility finds which).
             try:
                 information = self._load_informations(new_q[feasible], new_loads[feasible]) if feasible.any() else []
             except EquilibriumError:
                 information = None
+        else:
+            information = self._load_informations(new_q[feasible], new_loads[feasible]) if feasible.any() else []
+            unsolved.update((key, wanted[key]) for key, f in zip(keys, feasible) if f)
         if information is None:
             feasible = np.array([reason is None for reason in self._violations(new_q, new_loads)], dtype=bool)
             information = self._load_informations(new_q[feasible], new_loads[feasible]) if feasible.any() else []

@@ -116,3 +116,36 @@ def test_more_configurations_per_angle_than_the_candidates_blames_per_angle_befo
     with pytest.raises(InputError) as caught:
         designer.optimise(5, 21, rng=0)
     assert caught.value.source == "per_angle" and "at most 20 configurations per q2 angle" in caught.value.what
+
+
+def test_equilibria_solved_after_the_steps_give_the_plan_solved_before_them(cell, monkeypatch):
+    # A rule of the test's own declares a third of the configurations without a loaded equilibrium: the linear
+    # search, which solves the equilibria of the candidates together and those of the refinement's steps after
+    # them (taking the steps again where one had none), gives the plan of a search that solves each with the
+    # other checks.
+    from bayescal.design.constraints import Feasibility
+    from bayescal.design.refinement import Refinement
+
+    solve = Feasibility._equilibria
+
+    def some_fail(self, q, force, couple, rows, reasons):
+        solve(self, q, force, couple, rows, reasons)
+        for qi, row in zip(q, rows):
+            if int(abs(qi[4]) * 1e4) % 3 == 0:
+                reasons[row] = "no loaded equilibrium (the test's rule)"
+
+    class SolvedFirst(PlanDesigner):
+        def _violations(self, q, loads, *, solve=True):
+            return super()._violations(q, loads, solve=True)
+
+    passes = []
+    steps = Refinement._refine_steps
+    monkeypatch.setattr(Feasibility, "_equilibria", some_fail)
+    monkeypatch.setattr(Refinement, "_refine_steps", lambda self, *args: passes.append(1) or steps(self, *args))
+    options = {"starts": 2, "refine_steps": 60, "candidates_per_angle": 6}
+    deferred = PlanDesigner(cell, model="linear").optimise(4, 2, "test-pose", rng=4, **options)
+    assert len(passes) > 2  # a step took a configuration without equilibrium, and the steps were taken again
+    first = SolvedFirst(cell, model="linear").optimise(4, 2, "test-pose", rng=4, **options)
+    np.testing.assert_array_equal(deferred.plan.q, first.plan.q)
+    assert deferred.starts == first.starts and deferred.candidates == first.candidates
+    assert not any(int(abs(q[4]) * 1e4) % 3 == 0 for q in deferred.plan.q)
