@@ -33,8 +33,6 @@ provenance notes.
 
 from __future__ import annotations
 
-import csv
-import io
 import re
 from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
@@ -46,6 +44,7 @@ import numpy as np
 import pandas as pd
 
 from bayescal.cell.campaign_checks import check_deflection, check_wrench
+from bayescal.cell.campaign_text import block_text, csv_line
 from bayescal.cell.joint_tables import JointLayout, check_tool_points, read_joint_table
 from bayescal.cell.loading import WRENCH_COLUMNS
 from bayescal.cell.plan import position_columns
@@ -174,7 +173,8 @@ def write_campaign(campaign: Campaign, path: str | PathLike[str], *, comments: S
     Joint angles are written with 6 decimals in deg, the wrench with 4 decimals
     in N and N·m, positions with 5 decimals in mm (10 nm), so that writing
     is deterministic and reading back reproduces the campaign to well below
-    tracker resolution.  The rows are formatted :data:`WRITE_BLOCK` at a time (:func:`_block_text`).
+    tracker resolution.  The rows are formatted :data:`WRITE_BLOCK` at a time
+    (:func:`~bayescal.cell.campaign_text.block_text`).
     """
     named = campaign.columns()
     decimals = {name: 6 for name in named if _JOINT_COLUMN.fullmatch(name)}
@@ -183,87 +183,14 @@ def write_campaign(campaign: Campaign, path: str | PathLike[str], *, comments: S
     columns = [(values, decimals.get(name)) for name, values in named.items()]
     with open(path, "w", encoding="utf-8") as file:
         file.writelines(f"# {line}\n" for comment in comments for line in str(comment).splitlines())
-        file.write(_csv_line(list(named)))
+        file.write(csv_line(list(named)))
         for start in range(0, len(campaign), WRITE_BLOCK):
-            file.write(_block_text([(values[start : start + WRITE_BLOCK], places) for values, places in columns]))
+            file.write(block_text([(values[start : start + WRITE_BLOCK], places) for values, places in columns]))
 
 
 WRITE_BLOCK = 10_000
 """Rows of a campaign formatted together: 100,000 configurations (900,000 rows, 135 MB of text) are written in
-a small part of the memory the whole text would take.  Blocks of 50,000 rows (7.5 MB of text) cost 84,000 page
-faults and 0.4-0.5 s of system time more: the allocator returned each block's text to the system."""
-
-
-def _block_text(columns: list[tuple[np.ndarray, int | None]]) -> str:
-    """The CSV lines of rows given as columns ``(values (N,), decimals or None)``, one ``%`` format a line.
-
-    Neighbouring columns whose runs of equal values coincide (a configuration's joints and wrench) are joined
-    once a run and repeated as one field.
-    """
-    n = len(columns[0][0])
-    formats, fields, runs = [], [], None
-    for values, places in columns:
-        spec, data, starts = _column_fields(values, places)
-        if runs is not None and starts is not None and np.array_equal(starts, runs[0]):
-            runs[1].append(data)
-            continue
-        if runs is not None:
-            formats.append("%s")
-            fields.append(_repeated(*runs, n))
-        runs = (starts, [data]) if starts is not None else None
-        if starts is None:
-            formats.append(spec)
-            fields.append(data)
-    if runs is not None:
-        formats.append("%s")
-        fields.append(_repeated(*runs, n))
-    line = ",".join(formats) + "\n"
-    return "".join([line % row for row in zip(*fields)])
-
-
-def _repeated(starts: np.ndarray, texts: list[list[str]], n: int) -> list[str]:
-    """The fields ``texts`` (columns of one text a run) joined by commas, each repeated over its run of the ``n`` rows."""
-    joined = np.array([",".join(run) for run in zip(*texts)], dtype=object)
-    return np.repeat(joined, np.diff(np.append(starts, n))).tolist()
-
-
-def _column_fields(values: np.ndarray, places: int | None) -> tuple[str, list, np.ndarray | None]:
-    """The ``%`` format of one column's field, the values ``(N,)`` it formats and None, for :func:`write_campaign`;
-    or for a column of runs of equal values, ``"%s"``, one text a run and the rows ``(R,)`` where the runs start.
-
-    Fixed ``places`` decimals, the correctly rounded decimal of each value as ``round`` gives it, a rounded
-    -0 written 0 so that the file does not depend on the rounding's sign; without ``places``, as :mod:`csv`
-    writes the value.
-    """
-    if places is None and values.dtype.kind in "iu":
-        return "%d", values.tolist(), None
-    if places is None:
-        known: dict = {}
-        return "%s", [known[v] if v in known else known.setdefault(v, _csv_line([v])[:-1]) for v in values.tolist()], None
-    values = values.astype(float)
-    spec = f"%.{places}f"
-    change = np.ones(len(values), dtype=bool)
-    change[1:] = values[1:] != values[:-1]
-    starts = np.flatnonzero(change)
-    runs = 2 * len(starts) < len(values)
-    if runs:
-        values = values[starts]
-    # the values that may print as -0.000…: negative zero, or negative within a unit of the last place
-    near = np.flatnonzero(np.signbit(values) & (values > -(10.0**-places)))
-    zero = [i for i in near.tolist() if not (spec % values[i]).strip("-0.")]
-    if zero:
-        values = values.copy()
-        values[zero] = 0.0
-    if not runs:
-        return spec, values.tolist(), None
-    return "%s", [spec % v for v in values.tolist()], starts
-
-
-def _csv_line(fields: list) -> str:
-    """``fields`` as one line of :mod:`csv` (quoted where they need it), ending in a newline."""
-    out = io.StringIO()
-    csv.writer(out, lineterminator="\n").writerow(fields)
-    return out.getvalue()
+a small part of the memory the whole text would take."""
 
 
 def _joint_layout(path: Path, cell: Cell | None) -> JointLayout:
