@@ -13,10 +13,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from bayescal.units import MM, UM
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["decimals_for", "decimals_of", "rounded_pair", "with_uncertainty", "error_um", "deflection_mm", "table_texts", "fixed"]
 

@@ -14,16 +14,23 @@ from types import MappingProxyType
 from os import PathLike
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
 
 from bayescal.errors import InputError
-from bayescal.tables import read_table
+from bayescal.tables import read_columns, read_table
 
-__all__ = ["REFERENCE_FILE", "read_paper_reference", "published", "published_width_pct", "width_3sd_pct", "beside_published"]
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = ["REFERENCE_FILE", "read_paper_reference", "published_in", "published", "published_width_pct", "width_3sd_pct", "beside_published"]
 
 REFERENCE_FILE = Path(__file__).resolve().parents[1] / "data" / "paper_reference.csv"
 """The repository's copy of the published values."""
+
+REFERENCE_COLUMNS = {"table": "text", "parameter": "text", "unit": "text", "value": "number", "ci3": "number"}
+"""The reference file's columns and their kinds."""
 
 
 def read_paper_reference(path: str | PathLike[str] = REFERENCE_FILE) -> pd.DataFrame:
@@ -35,23 +42,37 @@ def read_paper_reference(path: str | PathLike[str] = REFERENCE_FILE) -> pd.DataF
         Indexed by parameter, with columns ``table, unit, value, ci3``
         (``ci3`` the half-width of the published ±3σ interval, in ``unit``).
     """
-    frame = read_table(path, {"table": "text", "parameter": "text", "unit": "text", "value": "number", "ci3": "number"})
-    duplicated = frame["parameter"].duplicated()
-    if duplicated.any():
-        line = int(frame.index[duplicated.to_numpy()][0])
-        raise InputError("parameter listed twice", source=str(path), line=line, column="parameter")
+    frame = read_table(path, REFERENCE_COLUMNS)
+    _check_listed_once(frame.index.tolist(), frame["parameter"].tolist(), path)
     return frame.set_index("parameter")
+
+
+def published_in(path: str | PathLike[str], table: str) -> dict[str, tuple[float, float]]:
+    """``{parameter: (value, ±3σ half-width)}`` of Table ``table`` in the reference file ``path``, in its rows' order
+    (empty when it has none): :func:`read_paper_reference`'s rows of that table, read without pandas."""
+    lines, columns = read_columns(path, REFERENCE_COLUMNS)
+    _check_listed_once(lines, columns["parameter"], path)
+    rows = zip(columns["table"], columns["parameter"], columns["value"], columns["ci3"])
+    return {str(name): (float(value), float(half)) for listed, name, value, half in rows if listed == table}
+
+
+def _check_listed_once(lines: list[int], names: list[str], path: str | PathLike[str]) -> None:
+    """Refuse a parameter listed twice, naming the line of its second listing."""
+    seen: set[str] = set()
+    for line, name in zip(lines, names):
+        if name in seen:
+            raise InputError("parameter listed twice", source=str(path), line=int(line), column="parameter")
+        seen.add(name)
 
 
 @cache
 def published(table: str) -> MappingProxyType[str, tuple[float, float]]:
     """``{parameter: (value, ±3σ half-width)}`` of the paper's Table ``"II"`` or ``"IV"``, in the file's units."""
-    reference = read_paper_reference()
-    rows = reference[reference["table"] == table]
-    if rows.empty:
+    rows = published_in(REFERENCE_FILE, table)
+    if not rows:
         raise ValueError(f"no Table {table} in {REFERENCE_FILE.name}")
     # Read-only, since the cache hands every caller the same mapping.
-    return MappingProxyType({str(name): (float(row["value"]), float(row["ci3"])) for name, row in rows.iterrows()})
+    return MappingProxyType(rows)
 
 
 def width_3sd_pct(mean, sd):
@@ -93,6 +114,8 @@ def beside_published(estimates: pd.DataFrame, table: str, reference: pd.DataFram
         half-width) and ``published_inside_3sd`` (bool); the published
         columns are NaN for a parameter the table does not list.
     """
+    import pandas as pd
+
     if reference is None:
         rows = published(table)
         value = pd.Series({name: rows[name][0] for name in estimates.index if name in rows}, dtype=float)

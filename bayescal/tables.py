@@ -16,14 +16,15 @@ import re
 from collections.abc import Mapping, Sequence
 from os import PathLike
 from pathlib import Path
-from typing import Literal
-
-import pandas as pd
+from typing import TYPE_CHECKING, Literal
 
 from bayescal.errors import InputError
 from bayescal.output import record_read
 
-__all__ = ["read_table", "read_header", "markdown_table", "ColumnKind", "is_plain_number"]
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = ["read_table", "read_columns", "read_header", "markdown_table", "ColumnKind", "is_plain_number"]
 
 ColumnKind = Literal["number", "text", "integer"]
 
@@ -94,6 +95,30 @@ def read_table(
         not written as a plain decimal number (digits, one point, an optional
         exponent: no ``_`` separators).
     """
+    lines, values = read_columns(path, columns, optional=optional, units=units)
+    # pandas loads here, not with the module: a command that reads its tables with read_columns starts without it
+    import pandas as pd
+
+    frame = pd.DataFrame(values, index=pd.Index(lines, name="line"))
+    frame.attrs["source"] = str(path)
+    return frame
+
+
+def read_columns(
+    path: str | PathLike[str],
+    columns: Mapping[str, ColumnKind],
+    *,
+    optional: Mapping[str, ColumnKind] | None = None,
+    units: Mapping[str, str] | None = None,
+) -> tuple[list[int], dict[str, list]]:
+    """:func:`read_table`'s checks and values without pandas: each data row's 1-based line number, and each checked
+    column's values (floats, integers or texts) by name, required columns first.
+
+    Raises
+    ------
+    InputError
+        As :func:`read_table`.
+    """
     source = str(path)
     optional = dict(optional or {})
     units = dict(units or {})
@@ -109,9 +134,7 @@ def read_table(
     values = _columns_at_once(rows[1:], len(header), wanted, position)
     if values is None:
         values = _row_by_row(numbered[1:], rows[1:], len(header), wanted, position, units, source)
-    frame = pd.DataFrame(values, index=pd.Index([number for number, _ in numbered[1:]], name="line"))
-    frame.attrs["source"] = source
-    return frame
+    return [number for number, _ in numbered[1:]], values
 
 
 def _row_by_row(numbered, rows, width: int, wanted: Mapping[str, ColumnKind], position: Mapping[str, int],

@@ -31,14 +31,17 @@ import re
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from os import PathLike
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
 from bayescal.tables import ColumnKind, read_header, read_table
 from bayescal.units import DEG, MM
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["JointLayout", "read_joint_table", "robot_reach", "check_tool_points", "RADIAN_SPAN", "JOINT_COLUMN"]
 

@@ -10,10 +10,12 @@ the file written, the error predicted at the test pose (ρ0, eq 38), each parame
 from __future__ import annotations
 
 import math
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from bayescal.summary import Column, Paragraph, Section, Summary, Table
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["plan_document", "discrimination_document"]
 
@@ -40,15 +42,15 @@ def _criterion(payload: dict) -> list[Paragraph]:
     return lines
 
 
-def _width_table(table: pd.DataFrame) -> Table:
+def _width_table(table: list[tuple[str, dict]]) -> Table:
     """Each parameter's value, predicted ±3σ (two digits) and width (3 sd / value), and Table IV's width when known."""
     from bayescal.numbers import rounded_pair
 
-    published = "table_iv_pct" in table
+    published = _published(table)
     columns = (Column("parameter", width=10, align="<"), Column("unit", width=12, align="<"), Column("value", width=8),
                Column("±3σ", width=13), Column("width", "%", width=9)) + ((Column("Table IV", "%", width=10),) if published else ())
     rows, values = [], []
-    for name, row in table.iterrows():
+    for name, row in table:
         _, half = rounded_pair(row["value"], 3 * row["sd"])
         cells = (str(name), row["unit"], f"{row['value']:g}", half if half != "–" else "not excited",
                  f"{row['width_3sd_pct']:.1f}%" if math.isfinite(row["width_3sd_pct"]) else "")
@@ -61,8 +63,14 @@ def _width_table(table: pd.DataFrame) -> Table:
     return Table("parameters", columns, tuple(rows), tuple(values))
 
 
-def plan_document(payload: dict, table: pd.DataFrame, hanging_only: bool) -> Summary:
-    """The plan of ``payload`` (its JSON, with ``output`` when it was written) and ``table`` (its ``summary()``) as one document.
+def _published(table: list[tuple[str, dict]]) -> bool:
+    """Whether the rows of ``table`` carry Table IV's widths."""
+    return bool(table) and "table_iv_pct" in table[0][1]
+
+
+def plan_document(payload: dict, table: list[tuple[str, dict]], hanging_only: bool) -> Summary:
+    """The plan of ``payload`` (its JSON, with ``output`` when it was written) and ``table`` (its prediction's
+    :meth:`~bayescal.design.prediction.PlanPrediction.rows`, the rows of its ``summary()``) as one document.
 
     ``hanging_only``: whether the cell's end-effector hangs masses only, which no plan can make identify k1.
     """
@@ -74,8 +82,8 @@ def plan_document(payload: dict, table: pd.DataFrame, hanging_only: bool) -> Sum
     else:
         title, head = head[0].text, head[1:]
     blocks = [_width_table(table), Paragraph("±3σ: the predicted 3 sd after measuring the plan, rounded to two digits; width: 3 sd / value"
-                                             + (" (Table IV: Klimchik et al.)" if "table_iv_pct" in table else ""), kind="note")]
-    unbounded = [name for name, row in table.iterrows() if row["value"] - 3 * row["sd"] < 0]
+                                             + (" (Table IV: Klimchik et al.)" if _published(table) else ""), kind="note")]
+    unbounded = [name for name, row in table if row["value"] - 3 * row["sd"] < 0]
     if unbounded:
         blocks.append(Paragraph(f"{', '.join(unbounded)}: the predicted interval reaches below 0, which they cannot; this plan does not bound them.",
                                 kind="warning"))

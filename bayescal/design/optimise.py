@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 import re
 from collections import Counter
-from functools import cached_property
+from functools import cache, cached_property
 
 import numpy as np
 
@@ -277,8 +277,7 @@ class PlanDesigner(Exchange, Refinement):
                     failed = 0
                 else:
                     failed += 1
-                    # angles removed, so that "marker M1 faces 97 deg away" and "... 120 deg away" count together
-                    reasons[re.sub(r" -?\d+(\.\d+)? deg", "", reason.split(" (")[0])] += 1
+                    reasons[_reason_kind(reason)] += 1
                 if len(found) == wanted or failed == tries:
                     rng.bit_generator.state = state
                     rng.uniform(robot.lower, robot.upper, size=(used, robot.nq))
@@ -444,8 +443,16 @@ class PlanDesigner(Exchange, Refinement):
         )
 
     def _separated(self, values: list[float]) -> bool:
-        values = np.sort(values)
-        return len(values) < 2 or bool(np.min(np.diff(values)) >= self.space.min_separation - 1e-12)
+        # sorted and differenced in Python: a few angles, checked thousands of times a search
+        values = sorted(float(v) for v in values)
+        return len(values) < 2 or min(b - a for a, b in zip(values, values[1:])) >= self.space.min_separation - 1e-12
+
+
+@cache
+def _reason_kind(reason: str) -> str:
+    """``reason`` without its angles, so that "marker M1 faces 97 deg away" and "... 120 deg away" count together
+    (cached: a search counts thousands of failed draws, of a few hundred distinct reasons)."""
+    return re.sub(r" -?\d+(\.\d+)? deg", "", reason.split(" (")[0])
 
 
 def _usable_angles(index: np.ndarray, n_grid: int, angles: int, per_angle: int) -> tuple[list[np.ndarray], np.ndarray]:

@@ -11,9 +11,9 @@ import json
 import math
 from dataclasses import dataclass, field
 from os import PathLike
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.cell.plan import Plan, write_plan
@@ -24,6 +24,9 @@ from bayescal.inference.parameters import ANGLE_DECIMALS
 from bayescal.jsonfiles import JsonFindings, JsonSchema
 from bayescal.jsonsafe import json_safe
 from bayescal.units import DEG, MM
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["PlanDesign", "PlanEvaluation", "PlanFindings", "PLAN_JSON"]
 
@@ -83,7 +86,7 @@ class PlanDesign:
         JSON; ``output`` names the file the plan was written to, ``hanging_only`` says the cell's loads only hang (k1 unbounded)."""
         from bayescal.design.document import plan_document
 
-        return plan_document(self.to_json() | ({} if output is None else {"output": output}), self.summary(), hanging_only)
+        return plan_document(self.to_json() | ({} if output is None else {"output": output}), self.prediction.rows(), hanging_only)
 
     def diagnostics(self) -> dict:
         """How the search went: the criterion reached from each start, the best of them, the candidates' count."""
@@ -161,7 +164,7 @@ class PlanEvaluation:
         Markdown, HTML and JSON; ``hanging_only`` says the cell's loads only hang (k1 unbounded by any plan)."""
         from bayescal.design.document import plan_document
 
-        return plan_document(self.to_json(), self.summary(), hanging_only)
+        return plan_document(self.to_json(), self.prediction.rows(), hanging_only)
 
     def diagnostics(self) -> dict:
         """The plan's size and the configurations that break a constraint of the cell."""

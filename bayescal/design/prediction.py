@@ -10,8 +10,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
 
 from bayescal.cell.config import Cell
 from bayescal.design.criteria import (
@@ -26,6 +27,9 @@ from bayescal.design.criteria import (
 from bayescal.inference.parameters import ParameterRegistry
 from bayescal.jsonsafe import json_safe
 from bayescal.units import MM
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["PlanPrediction", "criterion_value", "predict"]
 
@@ -85,6 +89,17 @@ class PlanPrediction:
         ``table_iv_pct`` (the cell's published widths, Klimchik et al.'s Table IV for the
         KR-270; only when the cell names them) and ``unit``.
         """
+        import pandas as pd
+
+        return pd.DataFrame(self._columns(), index=pd.Index(self.names, name="parameter"))
+
+    def rows(self) -> list[tuple[str, dict]]:
+        """:meth:`summary`'s rows without pandas: each parameter's name and its row (floats and the unit's text)."""
+        columns = {name: list(values) if isinstance(values, list) else values.tolist() for name, values in self._columns().items()}
+        return [(name, {column: values[i] for column, values in columns.items()}) for i, name in enumerate(self.names)]
+
+    def _columns(self) -> dict:
+        """:meth:`summary`'s columns by name: arrays of floats, and lists of the published widths and the units."""
         parameters = [self.registry[name] for name in self.names]
         factors = np.array([1.0 / p.si_factor for p in parameters])
         sd = self.relative_sd * np.abs(self.nominal)
@@ -92,11 +107,11 @@ class PlanPrediction:
         if self.registry.published is not None:
             columns["table_iv_pct"] = [100.0 * p.published[1] / p.published[0] if p.published else math.nan for p in parameters]
         columns["unit"] = [p.unit for p in parameters]
-        return pd.DataFrame(columns, index=pd.Index(self.names, name="parameter"))
+        return columns
 
     def to_json(self) -> dict:
         """``criterion`` (ρ0 in mm, null when not predictable) and each parameter's ±3σ width."""
-        table = self.summary()
+        rows = self.rows()
         not_excited = [name for name, excited in zip(self.names, self.excited) if not excited and name.startswith("k")]
         return {
             "criterion": json_safe(self.rho0 / MM),
@@ -108,14 +123,14 @@ class PlanPrediction:
             "log_det_information": json_safe(self.log_det),
             "parameters": {
                 name: {
-                    "value": float(row.value),
-                    "unit": row.unit,
-                    "sd": json_safe(row.sd),
-                    "width_3sd": json_safe(3.0 * row.sd),
-                    "width_3sd_pct": json_safe(row.width_3sd_pct),
+                    "value": float(row["value"]),
+                    "unit": row["unit"],
+                    "sd": json_safe(row["sd"]),
+                    "width_3sd": json_safe(3.0 * row["sd"]),
+                    "width_3sd_pct": json_safe(row["width_3sd_pct"]),
                     "excited": bool(excited),
                 }
-                for (name, row), excited in zip(table.iterrows(), self.excited)
+                for (name, row), excited in zip(rows, self.excited)
             },
         }
 

@@ -135,11 +135,9 @@ class ParameterRegistry:
         """The registry of a :class:`~bayescal.cell.config.Cell`: its robot's joints, its compensator and its reference table."""
         published = None
         if cell.reference is not None:
-            from bayescal.reference import read_paper_reference
+            from bayescal.reference import published_in
 
-            rows = read_paper_reference(cell.reference)
-            rows = rows[rows["table"] == "IV"]
-            published = MappingProxyType({str(name): (float(row["value"]), float(row["ci3"])) for name, row in rows.iterrows()})
+            published = MappingProxyType(published_in(cell.reference, "IV"))
         prismatic = tuple(bool(p) for p in cell.robot.prismatic) if cell.robot.prismatic.any() else ()
         law = Compensator.PARAMETERS if cell.compensator is None else cell.compensator.PARAMETERS
         return cls(cell.robot.nq, prismatic, cell.compensated_joint, published, law)

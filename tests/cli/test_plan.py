@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import json
+import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -152,3 +155,18 @@ def test_on_a_terminal_the_design_says_how_long_it_will_take(main, tmp_path, cap
     err = capsys.readouterr().err
     assert "bayescal plan: designing 3 × 1 configurations with the linear model, about 1 s" in err
     assert re.search(r"best: ρ0 = [\d.]+ μm", err)  # the progress line gives the criterion in its unit
+
+
+def test_designing_a_plan_does_not_load_pandas(tmp_path):
+    # pandas takes 0.15 s of the linear design's second of start-up and search; the design reads no table
+    script = (
+        "import sys\n"
+        "from bayescal.cli import main\n"
+        f"main(['plan', '--config', {CONFIG!r}, '--model', 'linear', '--angles', '3', '--per-angle', '1', '--starts', '1', "
+        f"'-o', {str(tmp_path / 'plan.csv')!r}])\n"
+        "print('pandas' in sys.modules)\n"
+    )
+    root = str(Path(__file__).resolve().parents[2])
+    environment = {**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True, env=environment)
+    assert done.stdout.strip().splitlines()[-1] == "False"
