@@ -279,9 +279,14 @@ def _loads(chain: BatchedChain, q: np.ndarray, wrench: np.ndarray, load_point: n
     if not np.all(np.isfinite(wrench)):
         raise ValueError("the wrenches must be finite")
     point = np.zeros((n, 3)) if load_point is None else np.broadcast_to(np.asarray(load_point, dtype=float), (n, 3))
-    rotation = chain.poses(q).flange_rotation
     force = wrench[:, :3]
-    couple = wrench[:, 3:] - _cross(np.einsum("nij,nj->ni", rotation, point), force)
+    couple = np.array(wrench[:, 3:])
+    # The couple of a load of +0.0 throughout is +0.0 wherever its point is: the flange's pose is needed for the others
+    # alone (the unloaded half of a simulated campaign's solves)
+    loaded = np.flatnonzero(~np.all((wrench == 0.0) & ~np.signbit(wrench), axis=1))
+    if loaded.size:
+        rotation = chain.poses(q[loaded]).flange_rotation
+        couple[loaded] = wrench[loaded, 3:] - _cross(np.einsum("nij,nj->ni", rotation, point[loaded]), force[loaded])
     return _Loads(np.array(point), np.concatenate([force, couple], axis=1))
 
 
