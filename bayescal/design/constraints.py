@@ -35,7 +35,7 @@ from bayescal.cell.config import Cell
 from bayescal.cell.plausible import mass_range_violation
 from bayescal.errors import InputError
 from bayescal.design.linearisation import solve_equilibrium
-from bayescal.robot.batched import BatchedChain, equilibria
+from bayescal.robot.batched import BatchedChain, Poses, equilibria
 from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG
 
@@ -210,12 +210,15 @@ class Feasibility:
         q, force, couple = (np.asarray(v, dtype=float)[np.newaxis] for v in (q, force, couple))
         return self.violations_under(q, force, couple)[0]
 
-    def violations_under(self, q: np.ndarray, force: np.ndarray, couple: np.ndarray, *, solve: bool = True) -> list[str | None]:
+    def violations_under(self, q: np.ndarray, force: np.ndarray, couple: np.ndarray, *, solve: bool = True,
+                         poses: Poses | None = None) -> list[str | None]:
         """:meth:`violation_under` of ``N`` configurations ``(N, nq)`` under forces and couples ``(N, 3)`` (N, N·m), at once.
 
         The checks run from the cheapest to the equilibrium solve, each on the
         configurations that passed the ones before, and the first that fails is reported.
-        ``solve=False`` leaves the equilibrium out, for a caller that solves it anyway.
+        ``solve=False`` leaves the equilibrium out, for a caller that solves it anyway;
+        ``poses``: the frames of ``q`` (:meth:`BatchedChain.poses <bayescal.robot.batched.BatchedChain.poses>`), when
+        the caller has them.
         """
         q, force, couple = (np.asarray(v, dtype=float) for v in (q, force, couple))
         reasons: list[str | None] = [None] * len(q)
@@ -229,7 +232,7 @@ class Feasibility:
         rows = np.flatnonzero(alive)
         if not rows.size:
             return reasons
-        poses = self._chain.poses(q[rows])
+        poses = self._chain.poses(q[rows]) if poses is None else poses.take(rows)
         markers = np.stack([poses.points(point) for point in self._markers], axis=1)
         floor = self.space.floor_z
         low_tool = (poses.flange_origin[:, 2] < floor + self.space.tool_clearance) | np.any(markers[:, :, 2] < floor + self.space.tool_clearance, axis=1)
@@ -287,14 +290,14 @@ class Feasibility:
         end = joints[:, :-1]
         hidden = _segment_distance(tracker, markers[:, :, None, :], start[:, None], end[:, None]) < self._radii
         names = list(self.cell.markers)
-        reasons: list[str | None] = []
-        for n in range(len(markers)):
-            c = cosine[n, worst[n]]
-            if c < math.cos(self.space.acceptance):
-                angle = math.degrees(math.acos(np.clip(c, -1.0, 1.0)))
-                reasons.append(f"marker {names[worst[n]]} faces {angle:.0f} deg away from the tracker")
-            elif hidden[n].any():
-                reasons.append(f"the arm hides marker {names[int(np.flatnonzero(hidden[n].any(axis=1))[0])]} from the tracker")
-            else:
-                reasons.append(None)
+        # the tests on whole arrays, the texts for the configurations that fail alone (most of a search's draws)
+        facing = cosine[np.arange(len(markers)), worst]
+        away = facing < math.cos(self.space.acceptance)
+        hidden = hidden.any(axis=2)
+        reasons: list[str | None] = [None] * len(markers)
+        for n in np.flatnonzero(away).tolist():
+            angle = math.degrees(math.acos(min(max(float(facing[n]), -1.0), 1.0)))
+            reasons[n] = f"marker {names[worst[n]]} faces {angle:.0f} deg away from the tracker"
+        for n in np.flatnonzero(~away & hidden.any(axis=1)).tolist():
+            reasons[n] = f"the arm hides marker {names[int(np.argmax(hidden[n]))]} from the tracker"
         return reasons

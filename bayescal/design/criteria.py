@@ -54,7 +54,7 @@ import numpy as np
 
 from bayescal.cell.config import Cell
 from bayescal.inference.parameters import ParameterRegistry
-from bayescal.robot.batched import BatchedChain
+from bayescal.robot.batched import BatchedChain, Poses
 from bayescal.robot.stiffness import compliance_design
 
 __all__ = [
@@ -170,7 +170,8 @@ def configuration_design(cell: Cell, q, wrench) -> tuple[np.ndarray, np.ndarray]
     return design[0], sigma[0]
 
 
-def configuration_designs(cell: Cell, q: np.ndarray, wrench: np.ndarray, *, chain: BatchedChain | None = None) -> tuple[np.ndarray, np.ndarray]:
+def configuration_designs(cell: Cell, q: np.ndarray, wrench: np.ndarray, *, chain: BatchedChain | None = None,
+                          poses: Poses | None = None) -> tuple[np.ndarray, np.ndarray]:
     """:func:`configuration_design` of ``N`` configurations at once, by :class:`~bayescal.robot.batched.BatchedChain`.
 
     Parameters
@@ -181,6 +182,8 @@ def configuration_designs(cell: Cell, q: np.ndarray, wrench: np.ndarray, *, chai
         ``(N, 6)`` loads at the flange origin, base axes, N and N·m.
     chain
         The robot's batched chain, when already built.
+    poses
+        The frames of ``q`` (``chain.poses(q)``), when already computed.
 
     Returns
     -------
@@ -193,7 +196,7 @@ def configuration_designs(cell: Cell, q: np.ndarray, wrench: np.ndarray, *, chai
     chain = BatchedChain.of(cell.robot) if chain is None else chain
     _, parameters = compliance_chain(cell, q[:, cell.plan_joint])
     parameters = parameters * nominal_parameters(cell)
-    poses = chain.poses(q)
+    poses = chain.poses(q) if poses is None else poses
     # eq 31: column j of a marker's A is its Jacobian column j times the torque J_F[:, j] · wrench
     flange_linear, flange_angular = chain.point_jacobian(poses, poses.flange_origin)
     torques = np.einsum("njc,nc->nj", flange_linear, wrench[:, :3]) + np.einsum("njc,nc->nj", flange_angular, wrench[:, 3:])

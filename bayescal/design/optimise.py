@@ -51,7 +51,7 @@ from bayescal.design.prediction import PlanPrediction, predict
 from bayescal.design.progress import Progress, best_text
 from bayescal.design.refinement import REFINE_STEPS, Refinement
 from bayescal.errors import InputError
-from bayescal.robot.batched import BatchedChain
+from bayescal.robot.batched import BatchedChain, Poses
 from bayescal.robot.compensator import MIN_ANGLES
 from bayescal.units import DEG
 
@@ -137,18 +137,19 @@ class PlanDesigner(Exchange, Refinement):
         q = np.asarray(q, dtype=float)[np.newaxis]
         return self.informations(q, self._wrenches(q, np.array([[0.0, 0.0, -mass * self.cell.gravity]]), np.zeros((1, 3))), model)[0]
 
-    def informations(self, q: np.ndarray, wrench: np.ndarray, model: str | None = None) -> np.ndarray:
+    def informations(self, q: np.ndarray, wrench: np.ndarray, model: str | None = None, *, poses: Poses | None = None) -> np.ndarray:
         """``(N, p, p)`` information of ``N`` configurations ``(N, nq)`` under wrenches ``(N, 6)`` (flange origin, base axes,
-        each force through the load point), each measured :attr:`repeats` times, all solved at once (default: the search's model)."""
+        each force through the load point), each measured :attr:`repeats` times, all solved at once (default: the search's model;
+        ``poses``: the frames of ``q``, when already computed)."""
         if (model or self.model) == "exact":
             design, sigma = self.exact.wrench_designs(q, wrench)
         else:
-            design, sigma = configuration_designs(self.cell, q, wrench, chain=self._chain)
+            design, sigma = configuration_designs(self.cell, q, wrench, chain=self._chain, poses=poses)
         return designs_information(design, sigma, self.repeats)
 
-    def _wrenches(self, q: np.ndarray, force: np.ndarray, couple: np.ndarray) -> np.ndarray:
+    def _wrenches(self, q: np.ndarray, force: np.ndarray, couple: np.ndarray, poses: Poses | None = None) -> np.ndarray:
         """``(N, 6)`` :meth:`Cell.wrench <bayescal.cell.config.Cell.wrench>` of ``N`` configurations at once."""
-        rotation = self._chain.poses(q).flange_rotation
+        rotation = (self._chain.poses(q) if poses is None else poses).flange_rotation
         force = np.broadcast_to(force, (len(q), 3))
         return np.concatenate([force, np.cross(np.einsum("nij,j->ni", rotation, self.cell.load_point), force) + couple], axis=1)
 
@@ -158,16 +159,18 @@ class PlanDesigner(Exchange, Refinement):
             return loads[:, :3], loads[:, 3:]
         return np.tile([0.0, 0.0, -self.mass * self.cell.gravity], (len(loads), 1)), np.zeros((len(loads), 3))
 
-    def _load_informations(self, q: np.ndarray, loads: np.ndarray) -> np.ndarray:
-        """``(N, p, p)`` information of configurations ``q`` under designed ``loads`` (:mod:`bayescal.design.loads`), the search's model."""
+    def _load_informations(self, q: np.ndarray, loads: np.ndarray, poses: Poses | None = None) -> np.ndarray:
+        """``(N, p, p)`` information of configurations ``q`` under designed ``loads`` (:mod:`bayescal.design.loads`), the search's
+        model (``poses``: the frames of ``q``, when already computed)."""
         force, couple = self._forces(loads)
-        return self.informations(q, self._wrenches(q, force, couple))
+        return self.informations(q, self._wrenches(q, force, couple, poses), poses=poses)
 
-    def _violations(self, q: np.ndarray, loads: np.ndarray, *, solve: bool = True) -> list[str | None]:
+    def _violations(self, q: np.ndarray, loads: np.ndarray, *, solve: bool = True, poses: Poses | None = None) -> list[str | None]:
         """Why each configuration of ``q`` under its designed load is infeasible (None where feasible); the search's mass is in range.
 
-        ``solve=False`` leaves out the loaded equilibrium's existence (:meth:`Feasibility.violations_under`)."""
-        return self.feasibility.violations_under(q, *self._forces(loads), solve=solve)
+        ``solve=False`` leaves out the loaded equilibrium's existence, ``poses`` are the frames of ``q`` when already
+        computed (:meth:`Feasibility.violations_under`)."""
+        return self.feasibility.violations_under(q, *self._forces(loads), solve=solve, poses=poses)
 
     def _equilibrium_violations(self, q: np.ndarray, loads: np.ndarray) -> list[str | None]:
         """Why each configuration of ``q`` has no loaded equilibrium under its designed load (None where it has one), solved together."""

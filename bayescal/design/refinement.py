@@ -1,7 +1,7 @@
 """Continuous refinement of a plan (step 3 of :mod:`bayescal.design.optimise`).
 
 :class:`Refinement` is a part of :class:`~bayescal.design.optimise.PlanDesigner`, not used alone: its
-methods read the designer's ``cell``, ``model`` and ``free`` and call its ``_score``,
+methods read the designer's ``cell``, ``model``, ``free`` and ``_chain`` and call its ``_score``,
 ``_load_informations``, ``_violations``, ``_equilibrium_violations`` and ``_separated``.
 """
 
@@ -99,17 +99,19 @@ class Refinement:
         keys = list(wanted)
         new_q = np.array([wanted[key][0] for key in keys])
         new_loads = np.array([wanted[key][1] for key in keys])
-        feasible = np.array([reason is None for reason in self._violations(new_q, new_loads, solve=False)], dtype=bool)
+        # the proposals' frames, once for the checks and the information
+        poses = self._chain.poses(new_q)
+        feasible = np.array([reason is None for reason in self._violations(new_q, new_loads, solve=False, poses=poses)], dtype=bool)
         information = None
         if self.model == "exact":
             # The exact designs solve each loaded equilibrium at the cell's values, the feasibility's last check: solved
             # once, unless one fails (then the feasibility finds which).
             try:
-                information = self._load_informations(new_q[feasible], new_loads[feasible]) if feasible.any() else []
+                information = self._load_informations(new_q[feasible], new_loads[feasible], poses.take(feasible)) if feasible.any() else []
             except EquilibriumError:
                 information = None
         else:
-            information = self._load_informations(new_q[feasible], new_loads[feasible]) if feasible.any() else []
+            information = self._load_informations(new_q[feasible], new_loads[feasible], poses.take(feasible)) if feasible.any() else []
             unsolved.update((key, wanted[key]) for key, f in zip(keys, feasible) if f)
         if information is None:
             feasible = np.array([reason is None for reason in self._violations(new_q, new_loads)], dtype=bool)

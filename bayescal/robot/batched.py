@@ -65,6 +65,11 @@ class Poses:
         rotation, origin = (self.flange_rotation, self.flange_origin) if rows is None else (self.flange_rotation[rows], self.flange_origin[rows])
         return np.einsum("nij,nj->ni", rotation, np.broadcast_to(in_flange, origin.shape)) + origin
 
+    def take(self, rows: np.ndarray) -> Poses:
+        """The frames of the configurations ``rows`` (indices or a bool mask): each configuration's frames are its own,
+        so they are those :meth:`BatchedChain.poses` gives of those configurations alone, bit for bit."""
+        return Poses(**{field.name: getattr(self, field.name)[rows] for field in fields(Poses)})
+
     def in_flange(self, in_base: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
         """``(M, 3)`` flange-frame coordinates of base-frame points ``(M, 3)``: the inverse of :meth:`points`."""
         rotation, origin = (self.flange_rotation, self.flange_origin) if rows is None else (self.flange_rotation[rows], self.flange_origin[rows])

@@ -135,8 +135,8 @@ def test_equilibria_solved_after_the_steps_give_the_plan_solved_before_them(cell
                 reasons[row] = "no loaded equilibrium (the test's rule)"
 
     class SolvedFirst(PlanDesigner):
-        def _violations(self, q, loads, *, solve=True):
-            return super()._violations(q, loads, solve=True)
+        def _violations(self, q, loads, *, solve=True, poses=None):
+            return super()._violations(q, loads, solve=True, poses=poses)
 
     passes = []
     steps = Refinement._refine_steps
