@@ -67,8 +67,11 @@ def fixed_digits(values: np.ndarray, places: int) -> np.ndarray | None:
     product = values * scale
     nearest = np.rint(product)
     half = product - nearest
-    beyond = (np.abs(half) == 0.5) & (np.sign(_product_error(values, scale, product)) == np.sign(half))
-    integer = (nearest + np.where(beyond, np.sign(half), 0.0)).astype(np.int64)
+    # the error is needed at the half-way points of the rounded product alone
+    ties = np.flatnonzero(np.abs(half) == 0.5)
+    beyond = np.sign(_product_error(values[ties], scale, product[ties])) == np.sign(half[ties])
+    nearest[ties[beyond]] += np.sign(half[ties[beyond]])
+    integer = nearest.astype(np.int64)
     magnitude = np.abs(integer)
     width = max(places + 1, len(str(int(magnitude.max(initial=0)))))
     whole = width - places
@@ -118,24 +121,25 @@ def _rounded_texts(values: np.ndarray, places: int) -> list[str]:
     return [text if not text.startswith("-") or text.strip("-0.") else text[1:] for text in texts]
 
 
-def _fixed_column(values: np.ndarray, places: int) -> np.ndarray:
-    """The fields of a column of fixed decimals; a column of runs of equal values is formatted once a run."""
+def _fixed_columns(values: np.ndarray, places: int) -> np.ndarray:
+    """The fields of neighbouring columns of the same fixed decimals ``(N, k)``, comma-separated ``(N, width)``; rows that
+    repeat the row before (a configuration's joints and wrench, equal on its rows) are formatted once."""
     values = values.astype(float)
     change = np.ones(len(values), dtype=bool)
-    change[1:] = values[1:] != values[:-1]
+    change[1:] = np.any(values[1:] != values[:-1], axis=1)
     starts = np.flatnonzero(change)
     runs = 2 * len(starts) < len(values)
-    distinct = values[starts] if runs else values
+    distinct = (values[starts] if runs else values).ravel()
     text = fixed_digits(distinct, places)
     if text is None:
         text = _texts_bytes(_rounded_texts(distinct, places))
+    fields = text.reshape(-1, values.shape[1], text.shape[1])
+    text = np.concatenate([fields, np.full(fields.shape[:2] + (1,), ord(","), dtype=np.uint8)], axis=2).reshape(len(fields), -1)[:, :-1]
     return text[np.repeat(np.arange(len(starts)), np.diff(np.append(starts, len(values))))] if runs else text
 
 
-def _column(values: np.ndarray, places: int | None) -> np.ndarray:
-    """The fields of one column, ``(N, width)`` uint8: fixed ``places`` decimals, or without, as :mod:`csv` writes a value."""
-    if places is not None:
-        return _fixed_column(values, places)
+def _column(values: np.ndarray) -> np.ndarray:
+    """The fields of one column ``(N,)``, ``(N, width)`` uint8, as :mod:`csv` writes a value (an integer as ``%d``)."""
     if values.dtype.kind in "iuUS":
         distinct, rows = np.unique(values, return_inverse=True)
         spec = (lambda v: "%d" % v) if values.dtype.kind in "iu" else (lambda v: csv_line([v])[:-1])
@@ -150,8 +154,16 @@ def block_text(columns: list[tuple[np.ndarray, int | None]]) -> str:
     writes the value (an integer column as ``%d``)."""
     n = len(columns[0][0])
     parts = []
-    for values, places in columns:
-        parts += [_column(values, places), np.full((n, 1), ord(","), dtype=np.uint8)]
+    k = 0
+    while k < len(columns):
+        places = columns[k][1]
+        # neighbouring columns of the same decimals formatted together: a few calls of NumPy a block, not one a column
+        group = 1
+        while places is not None and k + group < len(columns) and columns[k + group][1] == places:
+            group += 1
+        part = _column(columns[k][0]) if places is None else _fixed_columns(np.stack([v for v, _ in columns[k : k + group]], axis=1), places)
+        parts += [part, np.full((n, 1), ord(","), dtype=np.uint8)]
+        k += group
     parts[-1] = np.full((n, 1), ord("\n"), dtype=np.uint8)
     text = np.concatenate(parts, axis=1)
     return text[text != PAD].tobytes().decode("utf-8")

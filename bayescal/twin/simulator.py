@@ -181,7 +181,9 @@ class DigitalTwin:
         tracker = self.cell.tracker
         if all(type(effect).corrupt is Effect.corrupt for effect in self.effects):
             readings = np.broadcast_to(states, (n, repeats) + states.shape[2:])
-            readings = readings + rng.normal(size=readings.shape) * tracker.sigma(readings)[..., np.newaxis]
+            # every repeat reads the same points: their noise levels computed once, for the first
+            sigma = np.broadcast_to(tracker.sigma(states)[..., np.newaxis], readings.shape)
+            readings = readings + rng.normal(size=readings.shape) * sigma
         else:
             readings = np.empty((n, repeats) + states.shape[2:])
             for i in range(n):
