@@ -24,7 +24,7 @@ from bayescal.output import record_read
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["read_table", "read_columns", "read_header", "markdown_table", "ColumnKind", "is_plain_number"]
+__all__ = ["read_table", "read_columns", "table_frame", "read_header", "markdown_table", "ColumnKind", "is_plain_number"]
 
 ColumnKind = Literal["number", "text", "integer"]
 
@@ -95,12 +95,16 @@ def read_table(
         not written as a plain decimal number (digits, one point, an optional
         exponent: no ``_`` separators).
     """
-    lines, values = read_columns(path, columns, optional=optional, units=units)
+    return table_frame(*read_columns(path, columns, optional=optional, units=units), str(path))
+
+
+def table_frame(lines: Sequence[int], values: Mapping[str, list], source: str) -> pd.DataFrame:
+    """:func:`read_table`'s frame of :func:`read_columns`'s ``lines`` and ``values``, read from ``source``."""
     # pandas loads here, not with the module: a command that reads its tables with read_columns starts without it
     import pandas as pd
 
     frame = pd.DataFrame(values, index=pd.Index(lines, name="line"))
-    frame.attrs["source"] = str(path)
+    frame.attrs["source"] = source
     return frame
 
 

@@ -41,7 +41,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from bayescal.cell.campaign_checks import check_deflection, check_wrench
 from bayescal.cell.campaign_text import block_text, csv_line
@@ -53,6 +52,8 @@ from bayescal.tables import read_header
 from bayescal.units import MM
 
 if TYPE_CHECKING:
+    import pandas as pd
+
     from bayescal.cell.config import Cell
 
 __all__ = [
@@ -150,6 +151,8 @@ class Campaign:
 
     def to_frame(self) -> pd.DataFrame:
         """The campaign as the CSV's columns, in mm, deg, N and N·m."""
+        import pandas as pd
+
         return pd.DataFrame(self.columns())
 
     def columns(self) -> dict[str, np.ndarray]:

@@ -37,13 +37,13 @@ import numpy as np
 
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
-from bayescal.tables import ColumnKind, read_header, read_table
+from bayescal.tables import ColumnKind, read_columns, read_header, table_frame
 from bayescal.units import DEG, MM
 
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["JointLayout", "read_joint_table", "robot_reach", "check_tool_points", "RADIAN_SPAN", "JOINT_COLUMN"]
+__all__ = ["JointLayout", "read_joint_table", "read_joint_columns", "robot_reach", "check_tool_points", "RADIAN_SPAN", "JOINT_COLUMN"]
 
 RADIAN_SPAN = 3.2
 """Joint angles (in the file's deg) all within ± this are most likely radians: π rad is 3.14, and a table of
@@ -158,20 +158,13 @@ def check_tool_points(robot: Robot, points: np.ndarray, lines: np.ndarray, colum
         )
 
 
-def read_joint_table(
-    path: str | PathLike[str],
-    layout: JointLayout,
-    columns: Mapping[str, ColumnKind],
-    *,
-    what: str,
-    optional: Mapping[str, ColumnKind] | None = None,
-    units: Mapping[str, str] | None = None,
-    reserved: Collection[str] = (),
-    reserved_why: str = "",
-    span_in_degrees: bool = True,
-    limits_refuse: bool = True,
-) -> tuple[pd.DataFrame, np.ndarray]:
-    """Read a joint-angle table with the checks of the module documentation.
+def read_joint_columns(
+    path: str | PathLike[str], layout: JointLayout, columns: Mapping[str, ColumnKind], *, what: str,
+    optional: Mapping[str, ColumnKind] | None = None, units: Mapping[str, str] | None = None, reserved: Collection[str] = (),
+    reserved_why: str = "", span_in_degrees: bool = True, limits_refuse: bool = True,
+) -> tuple[np.ndarray, dict[str, list], np.ndarray]:
+    """Read a joint-angle table with the checks of the module documentation, without pandas (:func:`read_joint_table`
+    gives the frame).
 
     Parameters
     ----------
@@ -193,8 +186,8 @@ def read_joint_table(
 
     Returns
     -------
-    frame : pandas.DataFrame
-        :func:`~bayescal.tables.read_table`'s frame, indexed by line.
+    lines, values : numpy.ndarray, dict
+        ``(N,)`` each row's 1-based line in the file; :func:`~bayescal.tables.read_columns`'s checked columns by name.
     q : numpy.ndarray
         ``(N, n)`` the joint positions of every row, SI (rad, m).
 
@@ -206,9 +199,10 @@ def read_joint_table(
     source = str(path)
     _check_header(path, layout, what, reserved, reserved_why)
     joint_units = {name: name.rsplit("_", 1)[1] for name in layout.columns}
-    frame = read_table(path, dict.fromkeys(layout.columns, "number") | dict(columns), optional=optional, units=joint_units | dict(units or {}))
-    q = frame[list(layout.columns)].to_numpy(dtype=float) * layout.scale
-    lines = frame.index.to_numpy(dtype=int)
+    lines, values = read_columns(path, dict.fromkeys(layout.columns, "number") | dict(columns), optional=optional, units=joint_units | dict(units or {}))
+    # (N, n), each column a run of memory, as a frame's columns give it
+    q = np.array([values[name] for name in layout.columns], dtype=float).T * layout.scale
+    lines = np.array(lines, dtype=int)
     # Radians first: read as degrees, they may also fall outside a limit, which would hide the slip.
     if span_in_degrees and layout.owner:
         _check_radians(layout, q, lines, source)
@@ -217,7 +211,13 @@ def read_joint_table(
             _check_limits(layout.robot, q, lines, source)
         else:
             _warn_limits(layout.robot, q, lines, source, what)
-    return frame, q
+    return lines, values, q
+
+
+def read_joint_table(path: str | PathLike[str], layout: JointLayout, columns: Mapping[str, ColumnKind], **options) -> tuple[pd.DataFrame, np.ndarray]:
+    """:func:`read_joint_columns`'s table as :func:`~bayescal.tables.read_table`'s frame, indexed by line, and ``q``."""
+    lines, values, q = read_joint_columns(path, layout, columns, **options)
+    return table_frame(lines.tolist(), values, str(path)), q
 
 
 def _check_header(path: str | PathLike[str], layout: JointLayout, what: str, reserved: Collection[str], reserved_why: str) -> None:

@@ -20,19 +20,15 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from bayescal.cell.joint_tables import JointLayout, read_joint_table
+from bayescal.cell.joint_tables import JointLayout, read_joint_columns
 from bayescal.cell.loading import Loading
 from bayescal.errors import InputError
 from bayescal.robot.kinematics import Robot
 from bayescal.tables import read_header
 from bayescal.units import DEG, MM
-
-if TYPE_CHECKING:
-    import pandas as pd
 
 __all__ = ["FORCE_COLUMNS", "COUPLE_COLUMNS", "Plan", "position_columns", "prismatic_flags", "read_plan", "write_plan",
            "PASSES_COLUMN", "passes_column", "read_passes"]
@@ -148,7 +144,7 @@ def read_plan(
     """
     source = str(path)
     _check_load_columns(read_header(path), source)
-    frame, q = read_joint_table(
+    lines, values, q = read_joint_columns(
         path,
         JointLayout.of(robot),
         {},
@@ -156,32 +152,27 @@ def read_plan(
         optional={"load_kg": "number"} | {name: "number" for name in FORCE_COLUMNS + COUPLE_COLUMNS},
         units={"load_kg": "kg"} | dict.fromkeys(FORCE_COLUMNS, "N") | dict.fromkeys(COUPLE_COLUMNS, "N·m"),
     )
-    load = _masses(frame, max_load_kg, source) if "load_kg" in frame else None
-    force = frame[list(FORCE_COLUMNS)].to_numpy(dtype=float) if FORCE_COLUMNS[0] in frame else None
-    couple = frame[list(COUPLE_COLUMNS)].to_numpy(dtype=float) if COUPLE_COLUMNS[0] in frame else None
-    _check_wrenches(frame.index, force, couple, max_load_kg, loading, source)
-    lines = frame.index.to_numpy(dtype=int)
+    load = _masses(lines, values["load_kg"], max_load_kg, source) if "load_kg" in values else None
+    # (N, 3), each column a run of memory, as a frame's columns give it
+    force = np.array([values[name] for name in FORCE_COLUMNS], dtype=float).T if FORCE_COLUMNS[0] in values else None
+    couple = np.array([values[name] for name in COUPLE_COLUMNS], dtype=float).T if COUPLE_COLUMNS[0] in values else None
+    _check_wrenches(lines.tolist(), force, couple, max_load_kg, loading, source)
     return Plan(q=q, load_kg=load, lines=lines, source=source, force=force, couple=couple, prismatic=prismatic_flags(robot))
 
 
-def _masses(frame: pd.DataFrame, max_load_kg: float | None, source: str) -> np.ndarray:
-    """The plan's ``load_kg`` column, kg, each positive and at most ``max_load_kg``."""
-    bad = frame.index[frame["load_kg"] <= 0]
+def _masses(lines: np.ndarray, masses: list[float], max_load_kg: float | None, source: str) -> np.ndarray:
+    """The plan's ``load_kg`` column (``masses`` on ``lines``), kg, each positive and at most ``max_load_kg``."""
+    load = np.array(masses, dtype=float)
+    bad = np.flatnonzero(load <= 0)
     if len(bad):
-        raise InputError(
-            f"expected a positive mass in kg, got {frame.at[bad[0], 'load_kg']:g}",
-            source=source,
-            line=int(bad[0]),
-            column="load_kg",
-        )
-    load = frame["load_kg"].to_numpy(dtype=float)
+        raise InputError(f"expected a positive mass in kg, got {masses[bad[0]]:g}", source=source, line=int(lines[bad[0]]), column="load_kg")
     if max_load_kg is not None and np.any(load > max_load_kg):
         row = int(np.argmax(load > max_load_kg))
         raise InputError(
             f"a load of {load[row]:g} kg is more than the {max_load_kg:.0f} kg the arm can plausibly carry: "
             "is load_kg in another unit than kg?",
             source=source,
-            line=int(frame.index[row]),
+            line=int(lines[row]),
             column="load_kg",
         )
     return load

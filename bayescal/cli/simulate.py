@@ -155,12 +155,16 @@ def _simulated(args: argparse.Namespace, cell, plan, effects: list, errors):
     from bayescal.cell.plan import read_passes
     from bayescal.errors import InputError
     from bayescal.twin.drift import TrackerDrift
-    from bayescal.twin.kinematic_errors import with_kinematic_errors
     from bayescal.twin.simulator import DigitalTwin
 
+    if errors is not None:
+        # imported with kinematic errors alone: it brings the kinematics package and pandas
+        from bayescal.twin.kinematic_errors import with_kinematic_errors
+
+        cell = with_kinematic_errors(cell, errors)
     drift = None if args.drift is None else TrackerDrift(args.drift)
     passes = args.order == "passes" if args.order is not None else read_passes(args.plan)
-    twin = DigitalTwin(cell if errors is None else with_kinematic_errors(cell, errors), effects, drift=drift, passes=passes)
+    twin = DigitalTwin(cell, effects, drift=drift, passes=passes)
     try:
         if args.nests is None and not passes:
             return twin, twin.simulate(plan, args.repeats, np.random.default_rng(args.seed)), None
