@@ -10,9 +10,9 @@ from ._command import CommandOutput, add_common_options, options_for, whole_numb
 
 __all__ = ["add_parser", "run"]
 
-SECONDS = {"exact": 4, "linear": 3}
+SECONDS = {"exact": 2, "linear": 1}
 """Time of a default design (5 × 3 configurations, 3 starts), s: the search's CPU time in one process on this
-project's machine (3.5 s exact, 2.3 s linear, ``benchmarks/bench_design.py`` at load average 7.8; the search runs on
+project's machine (1.7 s exact, 0.7 s linear, ``benchmarks/bench_design.py`` at load average 10; the search runs on
 one thread, so an idle core's wall time).  Said before a design starts, since the command prints nothing else until
 it ends when stderr is not a terminal."""
 FLAGS = {"angles": "--angles", "per_angle": "--per-angle", "repeats": "--repeats", "model": "--model", "criterion": "--criterion", "mass_range": "--mass-kg", "between": "--between"}

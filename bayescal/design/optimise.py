@@ -89,7 +89,7 @@ class PlanDesigner(Exchange, Refinement):
     model
         The model the search scores plans with: ``"exact"``
         (:class:`~bayescal.design.linearisation.ExactLinearisation`, the identification's default model) or
-        ``"linear"`` (eq 31; the search takes two thirds of the exact model's time, but on the KR-270 its
+        ``"linear"`` (eq 31; the search takes two fifths of the exact model's time, but on the KR-270 its
         test-pose optimum leaves 1.4 times the exact model's error, docs/design.md).
     """
 
