@@ -8,13 +8,18 @@ import json
 from bayescal.jsonsafe import json_safe
 
 from ._command import CommandOutput, add_common_options, check_output, whole_number, write_atomically
-from ._nests import add_nests_option, nests_lines, measured_drift
+from ._nests import add_nests_option, fitted_drift, nests_lines
 from ._registered import add_registration_option, read_campaign_in_base, registration_lines
 
 __all__ = ["add_parser", "run"]
 
 MIN_DRAWS = 100
 """Fewest kept draws per chain the command accepts."""
+DRIFT_DRAWS = 4
+"""Draws of the measured drift the calibration is integrated over by default (``--drift-draws``; docs/critique.md,
+*Drift*, for the coverage and time measured)."""
+MIN_DRIFT_DRAWS = 2
+"""Fewest drift draws accepted: one draw is one guess of the drift, its error then in no interval."""
 
 
 def add_parser(subparsers) -> None:
@@ -51,6 +56,13 @@ def add_parser(subparsers) -> None:
     )
     add_registration_option(parser, "the campaign's positions")
     add_nests_option(parser)
+    parser.add_argument(
+        "--drift-draws", metavar="D", type=whole_number(MIN_DRIFT_DRAWS, "one draw is one guess of the drift, its error in no interval"),
+        default=DRIFT_DRAWS,
+        help=f"with --nests or --drift-from-repeats: draws of the drift's posterior the calibration is integrated over, one "
+        f"calibration per draw taken out of the readings, their posteriors pooled (default {DRIFT_DRAWS}, at least "
+        f"{MIN_DRIFT_DRAWS}; the time grows about in proportion)",
+    )
     add_common_options(parser)
     parser.set_defaults(run=run)
 
@@ -74,7 +86,7 @@ def run(args: argparse.Namespace) -> CommandOutput:
     check_output("--posterior", args.posterior, inputs | {"the robot URDF": cell.robot.source})
     geometry = _geometry_prior(args, cell) if args.geometry else None
     campaign, cell, transfer = read_campaign_in_base(args, args.campaign, cell)
-    campaign, drift = measured_drift(args, campaign, cell)
+    track = fitted_drift(args, campaign, cell)
     model = ElastostaticModel.from_cell(
         cell,
         geometry,
@@ -84,8 +96,16 @@ def run(args: argparse.Namespace) -> CommandOutput:
         # Draws the user chose are kept as chosen; the default ones grow until they converge.
         extensions=EXTENSIONS if args.draws is None else 0,
     )
+    rng = np.random.default_rng(args.seed)
+    drift = None
     try:
-        results = model.fit(campaign, np.random.default_rng(args.seed))
+        if track is None:
+            results = model.fit(campaign, rng)
+        else:
+            from bayescal.inference.mixture import fit_integrated
+
+            drift = track.to_json(campaign) | ({"file": args.nests} if args.nests else {}) | {"draws_integrated": args.drift_draws}
+            results = fit_integrated(model, track.remove(campaign), track.removed_draws(campaign, rng, args.drift_draws), rng)
         test_pose = predict_cell_test_pose(results, cell)
     except EquilibriumError as exc:
         raise InputError(f"the exact model found no static equilibrium ({exc}); try --model linear", source=args.campaign) from None
