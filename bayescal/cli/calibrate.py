@@ -58,7 +58,7 @@ def add_parser(subparsers) -> None:
     add_nests_option(parser)
     parser.add_argument(
         "--drift-draws", metavar="D", type=whole_number(MIN_DRIFT_DRAWS, "one draw is one guess of the drift, its error in no interval"),
-        default=DRIFT_DRAWS,
+        default=None,
         help=f"with --nests or --drift-from-repeats: draws of the drift's posterior the calibration is integrated over, one "
         f"calibration per draw taken out of the readings, their posteriors pooled (default {DRIFT_DRAWS}, at least "
         f"{MIN_DRIFT_DRAWS}; the time grows about in proportion)",
@@ -87,6 +87,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
     geometry = _geometry_prior(args, cell) if args.geometry else None
     campaign, cell, transfer = read_campaign_in_base(args, args.campaign, cell)
     track = fitted_drift(args, campaign, cell)
+    if track is None and args.drift_draws is not None:
+        raise InputError("expected with --nests or --drift-from-repeats: without them no drift is measured", source="--drift-draws")
     model = ElastostaticModel.from_cell(
         cell,
         geometry,
@@ -104,8 +106,9 @@ def run(args: argparse.Namespace) -> CommandOutput:
         else:
             from bayescal.inference.mixture import fit_integrated
 
-            drift = track.to_json(campaign) | ({"file": args.nests} if args.nests else {}) | {"draws_integrated": args.drift_draws}
-            results = fit_integrated(model, track.remove(campaign), track.removed_draws(campaign, rng, args.drift_draws), rng)
+            count = args.drift_draws or DRIFT_DRAWS
+            drift = track.to_json(campaign) | ({"file": args.nests} if args.nests else {}) | {"draws_integrated": count}
+            results = fit_integrated(model, track.remove(campaign), track.removed_draws(campaign, rng, count), rng)
         test_pose = predict_cell_test_pose(results, cell)
     except EquilibriumError as exc:
         raise InputError(f"the exact model found no static equilibrium ({exc}); try --model linear", source=args.campaign) from None

@@ -24,6 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from bayescal.cell.campaign import Campaign
+from bayescal.errors import InputError
 from bayescal.inference.fit_checks import warn_fit_checks
 from bayescal.inference.results import ElastostaticResults
 from bayescal.sampling.summary import pooled_tree
@@ -61,6 +62,7 @@ def fit_integrated(model, campaign: Campaign, corrected: Sequence[Campaign], rng
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         fits += [model.fit(draw, rng, checks=False) for draw in corrected[1:]]
+    _check_alike(fits, campaign.source)
     tree = pooled_tree([fit.tree for fit in fits])
     not_identifiable = set().union(*(filter(None, str(fit.tree.attrs["not_identifiable"]).split(",")) for fit in fits))
     tree.attrs["not_identifiable"] = ",".join(sorted(not_identifiable))
@@ -68,3 +70,18 @@ def fit_integrated(model, campaign: Campaign, corrected: Sequence[Campaign], rng
     results = model.restore(campaign, tree)
     warn_fit_checks(results, campaign.source)
     return results
+
+
+def _check_alike(fits: Sequence[ElastostaticResults], source: str) -> None:
+    """Refuse fits whose posteriors hold different parameters: a correction's draws that change what the campaign
+    identifies (a column at the edge of being resolved) leave no one posterior to pool."""
+    names = [set(map(str, fit.summary().index)) for fit in fits]
+    for k, other in enumerate(names[1:], start=1):
+        if other != names[0]:
+            apart = sorted(names[0] ^ other)
+            raise InputError(
+                f"what the campaign identifies changes with the correction's draw (draw 1 against draw {k + 1}: "
+                f"{', '.join(apart)}): its uncertainty is too large for these parameters; measure it more closely "
+                "(reference nests read more often)",
+                source=source,
+            )

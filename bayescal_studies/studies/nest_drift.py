@@ -12,8 +12,9 @@ the independent generator's repeats stay back to back), and measures
   one, in the estimate's own sd (the planted drift taken relative to the first reading of the
   walk, the estimate's gauge);
 * the identifiable compliances calibrated after the drift's removal (its variance added per
-  row), integrated over draws of the drift (one calibration per draw removed, their posteriors
-  mixed), and without any removal, in their posterior sd against the generator's truth.
+  row), integrated over draws of the drift as ``calibrate`` integrates it (one calibration per
+  draw removed, their draws pooled), and without any removal, in their posterior sd against the
+  generator's truth.
 """
 
 from __future__ import annotations

@@ -54,6 +54,9 @@ def test_calibrate_integrates_over_the_drifts_draws_and_says_how_many(capsys, fi
     assert status == 0 and "integrated over: one calibration per draw of the drift (4 draws), pooled" in out
     status, _, err = run(capsys, "calibrate", [*argv, "--drift-draws", "1"])
     assert status == 2 and "--drift-draws" in err and "a whole number >= 2" in err
+    # without a drift measured the option has nothing to integrate over
+    status, _, err = run(capsys, "calibrate", [str(files["campaign"]), "--config", files["config"], "--drift-draws", "4"])
+    assert status == 2 and err.startswith("bayescal calibrate: error: --drift-draws: expected with --nests") and err.count("\n") == 1
 
 
 def test_critique_measures_the_drift_instead_of_trying_it(capsys, files):

@@ -55,3 +55,22 @@ def test_the_pooled_posteriors_checks_are_warned_once_and_one_copy_is_refused(ce
     assert sum(message.startswith("K_c is not identifiable from these data") for message in messages) == 1
     with pytest.raises(ValueError, match="at least two"):
         fit_integrated(model, campaign, shifted[:1], np.random.default_rng(3))
+
+
+def test_draws_that_change_what_the_campaign_identifies_are_refused_in_one_line():
+    import pandas as pd
+
+    from bayescal.errors import InputError
+    from bayescal.inference.mixture import _check_alike
+
+    class Fit:
+        def __init__(self, names):
+            self.names = names
+
+        def summary(self):
+            return pd.DataFrame(index=self.names)
+
+    _check_alike([Fit(["k2", "k3"]), Fit(["k2", "k3"])], "c.csv")
+    with pytest.raises(InputError, match=r"draw 1 against draw 3: K_c\)") as error:
+        _check_alike([Fit(["k2", "k3"]), Fit(["k2", "k3"]), Fit(["k2", "k3", "K_c"])], "c.csv")
+    assert "\n" not in str(error.value) and "c.csv" in str(error.value)
