@@ -68,8 +68,6 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> CommandOutput:
-    import numpy as np
-
     from bayescal.cell.config import load_cell
     from bayescal.inference.elastostatic import EXTENSIONS, ElastostaticModel
     from bayescal.inference.samplers import elastostatic_sampler
@@ -98,17 +96,8 @@ def run(args: argparse.Namespace) -> CommandOutput:
         # Draws the user chose are kept as chosen; the default ones grow until they converge.
         extensions=EXTENSIONS if args.draws is None else 0,
     )
-    rng = np.random.default_rng(args.seed)
-    drift = None
     try:
-        if track is None:
-            results = model.fit(campaign, rng)
-        else:
-            from bayescal.inference.mixture import fit_integrated
-
-            count = args.drift_draws or DRIFT_DRAWS
-            drift = track.to_json(campaign) | ({"file": args.nests} if args.nests else {}) | {"draws_integrated": count}
-            results = fit_integrated(model, track.remove(campaign), track.removed_draws(campaign, rng, count), rng)
+        results, drift = _fit(args, model, campaign, track)
         test_pose = predict_cell_test_pose(results, cell)
     except EquilibriumError as exc:
         raise InputError(f"the exact model found no static equilibrium ({exc}); try --model linear", source=args.campaign) from None
@@ -129,6 +118,21 @@ def run(args: argparse.Namespace) -> CommandOutput:
     text = "\n".join([*_geometry_lines(identified), document.as_text(),
                       *registration_lines(transfer, args.registration), *nests_lines(drift)])
     return CommandOutput(payload=json_safe(payload), text=text)
+
+
+def _fit(args: argparse.Namespace, model, campaign, track):
+    """The calibration of ``campaign``, integrated over ``--drift-draws`` draws of the drift ``track`` when there is one,
+    and the JSON block of the drift removed (None without)."""
+    import numpy as np
+
+    rng = np.random.default_rng(args.seed)
+    if track is None:
+        return model.fit(campaign, rng), None
+    from bayescal.inference.mixture import fit_integrated
+
+    count = args.drift_draws or DRIFT_DRAWS
+    drift = track.to_json(campaign) | ({"file": args.nests} if args.nests else {}) | {"draws_integrated": count}
+    return fit_integrated(model, track.remove(campaign), track.removed_draws(campaign, rng, count), rng), drift
 
 
 def _geometry_prior(args: argparse.Namespace, cell):
