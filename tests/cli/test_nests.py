@@ -51,7 +51,7 @@ def test_calibrate_integrates_over_the_drifts_draws_and_says_how_many(capsys, fi
     # one calibration per draw, each fit's chains kept as chains
     assert status == 0 and payload["drift"]["draws_integrated"] == 3 and payload["diagnostics"]["n_chains"] == 3 * 32
     status, out, _ = run(capsys, "calibrate", argv)
-    assert status == 0 and "integrated over: one calibration per draw of the drift (4 draws), pooled" in out
+    assert status == 0 and "integrated over: one calibration per draw of the drift (8 draws), pooled" in out
     status, _, err = run(capsys, "calibrate", [*argv, "--drift-draws", "1"])
     assert status == 2 and "--drift-draws" in err and "a whole number >= 2" in err
     # without a drift measured the option has nothing to integrate over
@@ -139,7 +139,7 @@ def test_report_removes_the_drift_from_the_campaign_it_checks_the_calibration_ag
     calibrated = json.loads(out)
     # the posterior file records the drift taken out of the campaign it was fitted to, and over how many draws
     assert json.loads(load(posterior).attrs["nest_drift"])["nests"] == 3
-    assert json.loads(load(posterior).attrs["nest_drift"])["draws_integrated"] == 4
+    assert json.loads(load(posterior).attrs["nest_drift"])["draws_integrated"] == 8
     status, out, _ = run(capsys, "report", ["--calibration", str(posterior), "--campaign", str(files["campaign"]), *common,
                                             "-o", str(tmp_path / "review")])
     assert status == 0 and (tmp_path / "review" / "index.html").is_file()
