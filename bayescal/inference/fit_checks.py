@@ -266,14 +266,15 @@ def check_fits_campaign(results, campaign: str, cell: str, calibration: str) -> 
         )
 
 
-def warn_fit_checks(results, source: str) -> None:
+def warn_fit_checks(results, source: str, stacklevel: int = 3) -> None:
     """An elastostatic fit's checks as warnings: the sampled parameters the data did not determine, a posterior short of
     convergence, residuals the config's tracker model does not describe (chi2/dof beyond :data:`CHI2_TOLERANCE`), and
     repeats the model misses.  ``results`` is an :class:`~bayescal.inference.results.ElastostaticResults` of the
-    campaign read from ``source``."""
+    campaign read from ``source``; the warnings name the frame ``stacklevel`` counts from this function (3: the line
+    that called its caller, the fit)."""
     for names, reason in grouped(results.identifiability.practical):
-        warnings.warn(f"{listed(names)} not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=3)
-    warn_if_unconverged(diagnostics(results.tree, results.summary_table), what="the elastostatic posterior")
+        warnings.warn(f"{listed(names)} not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=stacklevel)
+    warn_if_unconverged(diagnostics(results.tree, results.summary_table), what="the elastostatic posterior", stacklevel=stacklevel + 1)
     chi2 = results.chi2_per_dof
     if chi2 is not None and not 1 / CHI2_TOLERANCE < chi2 < CHI2_TOLERANCE:
         warnings.warn(
@@ -282,7 +283,7 @@ def warn_fit_checks(results, source: str) -> None:
             f"({'a larger error, or a misfit of the model' if chi2 > 1 else 'a noise model too pessimistic'}); "
             "the intervals use the noise the data show",
             UserWarning,
-            stacklevel=3,
+            stacklevel=stacklevel,
         )
     misfit = results.lack_of_fit
     if misfit is not None and misfit.significant():
@@ -290,7 +291,7 @@ def warn_fit_checks(results, source: str) -> None:
             f"{source}: the model misses the repeated configurations: {misfit.describe()}; "
             "bayescal critique names the likely cause",
             UserWarning,
-            stacklevel=3,
+            stacklevel=stacklevel,
         )
 
 

@@ -262,7 +262,7 @@ def sample_until_converged(run: Callable[[Any], tuple], sampler: Any, extensions
     return output, summary, sampler
 
 
-def warn_if_unconverged(report: dict[str, float | int], *, what: str) -> None:
+def warn_if_unconverged(report: dict[str, float | int], *, what: str, stacklevel: int = 3) -> None:
     """Warn when the diagnostics of :func:`diagnostics` fall short of the usual thresholds.
 
     Parameters
@@ -271,6 +271,8 @@ def warn_if_unconverged(report: dict[str, float | int], *, what: str) -> None:
         The output of :func:`diagnostics`.
     what
         The posterior, as the user knows it (e.g. ``"the geometry posterior"``).
+    stacklevel
+        The frame the warning names, as :func:`warnings.warn` counts it from this function (3: its caller's caller).
     """
     problems = []
     if not report["r_hat_max"] <= R_HAT_LIMIT:
@@ -282,7 +284,7 @@ def warn_if_unconverged(report: dict[str, float | int], *, what: str) -> None:
         warnings.warn(
             f"{what} may not have converged ({', '.join(problems)}): draw more (e.g. --draws) before trusting its intervals",
             ConvergenceWarning,
-            stacklevel=3,
+            stacklevel=stacklevel,
         )
 
 
