@@ -25,7 +25,8 @@ def add_nests_option(parser: argparse.ArgumentParser) -> None:
         "--nests",
         metavar="NESTS.csv",
         help="readings of fixed reference nests (nest, t_s, x_mm, y_mm, z_mm) on the campaign's clock: the tracker's "
-        "drift is measured from them and removed from the readings at their times (t0_s, t1_s), its uncertainty added",
+        "drift is measured from them and removed from the readings at their times (t0_s, t1_s), its uncertainty added to "
+        "each deflection (calibrate integrates over draws of it instead: --drift-draws)",
     )
 
 
