@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-__all__ = ["add_nests_option", "read_nests_in_base", "nests_lines", "measured_drift"]
+__all__ = ["add_nests_option", "read_nests_in_base", "nests_lines", "measured_drift", "fitted_drift"]
 
 
 def add_nests_option(parser: argparse.ArgumentParser) -> None:
@@ -25,7 +25,8 @@ def add_nests_option(parser: argparse.ArgumentParser) -> None:
         "--nests",
         metavar="NESTS.csv",
         help="readings of fixed reference nests (nest, t_s, x_mm, y_mm, z_mm) on the campaign's clock: the tracker's "
-        "drift is measured from them and removed from the readings at their times (t0_s, t1_s), its uncertainty added",
+        "drift is measured from them and removed from the readings at their times (t0_s, t1_s), its uncertainty added to "
+        "each deflection (calibrate integrates over draws of it instead: --drift-draws)",
     )
 
 
@@ -44,13 +45,12 @@ def read_nests_in_base(args: argparse.Namespace, campaign):
     return nests.moved(read_frame(args.registration, "base").from_tracker)
 
 
-def measured_drift(args: argparse.Namespace, campaign, cell):
-    """The campaign with the drift that ``--nests`` and the repeats (or ``--drift-from-repeats`` alone) measure taken
-    out, and what was removed (:meth:`~bayescal.registration.nest_drift.NestDrift.to_json`); unchanged and None
-    without either option."""
+def fitted_drift(args: argparse.Namespace, campaign, cell):
+    """The random walk that ``--nests`` and the repeats (or ``--drift-from-repeats`` alone) measure
+    (:class:`~bayescal.registration.nest_drift.NestDrift`); None without either option."""
     nests = read_nests_in_base(args, campaign)
     if nests is None and not args.drift_from_repeats:
-        return campaign, None
+        return None
     from bayescal.cell.nests import require_times
     from bayescal.critique.drift import MAKE_TESTABLE
     from bayescal.errors import InputError
@@ -61,6 +61,16 @@ def measured_drift(args: argparse.Namespace, campaign, cell):
     if track is None:
         raise InputError("--drift-from-repeats: no marker's state is read twice at different times: " + MAKE_TESTABLE,
                          source=campaign.source)
+    return track
+
+
+def measured_drift(args: argparse.Namespace, campaign, cell):
+    """The campaign with the drift's posterior mean taken out (its variance added to each row) and what was removed
+    (:meth:`~bayescal.registration.nest_drift.NestDrift.to_json`, with the file of ``--nests``); unchanged and None
+    without ``--nests`` or ``--drift-from-repeats``."""
+    track = fitted_drift(args, campaign, cell)
+    if track is None:
+        return campaign, None
     return track.remove(campaign), track.to_json(campaign) | ({"file": args.nests} if args.nests else {})
 
 

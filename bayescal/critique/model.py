@@ -106,7 +106,10 @@ class Critique:
 
         With reference-nest readings the tracker's drift is measured from them (and the campaign's repeat groups
         with ``repeats``: :mod:`bayescal.registration.repeats`), taken out of the readings with its uncertainty added to the
-        deflections, and reported: it is then no candidate.  ``nests`` needs the campaign's reading times.
+        deflections, and reported: it is then no candidate.  ``nests`` needs the campaign's reading times.  The
+        critique keeps the posterior mean's removal with a variance per row where ``calibrate`` integrates over draws of
+        the drift: its findings are the candidates' held-out predictive comparisons and the residuals' checks, not
+        intervals that pooling fits could widen (docs/critique.md, *Drift*).
 
         ``rng`` is accepted for the command line's ``--seed``; the critique itself is
         deterministic (closed-form predictive densities, no sampling).  BLAS runs on one

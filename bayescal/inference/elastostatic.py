@@ -31,7 +31,6 @@ while its posterior stays in the DataTree.
 
 from __future__ import annotations
 
-import math
 import warnings
 from dataclasses import dataclass, field, replace
 from typing import NamedTuple
@@ -45,7 +44,7 @@ from bayescal.errors import InputError, NotIdentifiableWarning
 from bayescal.inference.closedform import ClosedForm, closed_form
 from bayescal.inference.equations import HANGING_ONLY_REASON, DeflectionEquations, check_campaign, check_load_point, deflection_equations
 from bayescal.inference.exact import SETTLED_SD, UNCONVERGED_SD, ExactCorrection, moved_point
-from bayescal.inference.fit_checks import calibration_lack_of_fit, campaign_identifiability, check_scale, practical_identifiability, residual_chi2, unresolved_columns
+from bayescal.inference.fit_checks import calibration_lack_of_fit, campaign_identifiability, check_scale, listed, practical_identifiability, residual_chi2, unresolved_columns, warn_fit_checks
 from bayescal.inference.identifiability import Identifiability, grouped, label_angle
 from bayescal.inference.posterior import posterior_density, sample_posterior, sampler_coordinates
 from bayescal.inference.priors import GeometryPrior, config_geometry
@@ -54,16 +53,13 @@ from bayescal.inference.samplers import elastostatic_sampler
 from bayescal.cell.config import DEFAULT_COMPENSATED_JOINT
 from bayescal.robot.kinematics import Robot
 from bayescal.sampling.protocol import Sampler
-from bayescal.sampling.summary import converged, diagnostics, sample_until_converged, summarize, warn_if_unconverged
+from bayescal.sampling.summary import converged, diagnostics, sample_until_converged, summarize
 from bayescal.threads import one_blas_thread
 from bayescal.robot.compensator import Compensator, law_on
 from bayescal.robot.laws import CompensatorLaw, LawParameter
 
 __all__ = ["ElastostaticModel", "restore_results"]
 
-CHI2_TOLERANCE = 2.0
-"""chi2/dof of the fit against the config's tracker model beyond which (or below whose inverse) the tracker model
-is reported as not describing the data: with a few hundred equations chi2/dof has an sd below 0.1."""
 EXTENSIONS = 3
 """Runs after the first that ``bayescal calibrate`` allows by default while R-hat or the ESS fall short: the
 collapsed sampler hands over to the Gibbs sampler (:meth:`~bayescal.sampling.collapsed.CollapsedSampler.extended`),
@@ -255,7 +251,7 @@ class ElastostaticModel:
             # A limit of the cell, not of the campaign: recorded in k1's reason, said once by `bayescal plan`.
             cell_limit = {k for k, v in ident.reasons.items() if v.endswith(HANGING_ONLY_REASON)}
             for names, reason in grouped({k: v for k, v in ident.reasons.items() if label_angle(k) is None and k not in cell_limit}):
-                warnings.warn(f"{_listed(names)} not identifiable: {reason}", NotIdentifiableWarning, stacklevel=3)
+                warnings.warn(f"{listed(names)} not identifiable: {reason}", NotIdentifiableWarning, stacklevel=3)
             if ident.ill_conditioned:
                 warnings.warn(
                     f"the campaign is ill-conditioned (condition number {ident.condition_number:.3g} of the unit-column "
@@ -266,8 +262,10 @@ class ElastostaticModel:
         prepared = _Prepared(equations, ident, linear_cf, np.zeros(equations.n), linear_cf, 0, linear_cf)
         return self._relinearised(campaign, prepared, point) if self.model == "exact" else prepared
 
-    def fit(self, campaign: Campaign, rng: np.random.Generator | int = 0) -> ElastostaticResults:
-        """Identify the parameters from ``campaign``; ``rng`` seeds every random draw."""
+    def fit(self, campaign: Campaign, rng: np.random.Generator | int = 0, checks: bool = True) -> ElastostaticResults:
+        """Identify the parameters from ``campaign``; ``rng`` seeds every random draw.  With ``checks`` the fit's checks
+        are warnings (:func:`~bayescal.inference.fit_checks.warn_fit_checks`); without, the caller checks what it makes of
+        the fit (:mod:`~bayescal.inference.mixture` pools several)."""
         # One BLAS thread, as the command line sets (bayescal/threads.py); a block, not a decorator, so that
         # the warnings' stack levels still name the caller's line.
         with one_blas_thread():
@@ -291,28 +289,12 @@ class ElastostaticModel:
                     "not_identifiable": ",".join(sorted(set(ident.not_identifiable) | set(practical))),
                 }
             )
-            for names, reason in grouped(practical):
-                warnings.warn(f"{_listed(names)} not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=2)
-            warn_if_unconverged(diagnostics(tree, summary), what="the elastostatic posterior")
             chi2 = residual_chi2(self.tracker, campaign, residual, n_free)
-            if chi2 is not None and not 1 / CHI2_TOLERANCE < chi2 < CHI2_TOLERANCE:
-                warnings.warn(
-                    f"{campaign.source}: the residuals are {math.sqrt(chi2):.2f} times the tracker noise of the config "
-                    f"(chi2/dof {chi2:.3g}): the config's tracker model does not describe these data "
-                    f"({'a larger error, or a misfit of the model' if chi2 > 1 else 'a noise model too pessimistic'}); "
-                    "the intervals use the noise the data show",
-                    UserWarning,
-                    stacklevel=2,
-                )
             misfit = calibration_lack_of_fit(self.tracker, campaign, equations, prepared.offset)
-            if misfit is not None and misfit.significant():
-                warnings.warn(
-                    f"{campaign.source}: the model misses the repeated configurations: {misfit.describe()}; "
-                    "bayescal critique names the likely cause",
-                    UserWarning,
-                    stacklevel=2,
-                )
-            return self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, type(sampler).__name__, misfit)
+            results = self._results(campaign, prepared, tree, draws, residual, chi2, summary, practical, type(sampler).__name__, misfit)
+        if checks:
+            warn_fit_checks(results, campaign.source)
+        return results
 
     def _sample(self, campaign: Campaign, prepared: _Prepared, rng: np.random.Generator):
         """Sample ``prepared``, relinearising the exact model's correction about the posterior mean of the spring and the
@@ -491,10 +473,3 @@ def restore_results(cell: Cell, campaign: Campaign, tree, geometry: GeometryPrio
     groups = tuple(str(v) for v in tree["posterior"]["noise_group"].values) if "noise_group" in tree["posterior"].coords else ()
     noise = str(attrs.get("noise", "axis" if groups == ("x", "y", "z") else "marker"))
     return ElastostaticModel.from_cell(cell, geometry, model=model, noise=noise).restore(campaign, tree)
-
-
-def _listed(names: list[str]) -> str:
-    """``"k1 is"`` or ``"k2, K_c, s0 are"``."""
-    return f"{', '.join(names)} {'is' if len(names) == 1 else 'are'}"
-
-

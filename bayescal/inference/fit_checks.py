@@ -10,6 +10,8 @@ did determine (:func:`practical_identifiability`).
 
 from __future__ import annotations
 
+import math
+import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -17,18 +19,22 @@ import pandas as pd
 
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.tracker import TrackerNoise
-from bayescal.errors import InputError
+from bayescal.errors import InputError, NotIdentifiableWarning
 from bayescal.inference.closedform import ClosedForm, check_regression
 from bayescal.inference.equations import HANGING_ONLY_REASON, DeflectionEquations, deflection_noise
-from bayescal.inference.identifiability import Identifiability, analyse, label_angle, practical_reasons, rule_clause
+from bayescal.inference.identifiability import Identifiability, analyse, grouped, label_angle, practical_reasons, rule_clause
 from bayescal.inference.lack_of_fit import LackOfFit, least_squares_lack_of_fit, line_of_sight, replicate_cells
 from bayescal.inference.priors import GeometryPrior
 from bayescal.robot.compensator import Compensator, law_on
 from bayescal.robot.laws import CompensatorLaw
+from bayescal.sampling.summary import diagnostics, warn_if_unconverged
 from bayescal.units import URAD_PER_NM
 
-__all__ = ["check_fits_campaign", "MAX_CHI2_PER_DOF", "campaign_identifiability", "check_determined", "check_scale", "unresolved_columns", "UNRESOLVED_RATIO", "residual_chi2", "calibration_lack_of_fit", "practical_identifiability"]
+__all__ = ["check_fits_campaign", "MAX_CHI2_PER_DOF", "campaign_identifiability", "check_determined", "check_scale", "unresolved_columns", "UNRESOLVED_RATIO", "residual_chi2", "calibration_lack_of_fit", "practical_identifiability", "warn_fit_checks", "listed", "CHI2_TOLERANCE"]
 
+CHI2_TOLERANCE = 2.0
+"""chi2/dof of the fit against the config's tracker model beyond which (or below whose inverse) the tracker model
+is reported as not describing the data: with a few hundred equations chi2/dof has an sd below 0.1."""
 IMPLAUSIBLE_RATIO = 100.0
 """Factor between the compliances a campaign implies and the config's beyond which the data are taken to be in
 another unit: joints of one robot model differ by tens of percent, a unit slip by 1000 (m, μm against mm)."""
@@ -258,3 +264,37 @@ def check_fits_campaign(results, campaign: str, cell: str, calibration: str) -> 
             f"{chi2 ** 0.5:.0f} times the tracker noise of {cell}): was it computed from this campaign and cell?",
             source=calibration,
         )
+
+
+def warn_fit_checks(results, source: str, stacklevel: int = 3) -> None:
+    """An elastostatic fit's checks as warnings: the sampled parameters the data did not determine, a posterior short of
+    convergence, residuals the config's tracker model does not describe (chi2/dof beyond :data:`CHI2_TOLERANCE`), and
+    repeats the model misses.  ``results`` is an :class:`~bayescal.inference.results.ElastostaticResults` of the
+    campaign read from ``source``; the warnings name the frame ``stacklevel`` counts from this function (3: the line
+    that called its caller, the fit)."""
+    for names, reason in grouped(results.identifiability.practical):
+        warnings.warn(f"{listed(names)} not identifiable from these data: {reason}", NotIdentifiableWarning, stacklevel=stacklevel)
+    warn_if_unconverged(diagnostics(results.tree, results.summary_table), what="the elastostatic posterior", stacklevel=stacklevel + 1)
+    chi2 = results.chi2_per_dof
+    if chi2 is not None and not 1 / CHI2_TOLERANCE < chi2 < CHI2_TOLERANCE:
+        warnings.warn(
+            f"{source}: the residuals are {math.sqrt(chi2):.2f} times the tracker noise of the config "
+            f"(chi2/dof {chi2:.3g}): the config's tracker model does not describe these data "
+            f"({'a larger error, or a misfit of the model' if chi2 > 1 else 'a noise model too pessimistic'}); "
+            "the intervals use the noise the data show",
+            UserWarning,
+            stacklevel=stacklevel,
+        )
+    misfit = results.lack_of_fit
+    if misfit is not None and misfit.significant():
+        warnings.warn(
+            f"{source}: the model misses the repeated configurations: {misfit.describe()}; "
+            "bayescal critique names the likely cause",
+            UserWarning,
+            stacklevel=stacklevel,
+        )
+
+
+def listed(names: list[str]) -> str:
+    """``"k1 is"`` or ``"k2, K_c, s0 are"``."""
+    return f"{', '.join(names)} {'is' if len(names) == 1 else 'are'}"

@@ -23,8 +23,10 @@ alone takes the trend into q and covers the cycle.
 with a flat prior; a repeat group is a nest).  The gauge is the frame at the first nest reading: only the frame's
 changes are seen, and a constant offset is a registration's, not a drift's.
 
-:func:`fit_nest_drift` returns a :class:`NestDrift`; :meth:`NestDrift.remove` takes it out
-of a campaign's readings at their times and adds its variance to each deflection.
+:func:`fit_nest_drift` returns a :class:`NestDrift`; :meth:`NestDrift.remove` takes its mean out
+of a campaign's readings at their times and adds its variance to each deflection;
+:meth:`NestDrift.removed_draws` takes out draws of it, over which a calibration is integrated
+(:func:`~bayescal.inference.mixture.fit_integrated`).
 """
 
 from __future__ import annotations
@@ -231,8 +233,10 @@ class NestDrift:
         other stretch's)."""
         n, t = len(self.knots), np.asarray(times, dtype=float)
         free = self.cov[1:, :, 1:, :].reshape(6 * (n - 1), 6 * (n - 1))
-        # a relative jitter: the covariance is the inverse of a positive definite precision, up to rounding
-        factor = np.linalg.cholesky(free + 1e-12 * np.diag(np.diag(free)) + np.diag(np.full(len(free), 1e-300)))
+        # a relative jitter: the covariance is the inverse of a positive definite precision, up to rounding; one BLAS
+        # thread, as for the fit (the twin's 273 nest readings: 0.64 s of CPU with two contending threads, 0.08 s with one)
+        with one_blas_thread():
+            factor = np.linalg.cholesky(free + 1e-12 * np.diag(np.diag(free)) + np.diag(np.full(len(free), 1e-300)))
         place, weights, _, _ = self._place(t)
         grid, index = np.unique(np.concatenate([self.knots, t]), return_inverse=True)
         spacing = np.diff(grid, prepend=grid[0])[:, None] * self.diffusion * self.scale
@@ -245,11 +249,30 @@ class NestDrift:
             out[k] = np.einsum("ku,kuj->kj", weights, knots[place]) + bridge
         return out
 
+    def removed_draws(self, campaign: Campaign, rng: np.random.Generator, count: int) -> list[Campaign]:
+        """``count`` copies of the campaign, each with one draw of the drift (:meth:`draws`, jointly over all its
+        readings' times) taken out of both readings at their times, and no variance added: over the copies, the draws'
+        spread is the drift's uncertainty, correlated from row to row as the walk's is.  Rows without times are read at
+        no time, where the frame is the gauge's (zero)."""
+        n = len(campaign)
+        timed = np.all(np.isfinite(campaign.times), axis=1)
+        t0, t1 = (np.where(timed, campaign.times[:, k], self.knots[0]) for k in (0, 1))
+        m0, m1 = motion_matrix(campaign.p0, self.tracker), motion_matrix(campaign.p1, self.tracker)
+        return [
+            replace(campaign, p0=campaign.p0 - np.einsum("kij,kj->ki", m0, frame[:n]),
+                    p1=campaign.p1 - np.einsum("kij,kj->ki", m1, frame[n:]))
+            for frame in self.draws(np.concatenate([t0, t1]), rng, count)
+        ]
+
     def remove(self, campaign: Campaign) -> Campaign:
-        """The campaign with the drift taken out of both readings at their times, its deflections' variance added.
+        """The campaign with the drift's posterior mean taken out of both readings at their times, its deflections'
+        variance added.
 
         The added variance per coordinate is the largest eigenvalue of each deflection's drift covariance: the
-        likelihood's noise is the same on the three coordinates, and the drift's is not.
+        likelihood's noise is the same on the three coordinates, and the drift's is not.  A variance per row cannot
+        carry the drift's error, correlated from row to row: the compliances calibrated on this campaign undercover
+        (docs/critique.md, *Drift*), which :meth:`removed_draws` avoids.  The critique's rows take it, and a calibration
+        integrated over the draws takes its residuals and chi-square from it.
         """
         motion0, _ = self.motion(campaign.p0, campaign.times[:, 0])
         motion1, _ = self.motion(campaign.p1, campaign.times[:, 1])
@@ -283,15 +306,18 @@ class NestDrift:
 
 def removed_drift_sentence(drift: dict) -> str:
     """The drift measured and removed, in words: ``drift`` is :meth:`NestDrift.to_json`'s block (its evidence: reference
-    nests, repeat groups or both)."""
+    nests, repeat groups or both), with ``draws_integrated`` when a calibration was integrated over that many draws."""
     evidence = [f"{n} {kind} ({readings} readings)" for n, kind, readings in
                 ((drift["nests"], "reference nests", drift["nest_readings"]),
                  (drift["repeat_groups"], "repeat groups", drift["repeat_readings"])) if n]
+    sd = f"{drift['deflection_sd_added_median_um']:.1f} μm sd in a deflection (median, at most {drift['deflection_sd_added_max_um']:.1f})"
+    draws = drift.get("draws_integrated")
+    uncertainty = (f"its uncertainty, {sd}, integrated over: one calibration per draw of the drift ({draws} draws), pooled"
+                   if draws else f"its uncertainty adds {sd}".replace(" in a ", " to a "))
     return (
         f"drift from {' and '.join(evidence)} over {drift['span_s'] / 3600:.1f} h: "
         f"removed {drift['deflection_removed_rms_um']:.1f} μm rms (at most {drift['deflection_removed_max_um']:.1f} μm) from the "
-        f"deflections, readings moved by up to {drift['readings_moved_max_mm']:.3f} mm; its uncertainty adds "
-        f"{drift['deflection_sd_added_median_um']:.1f} μm sd to a deflection (median, at most {drift['deflection_sd_added_max_um']:.1f})"
+        f"deflections, readings moved by up to {drift['readings_moved_max_mm']:.3f} mm; {uncertainty}"
     )
 
 

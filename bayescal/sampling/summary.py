@@ -25,7 +25,7 @@ from bayescal.sampling.diagnostics import diagnose
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["posterior_tree", "summarize", "diagnostics", "converged", "sample_until_converged", "warn_if_unconverged", "ConvergenceWarning", "parameters_json", "save", "load", "read_posterior", "read_posterior_of"]
+__all__ = ["posterior_tree", "pooled_tree", "COMPONENT", "summarize", "diagnostics", "converged", "sample_until_converged", "warn_if_unconverged", "ConvergenceWarning", "parameters_json", "save", "load", "read_posterior", "read_posterior_of"]
 
 R_HAT_LIMIT = 1.01
 """Largest rank-normalised split R-hat accepted as converged (Vehtari et al. 2021)."""
@@ -35,6 +35,9 @@ ESS_LIMIT = 400
 
 class ConvergenceWarning(UserWarning):
     """The sampler has not converged well enough for its intervals to be trusted."""
+
+COMPONENT = "component"
+"""Coordinate on the ``chain`` dimension of a pooled posterior (:func:`pooled_tree`): the fit each chain comes from."""
 
 SUMMARY_COLUMNS = ["mean", "sd", "lo3", "hi3", "q_lo3", "q_hi3", "r_hat", "ess_bulk", "ess_tail", "unit"]
 CENTRAL_3SIGMA = (0.00135, 0.99865)
@@ -113,6 +116,30 @@ def _dataset(
         "sample_dims": sample_dims,
     }
     return dataset.assign_coords(index).assign_attrs(attrs)
+
+
+def pooled_tree(trees: Sequence[xr.DataTree]) -> xr.DataTree:
+    """The posteriors of several fits pooled into one, an equal-weight mixture, each fit's chains kept as chains.
+
+    Every fit gives as many chains as the fewest of them and as many draws per chain as the shortest (a longer chain
+    thinned evenly), so that each carries the same weight.  The coordinate :data:`COMPONENT` on ``chain`` names the
+    fit of each chain: :func:`summarize` then takes R-hat within each fit (the worst of them) and adds their ESS, since
+    chains of different fits differ by design, not for want of convergence.  The tree's attributes are the first fit's.
+    """
+    import xarray as xr
+
+    posteriors = [tree["posterior"].to_dataset() for tree in trees]
+    chains = min(posterior.sizes["chain"] for posterior in posteriors)
+    length = min(posterior.sizes["draw"] for posterior in posteriors)
+    parts = []
+    for k, posterior in enumerate(posteriors):
+        kept = np.round(np.linspace(0, posterior.sizes["draw"] - 1, length)).astype(int)
+        part = posterior.isel(chain=slice(0, chains), draw=kept)
+        parts.append(part.assign_coords(draw=np.arange(length), **{COMPONENT: ("chain", np.full(chains, k))}))
+    pooled = xr.concat(parts, dim="chain").assign_coords(chain=np.arange(chains * len(parts)))
+    tree = xr.DataTree.from_dict({"posterior": pooled.assign_attrs(posteriors[0].attrs)})
+    tree.attrs.update(trees[0].attrs)
+    return tree
 
 
 def summarize(tree: xr.DataTree, var_names: Sequence[str] | None = None) -> pd.DataFrame:
@@ -235,7 +262,7 @@ def sample_until_converged(run: Callable[[Any], tuple], sampler: Any, extensions
     return output, summary, sampler
 
 
-def warn_if_unconverged(report: dict[str, float | int], *, what: str) -> None:
+def warn_if_unconverged(report: dict[str, float | int], *, what: str, stacklevel: int = 3) -> None:
     """Warn when the diagnostics of :func:`diagnostics` fall short of the usual thresholds.
 
     Parameters
@@ -244,6 +271,8 @@ def warn_if_unconverged(report: dict[str, float | int], *, what: str) -> None:
         The output of :func:`diagnostics`.
     what
         The posterior, as the user knows it (e.g. ``"the geometry posterior"``).
+    stacklevel
+        The frame the warning names, as :func:`warnings.warn` counts it from this function (3: its caller's caller).
     """
     problems = []
     if not report["r_hat_max"] <= R_HAT_LIMIT:
@@ -255,7 +284,7 @@ def warn_if_unconverged(report: dict[str, float | int], *, what: str) -> None:
         warnings.warn(
             f"{what} may not have converged ({', '.join(problems)}): draw more (e.g. --draws) before trusting its intervals",
             ConvergenceWarning,
-            stacklevel=3,
+            stacklevel=stacklevel,
         )
 
 
@@ -343,10 +372,20 @@ def _elements(values: xr.DataArray):
 def _per_element(dataset: xr.Dataset) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray]]:
     """R-hat, bulk ESS and tail ESS of the ``(chain, draw)`` draws of every element of every variable, by variable."""
     out = ({}, {}, {})
+    components = dataset[COMPONENT].values if COMPONENT in dataset.coords else None
     for name, values in dataset.data_vars.items():
         draws = values.transpose("chain", "draw", ...).values
         flat = draws.reshape(draws.shape[0], draws.shape[1], -1)
-        table = np.array([diagnose(flat[:, :, i]) for i in range(flat.shape[-1])]).reshape(-1, 3)
+        table = np.array([_diagnose_pooled(flat[:, :, i], components) for i in range(flat.shape[-1])]).reshape(-1, 3)
         for column, target in enumerate(out):
             target[name] = table[:, column].reshape(draws.shape[2:])
     return out
+
+
+def _diagnose_pooled(draws: np.ndarray, components: np.ndarray | None) -> tuple[float, float, float]:
+    """R-hat, bulk and tail ESS of ``draws`` (chain, draw); with ``components`` (chain,), the fit of each chain, the worst
+    R-hat of any fit and the sum of their ESS (:func:`pooled_tree`)."""
+    if components is None:
+        return diagnose(draws)
+    each = np.array([diagnose(draws[components == k]) for k in np.unique(components)])
+    return float(np.max(each[:, 0])), float(np.sum(each[:, 1])), float(np.sum(each[:, 2]))

@@ -12,8 +12,9 @@ the independent generator's repeats stay back to back), and measures
   one, in the estimate's own sd (the planted drift taken relative to the first reading of the
   walk, the estimate's gauge);
 * the identifiable compliances calibrated after the drift's removal (its variance added per
-  row), integrated over draws of the drift (one calibration per draw removed, their posteriors
-  mixed), and without any removal, in their posterior sd against the generator's truth.
+  row), integrated over draws of the drift as ``calibrate`` integrates it (one calibration per
+  draw removed, their draws pooled), and without any removal, in their posterior sd against the
+  generator's truth.
 """
 
 from __future__ import annotations
@@ -58,27 +59,22 @@ def _compliance_z(posterior: dict, compliances: np.ndarray) -> dict:
 
 
 def _integrated(track, campaign, cell, rng, n_draws: int) -> dict:
-    """The compliances' posterior integrated over ``n_draws`` draws of the drift: each draw removed from both readings
-    at their times, the campaign calibrated, the posteriors mixed (mean of the means; mean variance plus the means'
-    variance).  The removal's error, shared by markers read together and correlated from row to row, is then in
-    the spread of the draws rather than in a per-row variance."""
-    from dataclasses import replace
+    """The compliances' posterior integrated over draws of the drift as ``calibrate`` integrates it
+    (:func:`~bayescal.inference.mixture.fit_integrated`: one calibration per draw removed, the fits' draws pooled), for
+    the first 2, 4, … and all ``n_draws`` draws of the same fits, by count."""
+    from bayescal.inference.elastostatic import EXTENSIONS, ElastostaticModel
+    from bayescal.inference.samplers import elastostatic_sampler
+    from bayescal.sampling.summary import pooled_tree, summarize
 
-    from bayescal.registration.nest_drift import motion_matrix
-
-    n = len(campaign)
-    frames = track.draws(np.concatenate([campaign.times[:, 0], campaign.times[:, 1]]), rng, n_draws)
-    m0, m1 = motion_matrix(campaign.p0, track.tracker), motion_matrix(campaign.p1, track.tracker)
-    fits = [
-        _posterior(replace(campaign, p0=campaign.p0 - np.einsum("kij,kj->ki", m0, frame[:n]),
-                           p1=campaign.p1 - np.einsum("kij,kj->ki", m1, frame[n:])), cell, rng)
-        for frame in frames
-    ]
-    mixed = {}
-    for name in fits[0]:
-        means, sds = np.array([fit[name][0] for fit in fits]), np.array([fit[name][1] for fit in fits])
-        mixed[name] = (float(means.mean()), float(np.sqrt(np.mean(sds**2) + means.var(ddof=1))))
-    return mixed
+    model = ElastostaticModel.from_cell(cell, None, model="exact", sampler=elastostatic_sampler("collapsed"), extensions=EXTENSIONS)
+    fits = [model.fit(draw, rng, checks=False) for draw in track.removed_draws(campaign, rng, n_draws)]
+    names = [name for name, entry in fits[0].parameters().items() if name[0] == "k" and "mean" in entry]
+    counts = sorted({*(2 ** np.arange(1, int(np.log2(n_draws)) + 1)), n_draws})
+    out = {}
+    for count in counts:
+        summary = summarize(pooled_tree([fit.tree for fit in fits[:count]]))
+        out[count] = {name: (float(summary.loc[name, "mean"]), float(summary.loc[name, "sd"])) for name in names}
+    return out
 
 
 def _independent(magnitude: float, rng: np.random.Generator, cell):
@@ -130,7 +126,7 @@ def _one(case: tuple, rng: np.random.Generator, cell, plan, n_draws: int) -> dic
         campaign, nests, drift, compliances = _independent(magnitude, rng, cell)
     else:
         campaign, nests, drift, compliances = _twin(magnitude, rng, cell, plan, passes=evidence == "repeats")
-    track = fit_drift(campaign, cell.tracker, nests if evidence == "nests" else None, repeats=evidence == "repeats")
+    track = fit_drift(campaign, cell.tracker, None if evidence == "repeats" else nests, repeats=evidence != "nests")
     planted = _planted(drift, campaign, track)
     readings = []
     for state, (p, t) in enumerate(((campaign.p0, campaign.times[:, 0]), (campaign.p1, campaign.times[:, 1]))):
@@ -144,7 +140,8 @@ def _one(case: tuple, rng: np.random.Generator, cell, plan, n_draws: int) -> dic
         warnings.simplefilter("ignore", UserWarning)
         fits = {"removed": _posterior(track.remove(campaign), cell, rng), "kept": _posterior(campaign, cell, rng)}
         if n_draws:
-            fits["integrated"] = _integrated(track, campaign, cell, rng, n_draws)
+            for count, posterior in _integrated(track, campaign, cell, rng, n_draws).items():
+                fits["integrated" if count == n_draws else f"integrated{count}"] = posterior
     row = {"generator": generator, "evidence": evidence, "magnitude": magnitude, "seed": seed,
            "diffusion_m2_per_s": track.diffusion, "planted_deflection_rms_um": float(np.sqrt(np.mean(truth_deflection**2)) * 1e6)}
     row |= {f"reading_{k}": v for k, v in _within(np.concatenate(readings)).items()}
@@ -180,10 +177,12 @@ def nest_drift_coverage(
         ``"independent"``: :mod:`bayescal.twin.independent`'s ``thermal_drift`` on random plans; ``"twin"``: the
         twin's :class:`~bayescal.twin.drift.TrackerDrift` on the plan of ``plan_path``.
     evidence
-        ``"nests"``: the walk fitted to the nests and the repeat groups (as ``calibrate --nests``); ``"repeats"``: to the
-        repeat groups alone (as ``calibrate --drift-from-repeats``), the twin's campaigns measured in passes.
+        ``"nests"``: the walk fitted to the nests alone (as ``calibrate --nests``); ``"both"``: to the nests and the
+        repeat groups (``--nests --drift-from-repeats``); ``"repeats"``: to the repeat groups alone
+        (``--drift-from-repeats``), the twin's campaigns then measured in passes.
     n_draws
-        Draws of the drift the calibration is integrated over (0: not integrated; about that many calibrations more).
+        Draws of the drift the calibration is integrated over (0: not integrated; that many calibrations more), the
+        posteriors of their first 2, 4, … draws pooled as well.
     executor, progress
         As :func:`~bayescal.design.parallel.seeded_map` takes them.
 
@@ -194,7 +193,8 @@ def nest_drift_coverage(
         deflections (μm); ``reading_within_{1,2,3}sd`` and ``deflection_within_{1,2,3}sd``, the fractions of the
         readings' and the deflections' coordinates whose drift lies within 1, 2, 3 sd of the estimate; and
         ``removed_z_k<j>`` / ``integrated_z_k<j>`` / ``kept_z_k<j>``, each identifiable compliance's error in
-        posterior sd, calibrated after the drift's removal, integrated over its draws (with ``n_draws``) and without it.
+        posterior sd, calibrated after the drift's removal (its variance added per row), integrated over its
+        ``n_draws`` draws and without it; ``integrated<D>_z_k<j>``: integrated over the first D of the draws.
     """
     from bayescal.cell.config import load_cell
     from bayescal.cell.plan import read_plan

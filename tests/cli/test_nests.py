@@ -44,6 +44,21 @@ def test_calibrate_removes_the_drift_and_says_how_much(capsys, files):
     assert status == 0 and "drift from 3 reference nests" in out and "μm rms" in out
 
 
+def test_calibrate_integrates_over_the_drifts_draws_and_says_how_many(capsys, files):
+    argv = [str(files["campaign"]), "--config", files["config"], "--nests", str(files["nests"]), "--draws", "100"]
+    status, out, _ = run(capsys, "calibrate", [*argv, "--drift-draws", "3", "--json"])
+    payload = json.loads(out)
+    # one calibration per draw, each fit's chains kept as chains
+    assert status == 0 and payload["drift"]["draws_integrated"] == 3 and payload["diagnostics"]["n_chains"] == 3 * 32
+    status, out, _ = run(capsys, "calibrate", argv)
+    assert status == 0 and "integrated over: one calibration per draw of the drift (8 draws), pooled" in out
+    status, _, err = run(capsys, "calibrate", [*argv, "--drift-draws", "1"])
+    assert status == 2 and "--drift-draws" in err and "a whole number >= 2" in err
+    # without a drift measured the option has nothing to integrate over
+    status, _, err = run(capsys, "calibrate", [str(files["campaign"]), "--config", files["config"], "--drift-draws", "4"])
+    assert status == 2 and err.startswith("bayescal calibrate: error: --drift-draws: expected with --nests") and err.count("\n") == 1
+
+
 def test_critique_measures_the_drift_instead_of_trying_it(capsys, files):
     status, out, _ = run(capsys, "critique", [str(files["campaign"]), "--config", files["config"], "--nests", str(files["nests"]), "--json"])
     assert status == 0
@@ -119,12 +134,20 @@ def test_a_bad_read_nests_value_is_one_line_and_exit_2(capsys, data_dir, tmp_pat
 def test_report_removes_the_drift_from_the_campaign_it_checks_the_calibration_against(capsys, files, tmp_path):
     posterior = tmp_path / "posterior.nc"
     common = ["--config", files["config"], "--nests", str(files["nests"])]
-    assert run(capsys, "calibrate", [str(files["campaign"]), *common, "--draws", "100", "--posterior", str(posterior)])[0] == 0
-    # the posterior file records the drift taken out of the campaign it was fitted to
+    status, out, _ = run(capsys, "calibrate", [str(files["campaign"]), *common, "--draws", "100", "--posterior", str(posterior), "--json"])
+    assert status == 0
+    calibrated = json.loads(out)
+    # the posterior file records the drift taken out of the campaign it was fitted to, and over how many draws
     assert json.loads(load(posterior).attrs["nest_drift"])["nests"] == 3
+    assert json.loads(load(posterior).attrs["nest_drift"])["draws_integrated"] == 8
     status, out, _ = run(capsys, "report", ["--calibration", str(posterior), "--campaign", str(files["campaign"]), *common,
                                             "-o", str(tmp_path / "review")])
     assert status == 0 and (tmp_path / "review" / "index.html").is_file()
+    # the pooled draws restored on the campaign the drift's mean was taken out of: the numbers calibrate gave
+    numbers = json.loads((tmp_path / "review" / "numbers.json").read_text(encoding="utf-8"))
+    assert numbers["parameters"]["parameters"]["k3"]["mean"] == calibrated["parameters"]["k3"]["mean"]
+    assert numbers["residuals"]["chi2_per_dof"] == calibrated["diagnostics"]["chi2_per_dof"]
+    assert numbers["overview"]["elastostatic_diagnostics"]["r_hat_max"] == calibrated["diagnostics"]["r_hat_max"]
     status, _, err = run(capsys, "report", ["--calibration", str(posterior), "--nests", str(files["nests"]), "-o", str(tmp_path / "r2")])
     assert status == 2 and err.count("\n") == 1
 

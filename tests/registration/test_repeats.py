@@ -70,3 +70,20 @@ def test_the_walks_draws_have_its_mean_and_covariance(cell):
     change = moved[:, 4] - moved[:, 3]
     _, pair = track.change(points[3:4], points[4:5], times[3:5][None, :])
     assert np.allclose(change.var(axis=0), np.diag(pair[0]), rtol=0.1)
+
+
+def test_each_removed_draw_takes_one_draw_of_the_drift_out_of_both_readings(cell):
+    campaign, _ = steady_campaign(cell.tracker, np.random.default_rng(2))
+    track = fit_drift(campaign, cell.tracker)
+    draws = track.removed_draws(campaign, np.random.default_rng(6), 2000)
+    removed = track.remove(campaign)
+    deflections = np.array([(draw.p1 - draw.p0) for draw in draws])
+    _, cov = track.deflection(campaign)
+    sd = np.sqrt(np.einsum("kii->ki", cov))
+    # about the posterior mean's removal, the deflections spread as the drift's posterior in them; no variance added
+    assert np.all(np.abs(deflections.mean(axis=0) - (removed.p1 - removed.p0)) < 5 * sd / np.sqrt(2000))
+    assert np.allclose(deflections.var(axis=0), sd**2, rtol=0.15)
+    assert all(draw.added_variance is None for draw in draws) and removed.added_variance is not None
+    # the unloaded readings of two rows read 15 s apart move together: the draws carry the walk's correlation
+    a, b = (np.array([draw.p0[k, 0] for draw in draws]) for k in (0, 1))
+    assert np.corrcoef(a, b)[0, 1] > 0.9

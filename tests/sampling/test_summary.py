@@ -205,3 +205,30 @@ def test_read_posterior_of_refuses_the_other_kind_a_missing_variable_and_non_fin
     with pytest.raises(InputError, match="1 non-finite draws") as error:
         read_posterior_of(str(tmp_path / "nan.nc"), "--thing", needs=("a",), foreign="z", other="--other")
     assert error.value.column == "a"
+
+
+def test_a_pooled_posterior_mixes_its_fits_and_judges_convergence_within_each():
+    from bayescal.sampling.summary import COMPONENT, pooled_tree
+
+    rng = np.random.default_rng(8)
+    # two fits whose posteriors differ by 5 sd (a correction's draws apart), one with twice the draws and more chains
+    first = posterior_tree({"k": rng.normal(0.0, 1.0, size=(4, 400))}, units={"k": "mm"}, attrs={"sampler": "a"})
+    second = posterior_tree({"k": rng.normal(5.0, 1.0, size=(6, 800))}, units={"k": "mm"}, attrs={"sampler": "b"})
+    tree = pooled_tree([first, second])
+    posterior = tree["posterior"]
+    assert posterior.sizes["chain"] == 8 and posterior.sizes["draw"] == 400 and tree.attrs["sampler"] == "a"
+    assert list(posterior[COMPONENT].values) == [0] * 4 + [1] * 4
+    summary = summarize(tree)
+    # the mixture: mean halfway, variance the within plus the between (1 + 2.5²)
+    assert summary.loc["k", "mean"] == pytest.approx(2.5, abs=0.1)
+    assert summary.loc["k", "sd"] == pytest.approx(np.sqrt(1 + 2.5**2), rel=0.05)
+    # each fit converged: R-hat near 1 and the ESS the sum of both, where the chains taken as one fit would fail
+    assert summary.loc["k", "r_hat"] < 1.01 and summary.loc["k", "ess_bulk"] > 2000
+    plain = posterior.to_dataset().drop_vars(COMPONENT)
+    assert summarize(xr_tree(plain)).loc["k", "r_hat"] > 1.5
+
+
+def xr_tree(dataset):
+    import xarray as xr
+
+    return xr.DataTree.from_dict({"posterior": dataset})

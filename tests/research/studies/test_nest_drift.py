@@ -38,3 +38,17 @@ def test_drift_is_measured_within_its_sd_and_the_compliances_cover_after_its_rem
     # the compliances' errors within their 1, 2, 3 sd as often as a normal's, to four binomial sd
     tolerance = 4 * np.sqrt(NOMINAL * (1 - NOMINAL) / n) + 1.0 / n
     assert np.all(np.abs(rates - NOMINAL) <= tolerance), (rates, tolerance)
+
+
+@pytest.mark.slow
+def test_calibrate_integrated_over_its_default_drift_draws_covers_at_two_sd(data_dir):
+    """The twin at three times its default drift (0.6 mm/h), measured from nests and repeats (``calibrate --nests
+    --drift-from-repeats``), the calibration integrated over ``calibrate``'s default number of draws: the compliances
+    within 2 posterior sd as often as a normal's, to 2 binomial sd, over 60 campaigns (300 errors)."""
+    from bayescal.cli.calibrate import DRIFT_DRAWS
+
+    table = nest_drift_coverage(data_dir / "kr270.toml", (3.0,), n_seeds=60, generator="twin", evidence="both",
+                                n_draws=DRIFT_DRAWS, plan_path=data_dir / "table3_plan.csv")
+    rates, n = coverage(table, "integrated_z_")
+    tolerance = 2 * np.sqrt(NOMINAL[1] * (1 - NOMINAL[1]) / n)
+    assert n >= 300 and abs(rates[1] - NOMINAL[1]) <= tolerance, (rates, tolerance)
