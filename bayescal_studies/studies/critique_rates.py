@@ -167,8 +167,9 @@ SET_ON: dict[str, str] = {
     "twin": "all: the naming rule's constants (DETECTION_Z, DETECTION_FLOOR, DECISIVE_GAIN, TIE_NOISE), the catalogue "
             "and its settings, the drift evidence",
     "independent": "the lost-motion family's settings (friction holds, side on arrival, compensated-joint torque "
-                   "shifts; after gear_play and approach_play) and the drift evidence's first-reading rule (gear_play, "
-                   "seeds 9000-9002)",
+                   "shifts; after gear_play and approach_play; the holds as fractions of the rated torque, chosen on "
+                   "the breakaway torques the twin and this generator take) and the drift evidence's first-reading "
+                   "rule (gear_play, seeds 9000-9002)",
     "beams": "none",
 }
 """Which of the critique's rules were set on campaigns of each generator (docs/critique.md); the rates of the others

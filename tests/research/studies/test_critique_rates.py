@@ -74,3 +74,16 @@ def test_on_the_third_generator_the_compliances_and_outliers_meet_the_bounds(dat
         assert summary.loc[effect, "right"] >= 0.95 and summary.loc[effect, "wrong_single"] <= 0.05
     # no candidate is named on the arm without a planted effect at these seeds: its misfits are called unexplained
     assert set(table.loc[table.effect == "none", "first"]) <= {"adequate", "unexplained"}
+
+
+def test_each_generators_campaigns_are_read_with_the_tool_weight_it_simulates(cell):
+    from dataclasses import replace
+
+    from bayescal_studies.studies.critique_rates import _weighed
+
+    beams = _weighed(cell, GENERATORS["beams"], "lost_motion")
+    assert beams.robot.tool_mass == 38.0 and beams.robot.tool_centre == pytest.approx([0.17, 0.0, 0.09])
+    assert _weighed(cell, GENERATORS["independent"], "tool_mount").robot.tool_mass == 30.0
+    assert _weighed(cell, GENERATORS["independent"], "gear_play") is cell and _weighed(cell, GENERATORS["twin"], "backlash") is cell
+    with pytest.raises(ValueError, match="weighs a tool already"):
+        _weighed(replace(cell, robot=cell.robot.with_tool(5.0, [0.1, 0.0, 0.0])), GENERATORS["beams"], "none")
