@@ -34,7 +34,7 @@ SCHEMA: dict[str, frozenset[str] | None] = {
     "robot.coupled": None,
     "joints": frozenset({"k_urad_per_Nm", "k_um_per_N", "k_log_sd"}),
     "compensator": COMPENSATOR_KEYS | frozenset(p.key for law in LAWS.values() for p in law.PARAMETERS + law.CONSTANTS),
-    "tool": frozenset({"load_point_mm", "markers_mm", "tcp_mm"}),
+    "tool": frozenset({"load_point_mm", "markers_mm", "tcp_mm", "mass_kg", "com_mm"}),
     "tool.markers_mm": None,
     "tracker": frozenset({"position_mm", "U0_um", "U1_um_per_m", "factor"}),
     "load": frozenset({"mass_kg", "gravity_m_per_s2", "directions", "force_max_N", "couple_max_Nm"}),

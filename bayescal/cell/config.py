@@ -276,6 +276,7 @@ def load_cell(path: str | PathLike[str]) -> Cell:
     tracker = _read_tracker(reader)
 
     load_mass = reader.number("load", "mass_kg", unit="kg", positive=True)
+    robot = _with_tool_weight(reader, robot, max(payload or 0.0, load_mass))
     gravity = reader.number("load", "gravity_m_per_s2", unit="m/s²", positive=True, default=9.80665)
 
     test_q = _read_test_pose_q(reader, robot)
@@ -377,6 +378,25 @@ def _read_tool(reader: CellFileReader) -> tuple[np.ndarray, dict[str, np.ndarray
     return load_point, markers
 
 
+def _with_tool_weight(reader: CellFileReader, robot: Robot, capacity_kg: float) -> Robot:
+    """The robot carrying the ``[tool]`` table's weighed tool (``mass_kg`` at ``com_mm``); itself without one."""
+    table = reader.table("tool")
+    if "com_mm" in table and "mass_kg" not in table:
+        reader.fail("a centre of mass without the tool's mass: give mass_kg (kg) with com_mm", "tool", "com_mm")
+    mass = reader.number("tool", "mass_kg", unit="kg", non_negative=True, default=0.0)
+    if mass > capacity_kg:
+        reader.fail(f"a tool of {mass:g} kg is heavier than the {capacity_kg:g} kg the robot carries (robot.payload_kg, "
+                    "load.mass_kg): is it in g?", "tool", "mass_kg")
+    if mass == 0.0:
+        return robot
+    if "com_mm" not in table:
+        reader.fail("missing key 'com_mm' (the tool's centre of mass, flange frame, a list of 3 numbers in mm), "
+                    "required with mass_kg", "tool")
+    centre = reader.vector("tool", "com_mm", 3, unit="mm") * MM
+    _check_reach(reader, centre, {}, key="com_mm")
+    return robot.with_tool(mass, centre)
+
+
 def _read_tracker(reader: CellFileReader) -> TrackerNoise:
     """The ``[tracker]`` table: the tracker's position (base frame, m) and noise model."""
     noise = {
@@ -390,14 +410,14 @@ def _read_tracker(reader: CellFileReader) -> TrackerNoise:
     return tracker
 
 
-def _check_reach(reader, load_point: np.ndarray, markers: dict[str, np.ndarray]) -> None:
-    """Refuse a load point or a marker farther from the flange than any tool reaches."""
-    for key, point in [("load_point_mm", load_point)] + [(name, point) for name, point in markers.items()]:
+def _check_reach(reader, load_point: np.ndarray, markers: dict[str, np.ndarray], key: str = "load_point_mm") -> None:
+    """Refuse a load point (or the tool's centre of mass, ``key``) or a marker farther from the flange than any tool reaches."""
+    for name, point in [(key, load_point)] + list(markers.items()):
         distance = float(np.linalg.norm(point))
         if distance > MAX_LOAD_ARM:
-            table = "tool" if key == "load_point_mm" else "tool.markers_mm"
+            table = "tool" if name == key else "tool.markers_mm"
             reader.fail(
                 f"a point {distance / MM:.6g} mm from the flange is beyond any tool ({MAX_LOAD_ARM / MM:g} mm); is it in μm instead of mm?",
                 table,
-                key,
+                name,
             )

@@ -26,7 +26,9 @@ parameters where the physics allows:
     sign smoothed over :data:`BACKLASH_PRELOAD` of the joint's largest load torque;
     and the same with memory (a joint whose torque stays within a friction hold keeps
     the side the previous state left it at, in the order of measurement), the hold
-    tried at each of :data:`BACKLASH_HOLDS`, a joint driven to a new configuration
+    tried at each of :data:`BACKLASH_HOLDS` of the joint's rated torque (the URDF's
+    effort limit: a gear's breakaway torque follows the gear, not the plan's loads),
+    the torques including the weighed tool's (``[tool] mass_kg``), a joint driven to a new configuration
     arriving on the side it was left at or on the side its servo drove it to, the
     compensated joint's unloaded torque taken as the cell's or a tenth of its largest
     load torque either side of it (:data:`BACKLASH_SETTINGS`, :meth:`Extension.variants`).
@@ -58,7 +60,7 @@ from bayescal.cell.config import Cell
 from bayescal.critique.covariates import COVARIATES, PREDICTED_MARKER, REVERSED_MARKER, Rows
 from bayescal.critique.drift import drift_deflection, drift_evidence
 
-__all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "BACKLASH_HOLDS", "BACKLASH_SHIFTS", "BACKLASH_SETTINGS", "APPROACH_MOVE", "OUTLIER_DOF"]
+__all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "BACKLASH_HOLDS", "BACKLASH_SHIFTS", "rated_torques", "BACKLASH_SETTINGS", "APPROACH_MOVE", "OUTLIER_DOF"]
 
 BEAM_MIN_LENGTH = 0.5
 """Shortest link (m, between consecutive joint origins) modelled as a beam: shorter links of an
@@ -67,13 +69,14 @@ BACKLASH_PRELOAD = 0.05
 """Torque, as a fraction of the largest load torque on the joint in the rows, over which a joint
 crosses its dead band: a joint preloaded by much less than the loads (a wrist under a light tool)
 does not sit firmly at one end of its lost motion, and ``sign τ`` would overstate its jump."""
-BACKLASH_HOLDS = (0.05, 0.15, 0.3, 0.5)
-"""Friction holds tried for the lost motion with memory, as fractions of the joint's largest load
-torque in the rows: the torque the other way beyond which a joint held in its play crosses it.  How
-hard friction holds a reducer within its play is not known beforehand and differs from joint to
-joint (ESTIMATE: breakaway torques of a few per cent of the rated torque, against load torques of
-tens of per cent of it), so the critique keeps the hold that predicts the held-out configurations
-best, from a negligible one (:data:`BACKLASH_PRELOAD`) to half the largest load torque."""
+BACKLASH_HOLDS = (0.01, 0.03, 0.1)
+"""Friction holds tried for the lost motion with memory, as fractions of each joint's rated torque
+(:func:`rated_torques`): the torque the other way beyond which a joint held in its play crosses it.
+A reducer's breakaway torque follows its size, which its rating gives, not the loads a plan happens to
+apply.  How hard it holds is not known beforehand (ESTIMATE: a few per cent of rated, as the twin and the
+independent generator take it, 1-6 %), so the critique keeps the hold that predicts the held-out
+configurations best, one per factor of about three from 1 % to 10 % of rated.  Chosen on the physics and
+on the twin's and the independent generator's campaigns, not on the third generator's."""
 APPROACH_MOVE = 1e-3
 """Smallest change of a commanded joint angle (rad, or m for a prismatic joint) between configurations
 counted as a move: below it the joint was not driven and keeps its side."""
@@ -118,7 +121,7 @@ class Extension:
     setting : object
         The value a variant has (None: the extension has no setting).
     describe : callable or None
-        ``describe(setting, rows)`` -> dict: the setting in physical units.
+        ``describe(setting, rows, cell)`` -> dict: the setting in physical units.
     """
 
     name: str
@@ -128,15 +131,15 @@ class Extension:
     physical: bool = True
     grid: tuple = ()
     setting: object = None
-    describe: Callable[[object, Rows], dict] | None = None
+    describe: Callable[[object, Rows, Cell], dict] | None = None
 
     def variants(self) -> list[Extension]:
         """The extension at each value of its ``grid`` (itself when it has none)."""
         return [replace(self, grid=(), setting=value) for value in self.grid] or [self]
 
-    def reading(self, rows: Rows) -> dict:
+    def reading(self, rows: Rows, cell: Cell) -> dict:
         """Its setting in physical units, for the rows it was chosen on."""
-        return {"setting": self.setting} if self.describe is None else self.describe(self.setting, rows)
+        return {"setting": self.setting} if self.describe is None else self.describe(self.setting, rows, cell)
 
     def regressors(self, rows: Rows, cell: Cell) -> np.ndarray:
         """(N, 3, m) the columns of its m parameters, at its setting."""
@@ -232,7 +235,19 @@ def _tool_compliance(rows: Rows, cell: Cell) -> np.ndarray:
     return _spring(rows.flange[:, :3, :3], rows.flange[:, :3, 3], rows.wrench[:, :3], rows.wrench[:, 3:], rows.position)
 
 
-def _backlash(rows: Rows, cell: Cell, setting: tuple[float, bool, float] = (BACKLASH_PRELOAD, False, 0.0)) -> np.ndarray:
+def rated_torques(rows: Rows, cell: Cell) -> np.ndarray:
+    """(nq,) each joint's rated torque, N·m (N for a prismatic joint): the URDF's effort limit, as the twin takes it.
+
+    A joint whose URDF gives no effort limit (none, zero or infinite) takes its largest load torque in the rows
+    instead (1 where it carries none).
+    """
+    effort = np.array(cell.robot.model.effortLimit, dtype=float)
+    largest = np.abs(rows.load_torque).max(axis=0)
+    fallback = np.where(largest > 0, largest, 1.0)
+    return np.where(np.isfinite(effort) & (effort > 0), effort, fallback)
+
+
+def _backlash(rows: Rows, cell: Cell, setting: tuple[float, bool, float] = (BACKLASH_HOLDS[0], False, 0.0)) -> np.ndarray:
     """Lost motion per joint in its two first-order forms: without and with memory (2·nq columns).
 
     Without memory the joint sits at the side its torque pushes it to in every
@@ -247,8 +262,8 @@ def _backlash(rows: Rows, cell: Cell, setting: tuple[float, bool, float] = (BACK
     plan's candidate at its first loading after a load that took the plan joint to
     the other side (rows marked :data:`~bayescal.critique.covariates.REVERSED_MARKER`)
     has that joint start from the far side.
-    With memory the band is the friction hold (a fraction of the joint's largest
-    load torque in the rows), which a gear held in its play must be pushed beyond,
+    With memory the band is the friction hold (a fraction of the joint's rated
+    torque, :func:`rated_torques`), which a gear held in its play must be pushed beyond,
     and a joint driven to a new configuration arrives either on the side the
     previous state left it at or on the side its servo drove it to: ``setting`` is
     ``(hold, approached, shift)`` (:data:`BACKLASH_SETTINGS`), ``shift`` the error of the
@@ -262,7 +277,7 @@ def _backlash(rows: Rows, cell: Cell, setting: tuple[float, bool, float] = (BACK
         static[:, cell.compensated_joint] += shift * scale[cell.compensated_joint]
     width = BACKLASH_PRELOAD * scale
     change = np.tanh((static + rows.load_torque) / width) - np.tanh(static / width)
-    held = hold * scale
+    held = hold * rated_torques(rows, cell)
     # A pose to predict has no order of measurement: with memory it is taken as a repeat, whose joints
     # move only where the unloaded torque leaves the band, and a plan does not count on the others.
     steady = np.tanh((static + rows.load_torque) / held) - np.tanh(static / held)
@@ -282,8 +297,8 @@ def _backlash(rows: Rows, cell: Cell, setting: tuple[float, bool, float] = (BACK
     return np.concatenate([rows.point_jacobian * change[:, np.newaxis, :], rows.point_jacobian * remembered[:, np.newaxis, :]], axis=2)
 
 
-def _hold_reading(setting: tuple[float, bool, float], rows: Rows) -> dict:
-    """The lost motion's friction hold, as a fraction of each joint's largest load torque and in N·m per joint,
+def _hold_reading(setting: tuple[float, bool, float], rows: Rows, cell: Cell) -> dict:
+    """The lost motion's friction hold, as a fraction of each joint's rated torque and in N·m per joint,
     what sets a joint's side on arriving at a configuration, and the error tried in the compensated joint's
     unloaded torque: the fraction, and what it comes to in N·m on each joint, of which only the compensated
     joint's entry is applied (the reading does not know which joint that is)."""
@@ -291,8 +306,8 @@ def _hold_reading(setting: tuple[float, bool, float], rows: Rows) -> dict:
     largest = np.abs(rows.load_torque).max(axis=0)
     return {
         "arrival_side": "driven" if approached else "kept",
-        "hold_fraction_of_largest_load_torque": hold,
-        "hold_Nm": [round(float(v), 1) for v in hold * largest],
+        "hold_fraction_of_rated_torque": hold,
+        "hold_Nm": [round(float(v), 1) for v in hold * rated_torques(rows, cell)],
         "compensated_joint_torque_shift_fraction": shift,
         "compensated_joint_torque_shift_Nm": [round(float(v), 1) for v in shift * largest],
     }

@@ -188,7 +188,7 @@ class Critique:
             lack_of_fit=misfit,
             tied_with={cause: others for cause, others in search.tied.items() if others},
             contested_by={cause: others for cause, others in search.contested.items() if others},
-            settings={e.name: e.reading(rows) for e in model.extensions if e.setting is not None},
+            settings={e.name: e.reading(rows, self.cell) for e in model.extensions if e.setting is not None},
             importance=self._importance(search.history, rows, y, scale, group, equation_rows),
             drift=measured or _drift_report(drift, rows, "drift" in self.catalogue),
         )

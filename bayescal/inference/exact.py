@@ -16,7 +16,6 @@ from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
-import pinocchio as pin
 
 from bayescal.cell.campaign import Campaign
 from bayescal.inference.closedform import ClosedForm, closed_form
@@ -25,7 +24,7 @@ from bayescal.inference.identifiability import Identifiability
 from bayescal.robot.batched import BatchedChain, equilibria
 from bayescal.robot.compensator import law_on
 from bayescal.robot.laws import CompensatorLaw
-from bayescal.robot.kinematics import Robot
+from bayescal.robot.kinematics import Robot, scaled_links
 from bayescal.robot.stiffness import ElasticArm
 
 __all__ = ["ExactCorrection", "campaign_deflections", "exact_deflections", "linearisation_offset", "moved_point", "scale_masses"]
@@ -127,12 +126,9 @@ def exact_deflections(
 
 
 def scale_masses(robot: Robot, factor: float) -> Robot:
-    """A copy of ``robot`` with every link's mass and rotational inertia multiplied by ``factor``."""
-    model = robot.model.copy()
-    for i in range(1, model.njoints):
-        inertia = model.inertias[i]
-        model.inertias[i] = pin.Inertia(inertia.mass * factor, inertia.lever, inertia.inertia * factor)
-    return Robot(model, flange=robot.flange, source=robot.source)
+    """A copy of ``robot`` with every link's mass and rotational inertia multiplied by ``factor``; a weighed tool's
+    (:meth:`~bayescal.robot.kinematics.Robot.with_tool`) is kept."""
+    return robot.with_model(scaled_links(robot, factor))
 
 
 def campaign_deflections(

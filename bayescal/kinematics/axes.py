@@ -94,4 +94,4 @@ def corrected_robot(robot: Robot, deltas: np.ndarray) -> Robot:
     for j in range(1, model.njoints):
         turn = pin.SE3(axis_frame(axes[j]), np.zeros(3))
         model.jointPlacements[j] = model.jointPlacements[j] * (turn * pin.exp6(pin.Motion(deltas[j - 1])) * turn.inverse())
-    return Robot(model, flange=robot.flange, source=robot.source)
+    return robot.with_model(model)

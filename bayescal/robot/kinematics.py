@@ -27,7 +27,7 @@ from bayescal.output import record_read
 from bayescal.robot.chain import joint_kind, reduce_to_chain
 from bayescal.units import DEG, MM
 
-__all__ = ["Robot", "Workspace"]
+__all__ = ["Robot", "Workspace", "scaled_links"]
 
 _LIMIT_TOLERANCE = 1e-9
 """Slack on joint limits (rad; times 1 mm/m, m, for a prismatic joint) so that a plan written at a limit in deg or mm is accepted."""
@@ -63,9 +63,15 @@ class Robot:
         The campaign and plan files' column of each joint: ``q<j>_deg`` or ``q<j>_mm``.
     flange : str
         Name of the flange frame.
+    tool_mass : float
+        The tool's weighed mass, kg, already in the flange body's inertia (:meth:`with_tool`); 0 without a tool.
+    tool_centre : numpy.ndarray
+        (3,) the tool's centre of mass, flange frame, m.
     """
 
-    def __init__(self, model: pin.Model, *, flange: str = "flange", source: str | None = None) -> None:
+    def __init__(
+        self, model: pin.Model, *, flange: str = "flange", source: str | None = None, tool_mass: float = 0.0, tool_centre=None
+    ) -> None:
         kinds = [joint_kind(joint) for joint in list(model.joints)[1:]]
         if None in kinds:
             name = list(model.names)[1 + kinds.index(None)]
@@ -90,6 +96,32 @@ class Robot:
         self.source = source
         self._flange_id = model.getFrameId(flange)
         self._flange_frame = model.frames[self._flange_id]
+        self.tool_mass = float(tool_mass)
+        self.tool_centre = np.zeros(3) if tool_centre is None else np.asarray(tool_centre, dtype=float).reshape(3)
+
+    def with_model(self, model: pin.Model) -> Robot:
+        """A robot of ``model`` (a changed copy of this one's: its placements or masses) with this one's flange, source and tool."""
+        return Robot(model, flange=self.flange, source=self.source, tool_mass=self.tool_mass, tool_centre=self.tool_centre)
+
+    def with_tool(self, mass: float, centre) -> Robot:
+        """A copy carrying a tool of ``mass`` kg whose centre of mass is ``centre`` (3,) m, flange frame.
+
+        The tool's weight joins the flange body's inertia (as a point mass: its rotational inertia does not
+        enter the statics), so that every gravity torque of the model, Pinocchio's and
+        :class:`~bayescal.robot.batched.BatchedChain`'s, carries it.  A mass of 0 returns this robot itself.
+        """
+        if mass == 0.0:
+            return self
+        model = self.model.copy()
+        joint = self._flange_frame.parentJoint
+        model.inertias[joint] = model.inertias[joint] + self.tool_inertia(mass, centre)
+        return Robot(model, flange=self.flange, source=self.source, tool_mass=mass, tool_centre=centre)
+
+    def tool_inertia(self, mass: float | None = None, centre=None) -> pin.Inertia:
+        """A point mass (default: the tool's) at ``centre`` (flange frame, m) in the frame of the flange's parent joint."""
+        mass = self.tool_mass if mass is None else mass
+        centre = self.tool_centre if centre is None else np.asarray(centre, dtype=float).reshape(3)
+        return pin.Inertia(float(mass), self._flange_frame.placement.act(centre), np.zeros((3, 3)))
 
     @classmethod
     def from_urdf(
@@ -185,6 +217,23 @@ class Robot:
                     line=line,
                     column=self.position_columns[j],
                 )
+
+
+def scaled_links(robot: Robot, factor: float) -> pin.Model:
+    """A copy of ``robot``'s model with every link's mass and rotational inertia multiplied by ``factor``, the centres
+    of mass kept, and the tool's weight (:meth:`Robot.with_tool`) unscaled: a weighed tool is not the URDF's guess."""
+    model = robot.model.copy()
+    tool_joint = robot._flange_frame.parentJoint
+    tool = robot.tool_inertia()
+    for i in range(1, model.njoints):
+        inertia = model.inertias[i]
+        if i == tool_joint and robot.tool_mass > 0:
+            # Inertias are linear in their dynamic parameters (m, m·c, I): take the tool out, scale the link, put it back.
+            link = inertia.toDynamicParameters() - tool.toDynamicParameters()
+            model.inertias[i] = pin.Inertia.FromDynamicParameters(link * factor + tool.toDynamicParameters())
+        else:
+            model.inertias[i] = pin.Inertia(inertia.mass * factor, inertia.lever, inertia.inertia * factor)
+    return model
 
 
 class Workspace:

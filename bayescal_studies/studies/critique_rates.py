@@ -46,11 +46,16 @@ class RateGenerator:
     write : callable
         ``write(effect, multiple, seed, nests, folder, cell, plan) -> (campaign_path, nests_path or None)``:
         the campaign of ``effect`` at ``multiple`` times its default, seeded ``seed``, written into ``folder``.
+    tool : callable
+        ``tool(effect, cell) -> (mass kg, centre (3,) m in the flange frame) or None``: the tool's weight the
+        generator simulates with ``effect``, which a user weighs and writes into the cell's ``[tool] mass_kg`` and
+        ``com_mm``; the critique reads the campaign with the cell carrying it (None: the cell as it is).
     """
 
     name: str
     expected: dict[str, str]
     write: Callable[..., tuple[Path, Path | None]]
+    tool: Callable[..., tuple[float, np.ndarray] | None] = lambda effect, cell: None
 
 
 def _write_beams(effect, multiple, seed, nests, folder, cell, plan, robot=None):
@@ -78,6 +83,14 @@ def _write_beams_rigid(effect, multiple, seed, nests, folder, cell, plan):
     return _write_beams(effect, multiple, seed, nests, folder, cell, plan, robot=arm.with_elastic(beams, RIGID_LINKS))
 
 
+def _beams_tool(effect, cell):
+    """The third generator's tool, 38 kg, whatever the effect (:data:`bayescal.twin.beams.kr270.MASSES`)."""
+    from bayescal.twin.beams.kr270 import MASSES
+
+    mass, centre = MASSES["tool"]
+    return mass, np.asarray(centre, dtype=float)
+
+
 def _write_independent(effect, multiple, seed, nests, folder, cell, plan):
     """The second generator's campaign: a random plan of its own (``plan`` unused), 3 repeats, as
     :func:`~bayescal_studies.studies.independent_detection.independent_detection` draws it for the same seed."""
@@ -87,6 +100,17 @@ def _write_independent(effect, multiple, seed, nests, folder, cell, plan):
     planted = None if effect == "none" else effect
     campaign, truth = IndependentGenerator(cell, rng).simulate(random_plan(cell, rng), 3, planted, multiple, nests=nests)
     return _written(campaign, truth.nests, folder)
+
+
+def _independent_tool(effect, cell):
+    """The independent generator's tool: weighed only where it plants one (``tool_mount``, 30 kg), its centre of mass
+    where the generator puts it, midway between the flange and the centroid of the cell's load point and markers."""
+    from bayescal.twin.independent.effects import TOOL_MASS
+
+    if effect != "tool_mount":
+        return None
+    carried = np.vstack([cell.load_point, *cell.markers.values()])
+    return TOOL_MASS, 0.5 * carried.mean(axis=0)
 
 
 TWIN_DEFAULTS = {"compensator": 30.0}
@@ -127,16 +151,16 @@ GENERATORS: dict[str, RateGenerator] = {
     "beams": RateGenerator("beams", {
         "none": ADEQUATE, "compensator": "compensator", "link_compliance": "link_compliance", "tool_compliance": "tool_compliance",
         "lost_motion": "backlash", "nonlinear_stiffness": "nonlinear_stiffness", "outliers": "outliers", "drift": "drift",
-    }, _write_beams),
+    }, _write_beams, _beams_tool),
     "beams_rigid": RateGenerator("beams_rigid", {
         "none": ADEQUATE, "compensator": "compensator", "tool_compliance": "tool_compliance", "lost_motion": "backlash",
         "nonlinear_stiffness": "nonlinear_stiffness", "outliers": "outliers", "drift": "drift",
-    }, _write_beams_rigid),
+    }, _write_beams_rigid, _beams_tool),
     "independent": RateGenerator("independent", {
         "none": ADEQUATE, "link_beams": "link_compliance", "tool_mount": "tool_compliance", "gear_play": "backlash",
         "approach_play": "backlash", "knee_joints": "nonlinear_stiffness", "los_jumps": "outliers", "thermal_drift": "drift",
         "random_field": "unexplained",
-    }, _write_independent),
+    }, _write_independent, _independent_tool),
     "twin": RateGenerator("twin", {
         "none": ADEQUATE, "compensator": "compensator", "link_compliance": "link_compliance", "tool_compliance": "tool_compliance",
         "backlash": "backlash", "nonlinear_stiffness": "nonlinear_stiffness", "outliers": "outliers", "drift": "drift",
@@ -157,14 +181,19 @@ GENERATORS: dict[str, RateGenerator] = {
   ``unexplained``.  Left out as in :data:`~bayescal_studies.studies.independent_detection.INDEPENDENT_EFFECTS`:
   ``stiff_spring``, ``load_rehang``, ``tracker_scale``.
 * ``twin`` (:mod:`bayescal.twin.effects`, Table III): each effect is its candidate's namesake; ``drift`` is
-  :class:`~bayescal.twin.drift.TrackerDrift`."""
+  :class:`~bayescal.twin.drift.TrackerDrift`.
+
+The critique reads each campaign with the cell carrying the tool's weight the generator simulates (``tool``), as a
+user who weighed the tool would: the third generator's 38 kg in every campaign, the independent generator's 30 kg
+with ``tool_mount``; the twin simulates the cell's own tool."""
 
 SET_ON: dict[str, str] = {
     "twin": "all: the naming rule's constants (DETECTION_Z, DETECTION_FLOOR, DECISIVE_GAIN, TIE_NOISE), the catalogue "
             "and its settings, the drift evidence",
     "independent": "the lost-motion family's settings (friction holds, side on arrival, compensated-joint torque "
-                   "shifts; after gear_play and approach_play) and the drift evidence's first-reading rule (gear_play, "
-                   "seeds 9000-9002)",
+                   "shifts; after gear_play and approach_play; the holds as fractions of the rated torque, chosen on "
+                   "the breakaway torques the twin and this generator take) and the drift evidence's first-reading "
+                   "rule (gear_play, seeds 9000-9002)",
     "beams": "none",
     "beams_rigid": "none",
 }
@@ -192,9 +221,21 @@ def _judged(causes: list[str], tied: dict, contested: dict, expected: str) -> di
             "wrong_single": bool(causes) and not right and not partners}
 
 
+def _weighed(cell, generator: RateGenerator, effect: str):
+    """The cell the critique reads ``effect``'s campaigns with: ``cell`` carrying the generator's tool weight."""
+    from dataclasses import replace
+
+    tool = generator.tool(effect, cell)
+    if tool is None:
+        return cell
+    if cell.robot.tool_mass > 0:
+        raise ValueError(f"{cell.source} weighs a tool already; the {generator.name} generator simulates its own")
+    return replace(cell, robot=cell.robot.with_tool(*tool))
+
+
 def _one(case: tuple, rng: np.random.Generator, cell, plan: str) -> dict:
-    """One campaign written by its generator and criticised as ``bayescal critique`` does (a task of
-    :func:`~bayescal.design.parallel.seeded_map`)."""
+    """One campaign written by its generator and criticised as ``bayescal critique`` does, with the cell carrying the
+    generator's tool weight (a task of :func:`~bayescal.design.parallel.seeded_map`)."""
     from bayescal.cell.campaign import read_campaign
     from bayescal.cell.nests import read_nests, require_times
     from bayescal.critique import Critique
@@ -205,12 +246,13 @@ def _one(case: tuple, rng: np.random.Generator, cell, plan: str) -> dict:
         # the plan's warnings (e.g. all loads parallel) are the same for every campaign of a case
         warnings.simplefilter("ignore", UserWarning)
         campaign_path, nests_path = generator.write(effect, multiple, seed, nests, folder, cell, plan)
-        campaign = read_campaign(campaign_path, cell=cell)
+        weighed = _weighed(cell, generator, effect)
+        campaign = read_campaign(campaign_path, cell=weighed)
         readings = None
         if nests_path is not None:
             readings = read_nests(nests_path)
             require_times(campaign.times, campaign.source)
-        result = Critique(cell).run(campaign, rng, nests=readings)
+        result = Critique(weighed).run(campaign, rng, nests=readings)
     causes = list(result.causes)
     expected = _expected(generator, effect, nests)
     return {"generator": name, "effect": effect, "multiple": multiple, "nests": nests, "seed": seed, "expected": expected,
@@ -233,7 +275,8 @@ def critique_rates(
     Parameters
     ----------
     config, plan
-        The cell TOML the critique reads, and the plan CSV of the generators that take one (``beams``, ``twin``).
+        The cell TOML the generators take and the critique reads (with the generator's tool weight, :class:`RateGenerator`),
+        and the plan CSV of the generators that take one (``beams``, ``twin``).
     generator
         A key of :data:`GENERATORS`.
     effects

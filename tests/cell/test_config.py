@@ -262,3 +262,42 @@ def test_a_linear_track_reads_its_position_in_mm_and_its_compliance_in_um_per_N(
         load_cell(_robot_cell(data_dir, tmp_path, "track_arm6", "k_um_per_N = [0.01]", "k_um_per_N = [0.01, 0.02]"))
     with pytest.raises(InputError, match="no prismatic joint"):
         load_cell(_robot_cell(data_dir, tmp_path, "arm6", "k_urad_per_Nm", "k_um_per_N = [1.0]\nk_urad_per_Nm"))
+
+
+TOOL_LINE = "load_point_mm = [250.0, 0.0, 300.0]"
+
+
+def test_a_weighed_tool_enters_the_unloaded_torques_and_none_leaves_them_as_they_were(cell, tmp_path, data_dir):
+    from bayescal.critique.covariates import _static_torque
+
+    (tmp_path / "tool").mkdir()
+    (tmp_path / "zero").mkdir()
+    weighed = load_cell(_edited(data_dir, tmp_path / "tool", TOOL_LINE, TOOL_LINE + "\nmass_kg = 38.0\ncom_mm = [170.0, 0.0, 90.0]"))
+    zero = load_cell(_edited(data_dir, tmp_path / "zero", TOOL_LINE, TOOL_LINE + "\nmass_kg = 0.0"))
+    assert weighed.robot.tool_mass == 38.0 and weighed.robot.tool_centre == pytest.approx([0.17, 0.0, 0.09])
+    q = np.radians([10.0, -60.0, 70.0, 30.0, -40.0, 20.0])
+    # the joints carry the tool's weight at its centre of mass: J_cᵀ m g more than without it
+    weight = -38.0 * np.array(cell.robot.model.gravity.linear)
+    extra = cell.robot.point_jacobian(q, [0.17, 0.0, 0.09]).T @ weight
+    assert _static_torque(weighed, q) - _static_torque(cell, q) == pytest.approx(-extra, abs=1e-9)
+    assert np.abs(extra[3:]).max() > 10.0
+    assert np.array_equal(_static_torque(zero, q), _static_torque(cell, q)) and zero.robot.tool_mass == 0.0
+
+
+@pytest.mark.parametrize(
+    ("new", "key", "message"),
+    [
+        ("mass_kg = -5.0\ncom_mm = [170.0, 0.0, 90.0]", "mass_kg", "expected a number >= 0 in kg"),
+        ("mass_kg = 38000.0\ncom_mm = [170.0, 0.0, 90.0]", "mass_kg", "a tool of 38000 kg is heavier than the 270 kg the robot carries"),
+        ("mass_kg = 38.0", "[tool]", "missing key 'com_mm'"),
+        ("com_mm = [170.0, 0.0, 90.0]", "com_mm", "a centre of mass without the tool's mass"),
+        ("mass_kg = 38.0\ncom_mm = [170.0, 0.0]", "com_mm", "expected a list of 3 numbers in mm"),
+        ("mass_kg = 38.0\ncom_mm = [170000.0, 0.0, 90.0]", "com_mm", "beyond any tool"),
+    ],
+)
+def test_a_bad_tool_weight_is_one_line_naming_its_key(tmp_path, data_dir, new, key, message):
+    path = _edited(data_dir, tmp_path, TOOL_LINE, TOOL_LINE + "\n" + new)
+    with pytest.raises(InputError) as caught:
+        load_cell(path)
+    text = str(caught.value)
+    assert message in text and f"cell.toml:{_line_of(path, key)}," in text and "\n" not in text

@@ -204,3 +204,24 @@ def test_threads_share_one_robot_each_with_its_own_workspace(robot):
         shared = np.array(list(pool.map(kinematics, poses)))
     np.testing.assert_array_equal(shared, alone)
     assert not hasattr(robot, "_data") and not hasattr(robot, "copy")
+
+
+def test_a_tools_weight_is_in_every_gravity_torque_and_a_mass_scale_leaves_it(cell):
+    from bayescal.inference.exact import scale_masses
+    from bayescal.robot.batched import BatchedChain
+
+    q = np.radians([[10.0, -60.0, 70.0, 30.0, -40.0, 20.0], [-30.0, -110.0, 20.0, -90.0, 60.0, 150.0]])
+    robot = cell.robot
+    assert robot.with_tool(0.0, [0.1, 0.0, 0.0]) is robot and robot.tool_mass == 0.0
+    tool = robot.with_tool(38.0, [0.17, 0.0, 0.09])
+    weight = -38.0 * np.array(robot.model.gravity.linear)
+    chain = BatchedChain.of(tool)
+    batched = chain.gravity_torque(chain.poses(q))[0]
+    scaled = scale_masses(tool, 1.5)
+    for i, pose in enumerate(q):
+        expected = robot.gravity_torque(pose) + robot.point_jacobian(pose, [0.17, 0.0, 0.09]).T @ weight
+        assert tool.gravity_torque(pose) == pytest.approx(expected, abs=1e-8)
+        assert batched[i] == pytest.approx(expected, abs=1e-8)
+        # the URDF's links are scaled, the weighed tool is not
+        assert scaled.gravity_torque(pose) == pytest.approx(1.5 * robot.gravity_torque(pose) + (expected - robot.gravity_torque(pose)), abs=1e-8)
+    assert scaled.tool_mass == 38.0

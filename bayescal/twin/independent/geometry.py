@@ -72,4 +72,4 @@ class GeometryErrors:
             translation = tilt @ np.array([r, 0.0, 0.0]) + rotation @ np.array([0.0, 0.0, d])
             error = pin.SE3(frame @ rotation @ frame.T, frame @ translation)
             model.jointPlacements[j] = model.jointPlacements[j] * error
-        return Robot(model, flange=robot.flange, source=robot.source)
+        return robot.with_model(model)

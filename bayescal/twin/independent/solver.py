@@ -23,10 +23,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-import pinocchio as pin
 from scipy.optimize import root
 
-from bayescal.robot.kinematics import Robot
+from bayescal.robot.kinematics import Robot, scaled_links
 
 __all__ = ["SpringLinkage", "Load", "Statics", "scaled_robot", "SolverError"]
 
@@ -110,15 +109,9 @@ def scaled_robot(robot: Robot, mass_scale: float) -> Robot:
     """A copy of ``robot`` whose link masses and rotational inertias are multiplied by ``mass_scale``.
 
     The centres of mass are kept: a uniformly denser casting, the simplest form of
-    a URDF whose masses are off by one factor.
+    a URDF whose masses are off by one factor.  A weighed tool's mass is kept.
     """
-    model = robot.model.copy()
-    for index in range(1, model.njoints):
-        inertia = model.inertias[index]
-        model.inertias[index] = pin.Inertia(
-            inertia.mass * mass_scale, inertia.lever.copy(), inertia.inertia * mass_scale
-        )
-    return Robot(model, flange=robot.flange, source=robot.source)
+    return robot.with_model(scaled_links(robot, mass_scale))
 
 
 @dataclass(frozen=True, eq=False)

@@ -86,3 +86,16 @@ def test_on_the_third_generators_rigid_arm_nothing_planted_is_adequate(data_dir)
         table = critique_rates(data_dir / "kr270.toml", data_dir / "table3_plan.csv", "beams_rigid", ("none",),
                                seeds=range(100), executor=executor)
     assert rates(table)["adequate"].iloc[0] >= 0.91
+
+
+def test_each_generators_campaigns_are_read_with_the_tool_weight_it_simulates(cell):
+    from dataclasses import replace
+
+    from bayescal_studies.studies.critique_rates import _weighed
+
+    beams = _weighed(cell, GENERATORS["beams"], "lost_motion")
+    assert beams.robot.tool_mass == 38.0 and beams.robot.tool_centre == pytest.approx([0.17, 0.0, 0.09])
+    assert _weighed(cell, GENERATORS["independent"], "tool_mount").robot.tool_mass == 30.0
+    assert _weighed(cell, GENERATORS["independent"], "gear_play") is cell and _weighed(cell, GENERATORS["twin"], "backlash") is cell
+    with pytest.raises(ValueError, match="weighs a tool already"):
+        _weighed(replace(cell, robot=cell.robot.with_tool(5.0, [0.1, 0.0, 0.0])), GENERATORS["beams"], "none")
