@@ -268,7 +268,10 @@ TOOL_LINE = "load_point_mm = [250.0, 0.0, 300.0]"
 
 
 def test_a_weighed_tool_enters_the_unloaded_torques_and_none_leaves_them_as_they_were(cell, tmp_path, data_dir):
-    from bayescal.critique.covariates import _static_torque
+    from bayescal.critique.covariates import _static_torque as torque_in
+
+    def _static_torque(of, q):
+        return torque_in(of, q, of.robot.workspace())
 
     (tmp_path / "tool").mkdir()
     (tmp_path / "zero").mkdir()
