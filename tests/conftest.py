@@ -3,6 +3,10 @@
 Paths are resolved from this file, so the tests pass from any working directory.
 """
 
+import ast
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -172,3 +176,20 @@ def short_exact_fit(cell, plan):
         # short chains on a campaign that cannot identify k1 and the spring
         warnings.simplefilter("ignore")
         return ElastostaticModel.from_cell(cell, sampler=GibbsSampler(n_chains=2, n_tune=50, n_draws=100)).fit(campaign, 1)
+
+
+@pytest.fixture(scope="session")
+def modules_loaded_by():
+    """``loaded(arguments, modules)``: which of ``modules`` a fresh interpreter has imported once ``bayescal arguments``
+    has run in it (a sorted list), to hold a command's start-up to the libraries it uses."""
+
+    def loaded(arguments, modules):
+        script = ("import sys\nfrom bayescal.cli import main\n"
+                  f"main({[str(a) for a in arguments]!r})\n"
+                  f"print(sorted(m for m in {tuple(modules)!r} if m in sys.modules))\n")
+        root = str(Path(__file__).resolve().parents[1])
+        environment = {**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
+        done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True, env=environment)
+        return ast.literal_eval(done.stdout.strip().splitlines()[-1])
+
+    return loaded
