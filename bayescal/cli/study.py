@@ -10,9 +10,10 @@ from ._command import CommandOutput, add_common_options, options_for, whole_numb
 
 __all__ = ["add_parser", "run"]
 
-CPU_SECONDS_PER_PLAN = 0.5
-"""CPU seconds per plan of the study, the shared candidate set included: the default study's 50 plans took 22-25 s of
-CPU on the 2-core development machine (48-59 s wall at load average 7.5-8.5, two runs)."""
+CPU_SECONDS_PER_PLAN = 0.17
+"""CPU seconds per plan of the study, the shared candidate set included: the default study's 50 plans took 8.5-8.9 s of
+CPU (user + system, its two worker processes included) on the 2-core development machine, 4.9-5.2 s wall at load
+average 1.4-1.6 (three runs)."""
 
 
 def add_parser(subparsers) -> None:
@@ -23,7 +24,7 @@ def add_parser(subparsers) -> None:
             "q2-angles: design a plan for 3 to 12 distinct q2 angles and 1 to 5 configurations per angle, "
             "tabulate the predicted ±3σ widths of every parameter and the rms error at the test pose, at the "
             "cell's tracker noise and at 1/10 of it, and say what would identify K_c and s0 to Table IV's "
-            "widths and to 5 %. The default study took 48-59 s on 2 shared cores (22-25 s of CPU); a progress bar shows the time left."
+            "widths and to 5 %. The default study took 5 s on 2 cores (8.5-8.9 s of CPU); a progress bar shows the time left."
         ),
     )
     parser.add_argument("name", choices=("q2-angles",), help="the study")
