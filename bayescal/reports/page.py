@@ -13,7 +13,6 @@ does not know.
 from __future__ import annotations
 
 import html
-import io
 import json
 import math
 import re
@@ -25,6 +24,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from bayescal import __version__
+from bayescal.reports.render import png_files
 from bayescal.reports.terms import TERMS, label
 
 __all__ = ["Page", "generic", "format_value", "plain", "finite_number", "HTML_FILE", "MARKDOWN_FILE", "JSON_FILE"]
@@ -32,8 +32,6 @@ __all__ = ["Page", "generic", "format_value", "plain", "finite_number", "HTML_FI
 HTML_FILE = "index.html"
 MARKDOWN_FILE = "summary.md"
 JSON_FILE = "numbers.json"
-FIGURE_DPI = 110
-"""Resolution of the PNG figures: a 6.4-inch figure is 700 pixels wide, sharp on a 1280-pixel page."""
 SIGNIFICANT = 4
 """Significant digits of a number shown without an uncertainty to round it to (the JSON keeps every digit)."""
 _TERM = re.compile("|".join(rf"(?<![\w]){re.escape(term)}(?![\w])" for term in sorted(TERMS, key=len, reverse=True)))
@@ -47,7 +45,7 @@ class Page:
         self.html: list[str] = []
         self.markdown: list[str] = [f"# {title}", ""]
         self.numbers: dict[str, Any] = {}
-        self.figures: dict[str, bytes] = {}
+        self.figures: dict[str, Figure] = {}
         self.contents: list[tuple[str, str]] = []
         self.section = ""
         self.used: set[str] = set()
@@ -140,9 +138,8 @@ class Page:
         self.markdown += ["| " + " | ".join(map(escape, row)) + " |" for row in rows] + [""]
 
     def figure(self, name: str, figure: Figure, caption: str) -> None:
-        buffer = io.BytesIO()
-        figure.savefig(buffer, format="png", dpi=FIGURE_DPI)
-        self.figures[f"{name}.png"] = buffer.getvalue()
+        """Place ``figure`` here as ``name.png``; it is drawn with the others when :meth:`files` is asked for."""
+        self.figures[f"{name}.png"] = figure
         alt = html.escape(caption, quote=True)
         self.html.append(f'<figure><img src="{name}.png" alt="{alt}"><figcaption>{self.marked(caption)}</figcaption></figure>')
         self.markdown += [f"![{caption}]({name}.png)", ""]
@@ -167,7 +164,7 @@ class Page:
             HTML_FILE: document.encode(),
             MARKDOWN_FILE: ("\n".join(self.markdown).rstrip() + "\n").encode(),
             JSON_FILE: numbers.encode(),
-            **self.figures,
+            **png_files(self.figures),
         }
 
 
