@@ -4,7 +4,8 @@ Drawing and saving the review's nine figures is half of ``bayescal report``'s ti
 development machine); each figure is drawn on its own, so the figures are shared out among worker processes forked
 from this one, which hold them already (no figure is pickled, only each PNG's bytes come back).  Agg draws the same
 pixels in a forked process as in its parent: the files are byte for byte those of one process.  Where processes are
-not forked (other systems than Linux) or there is one core, the figures are drawn one after another.
+not forked (other systems than Linux, a process running other threads) or there is one core, the figures are drawn
+one after another.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import io
 import multiprocessing
 import os
 import sys
+import threading
 from collections.abc import Mapping
 from concurrent.futures import ProcessPoolExecutor
 
@@ -39,8 +41,11 @@ def _png_of(index: int) -> bytes:
 
 
 def _workers(count: int) -> int:
-    """Worker processes for ``count`` figures: the cores this process may run on, 1 where it cannot fork."""
+    """Worker processes for ``count`` figures: the cores this process may run on; 1 where it cannot fork, or should
+    not: a process running other threads (a notebook's kernel) may fork a child holding one of their locks."""
     if count < 2 or not sys.platform.startswith("linux") or "fork" not in multiprocessing.get_all_start_methods():
+        return 1
+    if threading.active_count() > 1:
         return 1
     return min(count, len(os.sched_getaffinity(0)))
 

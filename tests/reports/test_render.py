@@ -24,8 +24,11 @@ def test_the_figures_drawn_in_worker_processes_are_those_drawn_one_after_another
 
 
 def test_one_figure_or_one_core_is_drawn_in_this_process(monkeypatch):
+    monkeypatch.setattr(render.threading, "active_count", lambda: 1)
     assert render._workers(1) == 1
     monkeypatch.setattr(render.os, "sched_getaffinity", lambda pid: {0})
     assert render._workers(9) == 1
     monkeypatch.setattr(render.os, "sched_getaffinity", lambda pid: {0, 1, 2, 3})
     assert render._workers(3) == 3
+    monkeypatch.setattr(render.threading, "active_count", lambda: 2)
+    assert render._workers(3) == 1
