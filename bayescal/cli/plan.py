@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from bayescal.forked import available_cores
 from bayescal.output import guard_outputs, record_read, write_atomically
 
 from ._command import CommandOutput, add_common_options, options_for, whole_number
@@ -118,7 +119,9 @@ def _design_or_evaluate(args: argparse.Namespace, cell):
                 file=sys.stderr,
                 flush=True,
             )
-        design = designer.optimise(args.angles, args.per_angle, args.criterion, rng=args.seed, starts=starts, progress=not args.json)
+        design = designer.optimise(
+            args.angles, args.per_angle, args.criterion, rng=args.seed, starts=starts, progress=not args.json, workers=available_cores()
+        )
         comments = (_command(args, starts),)
         write_atomically("--output", args.output, lambda path: _save(design, path, comments, args))
         payload = design.to_json() | {"output": str(args.output)} | ({} if args.nests is None else {"read_nests_every": args.nests})

@@ -39,6 +39,7 @@ __all__ = [
     "free_candidates",
     "load_sizes",
     "loads_json",
+    "turn_draws",
     "turned",
 ]
 
@@ -70,13 +71,24 @@ def draw_loads(count: int, force: float, couple: float, rng: np.random.Generator
     return np.hstack([directions * force, couples])
 
 
-def turned(load: np.ndarray, angle: float, rng: np.random.Generator) -> np.ndarray:
-    """``load`` with its force and couple turned by random steps of about ``angle`` rad, sizes kept."""
+def turn_draws(sizes: tuple[float, float], rng: np.random.Generator) -> np.ndarray:
+    """(2, 3) the normal draws of one :func:`turned` step of a load whose force and couple have ``sizes`` (N, N·m):
+    three for each part that is not zero, in that order (a zero part draws nothing and keeps zeros)."""
+    draws = np.zeros((2, 3))
+    for part, size in enumerate(sizes):
+        if size > 0:
+            draws[part] = rng.normal(size=3)
+    return draws
+
+
+def turned(load: np.ndarray, angle: float, draws: np.ndarray) -> np.ndarray:
+    """``load`` with its force and couple turned by random steps of about ``angle`` rad (``draws`` from
+    :func:`turn_draws`), sizes kept."""
     out = load.copy()
-    for part in (slice(0, 3), slice(3, 6)):
+    for k, part in enumerate((slice(0, 3), slice(3, 6))):
         size = np.linalg.norm(load[part])
         if size > 0:
-            moved = load[part] / size + rng.normal(size=3) * angle
+            moved = load[part] / size + draws[k] * angle
             out[part] = moved / np.linalg.norm(moved) * size
     return out
 

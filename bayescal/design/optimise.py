@@ -51,6 +51,7 @@ from bayescal.design.prediction import PlanPrediction, predict
 from bayescal.design.progress import Progress, best_text
 from bayescal.design.refinement import REFINE_STEPS, Refinement
 from bayescal.errors import InputError
+from bayescal.forked import forked_map
 from bayescal.robot.batched import BatchedChain, Poses
 from bayescal.robot.compensator import MIN_ANGLES
 from bayescal.units import DEG
@@ -372,6 +373,7 @@ class PlanDesigner(Exchange, Refinement):
         candidates_per_angle: int = CANDIDATES_PER_ANGLE,
         candidates: tuple | None = None,
         progress: bool = False,
+        workers: int = 1,
     ) -> PlanDesign:
         """The best plan found for ``criterion`` (module docstring for the algorithm).
 
@@ -395,6 +397,9 @@ class PlanDesigner(Exchange, Refinement):
             A candidate set from :meth:`candidates` to reuse (studies that design many plans).
         progress
             Draw a progress bar on stderr.
+        workers
+            Processes forked to run the starts (:func:`~bayescal.forked.forked_map`): the plan is the same for any
+            number; 1 runs them in this process, as a study that designs plans in parallel itself wants.
 
         Raises
         ------
@@ -410,25 +415,33 @@ class PlanDesigner(Exchange, Refinement):
         else:
             self._check_request(angles, per_angle, criterion)
         available, usable = _usable_angles(candidates[2], len(candidates[0]), angles, per_angle)
+        # Every start's random draws first, as one start after another would draw them: the starts then depend on their
+        # draws alone and can run in forked processes, with the plans of one process.
+        drawn = [(self._start(candidates[0], usable, available, angles, per_angle, rng), self._moves(rng, refine_steps, angles, per_angle)) for _ in range(starts)]
+        best, scores = self._best_start(lambda s: self._one_start(candidates, available, usable, angles, per_angle, criterion, *drawn[s]), starts, criterion, workers, progress)
+        return self._design(self._plan(best[0], best[1]), criterion, scores, len(candidates[1]), seed)
+
+    def _best_start(self, start, starts: int, criterion: str, workers: int, progress: bool) -> tuple[tuple, list[float]]:
+        """The best of ``start(0), ..., start(starts - 1)`` (each joints, loads and criterion value), run by
+        ``workers`` processes, and every start's value."""
         bar = Progress(starts, f"plan: {criterion}", progress)
         best, scores = None, []
-        for _ in range(starts):
-            q, load, score = self._one_start(candidates, available, usable, angles, per_angle, criterion, rng, refine_steps)
+        law = [] if self.cell.compensator is None else [tuple(p.name for p in self.cell.compensator.PARAMETERS)]
+        for q, load, score in forked_map(start, starts, workers):
             scores.append(score)
             if best is None or score < best[2]:
                 best = (q, load, score)
-            bar.step(best_text(best[2], criterion, *([] if self.cell.compensator is None else [tuple(p.name for p in self.cell.compensator.PARAMETERS)])))
+            bar.step(best_text(best[2], criterion, *law))
         bar.close()
-        return self._design(self._plan(best[0], best[1]), criterion, scores, len(candidates[1]), seed)
+        return best, scores
 
     def _one_start(self, candidates: tuple, available: list[np.ndarray], usable: np.ndarray, angles: int, per_angle: int,
-                   criterion: str, rng: np.random.Generator, refine_steps: int) -> tuple[np.ndarray, np.ndarray, float]:
-        """One random start: exchanged over the candidates, then refined; its joints, loads and criterion value."""
+                   criterion: str, groups: list, moves: list) -> tuple[np.ndarray, np.ndarray, float]:
+        """One random start ``groups``: exchanged over the candidates, then refined by ``moves``; its joints, loads and criterion value."""
         grid, configurations, _, information, loads = candidates
-        groups = self._start(grid, usable, available, angles, per_angle, rng)
         groups = self._exchange(groups, grid, usable, available, information, criterion)
         chosen = [c for group in groups for c in group[1]]
-        return self._refine(configurations[chosen], loads[chosen], angles, per_angle, criterion, rng, refine_steps)
+        return self._refine(configurations[chosen], loads[chosen], angles, per_angle, criterion, moves)
 
     def _design(self, plan, criterion: str, scores: list[float], n_candidates: int, seed: int | None) -> PlanDesign:
         """The chosen plan with its predictions under both models and how the search found it."""

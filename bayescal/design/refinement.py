@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bayescal.design.loads import turned
+from bayescal.design.loads import turn_draws, turned
 from bayescal.robot.stiffness import EquilibriumError
 from bayescal.units import DEG
 
@@ -30,14 +30,14 @@ accepted step) looks ahead again."""
 class Refinement:
     """Random steps on a plan's q2 angles, other joints and load directions, kept when they improve it."""
 
-    def _refine(self, q: np.ndarray, loads: np.ndarray, angles: int, per_angle: int, criterion: str, rng: np.random.Generator, steps: int):
+    def _refine(self, q: np.ndarray, loads: np.ndarray, angles: int, per_angle: int, criterion: str, moves: list):
+        """The plan reached from ``q``, ``loads`` by the random steps ``moves`` (:meth:`_moves`), and its criterion."""
         # information of each configuration and load met so far, None when infeasible
         known: dict[bytes, np.ndarray | None] = {}
         # configurations and loads the linear model's look-ahead found feasible but for the loaded equilibrium, not yet solved
         unsolved: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-        begin = rng.bit_generator.state
         while True:
-            result, taken = self._refine_steps(q, loads, angles, per_angle, criterion, rng, steps, known, unsolved)
+            result, taken = self._refine_steps(q, loads, angles, per_angle, criterion, moves, known, unsolved)
             # The equilibria of the configurations the steps took, solved at once: they exist on a usable cell, and where
             # one does not, the steps are taken again from the start knowing it infeasible, as the first pass should have.
             taken = list(taken)
@@ -48,29 +48,45 @@ class Refinement:
                     known[key] = None
             if all(reason is None for reason in reasons):
                 return result
-            rng.bit_generator.state = begin
 
-    def _refine_steps(self, q, loads, angles, per_angle, criterion, rng, steps, known: dict, unsolved: dict):
+    def _moves(self, rng: np.random.Generator, steps: int, angles: int, per_angle: int) -> list[tuple[str, np.ndarray, object]]:
+        """The random part of ``steps`` refinement steps of a plan of ``angles`` × ``per_angle`` configurations, drawn in
+        order: for each, what it moves (``"angle"``, ``"turn"``, ``"joints"``), the rows it changes and its normal draws.
+
+        A step's draws do not depend on the plan it moves, so a start's steps are drawn before its exchange and
+        refinement run: the starts can then run apart (:meth:`~bayescal.design.optimise.PlanDesigner.optimise`), each
+        leaving the random stream where the steps drawn one after another would."""
+        others = self.cell.robot.nq - 1
+        moves = []
+        for _ in range(steps):
+            if rng.random() < 0.3:
+                group = int(rng.integers(angles))
+                moves.append(("angle", np.arange(group * per_angle, (group + 1) * per_angle), rng.normal()))
+            elif self.free and rng.random() < 0.5:
+                row = np.array([int(rng.integers(angles * per_angle))])
+                moves.append(("turn", row, turn_draws((self.force_size, self.couple_size), rng)))
+            else:
+                row = np.array([int(rng.integers(angles * per_angle))])
+                moves.append(("joints", row, rng.normal(size=others)))
+        return moves
+
+    def _refine_steps(self, q, loads, angles, per_angle, criterion, moves: list, known: dict, unsolved: dict):
         """The refinement's steps from the plan ``q``, ``loads``: the plan reached with its criterion, and the keys (a dict's
         keys, in order) of the configurations it took whose equilibrium is in ``unsolved``."""
         q, loads = q.copy(), loads.copy()
         parts = self._load_informations(q, loads)
         current = self._score(parts.sum(axis=0), criterion)
         taken: dict[bytes, None] = {}
-        # one step after another as drawn, the configurations evaluated ahead in batches (a row a step does not change
-        # keeps its evaluation)
-        for step in range(steps):
-            before = rng.bit_generator.state
-            proposal = self._proposal(q, loads, step, steps, angles, per_angle, rng)
+        # one step after another, the configurations evaluated ahead in batches (a row a step does not change keeps its
+        # evaluation)
+        for step in range(len(moves)):
+            proposal = self._proposal(q, loads, moves, step, angles, per_angle)
             if proposal is None:
                 continue
             moved, turn, rows = proposal
             keys = [_key(moved[r], turn[r]) for r in rows]
             if any(key not in known for key in keys):
-                after = rng.bit_generator.state
-                rng.bit_generator.state = before
-                self._look_ahead(q, loads, step, steps, angles, per_angle, rng, known, unsolved)
-                rng.bit_generator.state = after
+                self._look_ahead(q, loads, moves, step, angles, per_angle, known, unsolved)
             if any(known[key] is None for key in keys):
                 continue
             trial = parts.copy()
@@ -82,14 +98,14 @@ class Refinement:
                 taken.update((key, None) for key in keys if key in unsolved)
         return (q, loads, current), taken
 
-    def _look_ahead(self, q, loads, step, steps, angles, per_angle, rng, known: dict, unsolved: dict) -> None:
+    def _look_ahead(self, q, loads, moves: list, step: int, angles, per_angle, known: dict, unsolved: dict) -> None:
         """Evaluate at once the configurations the next :data:`REFINE_BLOCK` steps would propose from the plan ``q``, ``loads``.
 
         The linear model's information needs no equilibrium: the configurations that pass the other checks go to
         ``unsolved``, and their equilibria are solved for those a step takes (:meth:`_refine`)."""
         wanted: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-        for s in range(step, min(step + REFINE_BLOCK, steps)):
-            proposal = self._proposal(q, loads, s, steps, angles, per_angle, rng)
+        for s in range(step, min(step + REFINE_BLOCK, len(moves))):
+            proposal = self._proposal(q, loads, moves, s, angles, per_angle)
             if proposal is not None:
                 moved, turn, rows = proposal
                 for r in rows:
@@ -120,28 +136,23 @@ class Refinement:
             known[key] = value
         known.update({key: None for key, f in zip(keys, feasible) if not f})
 
-    def _proposal(self, q: np.ndarray, loads: np.ndarray, step: int, steps: int, angles: int, per_angle: int, rng: np.random.Generator):
-        """Refinement step ``step``'s proposal from the plan ``q``, ``loads``: the proposed configurations, loads and
-        the rows changed, or None when it breaks the angles' separation."""
-        robot = self.cell.robot
+    def _proposal(self, q: np.ndarray, loads: np.ndarray, moves: list, step: int, angles: int, per_angle: int):
+        """Step ``step`` of ``moves`` applied to the plan ``q``, ``loads``: the proposed configurations, loads and the
+        rows changed, or None when it breaks the angles' separation."""
         j2 = self.cell.plan_joint
         first, last = (v * DEG for v in REFINE_STEP_DEG)
-        others = [j for j in range(robot.nq) if j != j2]
-        size = first * (last / first) ** (step / max(steps - 1, 1))
+        size = first * (last / first) ** (step / max(len(moves) - 1, 1))
+        kind, rows, draws = moves[step]
         proposal, turn = q.copy(), loads.copy()
-        if rng.random() < 0.3:
-            group = int(rng.integers(angles))
-            rows = np.arange(group * per_angle, (group + 1) * per_angle)
-            proposal[rows, j2] += rng.normal() * size
+        if kind == "angle":
+            proposal[rows, j2] += draws * size
             if not self._separated(list(proposal[::per_angle, j2])):
                 return None
-        elif self.free and rng.random() < 0.5:
+        elif kind == "turn":
             # the step (rad) turns the load's direction as far as it moves a joint
-            rows = np.array([int(rng.integers(len(q)))])
-            turn[rows[0]] = turned(loads[rows[0]], size, rng)
+            turn[rows[0]] = turned(loads[rows[0]], size, draws)
         else:
-            rows = np.array([int(rng.integers(len(q)))])
-            proposal[rows[0], others] += rng.normal(size=len(others)) * size
+            proposal[rows[0], [j for j in range(self.cell.robot.nq) if j != j2]] += draws * size
         return proposal, turn, rows
 
 

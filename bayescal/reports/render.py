@@ -11,22 +11,16 @@ one after another.
 from __future__ import annotations
 
 import io
-import multiprocessing
-import os
-import sys
-import threading
 from collections.abc import Mapping
-from concurrent.futures import ProcessPoolExecutor
 
 from matplotlib.figure import Figure
+
+from bayescal.forked import available_cores, forked_map
 
 __all__ = ["png_files", "FIGURE_DPI"]
 
 FIGURE_DPI = 110
 """Resolution of the PNG figures: a 6.4-inch figure is 700 pixels wide, sharp on a 1280-pixel page."""
-
-_FORKED: list[Figure] = []
-"""The figures a forked worker draws, set in the parent just before its workers are forked."""
 
 
 def png(figure: Figure) -> bytes:
@@ -36,29 +30,7 @@ def png(figure: Figure) -> bytes:
     return buffer.getvalue()
 
 
-def _png_of(index: int) -> bytes:
-    return png(_FORKED[index])
-
-
-def _workers(count: int) -> int:
-    """Worker processes for ``count`` figures: the cores this process may run on; 1 where it cannot fork, or should
-    not: a process running other threads (a notebook's kernel) may fork a child holding one of their locks."""
-    if count < 2 or not sys.platform.startswith("linux") or "fork" not in multiprocessing.get_all_start_methods():
-        return 1
-    if threading.active_count() > 1:
-        return 1
-    return min(count, len(os.sched_getaffinity(0)))
-
-
 def png_files(figures: Mapping[str, Figure]) -> dict[str, bytes]:
-    """``{name: PNG bytes}`` of ``figures``, in their order, drawn by :func:`_workers` processes."""
+    """``{name: PNG bytes}`` of ``figures``, in their order, drawn by :func:`~bayescal.forked.forked_map`'s processes."""
     names, drawn = list(figures), list(figures.values())
-    workers = _workers(len(drawn))
-    if workers == 1:
-        return {name: png(figure) for name, figure in zip(names, drawn)}
-    _FORKED[:] = drawn
-    try:
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
-            return dict(zip(names, pool.map(_png_of, range(len(drawn)))))
-    finally:
-        _FORKED.clear()
+    return dict(zip(names, forked_map(lambda index: png(drawn[index]), len(drawn), available_cores())))

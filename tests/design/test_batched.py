@@ -12,8 +12,10 @@ import pytest
 from bayescal.design.criteria import compliance_chain, configuration_designs, criterion_values, nominal_parameters
 from bayescal.design.linearisation import DIFFERENCE_STEP, ExactLinearisation, with_parameters
 from bayescal.design.optimise import TRIES_PER_CANDIDATE, PlanDesigner
+from bayescal.design.refinement import REFINE_STEP_DEG
 from bayescal.robot.stiffness import compliance_design
 from bayescal.twin.simulator import DigitalTwin
+from bayescal.units import DEG
 
 
 @pytest.fixture(scope="module")
@@ -87,25 +89,42 @@ def test_candidates_are_drawn_as_one_draw_after_another(cell, designer):
     assert rng.random() == reference.random()  # the stream is left where the draws one by one leave it
 
 
+def _step_as_written(designer, q, step, steps, rng):
+    """A refinement step of a hanging-load plan of 5 × 3, drawn from ``rng`` where it is taken, as the search first did."""
+    j2 = designer.cell.plan_joint
+    first, last = (v * DEG for v in REFINE_STEP_DEG)
+    size = first * (last / first) ** (step / (steps - 1))
+    proposal = q.copy()
+    if rng.random() < 0.3:
+        rows = np.arange(3) + 3 * int(rng.integers(5))
+        proposal[rows, j2] += rng.normal() * size
+        return (proposal, rows) if designer._separated(list(proposal[::3, j2])) else None
+    rows = np.array([int(rng.integers(len(q)))])
+    proposal[rows[0], [j for j in range(designer.cell.robot.nq) if j != j2]] += rng.normal(size=designer.cell.robot.nq - 1) * size
+    return proposal, rows
+
+
 def test_the_refinement_looking_ahead_takes_the_steps_one_at_a_time(cell, designer):
     start = designer.random_plan(5, 3, np.random.default_rng(3))
     loads = np.tile(designer._down, (len(start.q), 1))
     steps = 60
-    q, _, score = designer._refine(start.q, loads, 5, 3, "test-pose", np.random.default_rng(4), steps)
-    # the search as it was written, one proposal evaluated at a time
+    drawn = np.random.default_rng(4)
+    q, _, score = designer._refine(start.q, loads, 5, 3, "test-pose", designer._moves(drawn, steps, 5, 3))
+    # the search as it was written, each step drawn where it is taken and evaluated alone
     rng = np.random.default_rng(4)
     reference = start.q.copy()
     parts = np.array([designer.information(row, designer.mass) for row in reference])
     current = designer._score(parts.sum(axis=0), "test-pose")
     for step in range(steps):
-        proposal = designer._proposal(reference, loads, step, steps, 5, 3, rng)
-        if proposal is None or any(designer.feasibility.violation(proposal[0][r], designer.mass) for r in proposal[2]):
+        proposal = _step_as_written(designer, reference, step, steps, rng)
+        if proposal is None or any(designer.feasibility.violation(proposal[0][r], designer.mass) for r in proposal[1]):
             continue
         trial = parts.copy()
-        for r in proposal[2]:
+        for r in proposal[1]:
             trial[r] = designer.information(proposal[0][r], designer.mass)
         value = designer._score(trial.sum(axis=0), "test-pose")
         if value < current:
             reference, parts, current = proposal[0], trial, value
+    assert drawn.random() == rng.random()  # the moves drawn ahead leave the stream where the steps drawn in turn do
     np.testing.assert_array_equal(q, reference)
     assert score == pytest.approx(current, rel=1e-12)

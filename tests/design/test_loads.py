@@ -8,7 +8,7 @@ import pytest
 from bayescal.cell.config import load_cell
 from bayescal.design.criteria import wrench_information
 from bayescal.design.linearisation import ExactLinearisation
-from bayescal.design.loads import basis_designs, combined_information, draw_loads, load_sizes, turned
+from bayescal.design.loads import basis_designs, combined_information, draw_loads, load_sizes, turn_draws, turned
 from bayescal.design.optimise import PlanDesigner
 
 SMALL = {"starts": 1, "refine_steps": 60, "candidates_per_angle": 4}
@@ -49,9 +49,11 @@ def test_load_sizes_and_turns_keep_the_limits(cell, any_cell):
     np.testing.assert_allclose(np.linalg.norm(loads[:, :3], axis=1), 2750.0)
     np.testing.assert_allclose(np.linalg.norm(loads[:, 3:], axis=1), 500.0)
     assert np.abs(loads[:, :3].mean(axis=0)).max() < 0.4 * 2750.0  # spread over the sphere
-    moved = turned(loads[3], 0.05, rng)
+    moved = turned(loads[3], 0.05, turn_draws((2750.0, 500.0), rng))
     np.testing.assert_allclose(np.linalg.norm(moved[:3]), 2750.0)
     assert 0 < np.linalg.norm(moved[:3] - loads[3, :3]) < 0.5 * 2750.0
+    np.testing.assert_allclose(np.linalg.norm(moved[3:]), 500.0)
+    assert np.array_equal(turned(loads[3] * [1, 1, 1, 0, 0, 0], 0.05, turn_draws((2750.0, 0.0), rng))[3:], np.zeros(3))
 
 
 def test_a_free_direction_plan_is_feasible_and_excites_k1(free_design, any_cell):

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import json
 import math
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 import pytest
 
+from bayescal import forked
 from bayescal.cell.plan import read_plan
 from bayescal.design.optimise import PlanDesigner
 from bayescal.errors import InputError
@@ -37,6 +39,18 @@ def test_the_plan_has_the_requested_structure_and_is_feasible(design, designer):
 def test_the_same_seed_gives_the_same_plan(design, designer):
     again = designer.optimise(4, 2, "test-pose", rng=5, **SMALL)
     np.testing.assert_array_equal(again.plan.q, design.plan.q)
+
+
+def test_the_starts_run_in_forked_processes_give_the_plan_of_one_process(designer, monkeypatch):
+    options = SMALL | {"starts": 3}
+    alone = designer.optimise(4, 2, "test-pose", rng=6, **options)
+    monkeypatch.setattr(forked.threading, "active_count", lambda: 1)
+    forks = []
+    monkeypatch.setattr(forked, "ProcessPoolExecutor", lambda *a, **k: forks.append(a) or ProcessPoolExecutor(*a, **k))
+    shared = designer.optimise(4, 2, "test-pose", rng=6, workers=2, **options)
+    assert forks == [(2,)]
+    np.testing.assert_array_equal(shared.plan.q, alone.plan.q)
+    assert shared.starts == alone.starts and shared.linear.rho0 == alone.linear.rho0
 
 
 def test_the_optimised_plan_beats_random_feasible_plans(design, designer):

@@ -1,6 +1,7 @@
 import numpy as np
 from matplotlib.figure import Figure
 
+from bayescal import forked
 from bayescal.reports import render
 
 
@@ -16,19 +17,9 @@ def _figures(n):
 def test_the_figures_drawn_in_worker_processes_are_those_drawn_one_after_another(monkeypatch):
     figures = _figures(4)
     alone = {name: render.png(figure) for name, figure in figures.items()}
-    monkeypatch.setattr(render, "_workers", lambda count: 2)
+    monkeypatch.setattr(render, "available_cores", lambda: 2)
+    monkeypatch.setattr(forked.threading, "active_count", lambda: 1)
     shared = render.png_files(figures)
     assert list(shared) == list(figures) and shared == alone
     assert len(set(shared.values())) == 4 and all(png.startswith(b"\x89PNG") for png in shared.values())
-    assert render._FORKED == []
-
-
-def test_one_figure_or_one_core_is_drawn_in_this_process(monkeypatch):
-    monkeypatch.setattr(render.threading, "active_count", lambda: 1)
-    assert render._workers(1) == 1
-    monkeypatch.setattr(render.os, "sched_getaffinity", lambda pid: {0})
-    assert render._workers(9) == 1
-    monkeypatch.setattr(render.os, "sched_getaffinity", lambda pid: {0, 1, 2, 3})
-    assert render._workers(3) == 3
-    monkeypatch.setattr(render.threading, "active_count", lambda: 2)
-    assert render._workers(3) == 1
+    assert forked._FORKED == []
