@@ -295,8 +295,10 @@ class Feasibility:
         away = facing < math.cos(self.space.acceptance)
         hidden = hidden.any(axis=2)
         reasons: list[str | None] = [None] * len(markers)
-        for n in np.flatnonzero(away).tolist():
-            angle = math.degrees(math.acos(min(max(float(facing[n]), -1.0), 1.0)))
+        # the angles of every configuration turned away at once: a search's draws are mostly turned away
+        rows_away = np.flatnonzero(away)
+        angles = np.degrees(np.arccos(np.clip(facing[rows_away], -1.0, 1.0))).tolist()
+        for n, angle in zip(rows_away.tolist(), angles):
             reasons[n] = f"marker {names[worst[n]]} faces {angle:.0f} deg away from the tracker"
         for n in np.flatnonzero(~away & hidden.any(axis=1)).tolist():
             reasons[n] = f"the arm hides marker {names[int(np.argmax(hidden[n]))]} from the tracker"
