@@ -7,6 +7,8 @@ design a plan from the same seed in this process, one after the other:
 
 * ``exact``: the default exact model, 5 × 3, 3 starts, the test-pose criterion (``bayescal plan --config data/kr270.toml``);
 * ``linear``: the same with eq 31's linear model (``--model linear``);
+* each of these again with its starts in processes forked on this process's cores, as the command runs them: the
+  wall time, and whether the plan and the starts' values are those of one process;
 * ``discriminate``: the plan that separates ``backlash`` from ``nonlinear_stiffness`` on a tied
   campaign (the twin's Table III campaign, 3 repeats, seed 0, ``backlash=0.002``), 50-280 kg,
   5 × 12, 4 starts (``--criterion discriminate``, docs/critique.md).
@@ -96,10 +98,19 @@ def plans(cell) -> None:
 
     from bayescal.design.optimise import PlanDesigner
 
+    from bayescal.forked import available_cores
+
     for model, options in OPTIONS.items():
         new = _timed(lambda: PlanDesigner(cell, model=model).optimise(5, 3, "test-pose", rng=SEED, **options))
         old = _timed(lambda: Previous(cell, model=model).optimise(5, 3, "test-pose", rng=SEED, **options))
         _line(model, new, old, (new[0].plan.q, old[0].plan.q), (new[0].starts, old[0].starts))
+        # the starts as `bayescal plan` runs them, in processes forked on this process's cores (their CPU is not this process's)
+        forked = _timed(lambda: PlanDesigner(cell, model=model).optimise(5, 3, "test-pose", rng=SEED, workers=available_cores(), **options))
+        same = np.array_equal(forked[0].plan.q, new[0].plan.q) and forked[0].starts == new[0].starts
+        print(f"{model + ', forked':<13} {forked[1]:6.2f} s wall on {available_cores()} cores against {new[1]:6.2f} s in one process  "
+              f"same plan and starts: {'yes' if same else 'NO'}", flush=True)
+        if not same:
+            sys.exit(f"{model}: the starts run in forked processes gave another plan than one process")
 
 
 def discriminate(cell) -> None:
