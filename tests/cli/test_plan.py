@@ -57,6 +57,9 @@ def test_evaluates_table_iii(main, capsys):
         (["--mass-kg", "280", "250"], "--mass-kg: expected the lighter mass first"),
         (["--per-angle", "21"], "--per-angle: expected at most 20 configurations per q2 angle"),
         (["--starts", "0"], "argument --starts: expected a whole number >= 1"),
+        (["--workers", "0"], "argument --workers: expected a whole number >= 1"),
+        (["--workers", "2", "--evaluate", str(DATA / "table3_plan.csv")], "--workers: --workers shares out a design's starts"),
+        (["--workers", "2", "--criterion", "discriminate", "--between", "backlash,outliers", "--campaign", "c.csv"], "--workers: --workers shares out the exchange's"),
     ],
 )
 def test_infeasible_requests_exit_2_with_one_line(main, tmp_path, capsys, options, message):
