@@ -9,6 +9,9 @@ configurations, as long as its gain is clear of its uncertainty
 :data:`~bayescal.critique.rule.DETECTION_FLOOR` nats, or :data:`~bayescal.critique.rule.DECISIVE_GAIN`
 nats and :data:`~bayescal.critique.rule.DECISIVE_Z` standard errors: no clause names a
 gain within its own standard error).
+A candidate that also passes and that the named one does not beat held out ties with it or contests it,
+unless the named one explains it (:func:`~bayescal.critique.rule.explains`: the rival adds nothing on top of
+it, it still adds on top of the rival).
 Each named cause is measured by what it changes for the user (:meth:`Critique.run`'s
 ``importance``: the held-out residual rms and the prediction at the test pose), and a
 cause that changes neither by more than the calibration's own uncertainty at the test
