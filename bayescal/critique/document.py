@@ -85,7 +85,8 @@ def geometry_critique_document(results) -> Summary:
 
 
 def _importance_lines(results) -> list[str]:
-    """What each named cause changes, then the candidates it ties with or is contested by, and the plan that separates them."""
+    """What each named cause changes, then the candidates it ties with or is contested by, the plan that separates them,
+    and the rivals it explains."""
     from bayescal.critique.extensions import CATALOGUE
 
     lines = []
@@ -107,6 +108,12 @@ def _importance_lines(results) -> list[str]:
                 for other in others
                 if {cause, other} <= plannable
             ]
+    for cause, others in results.explains.items():
+        for other, (rival_added, cause_added) in others.items():
+            lines.append(
+                f"{cause} explains {other}: {other} adds {rival_added.delta_elpd:.1f} ± {rival_added.se:.1f} nats on top of it, "
+                f"it {cause_added.delta_elpd:.1f} ± {cause_added.se:.1f} on top of {other}"
+            )
     return lines
 
 

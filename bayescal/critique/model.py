@@ -9,6 +9,9 @@ configurations, as long as its gain is clear of its uncertainty
 :data:`~bayescal.critique.rule.DETECTION_FLOOR` nats, or :data:`~bayescal.critique.rule.DECISIVE_GAIN`
 nats and :data:`~bayescal.critique.rule.DECISIVE_Z` standard errors: no clause names a
 gain within its own standard error).
+A candidate that also passes and that the named one does not beat held out ties with it or contests it,
+unless the named one explains it (:func:`~bayescal.critique.rule.explains`: the rival adds nothing on top of
+it, it still adds on top of the rival).
 Each named cause is measured by what it changes for the user (:meth:`Critique.run`'s
 ``importance``: the held-out residual rms and the prediction at the test pose), and a
 cause that changes neither by more than the calibration's own uncertainty at the test
@@ -39,7 +42,7 @@ from bayescal.critique.covariates import Rows, campaign_rows, pose_rows
 from bayescal.critique.drift import MAKE_TESTABLE, DriftEvidence, drift_deflection, drift_evidence
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
 from bayescal.critique.results import CritiqueResults
-from bayescal.critique.rule import DETECTION_Z, TIE_NOISE, UNEXPLAINED, check_candidates, passes, strongest
+from bayescal.critique.rule import DETECTION_Z, TIE_NOISE, UNEXPLAINED, check_candidates, explains, passes, strongest
 from bayescal.errors import InputError
 from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.equations import check_campaign
@@ -140,10 +143,7 @@ class Critique:
         y = rows.y.reshape(-1)
         scale = np.repeat(rows.noise, 3)
         group = np.tile(np.arange(3), len(rows))
-        config = np.repeat(rows.config, 3)
-
-        def validate(model: _Model) -> CrossValidation:
-            return cross_validate(y, model.design(rows, self.cell), scale, group, config, robust=model.robust)
+        validate = _validation(rows, self.cell)
 
         def fitted(model: _Model, cv: CrossValidation) -> np.ndarray:
             return cv.full.predict(model.design(rows, self.cell)[:, cv.columns])
@@ -188,6 +188,7 @@ class Critique:
             lack_of_fit=misfit,
             tied_with={cause: others for cause, others in search.tied.items() if others},
             contested_by={cause: others for cause, others in search.contested.items() if others},
+            explains={cause: others for cause, others in search.explained.items() if others},
             settings={e.name: e.reading(rows, self.cell) for e in model.extensions if e.setting is not None},
             importance=self._importance(search.history, rows, y, scale, group, equation_rows),
             drift=measured or _drift_report(drift, rows, "drift" in self.catalogue),
@@ -310,14 +311,16 @@ class Critique:
 
 @dataclass
 class _Search:
-    """The greedy search's end: the final model and its held-out scores, the causes in order, each cause's ties and
-    contests, every step's evidence and the models along the way."""
+    """The greedy search's end: the final model and its held-out scores, the causes in order, each cause's ties,
+    contests and the rivals it explains (with both comparisons of :func:`_explained`), every step's evidence and the
+    models along the way."""
 
     model: _Model
     current: CrossValidation
     causes: list[str]
     tied: dict[str, list[str]]
     contested: dict[str, list[str]]
+    explained: dict[str, dict[str, tuple[Comparison, Comparison]]]
     steps: list[dict[str, Comparison]]
     history: list[tuple[_Model, CrossValidation]]
 
@@ -325,7 +328,7 @@ class _Search:
 def _greedy_search(base: CrossValidation, remaining: list[Extension], validate: Callable[[_Model], CrossValidation],
                    fitted: Callable[[_Model, CrossValidation], np.ndarray], noise_of: Callable[[CrossValidation], np.ndarray]) -> _Search:
     """Add the strongest candidate while one passes the rule, each on top of those before."""
-    search = _Search(_Model(()), base, [], {}, {}, [], [(_Model(()), base)])
+    search = _Search(_Model(()), base, [], {}, {}, {}, [], [(_Model(()), base)])
     while remaining:
         model, current = search.model, search.current
         trials = {e.name: _best_variant(e, model, validate) for e in remaining}
@@ -334,9 +337,11 @@ def _greedy_search(base: CrossValidation, remaining: list[Extension], validate: 
         best = strongest(evidence)
         if best is None:
             break
-        search.tied[best], search.contested[best] = _rivals(
+        search.tied[best], contested = _rivals(
             best, trials, evidence, lambda name: fitted(model.plus(trials[name][0]), trials[name][1]), noise_of(current)
         )
+        search.explained[best] = _explained(best, contested, model, trials, remaining, validate)
+        search.contested[best] = [name for name in contested if name not in search.explained[best]]
         extension, search.current = trials[best]
         search.model = model.plus(extension)
         search.causes.append(best)
@@ -355,13 +360,22 @@ def _best_variant(extension: Extension, model: _Model, validate: Callable[[_Mode
 def fitted_variant(cell: Cell, rows: Rows, extension: Extension) -> tuple[Extension, CrossValidation]:
     """The variant of ``extension`` that, added alone to the classical model, best predicts the held-out
     configurations of ``rows`` (:func:`~bayescal.critique.covariates.campaign_rows`), and its cross-validation."""
+    return _best_variant(extension, _Model(()), _validation(rows, cell))
+
+
+def _validation(rows: Rows, cell: Cell) -> Callable[[_Model], CrossValidation]:
+    """``validate(model)``: the model's left-one-configuration-out cross-validation on ``rows``, each model's kept
+    (a contest's rival added on top of the named cause, :func:`_explained`, is the next step's trial of that rival)."""
     y = rows.y.reshape(-1)
     scale, group, config = np.repeat(rows.noise, 3), np.tile(np.arange(3), len(rows)), np.repeat(rows.config, 3)
+    validated: dict[_Model, CrossValidation] = {}
 
     def validate(model: _Model) -> CrossValidation:
-        return cross_validate(y, model.design(rows, cell), scale, group, config, robust=model.robust)
+        if model not in validated:
+            validated[model] = cross_validate(y, model.design(rows, cell), scale, group, config, robust=model.robust)
+        return validated[model]
 
-    return _best_variant(extension, _Model(()), validate)
+    return validate
 
 
 def _rivals(best: str, trials: dict, evidence: dict[str, Comparison], fitted: Callable[[str], np.ndarray], noise: np.ndarray) -> tuple[list[str], list[str]]:
@@ -384,6 +398,27 @@ def _rivals(best: str, trials: dict, evidence: dict[str, Comparison], fitted: Ca
         alike = np.max(np.abs(fitted(name) - fitted(best)) / noise) < TIE_NOISE
         (tied if alike else contested).append(name)
     return tied, contested
+
+
+def _explained(best: str, contested: list[str], model: _Model, trials: dict, remaining: list[Extension],
+               validate: Callable[[_Model], CrossValidation]) -> dict[str, tuple[Comparison, Comparison]]:
+    """The rivals contesting ``best`` that it explains (:func:`~bayescal.critique.rule.explains`), each with the
+    rival added on top of ``best`` and ``best`` added on top of the rival, both against ``model``'s step.
+
+    The rival on top of ``best`` at its best variant there, as the search's next step adds it (that cross-validation
+    is the next step's, kept by ``validate``); ``best`` on top of the rival at the variant it was named with.  Either
+    choice, where a variant could differ, makes it harder to call a rival explained, never easier.
+    """
+    named, named_cv = trials[best]
+    extensions = {e.name: e for e in remaining}
+    out = {}
+    for name in contested:
+        rival, rival_cv = trials[name]
+        rival_added = compare(named_cv, _best_variant(extensions[name], model.plus(named), validate)[1])
+        named_added = compare(rival_cv, validate(model.plus(rival).plus(named)))
+        if explains(rival_added, named_added):
+            out[name] = (rival_added, named_added)
+    return out
 
 
 def _drift_report(drift: DriftEvidence, rows: Rows, tried: bool) -> dict:

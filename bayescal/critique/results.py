@@ -103,6 +103,10 @@ class CritiqueResults(Outcome):
         Per named cause, the candidates it does not beat on held-out configurations by :data:`DETECTION_Z` SE
         whose fitted deflections differ from its own nowhere by :data:`TIE_NOISE` noise sd (tied), or somewhere
         by more (contested).
+    explains : dict
+        Per named cause, the rivals that would have contested it and that it explains
+        (:func:`~bayescal.critique.rule.explains`), each with two comparisons: the rival added on top of the cause,
+        and the cause added on top of the rival (a pair of :class:`Comparison`).
     importance : dict
         Per named extension, what it changes (:meth:`~bayescal.critique.model.Critique._importance`): residual rms before and after (mm),
         the misfit it explains (mm), the test pose's prediction moved (mm) beside its sd (mm), and whether it matters.
@@ -124,6 +128,7 @@ class CritiqueResults(Outcome):
     lack_of_fit: LackOfFit | None = None
     tied_with: dict = field(default_factory=dict)
     contested_by: dict = field(default_factory=dict)
+    explains: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
     importance: dict = field(default_factory=dict)
     drift: dict = field(default_factory=dict)
@@ -170,6 +175,11 @@ class CritiqueResults(Outcome):
             payload["unexplained_covariate"] = self.unexplained_covariate
         payload["tied_with"] = {cause: list(others) for cause, others in self.tied_with.items()}
         payload["contested_by"] = {cause: list(others) for cause, others in self.contested_by.items()}
+        if self.explains:
+            # only where a rival was explained, so that a campaign without a contest writes the file it wrote before
+            payload["explains"] = {cause: {rival: {"rival_added": rival_added.to_json(), "cause_added": cause_added.to_json()}
+                                           for rival, (rival_added, cause_added) in others.items()}
+                                   for cause, others in self.explains.items()}
         payload["settings"] = dict(self.settings)
         payload["importance"] = {name: dict(entry) for name, entry in self.importance.items()}
         payload["negligible"] = self.negligible

@@ -3,14 +3,16 @@
 A candidate is named when its held-out ΔELPD clears :data:`DETECTION_Z` standard errors and
 :data:`DETECTION_FLOOR` nats, or :data:`DECISIVE_GAIN` nats and :data:`DECISIVE_Z` standard errors
 (:func:`passes`); :class:`~bayescal.critique.model.Critique` and
-:class:`~bayescal.critique.geometry.GeometryCritique` both apply it.
+:class:`~bayescal.critique.geometry.GeometryCritique` both apply it.  The same rule, applied to each of two
+candidates added on top of the other, decides whether the named one explains a rival that contests it
+(:func:`explains`).
 """
 
 from __future__ import annotations
 
 from bayescal.critique.compare import Comparison
 
-__all__ = ["DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "DECISIVE_Z", "TIE_NOISE", "UNEXPLAINED", "passes", "strongest", "check_candidates"]
+__all__ = ["DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "DECISIVE_Z", "TIE_NOISE", "UNEXPLAINED", "passes", "strongest", "explains", "check_candidates"]
 
 DETECTION_Z = 2.0
 """A cause is named only when its held-out gain exceeds this many standard errors of the difference."""
@@ -51,3 +53,15 @@ def passes(comparison: Comparison, decisive: bool = True) -> bool:
     """The naming rule; ``decisive=False`` for the probes, whose many free offsets can fit a few odd configurations."""
     clear = comparison.delta_elpd > max(DETECTION_Z * comparison.se, DETECTION_FLOOR)
     return clear or (decisive and comparison.delta_elpd > max(DECISIVE_GAIN, DECISIVE_Z * comparison.se))
+
+
+def explains(rival_added: Comparison, named_added: Comparison) -> bool:
+    """Whether the named candidate encompasses a rival that contests it (Mizon & Richard 1986): the rival added on top
+    of the named one (``rival_added``) does not pass :func:`passes`, while the named one added on top of the rival
+    (``named_added``) still does.
+
+    Then what the rival took up of the misfit is part of what the named candidate explains, and the rival is no
+    contest.  Both comparisons pass: each explains something the other misses, and the contest stands.  Neither
+    passes: the two are substitutes on this campaign, and the contest stands too.
+    """
+    return not passes(rival_added) and passes(named_added)

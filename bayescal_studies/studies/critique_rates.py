@@ -192,8 +192,9 @@ SET_ON: dict[str, str] = {
             "and its settings, the drift evidence",
     "independent": "the lost-motion family's settings (friction holds, side on arrival, compensated-joint torque "
                    "shifts; after gear_play and approach_play; the holds as fractions of the rated torque, chosen on "
-                   "the breakaway torques the twin and this generator take) and the drift evidence's first-reading "
-                   "rule (gear_play, seeds 9000-9002)",
+                   "the breakaway torques the twin and this generator take), the drift evidence's first-reading "
+                   "rule (gear_play, seeds 9000-9002), and the encompassing of a contest (no constant; judged on "
+                   "gear_play and approach_play, seeds 9000-9039)",
     "beams": "none",
     "beams_rigid": "none",
 }
