@@ -34,7 +34,7 @@ PLAN_SHOWN = ("criterion", "criterion_unit", "criterion_includes", "criterion_id
               "q2_deg", "load_kg", "linear_model")
 """Keys of the plan's JSON the plan section shows in words; any other is shown as it comes."""
 CRITIQUE_SHOWN = ("verdict", "causes", "evidence", "gain", "covariates", "lack_of_fit", "rule", "n_configurations",
-                  "n_equations", "tied_with", "seed", "campaign")
+                  "n_equations", "tied_with", "contested_by", "explains", "seed", "campaign")
 """Keys of the critique's JSON the critique section shows in words."""
 
 
@@ -142,6 +142,7 @@ def critique_section(page: Page, critique: CritiqueFindings, source: str) -> Non
     advice = _next_step(critique, named)
     if advice:
         page.paragraph(advice)
+    _rivals(page, critique, source)
     _evidence(page, critique.evidence)
     _lack_of_fit(page, critique.lack_of_fit)
     _gain(page, critique.gain)
@@ -176,6 +177,46 @@ def _next_step(critique: CritiqueFindings, named: list[str] | None) -> str:
     misfit = isinstance(lack, Mapping) and finite_number(lack.get("p_value")) and lack["p_value"] < lack.get("level", 0.01)
     negligible = critique.negligible
     return critique_next_steps(named, bool(misfit), float(error), [n for n in negligible if isinstance(n, str)] if isinstance(negligible, list) else ())
+
+
+def _rivals(page: Page, critique: CritiqueFindings, source: str) -> None:
+    """The candidates each named cause ties with, is contested by, or explains, in words, with the plan that separates
+    a pair of physical candidates (as ``bayescal critique`` prints them)."""
+    from bayescal.critique.extensions import CATALOGUE
+
+    plannable = {name for name, extension in CATALOGUE.items() if extension.physical and not extension.robust}
+    meaning = {
+        "tied_with": "this campaign cannot tell them apart: their fitted deflections differ nowhere by a reading's noise",
+        "contested_by": "its held-out lead over them is within two standard errors, though some reading of this plan could separate them",
+    }
+    found = critique.to_json()
+    for key in ("tied_with", "contested_by", "explains"):
+        if found.get(key):
+            page.record(key, found[key])
+    for key, words in meaning.items():
+        pairs = found.get(key)
+        if not isinstance(pairs, Mapping):
+            continue
+        for cause, others in pairs.items():
+            if not (isinstance(others, list) and others and all(isinstance(o, str) for o in others)):
+                generic(page, {key: {cause: others}})
+                continue
+            separable = [o for o in others if {cause, o} <= plannable]
+            plans = "; ".join(f"bayescal plan --config CELL.toml --criterion discriminate --between {cause},{o} --campaign {source or 'CAMPAIGN.csv'} -o PLAN.csv"
+                              for o in separable)
+            page.paragraph(f"{cause} is {key.replace('_', ' ')} {', '.join(others)}: {words}." + (f" The experiment that separates them: {plans}." if plans else ""))
+    explains = found.get("explains")
+    if isinstance(explains, Mapping):
+        for cause, rivals in explains.items():
+            for rival, comparisons in (rivals.items() if isinstance(rivals, Mapping) else ()):
+                try:
+                    added, back = (comparisons[k] for k in ("rival_added", "cause_added"))
+                    page.paragraph(
+                        f"{cause} explains {rival}: {rival} adds {added['delta_elpd']:.1f} ± {added['se']:.1f} nats on top of it, "
+                        f"{cause} {back['delta_elpd']:.1f} ± {back['se']:.1f} on top of {rival}, so {rival} does not contest it."
+                    )
+                except (KeyError, TypeError, ValueError):
+                    generic(page, {"explains": {cause: {rival: comparisons}}})
 
 
 def _elpd_frame(rows: Mapping, extra: tuple[str, ...]) -> pd.DataFrame:

@@ -51,3 +51,25 @@ def test_the_registration_shows_each_axis_s_student_t_interval_and_degrees_of_fr
     row = _rows(page, "Joint axes")[0]
     # ±3σ half-widths to the digits of their sds (0.083 mrad, 0.23 mm), the smaller degrees of freedom to 0.1.
     assert row[9:12] == ["0.653", "2.24", "2.9"]
+
+
+def test_the_critique_says_its_ties_contests_and_explained_rivals_in_words():
+    from bayescal.critique.results import CritiqueFindings
+    from bayescal.reports.review_files import critique_section
+
+    comparison = {"delta_elpd": 3.1, "se": 4.2, "n_configs": 15}
+    critique = CritiqueFindings.from_json({
+        "verdict": "misfit", "causes": ["backlash"], "evidence": {}, "gain": {},
+        "tied_with": {"backlash": ["nonlinear_stiffness"]}, "contested_by": {"backlash": ["outliers"]},
+        "explains": {"backlash": {"compensator": {"rival_added": comparison, "cause_added": comparison | {"delta_elpd": 40.5}}}},
+    })
+    page = Page("review")
+    critique_section(page, critique, "tie.csv")
+    text = "\n".join(page.markdown)
+    assert "backlash is tied with nonlinear_stiffness: this campaign cannot tell them apart" in text
+    assert "--criterion discriminate --between backlash,nonlinear_stiffness --campaign tie.csv" in text
+    # outliers is a noise model, not a deflection: no plan separates it
+    assert "backlash is contested by outliers: its held-out lead" in text and "--between backlash,outliers" not in text
+    assert "backlash explains compensator: compensator adds 3.1 ± 4.2 nats on top of it, backlash 40.5 ± 4.2 on top of compensator" in text
+    assert '"tied_with"' not in text and '"explains"' not in text  # in words, not as JSON
+    assert page.numbers["critique"]["explains"]["backlash"]["compensator"]["cause_added"]["delta_elpd"] == 40.5
