@@ -24,6 +24,19 @@ def test_the_plan_of_a_tied_twin_campaign_puts_the_planted_lost_motion_ahead():
     assert row["delta_elpd"] > max(row["tied_delta_elpd"], 0.0), row.to_dict()
 
 
+def test_the_third_generators_campaigns_are_read_with_its_tool_weighed_and_criticised_whole():
+    with ThreadPoolExecutor(1) as executor:
+        table = tie_resolution(
+            DATA / "kr270.toml", DATA / "table3_plan.csv", ["third hardening"], n_seeds=1, per_angle=6, candidates_per_angle=2,
+            criticise=True, executor=executor,
+        )
+    row = table.iloc[0]
+    assert row["tied"] and row["delta_elpd"] > max(row["tied_delta_elpd"], 0.0), row.to_dict()
+    # the whole critique of the plan's campaign, judged as the rate harness judges a campaign
+    assert {"causes", "first", "partners", "alone", "right", "wrong_single"} <= set(table.columns)
+    assert row["first"] in row["causes"].split(",") or row["first"] == "adequate"
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("case", list(TIE_CASES))
 def test_the_discriminating_plan_separates_the_pair_in_at_least_80_percent_of_30_seeds(case):
