@@ -217,25 +217,19 @@ def tie_resolution(
     ----------
     config, table3
         The cell TOML and Table III's plan CSV (the twin's tied campaigns).
-    cases
-        Names of :data:`TIE_CASES`.
-    n_seeds
-        Seeds per case.
+    cases, n_seeds
+        Names of :data:`TIE_CASES`, and seeds per case.
     seed
-        Root of the :class:`numpy.random.SeedSequence` of every campaign and plan; a case's
-        seeds are the same whichever other cases are run with it.
+        Root of the :class:`numpy.random.SeedSequence` of every campaign and plan (a case's the same with any others).
     mass_range
         The masses (kg) the discriminating plan may hang.
     angles, per_angle
-        The discriminating plan's q2 angles and configurations per angle (each measured 3 times;
-        default the command's, :data:`~bayescal.design.discriminate.PER_ANGLE`).
+        The plan's q2 angles and configurations per angle, each measured 3 times (default the command's).
     candidates_per_angle, starts
-        Candidate configurations per q2 angle of the plan's search, and its random starts
-        (the command's defaults are 8 and 4).
+        Candidate configurations per q2 angle of the plan's search, and its random starts (the command's: 8 and 4).
     criticise
-        Also run the whole critique (:meth:`~bayescal.critique.Critique.run`) on the plan's campaign and judge its first
-        cause as the rate harness does (:mod:`bayescal_studies.studies.critique_rates`): columns ``first, partners,
-        alone, right``.
+        Also criticise the plan's campaign whole and judge its first cause as the rate harness does (``causes, first,
+        partners, alone, right, wrong_single``).
     executor
         Runs the seeds (:func:`~bayescal.design.parallel.seeded_map`; default a process pool).
 
@@ -257,8 +251,7 @@ def tie_resolution(
     results = seeded_map(
         _one, items, streams, executor=executor,
         cell=cell, plan=read_plan(table3, cell.robot), mass_range=tuple(mass_range), angles=angles,
-        per_angle=PER_ANGLE if per_angle is None else per_angle, candidates_per_angle=candidates_per_angle, starts=starts,
-        criticise=criticise,
+        per_angle=PER_ANGLE if per_angle is None else per_angle, candidates_per_angle=candidates_per_angle, starts=starts, criticise=criticise,
     )
     labels = ({"case": name, "seed": k} for name in cases for k in range(n_seeds))
     return pd.DataFrame.from_records([label | record for label, record in zip(labels, results)])
