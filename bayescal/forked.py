@@ -3,8 +3,8 @@
 A forked worker holds everything its parent held when it was forked (a figure drawn, a plan search's candidates and
 robot model), so nothing of it is pickled: only the index of a piece goes to the worker and its result comes back.
 The work is the same in a forked process as in its parent, bit for bit.  Where processes are not forked (other
-systems than Linux, a process running other threads) or one worker is asked for, the pieces run one after another
-in this process.
+systems than Linux, a process running other threads, a BLAS pool's among them) or one worker is asked for, the
+pieces run one after another in this process.
 """
 
 from __future__ import annotations
@@ -30,14 +30,22 @@ def available_cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
+def _single_threaded() -> bool:
+    """Whether this process runs one thread as the system counts them, BLAS's and other libraries' included: a fork
+    copies the calling thread alone, and a lock another thread held stays held in the child (a notebook's kernel, a
+    BLAS pool of several threads; the command line runs BLAS on one)."""
+    try:
+        return len(os.listdir("/proc/self/task")) == 1
+    except OSError:
+        return threading.active_count() == 1
+
+
 def _workers(count: int, workers: int) -> int:
-    """Worker processes for ``count`` pieces, at most ``workers``: 1 where this process cannot fork, or should not:
-    a process running other threads (a notebook's kernel) may fork a child holding one of their locks."""
+    """Worker processes for ``count`` pieces, at most ``workers``: 1 where this process cannot fork, or should not
+    (:func:`_single_threaded`)."""
     if count < 2 or workers < 2 or not sys.platform.startswith("linux") or "fork" not in multiprocessing.get_all_start_methods():
         return 1
-    if threading.active_count() > 1:
-        return 1
-    return min(count, workers)
+    return min(count, workers) if _single_threaded() else 1
 
 
 def _run(index: int) -> object:

@@ -8,8 +8,8 @@ from bayescal import forked
 
 @pytest.fixture
 def alone(monkeypatch):
-    """No other thread in this process, whatever the test runner starts."""
-    monkeypatch.setattr(forked.threading, "active_count", lambda: 1)
+    """No other thread in this process, whatever the test runner and BLAS start."""
+    monkeypatch.setattr(forked, "_single_threaded", lambda: True)
 
 
 def test_the_pieces_come_back_in_order_from_forked_workers_that_never_pickle_the_work(alone):
@@ -43,13 +43,29 @@ def test_an_error_in_a_worker_reaches_the_caller_and_the_workers_end(alone):
 
 
 def test_workers_follow_the_pieces_the_request_and_the_threads(monkeypatch):
-    monkeypatch.setattr(forked.threading, "active_count", lambda: 1)
+    monkeypatch.setattr(forked, "_single_threaded", lambda: True)
     assert forked._workers(1, 4) == 1
     assert forked._workers(9, 1) == 1
     assert forked._workers(3, 4) == 3
     assert forked._workers(9, 2) == 2
-    monkeypatch.setattr(forked.threading, "active_count", lambda: 2)
+    monkeypatch.setattr(forked, "_single_threaded", lambda: False)
     assert forked._workers(3, 4) == 1
+
+
+def test_threads_are_counted_as_the_system_counts_them():
+    import threading
+
+    alone = forked._single_threaded()
+    started, stop = threading.Event(), threading.Event()
+    worker = threading.Thread(target=lambda: (started.set(), stop.wait()))
+    worker.start()
+    started.wait()
+    try:
+        assert not forked._single_threaded()
+    finally:
+        stop.set()
+        worker.join()
+    assert forked._single_threaded() == alone
 
 
 def test_the_cores_are_those_this_process_may_run_on(monkeypatch):
