@@ -418,7 +418,7 @@ class PlanDesigner(Exchange, Refinement):
         # Every start's random draws first, as one start after another would draw them: the starts then depend on their
         # draws alone and can run in forked processes, with the plans of one process.
         drawn = [(self._start(candidates[0], usable, available, angles, per_angle, rng), self._moves(rng, refine_steps, angles, per_angle)) for _ in range(starts)]
-        best, scores = self._best_start(lambda s: self._one_start(candidates, available, usable, angles, per_angle, criterion, *drawn[s]), starts, criterion, workers, progress)
+        best, scores = self._best_start(lambda s: self._one_start(candidates, available, usable, per_angle, criterion, *drawn[s]), starts, criterion, workers, progress)
         return self._design(self._plan(best[0], best[1]), criterion, scores, len(candidates[1]), seed)
 
     def _best_start(self, start, starts: int, criterion: str, workers: int, progress: bool) -> tuple[tuple, list[float]]:
@@ -435,13 +435,13 @@ class PlanDesigner(Exchange, Refinement):
         bar.close()
         return best, scores
 
-    def _one_start(self, candidates: tuple, available: list[np.ndarray], usable: np.ndarray, angles: int, per_angle: int,
-                   criterion: str, groups: list, moves: list) -> tuple[np.ndarray, np.ndarray, float]:
+    def _one_start(self, candidates: tuple, available: list[np.ndarray], usable: np.ndarray, per_angle: int, criterion: str,
+                   groups: list, moves: list) -> tuple[np.ndarray, np.ndarray, float]:
         """One random start ``groups``: exchanged over the candidates, then refined by ``moves``; its joints, loads and criterion value."""
         grid, configurations, _, information, loads = candidates
         groups = self._exchange(groups, grid, usable, available, information, criterion)
         chosen = [c for group in groups for c in group[1]]
-        return self._refine(configurations[chosen], loads[chosen], angles, per_angle, criterion, moves)
+        return self._refine(configurations[chosen], loads[chosen], per_angle, criterion, moves)
 
     def _design(self, plan, criterion: str, scores: list[float], n_candidates: int, seed: int | None) -> PlanDesign:
         """The chosen plan with its predictions under both models and how the search found it."""

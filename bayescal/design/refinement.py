@@ -30,14 +30,14 @@ accepted step) looks ahead again."""
 class Refinement:
     """Random steps on a plan's q2 angles, other joints and load directions, kept when they improve it."""
 
-    def _refine(self, q: np.ndarray, loads: np.ndarray, angles: int, per_angle: int, criterion: str, moves: list):
+    def _refine(self, q: np.ndarray, loads: np.ndarray, per_angle: int, criterion: str, moves: list):
         """The plan reached from ``q``, ``loads`` by the random steps ``moves`` (:meth:`_moves`), and its criterion."""
         # information of each configuration and load met so far, None when infeasible
         known: dict[bytes, np.ndarray | None] = {}
         # configurations and loads the linear model's look-ahead found feasible but for the loaded equilibrium, not yet solved
         unsolved: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         while True:
-            result, taken = self._refine_steps(q, loads, angles, per_angle, criterion, moves, known, unsolved)
+            result, taken = self._refine_steps(q, loads, per_angle, criterion, moves, known, unsolved)
             # The equilibria of the configurations the steps took, solved at once: they exist on a usable cell, and where
             # one does not, the steps are taken again from the start knowing it infeasible, as the first pass should have.
             taken = list(taken)
@@ -49,28 +49,33 @@ class Refinement:
             if all(reason is None for reason in reasons):
                 return result
 
-    def _moves(self, rng: np.random.Generator, steps: int, angles: int, per_angle: int) -> list[tuple[str, np.ndarray, object]]:
+    def _moves(self, rng: np.random.Generator, steps: int, angles: int, per_angle: int) -> list[tuple[str, np.ndarray, np.ndarray, object]]:
         """The random part of ``steps`` refinement steps of a plan of ``angles`` × ``per_angle`` configurations, drawn in
-        order: for each, what it moves (``"angle"``, ``"turn"``, ``"joints"``), the rows it changes and its normal draws.
+        order: for each, what it moves (``"angle"``, ``"turn"``, ``"joints"``), the rows and joints it changes, and the
+        step: the joints' change (rad), or for a turn its size (rad) and :func:`~bayescal.design.loads.turn_draws`.
 
         A step's draws do not depend on the plan it moves, so a start's steps are drawn before its exchange and
         refinement run: the starts can then run apart (:meth:`~bayescal.design.optimise.PlanDesigner.optimise`), each
         leaving the random stream where the steps drawn one after another would."""
-        others = self.cell.robot.nq - 1
+        j2 = self.cell.plan_joint
+        others = np.array([j for j in range(self.cell.robot.nq) if j != j2])
+        first, last = (v * DEG for v in REFINE_STEP_DEG)
         moves = []
-        for _ in range(steps):
+        for step in range(steps):
+            # the step's size shrinks geometrically from REFINE_STEP_DEG's first to its last
+            size = first * (last / first) ** (step / max(steps - 1, 1))
             if rng.random() < 0.3:
                 group = int(rng.integers(angles))
-                moves.append(("angle", np.arange(group * per_angle, (group + 1) * per_angle), rng.normal()))
+                moves.append(("angle", np.arange(group * per_angle, (group + 1) * per_angle), j2, rng.normal() * size))
             elif self.free and rng.random() < 0.5:
                 row = np.array([int(rng.integers(angles * per_angle))])
-                moves.append(("turn", row, turn_draws((self.force_size, self.couple_size), rng)))
+                moves.append(("turn", row, None, (size, turn_draws((self.force_size, self.couple_size), rng))))
             else:
                 row = np.array([int(rng.integers(angles * per_angle))])
-                moves.append(("joints", row, rng.normal(size=others)))
+                moves.append(("joints", row, others, rng.normal(size=len(others)) * size))
         return moves
 
-    def _refine_steps(self, q, loads, angles, per_angle, criterion, moves: list, known: dict, unsolved: dict):
+    def _refine_steps(self, q, loads, per_angle, criterion, moves: list, known: dict, unsolved: dict):
         """The refinement's steps from the plan ``q``, ``loads``: the plan reached with its criterion, and the keys (a dict's
         keys, in order) of the configurations it took whose equilibrium is in ``unsolved``."""
         q, loads = q.copy(), loads.copy()
@@ -80,13 +85,13 @@ class Refinement:
         # one step after another, the configurations evaluated ahead in batches (a row a step does not change keeps its
         # evaluation)
         for step in range(len(moves)):
-            proposal = self._proposal(q, loads, moves, step, angles, per_angle)
+            proposal = self._proposal(q, loads, moves[step], per_angle)
             if proposal is None:
                 continue
             moved, turn, rows = proposal
             keys = [_key(moved[r], turn[r]) for r in rows]
             if any(key not in known for key in keys):
-                self._look_ahead(q, loads, moves, step, angles, per_angle, known, unsolved)
+                self._look_ahead(q, loads, moves[step : step + REFINE_BLOCK], per_angle, known, unsolved)
             if any(known[key] is None for key in keys):
                 continue
             trial = parts.copy()
@@ -98,14 +103,14 @@ class Refinement:
                 taken.update((key, None) for key in keys if key in unsolved)
         return (q, loads, current), taken
 
-    def _look_ahead(self, q, loads, moves: list, step: int, angles, per_angle, known: dict, unsolved: dict) -> None:
-        """Evaluate at once the configurations the next :data:`REFINE_BLOCK` steps would propose from the plan ``q``, ``loads``.
+    def _look_ahead(self, q, loads, moves: list, per_angle, known: dict, unsolved: dict) -> None:
+        """Evaluate at once the configurations the steps ``moves`` (the next :data:`REFINE_BLOCK`) would propose from the plan ``q``, ``loads``.
 
         The linear model's information needs no equilibrium: the configurations that pass the other checks go to
         ``unsolved``, and their equilibria are solved for those a step takes (:meth:`_refine`)."""
         wanted: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-        for s in range(step, min(step + REFINE_BLOCK, len(moves))):
-            proposal = self._proposal(q, loads, moves, s, angles, per_angle)
+        for move in moves:
+            proposal = self._proposal(q, loads, move, per_angle)
             if proposal is not None:
                 moved, turn, rows = proposal
                 for r in rows:
@@ -136,23 +141,18 @@ class Refinement:
             known[key] = value
         known.update({key: None for key, f in zip(keys, feasible) if not f})
 
-    def _proposal(self, q: np.ndarray, loads: np.ndarray, moves: list, step: int, angles: int, per_angle: int):
-        """Step ``step`` of ``moves`` applied to the plan ``q``, ``loads``: the proposed configurations, loads and the
-        rows changed, or None when it breaks the angles' separation."""
-        j2 = self.cell.plan_joint
-        first, last = (v * DEG for v in REFINE_STEP_DEG)
-        size = first * (last / first) ** (step / max(len(moves) - 1, 1))
-        kind, rows, draws = moves[step]
+    def _proposal(self, q: np.ndarray, loads: np.ndarray, move: tuple, per_angle: int):
+        """The step ``move`` (:meth:`_moves`) applied to the plan ``q``, ``loads``: the proposed configurations, loads and
+        the rows changed, or None when it breaks the angles' separation."""
+        kind, rows, joints, step = move
         proposal, turn = q.copy(), loads.copy()
-        if kind == "angle":
-            proposal[rows, j2] += draws * size
-            if not self._separated(list(proposal[::per_angle, j2])):
-                return None
-        elif kind == "turn":
+        if kind == "turn":
             # the step (rad) turns the load's direction as far as it moves a joint
-            turn[rows[0]] = turned(loads[rows[0]], size, draws)
+            turn[rows[0]] = turned(loads[rows[0]], *step)
         else:
-            proposal[rows[0], [j for j in range(self.cell.robot.nq) if j != j2]] += draws * size
+            proposal[rows, joints] += step
+            if kind == "angle" and not self._separated(list(proposal[::per_angle, self.cell.plan_joint])):
+                return None
         return proposal, turn, rows
 
 

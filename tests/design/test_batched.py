@@ -109,7 +109,7 @@ def test_the_refinement_looking_ahead_takes_the_steps_one_at_a_time(cell, design
     loads = np.tile(designer._down, (len(start.q), 1))
     steps = 60
     drawn = np.random.default_rng(4)
-    q, _, score = designer._refine(start.q, loads, 5, 3, "test-pose", designer._moves(drawn, steps, 5, 3))
+    q, _, score = designer._refine(start.q, loads, 3, "test-pose", designer._moves(drawn, steps, 5, 3))
     # the search as it was written, each step drawn where it is taken and evaluated alone
     rng = np.random.default_rng(4)
     reference = start.q.copy()
