@@ -58,12 +58,13 @@ def forked_map(work: Callable[[int], T], count: int, workers: int) -> Iterator[T
     ``work`` is never pickled (a closure will do); its results are.  The results are yielded as they come, in order,
     so that a caller can report progress; the workers end when the iterator is exhausted or closed.
     """
-    if _workers(count, workers) == 1:
+    processes = _workers(count, workers)
+    if processes == 1:
         yield from (work(index) for index in range(count))
         return
     _FORKED[:] = [work]
     try:
-        with ProcessPoolExecutor(_workers(count, workers), mp_context=multiprocessing.get_context("fork")) as pool:
+        with ProcessPoolExecutor(processes, mp_context=multiprocessing.get_context("fork")) as pool:
             yield from pool.map(_run, range(count))
     finally:
         _FORKED.clear()

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-__all__ = ["RateGenerator", "GENERATORS", "SET_ON", "critique_rates", "rates", "confusion", "markdown_rates"]
+__all__ = ["RateGenerator", "GENERATORS", "SET_ON", "critique_rates", "rates", "confusion", "markdown_rates", "judged", "weighed_cell"]
 
 ADEQUATE = "adequate"
 
@@ -208,7 +208,7 @@ def _expected(generator: RateGenerator, effect: str, nests: bool) -> str:
     return ADEQUATE if nests and expected == "drift" else expected
 
 
-def _judged(causes: list[str], tied: dict, contested: dict, expected: str) -> dict:
+def judged(causes: list[str], tied: dict, contested: dict, expected: str) -> dict:
     """Whether the first cause is the expected one alone, right counting ties and contests, or a wrong single cause."""
     first = causes[0] if causes else None
     partners = list(tied.get(first, [])) + list(contested.get(first, [])) if first else []
@@ -222,7 +222,7 @@ def _judged(causes: list[str], tied: dict, contested: dict, expected: str) -> di
             "wrong_single": bool(causes) and not right and not partners}
 
 
-def _weighed(cell, generator: RateGenerator, effect: str):
+def weighed_cell(cell, generator: RateGenerator, effect: str):
     """The cell the critique reads ``effect``'s campaigns with: ``cell`` carrying the generator's tool weight."""
     from dataclasses import replace
 
@@ -247,7 +247,7 @@ def _one(case: tuple, rng: np.random.Generator, cell, plan: str) -> dict:
         # the plan's warnings (e.g. all loads parallel) are the same for every campaign of a case
         warnings.simplefilter("ignore", UserWarning)
         campaign_path, nests_path = generator.write(effect, multiple, seed, nests, folder, cell, plan)
-        weighed = _weighed(cell, generator, effect)
+        weighed = weighed_cell(cell, generator, effect)
         campaign = read_campaign(campaign_path, cell=weighed)
         readings = None
         if nests_path is not None:
@@ -257,7 +257,7 @@ def _one(case: tuple, rng: np.random.Generator, cell, plan: str) -> dict:
     causes = list(result.causes)
     expected = _expected(generator, effect, nests)
     return {"generator": name, "effect": effect, "multiple": multiple, "nests": nests, "seed": seed, "expected": expected,
-            "causes": ",".join(causes)} | _judged(causes, result.tied_with, result.contested_by, expected)
+            "causes": ",".join(causes)} | judged(causes, result.tied_with, result.contested_by, expected)
 
 
 def critique_rates(

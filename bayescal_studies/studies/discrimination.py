@@ -124,9 +124,9 @@ def _beams_campaigns(case: TieCase, cell, noise_seed: int):
 
 def _read_with(case: TieCase, cell):
     """The cell the campaigns of ``case`` are read and designed with: the third generator's tool weighed in it."""
-    from bayescal_studies.studies.critique_rates import GENERATORS, _weighed
+    from bayescal_studies.studies.critique_rates import GENERATORS, weighed_cell
 
-    return _weighed(cell, GENERATORS["beams"], case.effect) if case.generator == "beams" else cell
+    return weighed_cell(cell, GENERATORS["beams"], case.effect) if case.generator == "beams" else cell
 
 
 def _one(
@@ -179,10 +179,10 @@ def _one(
 def _criticised(cell, campaign, right: str, seed: np.random.SeedSequence) -> dict:
     """The whole critique of the plan's ``campaign``, its first cause judged against ``right`` as the rate harness judges it."""
     from bayescal.critique import Critique
-    from bayescal_studies.studies.critique_rates import _judged
+    from bayescal_studies.studies.critique_rates import judged
 
     result = Critique(cell).run(campaign, np.random.default_rng(seed))
-    return {"causes": ",".join(result.causes)} | _judged(list(result.causes), result.tied_with, result.contested_by, right)
+    return {"causes": ",".join(result.causes)} | judged(list(result.causes), result.tied_with, result.contested_by, right)
 
 
 def _case_seeds(cases: Sequence[str], n_seeds: int, seed: int) -> tuple[list, list[np.random.SeedSequence]]:

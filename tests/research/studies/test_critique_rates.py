@@ -3,7 +3,7 @@ from concurrent.futures import ThreadPoolExecutor
 import pytest
 
 from bayescal.critique.extensions import CATALOGUE
-from bayescal_studies.studies.critique_rates import GENERATORS, SET_ON, _judged, confusion, critique_rates, markdown_rates, rates
+from bayescal_studies.studies.critique_rates import GENERATORS, SET_ON, judged, confusion, critique_rates, markdown_rates, rates
 from bayescal.twin.beams import EFFECTS as BEAMS_EFFECTS
 from bayescal.twin.effects import EFFECTS as TWIN_EFFECTS
 
@@ -28,16 +28,16 @@ def test_the_independent_generators_right_verdicts_are_its_effects_causes():
 
 
 def test_a_tie_is_right_but_not_alone_and_a_lone_wrong_cause_is_wrong():
-    tied = _judged(["outliers", "backlash"], {"outliers": ["backlash"]}, {}, "backlash")
+    tied = judged(["outliers", "backlash"], {"outliers": ["backlash"]}, {}, "backlash")
     assert (tied["first"], tied["partners"], tied["right"], tied["alone"], tied["wrong_single"]) == ("outliers", "backlash", True, False, False)
-    alone = _judged(["backlash", "unexplained"], {}, {}, "backlash")
+    alone = judged(["backlash", "unexplained"], {}, {}, "backlash")
     assert alone["alone"] and alone["right"] and not alone["wrong_single"]
-    wrong = _judged(["unexplained"], {}, {}, "backlash")
+    wrong = judged(["unexplained"], {}, {}, "backlash")
     assert wrong["wrong_single"] and not wrong["right"]
-    false_alarm = _judged(["outliers"], {}, {}, "adequate")
+    false_alarm = judged(["outliers"], {}, {}, "adequate")
     assert false_alarm["wrong_single"] and false_alarm["first"] == "outliers"
-    assert _judged([], {}, {}, "adequate")["alone"]
-    assert not _judged(["link_compliance", "unexplained"], {}, {}, "unexplained")["alone"]
+    assert judged([], {}, {}, "adequate")["alone"]
+    assert not judged(["link_compliance", "unexplained"], {}, {}, "unexplained")["alone"]
 
 
 def test_the_harness_runs_the_third_generator_with_and_without_nests(data_dir):
@@ -91,11 +91,11 @@ def test_on_the_third_generators_rigid_arm_nothing_planted_is_adequate(data_dir)
 def test_each_generators_campaigns_are_read_with_the_tool_weight_it_simulates(cell):
     from dataclasses import replace
 
-    from bayescal_studies.studies.critique_rates import _weighed
+    from bayescal_studies.studies.critique_rates import weighed_cell
 
-    beams = _weighed(cell, GENERATORS["beams"], "lost_motion")
+    beams = weighed_cell(cell, GENERATORS["beams"], "lost_motion")
     assert beams.robot.tool_mass == 38.0 and beams.robot.tool_centre == pytest.approx([0.17, 0.0, 0.09])
-    assert _weighed(cell, GENERATORS["independent"], "tool_mount").robot.tool_mass == 30.0
-    assert _weighed(cell, GENERATORS["independent"], "gear_play") is cell and _weighed(cell, GENERATORS["twin"], "backlash") is cell
+    assert weighed_cell(cell, GENERATORS["independent"], "tool_mount").robot.tool_mass == 30.0
+    assert weighed_cell(cell, GENERATORS["independent"], "gear_play") is cell and weighed_cell(cell, GENERATORS["twin"], "backlash") is cell
     with pytest.raises(ValueError, match="weighs a tool already"):
-        _weighed(replace(cell, robot=cell.robot.with_tool(5.0, [0.1, 0.0, 0.0])), GENERATORS["beams"], "none")
+        weighed_cell(replace(cell, robot=cell.robot.with_tool(5.0, [0.1, 0.0, 0.0])), GENERATORS["beams"], "none")
