@@ -87,7 +87,7 @@ def geometry_critique_document(results) -> Summary:
 def _importance_lines(results) -> list[str]:
     """What each named cause changes, then the candidates it ties with or is contested by, the plan that separates them,
     and the rivals it explains."""
-    from bayescal.critique.extensions import CATALOGUE
+    from bayescal.critique.extensions import PLANNABLE
 
     lines = []
     for cause, entry in results.importance.items():
@@ -97,7 +97,6 @@ def _importance_lines(results) -> list[str]:
             f"(its sd {1000 * entry['test_pose_sd_mm']:.1f} μm)"
             + ("" if entry["matters"] else ": detectable but too small to matter")
         )
-    plannable = {name for name, e in CATALOGUE.items() if e.physical and not e.robust}
     for kind, pairs in (("tied with", results.tied_with), ("contested by", results.contested_by)):
         for cause, others in pairs.items():
             lines.append(f"{cause} {kind} {', '.join(others)}")
@@ -106,7 +105,7 @@ def _importance_lines(results) -> list[str]:
                 f"  to separate them: bayescal plan --config CELL.toml --criterion discriminate --between {cause},{other} "
                 f"--campaign {results.source} -o PLAN.csv"
                 for other in others
-                if {cause, other} <= plannable
+                if {cause, other} <= set(PLANNABLE)
             ]
     for cause, others in results.explains.items():
         for other, (rival_added, cause_added) in others.items():

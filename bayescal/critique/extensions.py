@@ -60,7 +60,7 @@ from bayescal.cell.config import Cell
 from bayescal.critique.covariates import COVARIATES, PREDICTED_MARKER, REVERSED_MARKER, Rows
 from bayescal.critique.drift import drift_deflection, drift_evidence
 
-__all__ = ["Extension", "CATALOGUE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "BACKLASH_HOLDS", "BACKLASH_SHIFTS", "rated_torques", "BACKLASH_SETTINGS", "APPROACH_MOVE", "OUTLIER_DOF"]
+__all__ = ["Extension", "CATALOGUE", "PLANNABLE", "PROBES", "base_columns", "BEAM_MIN_LENGTH", "BACKLASH_PRELOAD", "BACKLASH_HOLDS", "BACKLASH_SHIFTS", "rated_torques", "BACKLASH_SETTINGS", "APPROACH_MOVE", "OUTLIER_DOF"]
 
 BEAM_MIN_LENGTH = 0.5
 """Shortest link (m, between consecutive joint origins) modelled as a beam: shorter links of an
@@ -381,6 +381,9 @@ CATALOGUE: dict[str, Extension] = {
     )
 }
 """The physical extensions, named as the digital twin's effects."""
+
+PLANNABLE: tuple[str, ...] = tuple(name for name, e in CATALOGUE.items() if e.physical and not e.robust)
+"""The candidates a plan can separate (``plan --criterion discriminate``): physical deflections, not a noise model."""
 
 
 def _per_axis(values: np.ndarray) -> np.ndarray:

@@ -47,7 +47,7 @@ from bayescal.cell.config import Cell
 from bayescal.cell.plan import Plan, write_plan
 from bayescal.critique.compare import fit
 from bayescal.critique.covariates import REVERSED_MARKER, Rows, campaign_rows, pose_rows
-from bayescal.critique.extensions import CATALOGUE, Extension, base_columns
+from bayescal.critique.extensions import CATALOGUE, PLANNABLE, Extension, base_columns
 from bayescal.critique.model import fitted_variant
 from bayescal.design.constraints import DesignSpace, load_design_space
 from bayescal.design.discriminating_search import _Exchange
@@ -185,10 +185,9 @@ class DiscriminatingDesigner:
     def __init__(self, cell: Cell, between: tuple[str, str], campaign: Campaign, space: DesignSpace | None = None, *, repeats: int = 3) -> None:
         if len(between) != 2 or between[0] == between[1]:
             raise InputError(f"expected two different candidates, got {','.join(between)}", source="between")
-        physical = [name for name, e in CATALOGUE.items() if e.physical and not e.robust]
         for name in between:
-            if name not in physical:
-                raise InputError(f"unknown candidate '{name}'; expected two of {', '.join(physical)}", source="between")
+            if name not in PLANNABLE:
+                raise InputError(f"unknown candidate '{name}'; expected two of {', '.join(PLANNABLE)}", source="between")
         self.cell, self.between, self.repeats = cell, tuple(between), repeats
         self.space = load_design_space(cell) if space is None else space
         self.campaign = campaign

@@ -182,9 +182,8 @@ def _next_step(critique: CritiqueFindings, named: list[str] | None) -> str:
 def _rivals(page: Page, critique: CritiqueFindings, source: str) -> None:
     """The candidates each named cause ties with, is contested by, or explains, in words, with the plan that separates
     a pair of physical candidates (as ``bayescal critique`` prints them)."""
-    from bayescal.critique.extensions import CATALOGUE
+    from bayescal.critique.extensions import PLANNABLE
 
-    plannable = {name for name, extension in CATALOGUE.items() if extension.physical and not extension.robust}
     meaning = {
         "tied_with": "this campaign cannot tell them apart: their fitted deflections differ nowhere by a reading's noise",
         "contested_by": "its held-out lead over them is within two standard errors, though some reading of this plan could separate them",
@@ -201,7 +200,7 @@ def _rivals(page: Page, critique: CritiqueFindings, source: str) -> None:
             if not (isinstance(others, list) and others and all(isinstance(o, str) for o in others)):
                 generic(page, {key: {cause: others}})
                 continue
-            separable = [o for o in others if {cause, o} <= plannable]
+            separable = [o for o in others if {cause, o} <= set(PLANNABLE)]
             plans = "; ".join(f"bayescal plan --config CELL.toml --criterion discriminate --between {cause},{o} --campaign {source or 'CAMPAIGN.csv'} -o PLAN.csv"
                               for o in separable)
             page.paragraph(f"{cause} is {key.replace('_', ' ')} {', '.join(others)}: {words}." + (f" The experiment that separates them: {plans}." if plans else ""))
