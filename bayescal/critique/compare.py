@@ -14,11 +14,15 @@ and scale ``s² (W_h⁻¹ + X_h (X'WX)⁻¹ X_h')``.  Leaving one configuration 
 is therefore exact, without sampling.
 
 *Student-t noise* (:data:`~bayescal.critique.extensions.OUTLIER_DOF` degrees of
-freedom): the scale-mixture EM gives the coefficients and the axis levels;
-the held-out predictive is the product of the equations' Student-t
-densities, each widened by the coefficients' uncertainty
-``x' (X'UWX)⁻¹ x`` (their correlation through the coefficients, small beside
-the noise, is neglected).
+freedom) per reading: a gross error (a broken beam, a mis-seated reflector, a
+distance re-acquired off) puts one reading of one marker off in all three
+coordinates at once, so the three equations of a row share one scale-mixing
+weight (a trivariate t), and rows are independent.  The scale-mixture EM gives
+the coefficients and the axis levels; the held-out predictive is the product of
+the rows' trivariate t densities, each equation widened by the coefficients'
+uncertainty ``x' (X'UWX)⁻¹ x`` (their correlation through the coefficients,
+small beside the noise, is neglected).  Each equation's marginal is then a t
+with the same degrees of freedom, which the PIT uses.
 
 The models are compared by the expected log predictive density of held-out
 configurations (leave-one-configuration-out), with the standard error of the
@@ -38,6 +42,9 @@ from bayescal.inference.identifiability import COLLINEAR_TOLERANCE, independent_
 
 __all__ = ["Fit", "CrossValidation", "Comparison", "fit", "cross_validate", "compare", "compare_elpd", "smallest_unexplained_fraction"]
 
+ROW_EQUATIONS = 3
+"""Equations of one campaign row (one marker's deflection in one configuration and repeat), consecutive in
+``y``: the coordinates of one marker's readings, which a gross error puts off together."""
 AXIS_ITERATIONS = 3
 """Reweightings for the axis noise levels (their ratios settle to 1e-3 within three on twin campaigns)."""
 EM_ITERATIONS = 200
@@ -82,13 +89,14 @@ class Fit:
     def predict(self, X: np.ndarray) -> np.ndarray:
         return X @ self.beta
 
-    def log_density(self, y: np.ndarray, X: np.ndarray, scale: np.ndarray, group: np.ndarray) -> float:
-        """Log predictive density of the equations ``y`` (jointly), m."""
+    def log_density(self, y: np.ndarray, X: np.ndarray, scale: np.ndarray, group: np.ndarray, unit: np.ndarray | None = None) -> float:
+        """Log predictive density of the equations ``y`` (jointly), m; ``unit`` (n,) the equations' mixing units of the
+        Student-t noise (default: rows of :data:`ROW_EQUATIONS`)."""
         residual = y - X @ self.beta
         noise = (self.level[group] * scale) ** 2
         if self.robust:
             spread = np.sqrt(noise + np.einsum("ij,jk,ik->i", X, self.cov, X))
-            return float(np.sum(_t_logpdf(residual / spread, self.dof) - np.log(spread)))
+            return float(np.sum(_unit_t_logpdf(residual / spread, self.dof, _units(unit, y.size))) - np.sum(np.log(spread)))
         covariance = np.diag(noise) + X @ self.cov @ X.T
         factor = np.linalg.cholesky(covariance)
         z = linalg.solve_triangular(factor, residual, lower=True)
@@ -107,9 +115,19 @@ class Fit:
         return np.sqrt((self.level[group] * scale) ** 2 + np.einsum("ij,jk,ik->i", X, self.cov, X))
 
 
-def _t_logpdf(x: np.ndarray, nu: float) -> np.ndarray:
-    # Student t's log density from scipy.special, as the PIT's stdtr: the fits need nothing of scipy.stats (0.34-0.36 s to import)
-    return special.gammaln((nu + 1) / 2) - special.gammaln(nu / 2) - 0.5 * np.log(nu * np.pi) - (nu + 1) / 2 * np.log1p(x**2 / nu)
+def _units(unit: np.ndarray | None, n: int) -> np.ndarray:
+    """(n,) consecutive mixing-unit indices from 0 (rows of :data:`ROW_EQUATIONS` by default)."""
+    if unit is None:
+        return np.arange(n) // ROW_EQUATIONS
+    return np.unique(unit, return_inverse=True)[1]
+
+
+def _unit_t_logpdf(z: np.ndarray, nu: float, unit: np.ndarray) -> np.ndarray:
+    """Log density of each unit's standardised equations ``z`` (n,) under a multivariate t of ``nu`` dof (unit scale)."""
+    # from scipy.special, as the PIT's stdtr: the fits need nothing of scipy.stats (0.34-0.36 s to import)
+    d = np.bincount(unit)
+    squares = np.bincount(unit, z**2)
+    return special.gammaln((nu + d) / 2) - special.gammaln(nu / 2) - d / 2 * np.log(nu * np.pi) - (nu + d) / 2 * np.log1p(squares / nu)
 
 
 def _wls(y, X, weight):
@@ -122,8 +140,9 @@ def _wls(y, X, weight):
     return linalg.cho_solve(factor, (A.T @ y) / norm) / norm
 
 
-def fit(y: np.ndarray, X: np.ndarray, scale: np.ndarray, group: np.ndarray, *, robust: bool = False) -> Fit:
-    """Fit the linear model ``y = X β + noise`` (noise sd ``σ_group · scale``) to the equations given."""
+def fit(y: np.ndarray, X: np.ndarray, scale: np.ndarray, group: np.ndarray, *, robust: bool = False, unit: np.ndarray | None = None) -> Fit:
+    """Fit the linear model ``y = X β + noise`` (noise sd ``σ_group · scale``) to the equations given; with ``robust``,
+    Student-t noise whose mixing weight each ``unit`` (n,) of equations shares (default: rows of :data:`ROW_EQUATIONS`)."""
     n, p = X.shape
     counts = np.bincount(group, minlength=3)
     present = counts > 0
@@ -143,6 +162,8 @@ def fit(y: np.ndarray, X: np.ndarray, scale: np.ndarray, group: np.ndarray, *, r
         cov = s2 * np.linalg.inv(gram)
         return Fit(beta=beta, cov=cov, level=np.sqrt(s2 * variance), dof=float(dof), robust=False)
     nu = OUTLIER_DOF
+    units = _units(unit, n)
+    size = np.bincount(units)
     mixing = np.ones(n)
     beta = _wls(y, X, 1.0 / scale**2)
     residual = (y - X @ beta) / scale
@@ -151,7 +172,7 @@ def fit(y: np.ndarray, X: np.ndarray, scale: np.ndarray, group: np.ndarray, *, r
         weight = mixing / (scale**2 * variance[group])
         updated = _wls(y, X, weight)
         residual = (y - X @ updated) / scale
-        mixing = (nu + 1) / (nu + residual**2 / variance[group])
+        mixing = ((nu + size) / (nu + np.bincount(units, residual**2 / variance[group])))[units]
         variance = np.where(present, np.bincount(group, mixing * residual**2, minlength=3) / np.maximum(counts, 1), 1.0)
         variance = np.maximum(variance, 1e-30)
         gram = X.T @ (X * (mixing / (scale**2 * variance[group]))[:, np.newaxis])
@@ -199,7 +220,8 @@ class CrossValidation:
 
 
 def cross_validate(
-    y: np.ndarray, X: np.ndarray, scale: np.ndarray, group: np.ndarray, config: np.ndarray, *, robust: bool = False
+    y: np.ndarray, X: np.ndarray, scale: np.ndarray, group: np.ndarray, config: np.ndarray, *, robust: bool = False,
+    unit: np.ndarray | None = None,
 ) -> CrossValidation:
     """Leave-one-configuration-out predictive densities of the model ``X`` (equations' ``config``).
 
@@ -207,14 +229,15 @@ def cross_validate(
     whole campaign's less the held-out configuration's, per base axis, so that one pass over the equations
     serves every fold and reweighting; each fold's equations are then solved by one batched factorisation.
     A fold whose columns come near collinearity, and every fold of the Student-t model (whose weights are
-    per equation), are fitted alone by :func:`fit`.
+    per row, or per ``unit`` (n,) of equations), are fitted alone by :func:`fit`.
     """
     columns = independent_columns(X)
     X = X[:, columns]
     configs, fold = np.unique(config, return_inverse=True)
     # the last of the batched fits holds nothing out: the model fitted to all equations
     batched = {} if robust else _gaussian_folds(y, X, scale, group, fold, configs.size + 1)
-    full = batched.pop(configs.size, None) or fit(y, X, scale, group, robust=robust)
+    unit = _units(unit, y.size)
+    full = batched.pop(configs.size, None) or fit(y, X, scale, group, robust=robust, unit=unit)
     elpd = np.empty(configs.size)
     predicted = np.empty(y.size)
     sd = np.empty(y.size)
@@ -230,9 +253,9 @@ def cross_validate(
             # A column the other configurations do not excite (a torque reversal seen in the
             # held-out one only) has no estimate: the held-out prediction goes without it.
             keep = independent_columns(X[~out])
-            model = fit(y[~out], X[~out][:, keep], scale[~out], group[~out], robust=robust)
+            model = fit(y[~out], X[~out][:, keep], scale[~out], group[~out], robust=robust, unit=unit[~out])
         held_out = X[out][:, keep]
-        elpd[k] = model.log_density(y[out], held_out, scale[out], group[out])
+        elpd[k] = model.log_density(y[out], held_out, scale[out], group[out], unit[out])
         predicted[out] = model.predict(held_out)
         sd[out] = model.marginal_sd(held_out, scale[out], group[out])
         pit[out] = special.stdtr(model.dof, (y[out] - predicted[out]) / sd[out])

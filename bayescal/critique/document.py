@@ -113,6 +113,11 @@ def _importance_lines(results) -> list[str]:
                 f"{cause} explains {other}: {other} adds {rival_added.delta_elpd:.1f} ± {rival_added.se:.1f} nats on top of it, "
                 f"it {cause_added.delta_elpd:.1f} ± {cause_added.se:.1f} on top of {other}"
             )
+    for name, per_state in results.shared_by_state.items():
+        lines.append(
+            f"{name} not named: its heavy tail is shared by every marker of a state (per state {per_state.delta_elpd:.1f} ± "
+            f"{per_state.se:.1f} nats better than per reading): the arm is off there, not the tracker's readings"
+        )
     return lines
 
 

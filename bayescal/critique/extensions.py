@@ -36,7 +36,10 @@ parameters where the physics allows:
     Each joint's deflection law gains a term in ``τ|τ|`` (a spring that stiffens
     or softens with torque), the torque being the weight's and the load's.
 ``outliers``
-    Student-t tracker noise instead of Gaussian (no new columns).
+    Student-t tracker noise instead of Gaussian, one mixing weight per reading (no new columns); named only
+    where that heavy tail predicts the held-out configurations better than the same tail shared by every
+    marker of a state: a gross error puts one reading off, while an arm that is not where the model puts it
+    (play on the side not predicted) moves every marker of that state together.
 ``drift``
     The tracker's frame moving between a row's unloaded and loaded reading, as the
     campaign's readings of one state repeated in time show it
@@ -112,7 +115,12 @@ class Extension:
         ``columns(rows, cell)`` -> (N, 3, m) regressors of its m new parameters (m may be 0).
         With a ``grid``, ``columns(rows, cell, setting)``.
     robust : bool
-        Whether it replaces the Gaussian noise by Student-t noise.
+        Whether it replaces the Gaussian noise by Student-t noise, the three coordinates of a row (one marker's
+        readings) sharing one mixing weight: a gross error puts one reading off in all three.
+    per_state : bool
+        With ``robust``, whether the mixing weight is shared by all rows of one state (a configuration's repeat,
+        every marker read in it) instead: the heavy tail of the arm's state, not of the tracker's readings, which
+        only the check of a robust candidate fits (:func:`~bayescal.critique.model.Critique.run`).
     physical : bool
         Whether it is a physical term that predicts at other poses (probes are not).
     grid : tuple
@@ -128,6 +136,7 @@ class Extension:
     description: str
     columns: Callable[..., np.ndarray]
     robust: bool = False
+    per_state: bool = False
     physical: bool = True
     grid: tuple = ()
     setting: object = None

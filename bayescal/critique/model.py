@@ -11,7 +11,9 @@ nats and :data:`~bayescal.critique.rule.DECISIVE_Z` standard errors: no clause n
 gain within its own standard error).
 A candidate that also passes and that the named one does not beat held out ties with it or contests it,
 unless the named one explains it (:func:`~bayescal.critique.rule.explains`: the rival adds nothing on top of
-it, it still adds on top of the rival).
+it, it still adds on top of the rival).  A heavy tail (``outliers``, gross tracker errors, one reading at a time)
+that every marker of a state shares better, by the same rule, is the arm's misfit, not the tracker's: it is not
+named (:func:`_shared_by_state`).
 Each named cause is measured by what it changes for the user (:meth:`Critique.run`'s
 ``importance``: the held-out residual rms and the prediction at the test pose), and a
 cause that changes neither by more than the calibration's own uncertainty at the test
@@ -28,7 +30,7 @@ cause ``unexplained`` with the covariate it follows.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -65,6 +67,13 @@ class _Model:
     @property
     def robust(self) -> bool:
         return any(e.robust for e in self.extensions)
+
+    def units(self, rows: Rows) -> np.ndarray | None:
+        """(3N,) the Student-t noise's mixing unit of each equation: a state's rows together where an extension asks it,
+        else None (each row, :func:`~bayescal.critique.compare.fit`)."""
+        if not any(e.per_state for e in self.extensions):
+            return None
+        return np.repeat(np.unique(np.column_stack([rows.config, rows.repeat]), axis=0, return_inverse=True)[1].reshape(-1), 3)
 
     def design(self, rows: Rows, cell: Cell) -> np.ndarray:
         return self.blocks(rows, cell)[0]
@@ -167,7 +176,7 @@ class Critique:
         # The repeats' pure error sees a misfit of any shape, also one no candidate matches; a robust
         # model's outliers inflate both sides of the test, so it does not overrule a named outlier model.
         unmatched = misfit is not None and misfit.significant() and not model.robust
-        if covariate is not None or unmatched:
+        if covariate is not None or unmatched or search.arm_misfit:
             causes.append(UNEXPLAINED)
         equation_rows = np.repeat(np.arange(len(rows)), 3)
         return CritiqueResults(
@@ -189,6 +198,7 @@ class Critique:
             tied_with={cause: others for cause, others in search.tied.items() if others},
             contested_by={cause: others for cause, others in search.contested.items() if others},
             explains={cause: others for cause, others in search.explained.items() if others},
+            shared_by_state=search.shared_by_state,
             settings={e.name: e.reading(rows, self.cell) for e in model.extensions if e.setting is not None},
             importance=self._importance(search.history, rows, y, scale, group, equation_rows),
             drift=measured or _drift_report(drift, rows, "drift" in self.catalogue),
@@ -259,7 +269,7 @@ class Critique:
         test = pose_rows(cell, cell.test_q, cell.test_wrench, cell.test_point)
         X = model.design(rows, cell)
         cv_columns = independent_columns(X)
-        fitted = fit(y, X[:, cv_columns], scale, group, robust=model.robust)
+        fitted = fit(y, X[:, cv_columns], scale, group, robust=model.robust, unit=model.units(rows))
         # with the campaign's rows, so that columns scaled by the campaign (backlash) scale alike
         design, physical = model.blocks(rows.extend(test), cell)
         X0 = design[-3:] * physical
@@ -321,19 +331,27 @@ class _Search:
     tied: dict[str, list[str]]
     contested: dict[str, list[str]]
     explained: dict[str, dict[str, tuple[Comparison, Comparison]]]
+    shared_by_state: dict[str, Comparison]
     steps: list[dict[str, Comparison]]
     history: list[tuple[_Model, CrossValidation]]
+    arm_misfit: bool = False
+    """Whether the last step refused a heavy tail the markers of a state share: a misfit no candidate named."""
 
 
 def _greedy_search(base: CrossValidation, remaining: list[Extension], validate: Callable[[_Model], CrossValidation],
                    fitted: Callable[[_Model, CrossValidation], np.ndarray], noise_of: Callable[[CrossValidation], np.ndarray]) -> _Search:
     """Add the strongest candidate while one passes the rule, each on top of those before."""
-    search = _Search(_Model(()), base, [], {}, {}, {}, [], [(_Model(()), base)])
+    search = _Search(_Model(()), base, [], {}, {}, {}, {}, [], [(_Model(()), base)])
     while remaining:
         model, current = search.model, search.current
         trials = {e.name: _best_variant(e, model, validate) for e in remaining}
         evidence = {name: compare(current, cv) for name, (_, cv) in trials.items()}
         search.steps.append(evidence)
+        shared = _shared_by_state(trials, evidence, model, validate)
+        search.shared_by_state |= shared
+        search.arm_misfit = bool(shared)
+        trials = {name: trial for name, trial in trials.items() if name not in shared}
+        evidence = {name: comparison for name, comparison in evidence.items() if name in trials}
         best = strongest(evidence)
         if best is None:
             break
@@ -348,6 +366,28 @@ def _greedy_search(base: CrossValidation, remaining: list[Extension], validate: 
         search.history.append((search.model, search.current))
         remaining = [e for e in remaining if e.name != best]
     return search
+
+
+def _shared_by_state(trials: dict, evidence: dict[str, Comparison], model: _Model,
+                     validate: Callable[[_Model], CrossValidation]) -> dict[str, Comparison]:
+    """The robust candidates that pass, but whose heavy tail the markers of a state share: each with the held-out
+    comparison of the same tail per state against its tail per reading (positive: the state's is better).
+
+    Gross tracker errors put single readings off, one marker at a time; an arm that is not where the model puts it
+    (a joint's play on the side the model did not predict) moves every marker read in that state together.  Where the
+    tail shared by a state beats the tail per reading by the naming rule (:func:`~bayescal.critique.rule.passes`), the
+    misfit is the arm's, and a tracker-error model is no cause of it: the candidate is not named, and what it took up
+    is left to the other candidates; where it is still there when the search ends, it is a misfit no candidate names
+    (``unexplained``: the repeats' lack of fit cannot show it, since one repeat off inflates the repeats' own scatter).
+    The rule's own comparison, with no constant of its own.
+    """
+    out = {}
+    for name, (variant, cv) in trials.items():
+        if variant.robust and passes(evidence[name]):
+            per_state = compare(cv, validate(model.plus(replace(variant, per_state=True))))
+            if passes(per_state):
+                out[name] = per_state
+    return out
 
 
 def _best_variant(extension: Extension, model: _Model, validate: Callable[[_Model], CrossValidation]) -> tuple[Extension, CrossValidation]:
@@ -372,7 +412,7 @@ def _validation(rows: Rows, cell: Cell) -> Callable[[_Model], CrossValidation]:
 
     def validate(model: _Model) -> CrossValidation:
         if model not in validated:
-            validated[model] = cross_validate(y, model.design(rows, cell), scale, group, config, robust=model.robust)
+            validated[model] = cross_validate(y, model.design(rows, cell), scale, group, config, robust=model.robust, unit=model.units(rows))
         return validated[model]
 
     return validate

@@ -27,6 +27,11 @@ __all__ = ["Outcome", "CritiqueResults", "CritiqueFindings", "CRITIQUE_JSON", "V
 VERDICTS = ("adequate", "misfit")
 """The verdicts a critique gives (:attr:`Outcome.verdict`)."""
 
+SHARED_BY_STATE = ("a heavy tail shared by every marker of a state predicts the held-out configurations better than one "
+                   "per reading, by the naming rule: the arm is off in those states, not the tracker's readings; not named "
+                   "as gross errors")
+"""What ``shared_by_state`` in the critique's JSON means."""
+
 CRITIQUE_JSON = JsonSchema({"verdict": str, "causes": list, "evidence": dict, "gain": dict}, "bayescal critique --json",
                            foreign="parameters", values={"verdict": VERDICTS})
 """What a reader of :meth:`CritiqueResults.to_json`'s file relies on (the geometry critique's has the same keys);
@@ -107,6 +112,10 @@ class CritiqueResults(Outcome):
         Per named cause, the rivals that would have contested it and that it explains
         (:func:`~bayescal.critique.rule.explains`), each with two comparisons: the rival added on top of the cause,
         and the cause added on top of the rival (a pair of :class:`Comparison`).
+    shared_by_state : dict
+        The robust candidates that passed but were not named because the markers of a state share their heavy
+        tail (the arm's misfit, not gross tracker errors): each with the held-out comparison of the tail per
+        state against the tail per reading (:class:`Comparison`, passing the naming rule).
     importance : dict
         Per named extension, what it changes (:meth:`~bayescal.critique.model.Critique._importance`): residual rms before and after (mm),
         the misfit it explains (mm), the test pose's prediction moved (mm) beside its sd (mm), and whether it matters.
@@ -129,6 +138,7 @@ class CritiqueResults(Outcome):
     tied_with: dict = field(default_factory=dict)
     contested_by: dict = field(default_factory=dict)
     explains: dict = field(default_factory=dict)
+    shared_by_state: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
     importance: dict = field(default_factory=dict)
     drift: dict = field(default_factory=dict)
@@ -180,6 +190,9 @@ class CritiqueResults(Outcome):
             payload["explains"] = {cause: {rival: {"rival_added": rival_added.to_json(), "cause_added": cause_added.to_json()}
                                            for rival, (rival_added, cause_added) in others.items()}
                                    for cause, others in self.explains.items()}
+        if self.shared_by_state:
+            # only where it happened, so that a campaign without it writes the file it wrote before
+            payload["shared_by_state"] = {name: comparison.to_json() | {"meaning": SHARED_BY_STATE} for name, comparison in self.shared_by_state.items()}
         payload["settings"] = dict(self.settings)
         payload["importance"] = {name: dict(entry) for name, entry in self.importance.items()}
         payload["negligible"] = self.negligible

@@ -34,7 +34,7 @@ PLAN_SHOWN = ("criterion", "criterion_unit", "criterion_includes", "criterion_id
               "q2_deg", "load_kg", "linear_model")
 """Keys of the plan's JSON the plan section shows in words; any other is shown as it comes."""
 CRITIQUE_SHOWN = ("verdict", "causes", "evidence", "gain", "covariates", "lack_of_fit", "rule", "n_configurations",
-                  "n_equations", "tied_with", "contested_by", "explains", "seed", "campaign")
+                  "n_equations", "tied_with", "contested_by", "explains", "shared_by_state", "seed", "campaign")
 """Keys of the critique's JSON the critique section shows in words."""
 
 
@@ -143,6 +143,7 @@ def critique_section(page: Page, critique: CritiqueFindings, source: str) -> Non
     if advice:
         page.paragraph(advice)
     _rivals(page, critique, source)
+    _shared_by_state(page, critique)
     _evidence(page, critique.evidence)
     _lack_of_fit(page, critique.lack_of_fit)
     _gain(page, critique.gain)
@@ -216,6 +217,23 @@ def _rivals(page: Page, critique: CritiqueFindings, source: str) -> None:
                     )
                 except (KeyError, TypeError, ValueError):
                     generic(page, {"explains": {cause: {rival: comparisons}}})
+
+
+def _shared_by_state(page: Page, critique: CritiqueFindings) -> None:
+    """The heavy tails not named as gross tracker errors because every marker of a state shares them, in words."""
+    shared = critique.to_json().get("shared_by_state")
+    if not shared:
+        return
+    page.record("shared_by_state", shared)
+    for name, comparison in (shared.items() if isinstance(shared, Mapping) else ()):
+        try:
+            page.paragraph(
+                f"{name} not named: its heavy tail is shared by every marker of a state, {comparison['delta_elpd']:.1f} ± "
+                f"{comparison['se']:.1f} nats better per state than per reading. The arm is off in those states, not the "
+                "tracker's readings."
+            )
+        except (KeyError, TypeError, ValueError):
+            generic(page, {"shared_by_state": {name: comparison}})
 
 
 def _elpd_frame(rows: Mapping, extra: tuple[str, ...]) -> pd.DataFrame:

@@ -193,8 +193,10 @@ SET_ON: dict[str, str] = {
     "independent": "the lost-motion family's settings (friction holds, side on arrival, compensated-joint torque "
                    "shifts; after gear_play and approach_play; the holds as fractions of the rated torque, chosen on "
                    "the breakaway torques the twin and this generator take), the drift evidence's first-reading "
-                   "rule (gear_play, seeds 9000-9002), and the encompassing of a contest (no constant; judged on "
-                   "gear_play and approach_play, seeds 9000-9039)",
+                   "rule (gear_play, seeds 9000-9002), the encompassing of a contest (no constant; judged on "
+                   "gear_play and approach_play, seeds 9000-9039), and the gross errors' tail per reading against "
+                   "the arm's per state (no constant; diagnosed on gear_play, seeds 9001-9011, and los_jumps, seeds "
+                   "9000-9004; judged on gear_play and approach_play, seeds 9000-9039)",
     "beams": "none",
     "beams_rigid": "none",
 }

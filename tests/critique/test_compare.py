@@ -52,6 +52,34 @@ def test_a_useless_column_loses_and_a_missing_one_is_found():
     assert compare(full, padded).delta_elpd < 0
 
 
+@pytest.mark.parametrize("per_unit", [3, 9])
+def test_student_t_predictive_density_is_the_product_of_each_units_multivariate_t(per_unit):
+    rng = np.random.default_rng(6)
+    y, X, scale, group, _ = _linear_data(rng)
+    unit = np.arange(len(y)) // per_unit
+    model = fit(y[18:], X[18:], scale[18:], group[18:], robust=True, unit=unit[18:])
+    yh, Xh = y[:18], X[:18]
+    spread = np.sqrt((model.level[group[:18]] * scale[:18]) ** 2 + np.einsum("ij,jk,ik->i", Xh, model.cov, Xh))
+    expected = sum(
+        stats.multivariate_t(loc=Xh[u] @ model.beta, shape=np.diag(spread[u] ** 2), df=model.dof).logpdf(yh[u])
+        for u in (unit[:18] == k for k in np.unique(unit[:18]))
+    )
+    assert model.log_density(y[:18], X[:18], scale[:18], group[:18], unit[:18]) == pytest.approx(expected, rel=1e-10)
+    if per_unit == 3:
+        # rows of three equations are the default unit
+        assert model.log_density(y[:18], X[:18], scale[:18], group[:18]) == pytest.approx(expected, rel=1e-10)
+
+
+def test_a_gross_error_in_a_whole_row_is_discounted_as_one():
+    rng = np.random.default_rng(7)
+    y, X, scale, group, _ = _linear_data(rng, n_configs=40)
+    clean = fit(y, X, scale, group)
+    y[30:33] += 40.0
+    robust = fit(y, X, scale, group, robust=True)
+    assert robust.beta == pytest.approx(clean.beta, abs=0.15)
+    assert np.abs(fit(y, X, scale, group).beta - clean.beta).max() > 0.15
+
+
 def test_student_t_noise_wins_only_when_there_are_gross_errors():
     rng = np.random.default_rng(5)
     y, X, scale, group, config = _linear_data(rng)

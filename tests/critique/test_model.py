@@ -197,3 +197,30 @@ def test_a_tie_needs_predictions_this_plan_cannot_separate():
         lead = compare_elpd(trials[name][1].elpd, trials["a"][1].elpd)
         assert abs(lead.delta_elpd) < 2 * lead.se
     assert _rivals("a", trials, evidence, fitted.__getitem__, noise) == (["b"], ["c"])
+
+
+def _states_off(campaign, rng, states, size, markers=None):
+    """The loaded readings of ``states`` ((config, repeat) pairs) moved by ``size`` (m) in a random direction each: of
+    every marker alike (an arm that stopped elsewhere), or of ``markers`` only (gross reading errors)."""
+    p1 = campaign.p1.copy()
+    for config, repeat in states:
+        direction = rng.normal(size=3)
+        hit = (campaign.config == config) & (campaign.repeat == repeat)
+        if markers is not None:
+            hit &= np.isin(campaign.marker, markers)
+        p1[hit] += size * direction / np.linalg.norm(direction)
+    return replace(campaign, p1=p1)
+
+
+def test_a_heavy_tail_every_marker_of_a_state_shares_is_no_gross_tracker_error(cell, twin_campaign):
+    campaign = twin_campaign(seed=3)
+    configs = np.unique(campaign.config)
+    states = [(configs[k], 1 + k % 3) for k in (1, 4, 8, 11)]
+    arm = Critique(cell).run(_states_off(campaign, np.random.default_rng(0), states, 0.4 * MM))
+    assert "outliers" not in arm.causes
+    assert arm.shared_by_state["outliers"].delta_elpd > 2 * arm.shared_by_state["outliers"].se
+    assert "shared_by_state" in arm.to_json() and arm.verdict == "misfit"
+    first = sorted(campaign.marker)[0]
+    readings = Critique(cell).run(_states_off(campaign, np.random.default_rng(0), states, 0.4 * MM, markers=[first]))
+    assert readings.causes[:1] == ["outliers"] and not readings.shared_by_state
+    assert "shared_by_state" not in readings.to_json()

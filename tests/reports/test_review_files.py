@@ -73,3 +73,19 @@ def test_the_critique_says_its_ties_contests_and_explained_rivals_in_words():
     assert "backlash explains compensator: compensator adds 3.1 ± 4.2 nats on top of it, backlash 40.5 ± 4.2 on top of compensator" in text
     assert '"tied_with"' not in text and '"explains"' not in text  # in words, not as JSON
     assert page.numbers["critique"]["explains"]["backlash"]["compensator"]["cause_added"]["delta_elpd"] == 40.5
+
+
+def test_the_critique_says_in_words_which_heavy_tail_is_the_arms_and_not_the_trackers():
+    from bayescal.critique.results import CritiqueFindings
+    from bayescal.reports.review_files import critique_section
+
+    critique = CritiqueFindings.from_json({
+        "verdict": "misfit", "causes": ["backlash", "unexplained"], "evidence": {}, "gain": {},
+        "shared_by_state": {"outliers": {"delta_elpd": 71.8, "se": 16.1, "n_configs": 30, "meaning": "..."}},
+    })
+    page = Page("review")
+    critique_section(page, critique, "play.csv")
+    text = "\n".join(page.markdown)
+    assert "outliers not named: its heavy tail is shared by every marker of a state, 71.8 ± 16.1 nats better" in text
+    assert '"shared_by_state"' not in text
+    assert page.numbers["critique"]["shared_by_state"]["outliers"]["delta_elpd"] == 71.8
