@@ -78,6 +78,27 @@ def test_on_the_third_generator_the_compliances_and_outliers_meet_the_bounds(dat
     assert set(table.loc[table.effect == "none", "first"]) <= {"adequate", "unexplained"}
 
 
+def test_play_the_model_misses_in_whole_states_is_no_gross_tracker_error(data_dir):
+    # The independent generator's approach_play campaign of seed 9000 named backlash contested by outliers when the
+    # Student-t tail was per equation; every marker of a state shares the misfit, so it is the arm's (docs/critique.md).
+    table = critique_rates(data_dir / "kr270.toml", data_dir / "table3_plan.csv", "independent", ("approach_play",),
+                           seeds=[9000], executor=ThreadPoolExecutor(1))
+    assert table["first"].tolist() == ["backlash"] and table["alone"].all()
+    assert "outliers" not in table["causes"].iloc[0]
+
+
+@pytest.mark.slow
+def test_on_the_independent_generator_lost_motion_is_first_and_alone(data_dir):
+    # Seeds 9000-9019 of the rates in docs/critique.md (18 of 20 alone for each kind of play), where the rule that
+    # a heavy tail every marker of a state shares is the arm's was judged.  At a true rate of 90 %, 20 campaigns fall
+    # below 15 in 1 % of runs.
+    with ThreadPoolExecutor(2) as executor:
+        table = critique_rates(data_dir / "kr270.toml", data_dir / "table3_plan.csv", "independent",
+                               ("gear_play", "approach_play"), seeds=range(9000, 9020), executor=executor)
+    summary = rates(table).set_index("effect")
+    assert (summary["alone"] >= 0.75).all() and (summary["right"] == 1.0).all() and (summary["wrong_single"] == 0.0).all()
+
+
 @pytest.mark.slow
 def test_on_the_third_generators_rigid_arm_nothing_planted_is_adequate(data_dir):
     # The false-alarm rate, measured where no rule was set: 100 campaigns of the third generator on its arm with the
