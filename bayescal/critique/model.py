@@ -12,8 +12,8 @@ gain within its own standard error).
 A candidate that also passes and that the named one does not beat held out ties with it or contests it,
 unless the named one explains it (:func:`~bayescal.critique.rule.explains`: the rival adds nothing on top of
 it, it still adds on top of the rival).  A heavy tail (``outliers``, gross tracker errors, one reading at a time)
-that every marker of a state shares better, by the same rule, is the arm's misfit, not the tracker's: it is not
-named (:func:`_shared_by_state`).
+that predicts the held-out configurations better shared by every marker of a state is the arm's misfit, not the
+tracker's: it is not named (:func:`_shared_by_state`).
 Each named cause is measured by what it changes for the user (:meth:`Critique.run`'s
 ``importance``: the held-out residual rms and the prediction at the test pose), and a
 cause that changes neither by more than the calibration's own uncertainty at the test
@@ -374,18 +374,19 @@ def _shared_by_state(trials: dict, evidence: dict[str, Comparison], model: _Mode
     comparison of the same tail per state against its tail per reading (positive: the state's is better).
 
     Gross tracker errors put single readings off, one marker at a time; an arm that is not where the model puts it
-    (a joint's play on the side the model did not predict) moves every marker read in that state together.  Where the
-    tail shared by a state beats the tail per reading by the naming rule (:func:`~bayescal.critique.rule.passes`), the
-    misfit is the arm's, and a tracker-error model is no cause of it: the candidate is not named, and what it took up
-    is left to the other candidates; where it is still there when the search ends, it is a misfit no candidate names
-    (``unexplained``: the repeats' lack of fit cannot show it, since one repeat off inflates the repeats' own scatter).
-    The rule's own comparison, with no constant of its own.
+    (a joint's play on the side the model did not predict) moves every marker read in that state together.  The unit
+    the tail is shared by is chosen as every variant of a candidate is (:func:`_best_variant`), by the held-out
+    density, with no constant of its own: where the tail shared by a state predicts the held-out configurations
+    better, the misfit is the arm's, and a tracker-error model is no cause of it.  The candidate is then not named,
+    and what it took up is left to the other candidates; where it is still there when the search ends, it is a misfit
+    no candidate names (``unexplained``: the repeats' lack of fit cannot show it, since one repeat off inflates the
+    repeats' own scatter).
     """
     out = {}
     for name, (variant, cv) in trials.items():
         if variant.robust and passes(evidence[name]):
             per_state = compare(cv, validate(model.plus(replace(variant, per_state=True))))
-            if passes(per_state):
+            if per_state.delta_elpd > 0:
                 out[name] = per_state
     return out
 

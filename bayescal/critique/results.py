@@ -28,8 +28,7 @@ VERDICTS = ("adequate", "misfit")
 """The verdicts a critique gives (:attr:`Outcome.verdict`)."""
 
 SHARED_BY_STATE = ("a heavy tail shared by every marker of a state predicts the held-out configurations better than one "
-                   "per reading, by the naming rule: the arm is off in those states, not the tracker's readings; not named "
-                   "as gross errors")
+                   "per reading: the arm is off in those states, not the tracker's readings; not named as gross errors")
 """What ``shared_by_state`` in the critique's JSON means."""
 
 CRITIQUE_JSON = JsonSchema({"verdict": str, "causes": list, "evidence": dict, "gain": dict}, "bayescal critique --json",
@@ -115,7 +114,7 @@ class CritiqueResults(Outcome):
     shared_by_state : dict
         The robust candidates that passed but were not named because the markers of a state share their heavy
         tail (the arm's misfit, not gross tracker errors): each with the held-out comparison of the tail per
-        state against the tail per reading (:class:`Comparison`, passing the naming rule).
+        state against the tail per reading (:class:`Comparison`, positive).
     importance : dict
         Per named extension, what it changes (:meth:`~bayescal.critique.model.Critique._importance`): residual rms before and after (mm),
         the misfit it explains (mm), the test pose's prediction moved (mm) beside its sd (mm), and whether it matters.

@@ -218,7 +218,7 @@ def test_a_heavy_tail_every_marker_of_a_state_shares_is_no_gross_tracker_error(c
     states = [(configs[k], 1 + k % 3) for k in (1, 4, 8, 11)]
     arm = Critique(cell).run(_states_off(campaign, np.random.default_rng(0), states, 0.4 * MM))
     assert "outliers" not in arm.causes
-    assert arm.shared_by_state["outliers"].delta_elpd > 2 * arm.shared_by_state["outliers"].se
+    assert arm.shared_by_state["outliers"].delta_elpd > 2 * arm.shared_by_state["outliers"].se  # far from a close call
     assert "shared_by_state" in arm.to_json() and arm.verdict == "misfit"
     first = sorted(campaign.marker)[0]
     readings = Critique(cell).run(_states_off(campaign, np.random.default_rng(0), states, 0.4 * MM, markers=[first]))
