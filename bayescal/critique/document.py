@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 from bayescal.summary import Column, Paragraph, Section, Summary, Table
 
-__all__ = ["critique_document", "geometry_critique_document"]
+__all__ = ["critique_document", "geometry_critique_document", "separating_plan", "shared_by_state_sentence"]
 
 
 def _evidence_table(evidence: dict) -> Table:
@@ -84,6 +84,19 @@ def geometry_critique_document(results) -> Summary:
     )
 
 
+def separating_plan(cause: str, other: str, source: str) -> str:
+    """The command that designs the experiment separating two physical candidates on the campaign ``source``
+    (docs/critique.md, *The experiment that resolves a tie*)."""
+    return f"bayescal plan --config CELL.toml --criterion discriminate --between {cause},{other} --campaign {source or 'CAMPAIGN.csv'} -o PLAN.csv"
+
+
+def shared_by_state_sentence(name: str, delta_elpd: float, se: float) -> str:
+    """Why a heavy tail was not named as gross tracker errors: every marker of a state shares it better by ``delta_elpd``
+    ± ``se`` nats held out."""
+    return (f"{name} not named: its heavy tail is shared by every marker of a state, {delta_elpd:.1f} ± {se:.1f} nats better "
+            "per state than per reading. The arm is off in those states, not the tracker's readings.")
+
+
 def _importance_lines(results) -> list[str]:
     """What each named cause changes, then the candidates it ties with or is contested by, the plan that separates them,
     and the rivals it explains."""
@@ -101,23 +114,14 @@ def _importance_lines(results) -> list[str]:
         for cause, others in pairs.items():
             lines.append(f"{cause} {kind} {', '.join(others)}")
             # the plan that separates exactly that pair (docs/critique.md, The experiment that resolves a tie)
-            lines += [
-                f"  to separate them: bayescal plan --config CELL.toml --criterion discriminate --between {cause},{other} "
-                f"--campaign {results.source} -o PLAN.csv"
-                for other in others
-                if {cause, other} <= set(PLANNABLE)
-            ]
+            lines += [f"  to separate them: {separating_plan(cause, other, results.source)}" for other in others if {cause, other} <= set(PLANNABLE)]
     for cause, others in results.explains.items():
         for other, (rival_added, cause_added) in others.items():
             lines.append(
                 f"{cause} explains {other}: {other} adds {rival_added.delta_elpd:.1f} ± {rival_added.se:.1f} nats on top of it, "
                 f"it {cause_added.delta_elpd:.1f} ± {cause_added.se:.1f} on top of {other}"
             )
-    for name, per_state in results.shared_by_state.items():
-        lines.append(
-            f"{name} not named: its heavy tail is shared by every marker of a state (per state {per_state.delta_elpd:.1f} ± "
-            f"{per_state.se:.1f} nats better than per reading): the arm is off there, not the tracker's readings"
-        )
+    lines += [shared_by_state_sentence(name, per_state.delta_elpd, per_state.se) for name, per_state in results.shared_by_state.items()]
     return lines
 
 

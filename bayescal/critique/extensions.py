@@ -120,7 +120,7 @@ class Extension:
     per_state : bool
         With ``robust``, whether the mixing weight is shared by all rows of one state (a configuration's repeat,
         every marker read in it) instead: the heavy tail of the arm's state, not of the tracker's readings, which
-        only the check of a robust candidate fits (:func:`~bayescal.critique.model.Critique.run`).
+        only the check of a robust candidate fits (``_shared_by_state`` in :mod:`bayescal.critique.model`).
     physical : bool
         Whether it is a physical term that predicts at other poses (probes are not).
     grid : tuple

@@ -183,6 +183,7 @@ def _next_step(critique: CritiqueFindings, named: list[str] | None) -> str:
 def _rivals(page: Page, critique: CritiqueFindings, source: str) -> None:
     """The candidates each named cause ties with, is contested by, or explains, in words, with the plan that separates
     a pair of physical candidates (as ``bayescal critique`` prints them)."""
+    from bayescal.critique.document import separating_plan
     from bayescal.critique.extensions import PLANNABLE
 
     meaning = {
@@ -202,8 +203,7 @@ def _rivals(page: Page, critique: CritiqueFindings, source: str) -> None:
                 generic(page, {key: {cause: others}})
                 continue
             separable = [o for o in others if {cause, o} <= set(PLANNABLE)]
-            plans = "; ".join(f"bayescal plan --config CELL.toml --criterion discriminate --between {cause},{o} --campaign {source or 'CAMPAIGN.csv'} -o PLAN.csv"
-                              for o in separable)
+            plans = "; ".join(separating_plan(cause, o, source) for o in separable)
             page.paragraph(f"{cause} is {key.replace('_', ' ')} {', '.join(others)}: {words}." + (f" The experiment that separates them: {plans}." if plans else ""))
     explains = found.get("explains")
     if isinstance(explains, Mapping):
@@ -221,17 +221,15 @@ def _rivals(page: Page, critique: CritiqueFindings, source: str) -> None:
 
 def _shared_by_state(page: Page, critique: CritiqueFindings) -> None:
     """The heavy tails not named as gross tracker errors because every marker of a state shares them, in words."""
+    from bayescal.critique.document import shared_by_state_sentence
+
     shared = critique.to_json().get("shared_by_state")
     if not shared:
         return
     page.record("shared_by_state", shared)
     for name, comparison in (shared.items() if isinstance(shared, Mapping) else ()):
         try:
-            page.paragraph(
-                f"{name} not named: its heavy tail is shared by every marker of a state, {comparison['delta_elpd']:.1f} ± "
-                f"{comparison['se']:.1f} nats better per state than per reading. The arm is off in those states, not the "
-                "tracker's readings."
-            )
+            page.paragraph(shared_by_state_sentence(name, comparison["delta_elpd"], comparison["se"]))
         except (KeyError, TypeError, ValueError):
             generic(page, {"shared_by_state": {name: comparison}})
 

@@ -81,8 +81,9 @@ def test_on_the_third_generator_the_compliances_and_outliers_meet_the_bounds(dat
 def test_play_the_model_misses_in_whole_states_is_no_gross_tracker_error(data_dir):
     # The independent generator's approach_play campaign of seed 9000 named backlash contested by outliers when the
     # Student-t tail was per equation; every marker of a state shares the misfit, so it is the arm's (docs/critique.md).
-    table = critique_rates(data_dir / "kr270.toml", data_dir / "table3_plan.csv", "independent", ("approach_play",),
-                           seeds=[9000], executor=ThreadPoolExecutor(1))
+    with ThreadPoolExecutor(1) as executor:
+        table = critique_rates(data_dir / "kr270.toml", data_dir / "table3_plan.csv", "independent", ("approach_play",),
+                               seeds=[9000], executor=executor)
     assert table["first"].tolist() == ["backlash"] and table["alone"].all()
     assert "outliers" not in table["causes"].iloc[0]
 
