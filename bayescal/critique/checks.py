@@ -8,12 +8,14 @@ configurations its fit did not see.
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 
 from bayescal.critique.compare import CrossValidation
+from bayescal.critique.covariates import Rows
 from bayescal.critique.kolmogorov import ks_uniform
-from bayescal.units import MM
+from bayescal.units import DEG, MM
 
-__all__ = ["standardised_residuals", "pit_uniformity", "residual_summary", "OUTLIER_Z"]
+__all__ = ["standardised_residuals", "pit_uniformity", "residual_summary", "residual_table", "OUTLIER_Z"]
 
 OUTLIER_Z = 4.0
 """A held-out residual beyond this many predictive scales is counted as an outlier
@@ -59,3 +61,25 @@ def residual_summary(y: np.ndarray, cv: CrossValidation, rows_per_equation: np.n
         "outliers": int(np.sum(np.abs(z) > OUTLIER_Z)),
         "loo_pit": pit_uniformity(cv),
     }
+
+
+def residual_table(rows: Rows, y: np.ndarray, base: CrossValidation, final: CrossValidation) -> pd.DataFrame:
+    """One row per equation: its covariates and its held-out standardised residual and PIT under both models."""
+    repeat = lambda values: np.repeat(values, 3)  # noqa: E731 - three equations per row
+    return pd.DataFrame(
+        {
+            "config": repeat(rows.config),
+            "marker": repeat(rows.marker),
+            "axis": np.tile(np.array(["x", "y", "z"]), len(rows)),
+            "order": repeat(rows.order),
+            "q2_deg": repeat(rows.q[:, rows.plan_joint] / DEG),
+            "reach_mm": repeat(np.hypot(rows.position[:, 0], rows.position[:, 1]) / MM),
+            "tracker_distance_mm": repeat(rows.tracker_distance / MM),
+            "load_N": repeat(np.linalg.norm(rows.wrench[:, :3], axis=1)),
+            "deflection_mm": y / MM,
+            "classical_z": (y - base.predicted) / base.sd,
+            "final_z": (y - final.predicted) / final.sd,
+            "classical_pit": base.pit,
+            "final_pit": final.pit,
+        }
+    )

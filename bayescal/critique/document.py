@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 from bayescal.summary import Column, Paragraph, Section, Summary, Table
 
-__all__ = ["critique_document", "geometry_critique_document", "separating_plan", "shared_by_state_sentence"]
+__all__ = ["critique_document", "geometry_critique_document", "separating_plan", "shared_by_state_sentence", "by_repeats_sentence"]
 
 
 def _evidence_table(evidence: dict) -> Table:
@@ -97,6 +97,14 @@ def shared_by_state_sentence(name: str, delta_elpd: float, se: float) -> str:
             "per state than per reading. The arm is off in those states, not the tracker's readings.")
 
 
+def by_repeats_sentence(name: str, delta_elpd: float, se: float, p_without: float, p_with: float) -> str:
+    """Why ``name`` was named below the rule: it accounts for the misfit the repeats reveal
+    (:func:`~bayescal.critique.rule.accounts_for`)."""
+    return (f"{name} named by the repeats: without it the model misses them (lack of fit p = {p_without:.2g}), with it "
+            f"they are fitted (p = {p_with:.2g}); its held-out gain, {delta_elpd:.1f} ± {se:.1f} nats, is clear of one "
+            "standard error, not of the rule")
+
+
 def _importance_lines(results) -> list[str]:
     """What each named cause changes, then the candidates it ties with or is contested by, the plan that separates them,
     and the rivals it explains."""
@@ -122,6 +130,9 @@ def _importance_lines(results) -> list[str]:
                 f"it {cause_added.delta_elpd:.1f} ± {cause_added.se:.1f} on top of {other}"
             )
     lines += [shared_by_state_sentence(name, per_state.delta_elpd, per_state.se) for name, per_state in results.shared_by_state.items()]
+    evidence = results.evidence
+    lines += [by_repeats_sentence(name, evidence[name].delta_elpd, evidence[name].se, without.p_value, with_it.p_value)
+              for name, (without, with_it) in results.by_repeats.items()]
     return lines
 
 
@@ -156,7 +167,9 @@ def critique_document(results, figures: Sequence[str] = ()) -> Summary:
         f"test pose: the classical model's prediction differs from the extended one's by "
         f"{results.test_pose['classical_error_mm'] * 1000:.1f} μm",
         f"rule: a cause is named when ΔELPD > {results.rule['z']:g} SE and > {results.rule['floor_nats']:g} nats, "
-        f"or > {results.rule['decisive_nats']:g} nats and > {results.rule['decisive_z']:g} SE",
+        f"or > {results.rule['decisive_nats']:g} nats and > {results.rule['decisive_z']:g} SE; where the repeats show a "
+        f"misfit no cause passes for, > {results.rule['decisive_z']:g} SE and > {results.rule['floor_nats']:g} nats if "
+        "the repeats are then fitted",
         *_importance_lines(results),
         *_drift_lines(results),
         *([f"figures: {', '.join(figures)}"] if figures else []),

@@ -30,29 +30,27 @@ cause ``unexplained`` with the covariate it follows.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
-import pandas as pd
 
 from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.cell.nests import Nests, require_times
-from bayescal.critique.checks import residual_summary
+from bayescal.critique.checks import residual_summary, residual_table
 from bayescal.critique.compare import Comparison, CrossValidation, compare, cross_validate, fit
 from bayescal.critique.covariates import Rows, campaign_rows, pose_rows
 from bayescal.critique.drift import MAKE_TESTABLE, DriftEvidence, drift_deflection, drift_evidence
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
+from bayescal.critique.repeats import RepeatsCheck
 from bayescal.critique.results import CritiqueResults
-from bayescal.critique.rule import DETECTION_Z, TIE_NOISE, UNEXPLAINED, check_candidates, explains, passes, strongest
+from bayescal.critique.rule import DETECTION_Z, TIE_NOISE, UNEXPLAINED, accounts_for, check_candidates, explains, passes, strongest
 from bayescal.errors import InputError
-from bayescal.inference.elastostatic import ElastostaticModel
 from bayescal.inference.equations import check_campaign
 from bayescal.inference.identifiability import independent_columns
-from bayescal.inference.lack_of_fit import least_squares_lack_of_fit, line_of_sight, replicate_cells
-from bayescal.robot.stiffness import EquilibriumError
+from bayescal.inference.lack_of_fit import LackOfFit
 from bayescal.threads import one_blas_thread
-from bayescal.units import DEG, MM
+from bayescal.units import MM
 
 __all__ = ["Critique", "fitted_variant"]
 
@@ -162,17 +160,13 @@ class Critique:
         # the deflections would be a catch-all
         drift = None if measured is not None else drift_evidence(rows, self.cell)
         remaining = [CATALOGUE[name] for name in self.catalogue if name != "drift" or (drift is not None and drift.testable)]
-        search = _greedy_search(base, remaining, validate, fitted, lambda cv: cv.full.level[group] * scale)
+        noise_of = lambda cv: cv.full.level[group] * scale  # noqa: E731 - each equation's fitted noise sd
+        search = _greedy_search(base, remaining, validate, fitted, noise_of)
+        check = RepeatsCheck.of(self.cell, campaign, rows)
+        misfit = _by_repeats(search, remaining, validate, lambda model: check(model.design(rows, self.cell)), fitted, noise_of)
         model, current, causes = search.model, search.current, search.causes
         probes = {name: compare(current, validate(model.plus(PROBES[name]))) for name in self.probes}
         covariate = strongest(probes, decisive=False)
-        misfit = least_squares_lack_of_fit(
-            self._calibration_design(model, rows, campaign.q),
-            y - self._nonlinearity(campaign),
-            scale,
-            replicate_cells(rows.config, rows.marker),
-            line_of_sight(rows.position, self.cell.tracker.position),
-        )
         # The repeats' pure error sees a misfit of any shape, also one no candidate matches; a robust
         # model's outliers inflate both sides of the test, so it does not overrule a named outlier model.
         unmatched = misfit is not None and misfit.significant() and not model.robust
@@ -192,13 +186,14 @@ class Critique:
             test_pose=self._test_pose(model, rows, y, scale, group),
             n_configs=n_configs,
             n_equations=y.size,
-            residuals=_residual_table(rows, y, base, current),
+            residuals=residual_table(rows, y, base, current),
             source=campaign.source,
             lack_of_fit=misfit,
             tied_with={cause: others for cause, others in search.tied.items() if others},
             contested_by={cause: others for cause, others in search.contested.items() if others},
             explains={cause: others for cause, others in search.explained.items() if others},
             shared_by_state=search.shared_by_state,
+            by_repeats=search.by_repeats,
             settings={e.name: e.reading(rows, self.cell) for e in model.extensions if e.setting is not None},
             importance=self._importance(search.history, rows, y, scale, group, equation_rows),
             drift=measured or _drift_report(drift, rows, "drift" in self.catalogue),
@@ -229,35 +224,6 @@ class Critique:
         check_candidates((a, b), CATALOGUE)
         rows = campaign_rows(self.cell, campaign)
         return compare(*(fitted_variant(self.cell, rows, CATALOGUE[name])[1] for name in (a, b)))
-
-    def _nonlinearity(self, campaign: Campaign) -> np.ndarray | float:
-        """The exact model's nonlinearity (m per equation), which calibrate removes before judging the fit; 0 where it cannot.
-
-        The exact model places the markers on the tool at the commanded pose, and
-        refuses a campaign whose arm sags by degrees (a spring far off the cell's):
-        there the lack of fit is judged on the linear model alone.
-        """
-        if self.cell.compensator is None:
-            return 0.0
-        try:
-            return ElastostaticModel.from_cell(self.cell).nonlinearity(campaign)
-        except (InputError, EquilibriumError):
-            return 0.0
-
-    def _calibration_design(self, model: _Model, rows: Rows, commanded: np.ndarray) -> np.ndarray:
-        """The model's design with the compensated joint's compliance free at every angle of that joint, as calibrate fits it.
-
-        The lack-of-fit test asks whether the calibration itself misses the repeats:
-        a joint-2 compliance that varies with q2 (eq 8, whatever the spring) is part
-        of the calibration model, not a misfit of it.
-        """
-        design = model.design(rows, self.cell)
-        joint = self.cell.compensated_joint
-        if joint is None:
-            return design
-        angles = np.unique(np.round(commanded[:, joint], 6), return_inverse=True)[1]
-        per_angle = rows.design[:, :, joint, np.newaxis] * (angles[:, np.newaxis] == np.arange(angles.max() + 1))[:, np.newaxis, :]
-        return np.concatenate([design.reshape(len(rows), 3, -1), per_angle], axis=2).reshape(3 * len(rows), -1)
 
     def _test_prediction(self, model: _Model, rows: Rows, y, scale, group) -> tuple[np.ndarray, np.ndarray]:
         """Deflection (3,) of the cell's test point the model predicts, and its sd (3,), m.
@@ -336,6 +302,9 @@ class _Search:
     history: list[tuple[_Model, CrossValidation]]
     arm_misfit: bool = False
     """Whether the last step refused a heavy tail the markers of a state share: a misfit no candidate named."""
+    by_repeats: dict[str, tuple[LackOfFit, LackOfFit]] = field(default_factory=dict)
+    """The cause named because it accounts for the misfit the repeats reveal (:func:`_by_repeats`), with the lack of
+    fit without it and with it."""
 
 
 def _greedy_search(base: CrossValidation, remaining: list[Extension], validate: Callable[[_Model], CrossValidation],
@@ -391,6 +360,40 @@ def _shared_by_state(trials: dict, evidence: dict[str, Comparison], model: _Mode
     return out
 
 
+def _by_repeats(search: _Search, candidates: list[Extension], validate: Callable[[_Model], CrossValidation],
+                misfit_of: Callable[[_Model], LackOfFit | None], fitted: Callable[[_Model, CrossValidation], np.ndarray],
+                noise_of: Callable[[CrossValidation], np.ndarray]) -> LackOfFit | None:
+    """The final model's lack of fit against the repeats, after naming the candidate that accounts for a misfit they
+    reveal where no candidate passed the rule (:func:`~bayescal.critique.rule.accounts_for`).
+
+    Of the physical candidates of the search's last step that account for it, the one of largest held-out gain is
+    named (``search`` extended in place, ``search.by_repeats`` recording the lack of fit without it and with it); those
+    of the others it does not beat by :data:`~bayescal.critique.rule.DETECTION_Z` SE tie with it or contest it, as at a
+    step of the search.  A robust model's outliers inflate both sides of the repeats' test: it is not asked there.
+    """
+    misfit = misfit_of(search.model)
+    if misfit is None or not misfit.significant() or search.model.robust:
+        return misfit
+    model, evidence = search.model, search.steps[-1]
+    trials = {e.name: _best_variant(e, model, validate) for e in candidates
+              if e.name in evidence and e.name not in search.causes and e.physical and not e.robust}
+    misfits = {name: misfit_of(model.plus(variant)) for name, (variant, _) in trials.items()}
+    accounting = [name for name, with_it in misfits.items() if accounts_for(evidence[name], with_it)]
+    if not accounting:
+        return misfit
+    best = max(accounting, key=lambda name: evidence[name].delta_elpd)
+    search.tied[best], search.contested[best] = _rivals(
+        best, trials, evidence, lambda name: fitted(model.plus(trials[name][0]), trials[name][1]), noise_of(search.current),
+        qualifies=lambda name: name in accounting,
+    )
+    extension, search.current = trials[best]
+    search.model = model.plus(extension)
+    search.causes.append(best)
+    search.history.append((search.model, search.current))
+    search.by_repeats[best] = (misfit, misfits[best])
+    return misfits[best]
+
+
 def _best_variant(extension: Extension, model: _Model, validate: Callable[[_Model], CrossValidation]) -> tuple[Extension, CrossValidation]:
     """The variant of ``extension`` (:meth:`~bayescal.critique.extensions.Extension.variants`) that, added to
     ``model``, predicts the held-out configurations best, and its cross-validation."""
@@ -419,8 +422,9 @@ def _validation(rows: Rows, cell: Cell) -> Callable[[_Model], CrossValidation]:
     return validate
 
 
-def _rivals(best: str, trials: dict, evidence: dict[str, Comparison], fitted: Callable[[str], np.ndarray], noise: np.ndarray) -> tuple[list[str], list[str]]:
-    """Candidates that also pass and that ``best`` does not beat by :data:`~bayescal.critique.rule.DETECTION_Z` SE on held-out configurations:
+def _rivals(best: str, trials: dict, evidence: dict[str, Comparison], fitted: Callable[[str], np.ndarray], noise: np.ndarray,
+            qualifies: Callable[[str], bool] | None = None) -> tuple[list[str], list[str]]:
+    """Candidates that also pass (or ``qualifies(name)``) and that ``best`` does not beat by :data:`~bayescal.critique.rule.DETECTION_Z` SE on held-out configurations:
     those tied with it, and those that contest it.
 
     Tied: their fitted deflections (``fitted(name)``, (3N,) m) differ from ``best``'s by less than
@@ -431,7 +435,7 @@ def _rivals(best: str, trials: dict, evidence: dict[str, Comparison], fitted: Ca
     """
     tied, contested = [], []
     for name in trials:
-        if name == best or not passes(evidence[name]):
+        if name == best or not (qualifies(name) if qualifies is not None else passes(evidence[name])):
             continue
         lead = compare(trials[name][1], trials[best][1])
         if lead.delta_elpd > DETECTION_Z * lead.se:
@@ -470,25 +474,3 @@ def _drift_report(drift: DriftEvidence, rows: Rows, tried: bool) -> dict:
         payload["deflection_rms_mm"] = round(float(np.sqrt(np.mean(mean**2)) / MM), 5)
         payload["deflection_sd_rms_mm"] = round(float(np.sqrt(np.mean(sd**2)) / MM), 5)
     return payload
-
-
-def _residual_table(rows: Rows, y: np.ndarray, base: CrossValidation, final: CrossValidation) -> pd.DataFrame:
-    """One row per equation: its covariates and its held-out standardised residual and PIT under both models."""
-    repeat = lambda values: np.repeat(values, 3)  # noqa: E731 - three equations per row
-    return pd.DataFrame(
-        {
-            "config": repeat(rows.config),
-            "marker": repeat(rows.marker),
-            "axis": np.tile(np.array(["x", "y", "z"]), len(rows)),
-            "order": repeat(rows.order),
-            "q2_deg": repeat(rows.q[:, rows.plan_joint] / DEG),
-            "reach_mm": repeat(np.hypot(rows.position[:, 0], rows.position[:, 1]) / MM),
-            "tracker_distance_mm": repeat(rows.tracker_distance / MM),
-            "load_N": repeat(np.linalg.norm(rows.wrench[:, :3], axis=1)),
-            "deflection_mm": y / MM,
-            "classical_z": (y - base.predicted) / base.sd,
-            "final_z": (y - final.predicted) / final.sd,
-            "classical_pit": base.pit,
-            "final_pit": final.pit,
-        }
-    )

@@ -31,6 +31,10 @@ SHARED_BY_STATE = ("a heavy tail shared by every marker of a state predicts the 
                    "per reading: the arm is off in those states, not the tracker's readings; not named as gross errors")
 """What ``shared_by_state`` in the critique's JSON means."""
 
+BY_REPEATS = ("the repeats showed a misfit no candidate passed the rule for; this one's held-out gain is clear of one "
+              "standard error and the floor, not of the rule, and with it the repeats are fitted: it accounts for the misfit")
+"""What ``by_repeats`` in the critique's JSON means."""
+
 CRITIQUE_JSON = JsonSchema({"verdict": str, "causes": list, "evidence": dict, "gain": dict}, "bayescal critique --json",
                            foreign="parameters", values={"verdict": VERDICTS})
 """What a reader of :meth:`CritiqueResults.to_json`'s file relies on (the geometry critique's has the same keys);
@@ -115,6 +119,10 @@ class CritiqueResults(Outcome):
         The robust candidates that passed but were not named because the markers of a state share their heavy
         tail (the arm's misfit, not gross tracker errors): each with the held-out comparison of the tail per
         state against the tail per reading (:class:`Comparison`, positive).
+    by_repeats : dict
+        The cause named because it accounts for a misfit the repeats reveal that no candidate passed the rule for
+        (:func:`~bayescal.critique.rule.accounts_for`): its lack of fit without it and with it (a pair of
+        :class:`~bayescal.inference.lack_of_fit.LackOfFit`).
     importance : dict
         Per named extension, what it changes (:meth:`~bayescal.critique.model.Critique._importance`): residual rms before and after (mm),
         the misfit it explains (mm), the test pose's prediction moved (mm) beside its sd (mm), and whether it matters.
@@ -138,6 +146,7 @@ class CritiqueResults(Outcome):
     contested_by: dict = field(default_factory=dict)
     explains: dict = field(default_factory=dict)
     shared_by_state: dict = field(default_factory=dict)
+    by_repeats: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
     importance: dict = field(default_factory=dict)
     drift: dict = field(default_factory=dict)
@@ -175,7 +184,7 @@ class CritiqueResults(Outcome):
             },
             "covariates": {name: c.to_json() | {"meaning": COVARIATES[name]} for name, c in self.probes.items()},
             "rule": {"delta_elpd_over_se": DETECTION_Z, "floor_nats": DETECTION_FLOOR, "decisive_nats": DECISIVE_GAIN,
-                     "decisive_over_se": DECISIVE_Z, "tie_noise_sd": TIE_NOISE},
+                     "decisive_over_se": DECISIVE_Z, "by_repeats_over_se": DECISIVE_Z, "tie_noise_sd": TIE_NOISE},
             "n_configurations": self.n_configs,
             "n_equations": self.n_equations,
             "campaign": self.source,
@@ -192,6 +201,10 @@ class CritiqueResults(Outcome):
         if self.shared_by_state:
             # only where it happened, so that a campaign without it writes the file it wrote before
             payload["shared_by_state"] = {name: comparison.to_json() | {"meaning": SHARED_BY_STATE} for name, comparison in self.shared_by_state.items()}
+        if self.by_repeats:
+            # only where it happened, so that a campaign without it writes the file it wrote before
+            payload["by_repeats"] = {name: {"lack_of_fit": without.to_json(), "lack_of_fit_with_it": with_it.to_json(), "meaning": BY_REPEATS}
+                                     for name, (without, with_it) in self.by_repeats.items()}
         payload["settings"] = dict(self.settings)
         payload["importance"] = {name: dict(entry) for name, entry in self.importance.items()}
         payload["negligible"] = self.negligible

@@ -5,14 +5,18 @@ A candidate is named when its held-out ΔELPD clears :data:`DETECTION_Z` standar
 (:func:`passes`); :class:`~bayescal.critique.model.Critique` and
 :class:`~bayescal.critique.geometry.GeometryCritique` both apply it.  The same rule, applied to each of two
 candidates added on top of the other, decides whether the named one explains a rival that contests it
-(:func:`explains`).
+(:func:`explains`).  Where the repeats reveal a misfit that no candidate passes the rule for, a candidate clear of
+:data:`DECISIVE_Z` standard errors and :data:`DETECTION_FLOOR` nats that leaves the repeats fitted accounts for it
+(:func:`accounts_for`).
 """
 
 from __future__ import annotations
 
 from bayescal.critique.compare import Comparison
+from bayescal.inference.lack_of_fit import LackOfFit
 
-__all__ = ["DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "DECISIVE_Z", "TIE_NOISE", "UNEXPLAINED", "passes", "strongest", "explains", "check_candidates"]
+__all__ = ["DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "DECISIVE_Z", "TIE_NOISE", "UNEXPLAINED", "passes", "strongest", "explains", "accounts_for",
+           "check_candidates"]
 
 DETECTION_Z = 2.0
 """A cause is named only when its held-out gain exceeds this many standard errors of the difference."""
@@ -65,3 +69,16 @@ def explains(rival_added: Comparison, named_added: Comparison) -> bool:
     passes: the two are substitutes on this campaign, and the contest stands too.
     """
     return not passes(rival_added) and passes(named_added)
+
+
+def accounts_for(comparison: Comparison, misfit_with: LackOfFit | None) -> bool:
+    """Whether a candidate that does not pass :func:`passes` accounts for a misfit the repeats reveal: its held-out gain
+    (``comparison``) clears :data:`DECISIVE_Z` standard errors and :data:`DETECTION_FLOOR` nats, and with it the
+    repeats are fitted (``misfit_with``, the lack of fit of the model with the candidate, is not significant).
+
+    Two tests, each of its own kind: the repeats' pure error says that the model misses something, of any shape; the
+    held-out gain says which shape.  Neither alone names a cause at this gain: the held-out comparison alone needs
+    :data:`DETECTION_Z` SE; the repeats alone say only ``unexplained``.  No gain within its own SE is named.
+    """
+    clear = comparison.delta_elpd > max(DECISIVE_Z * comparison.se, DETECTION_FLOOR)
+    return clear and misfit_with is not None and not misfit_with.significant()

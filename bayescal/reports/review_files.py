@@ -34,7 +34,7 @@ PLAN_SHOWN = ("criterion", "criterion_unit", "criterion_includes", "criterion_id
               "q2_deg", "load_kg", "linear_model")
 """Keys of the plan's JSON the plan section shows in words; any other is shown as it comes."""
 CRITIQUE_SHOWN = ("verdict", "causes", "evidence", "gain", "covariates", "lack_of_fit", "rule", "n_configurations",
-                  "n_equations", "tied_with", "contested_by", "explains", "shared_by_state", "seed", "campaign")
+                  "n_equations", "tied_with", "contested_by", "explains", "shared_by_state", "by_repeats", "seed", "campaign")
 """Keys of the critique's JSON the critique section shows in words."""
 
 
@@ -144,6 +144,7 @@ def critique_section(page: Page, critique: CritiqueFindings, source: str) -> Non
         page.paragraph(advice)
     _rivals(page, critique, source)
     _shared_by_state(page, critique)
+    _by_repeats(page, critique)
     _evidence(page, critique.evidence)
     _lack_of_fit(page, critique.lack_of_fit)
     _gain(page, critique.gain)
@@ -157,7 +158,9 @@ def critique_section(page: Page, critique: CritiqueFindings, source: str) -> Non
         page.paragraph(
             f"Rule: a cause is named when ΔELPD > {rule['delta_elpd_over_se']:g} SE and > {rule['floor_nats']:g} nats"
             + (f", or > {rule['decisive_nats']:g} nats" if "decisive_nats" in rule else "")
-            + (f" and > {rule['decisive_over_se']:g} SE" if "decisive_over_se" in rule else "") + "."
+            + (f" and > {rule['decisive_over_se']:g} SE" if "decisive_over_se" in rule else "")
+            + (f"; where the repeats show a misfit no cause passes for, > {rule['by_repeats_over_se']:g} SE and > "
+               f"{rule['floor_nats']:g} nats if the repeats are then fitted" if "by_repeats_over_se" in rule else "") + "."
         )
     rest = {key: value for key, value in critique.to_json().items() if key not in CRITIQUE_SHOWN}
     if rest:
@@ -232,6 +235,23 @@ def _shared_by_state(page: Page, critique: CritiqueFindings) -> None:
             page.paragraph(shared_by_state_sentence(name, comparison["delta_elpd"], comparison["se"]))
         except (KeyError, TypeError, ValueError):
             generic(page, {"shared_by_state": {name: comparison}})
+
+
+def _by_repeats(page: Page, critique: CritiqueFindings) -> None:
+    """The cause named because it accounts for the misfit the repeats reveal, in words (as ``bayescal critique`` says it)."""
+    from bayescal.critique.document import by_repeats_sentence
+
+    named = critique.to_json().get("by_repeats")
+    if not named:
+        return
+    page.record("by_repeats", named)
+    evidence = critique.evidence
+    for name, entry in (named.items() if isinstance(named, Mapping) else ()):
+        try:
+            page.paragraph(by_repeats_sentence(name, evidence[name]["delta_elpd"], evidence[name]["se"],
+                                               entry["lack_of_fit"]["p_value"], entry["lack_of_fit_with_it"]["p_value"]) + ".")
+        except (KeyError, TypeError, ValueError):
+            generic(page, {"by_repeats": {name: entry}})
 
 
 def _elpd_frame(rows: Mapping, extra: tuple[str, ...]) -> pd.DataFrame:

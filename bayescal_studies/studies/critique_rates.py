@@ -189,7 +189,8 @@ with ``tool_mount``; the twin simulates the cell's own tool."""
 
 SET_ON: dict[str, str] = {
     "twin": "all: the naming rule's constants (DETECTION_Z, DETECTION_FLOOR, DECISIVE_GAIN, TIE_NOISE), the catalogue "
-            "and its settings, the drift evidence",
+            "and its settings, the drift evidence, and the repeats' clause (no constant of its own; written after its "
+            "link_compliance, seeds 0-39)",
     "independent": "the lost-motion family's settings (friction holds, side on arrival, compensated-joint torque "
                    "shifts; after gear_play and approach_play; the holds as fractions of the rated torque, chosen on "
                    "the breakaway torques the twin and this generator take), the drift evidence's first-reading "

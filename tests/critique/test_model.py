@@ -224,3 +224,38 @@ def test_a_heavy_tail_every_marker_of_a_state_shares_is_no_gross_tracker_error(c
     readings = Critique(cell).run(_states_off(campaign, np.random.default_rng(0), states, 0.4 * MM, markers=[first]))
     assert readings.causes[:1] == ["outliers"] and not readings.shared_by_state
     assert "shared_by_state" not in readings.to_json()
+
+
+def test_a_cause_short_of_the_rule_that_leaves_the_repeats_fitted_is_named_by_them(cell, twin_campaign):
+    # the twin's link compliance at its default, seed 8 (docs/critique.md, Named by the repeats): 20.9 ± 11.2 nats
+    # held out, short of 2 SE; the repeats' lack of fit p = 0.007 without it, 0.37 with it
+    results = Critique(cell).run(twin_campaign(["link_compliance"], seed=8))
+    assert results.causes == ["link_compliance"]
+    without, with_it = results.by_repeats["link_compliance"]
+    assert without.significant() and not with_it.significant() and not results.lack_of_fit.significant()
+    gain = results.evidence["link_compliance"]
+    assert gain.se < gain.delta_elpd < 2 * gain.se
+    payload = results.to_json()
+    assert payload["by_repeats"]["link_compliance"]["lack_of_fit"]["p_value"] < 0.01
+    assert payload["evidence"]["link_compliance"]["named"] and "link_compliance" in payload["importance"]
+    text = results.document().as_text()
+    assert f"link_compliance named by the repeats: without it the model misses them (lack of fit p = {without.p_value:.2g})" in text
+
+
+def test_the_repeats_name_no_cause_that_leaves_them_missed(cell, twin_campaign):
+    # a white misfit across configurations: candidates may gain a little held out, none leaves the repeats fitted
+    shifted = _shift_configurations(twin_campaign(seed=3), np.random.default_rng(0), 30e-6)
+    results = Critique(cell).run(shifted)
+    assert results.causes == ["unexplained"] and not results.by_repeats and "by_repeats" not in results.to_json()
+
+
+def test_a_cause_accounts_for_the_repeats_misfit_only_clear_of_its_se_and_with_the_repeats_fitted():
+    from bayescal.critique.compare import Comparison
+    from bayescal.critique.rule import accounts_for, passes
+    from bayescal.inference.lack_of_fit import LackOfFit
+
+    fitted, missed = LackOfFit(1.06, 0.37, (121, 254)), LackOfFit(1.47, 0.007, (126, 254))
+    short = Comparison(20.9, 11.2, 15)
+    assert not passes(short) and accounts_for(short, fitted)
+    assert not accounts_for(short, missed) and not accounts_for(short, None)
+    assert not accounts_for(Comparison(10.0, 11.2, 15), fitted) and not accounts_for(Comparison(3.9, 1.0, 15), fitted)

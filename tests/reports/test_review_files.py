@@ -89,3 +89,24 @@ def test_the_critique_says_in_words_which_heavy_tail_is_the_arms_and_not_the_tra
     assert "outliers not named: its heavy tail is shared by every marker of a state, 71.8 ± 16.1 nats better" in text
     assert '"shared_by_state"' not in text
     assert page.numbers["critique"]["shared_by_state"]["outliers"]["delta_elpd"] == 71.8
+
+
+def test_the_critique_says_in_words_which_cause_the_repeats_named_as_the_command_does():
+    from bayescal.critique.document import by_repeats_sentence
+    from bayescal.critique.results import CritiqueFindings
+    from bayescal.reports.review_files import critique_section
+
+    critique = CritiqueFindings.from_json({
+        "verdict": "misfit", "causes": ["link_compliance"], "gain": {},
+        "evidence": {"link_compliance": {"delta_elpd": 20.9, "se": 11.2, "n_configs": 15, "step": 1, "named": True}},
+        "by_repeats": {"link_compliance": {"lack_of_fit": {"p_value": 0.0073}, "lack_of_fit_with_it": {"p_value": 0.37}, "meaning": "..."}},
+        "rule": {"delta_elpd_over_se": 2.0, "floor_nats": 4.0, "decisive_nats": 25.0, "decisive_over_se": 1.0, "by_repeats_over_se": 1.0},
+    })
+    page = Page("review")
+    critique_section(page, critique, "links.csv")
+    text = "\n".join(page.markdown)
+    assert by_repeats_sentence("link_compliance", 20.9, 11.2, 0.0073, 0.37) in text
+    assert "link_compliance named by the repeats: without it the model misses them (lack of fit p = 0.0073)" in text
+    assert "where the repeats show a misfit no cause passes for, > 1 SE and > 4 nats if the repeats are then fitted" in text
+    assert '"by_repeats"' not in text
+    assert page.numbers["critique"]["by_repeats"]["link_compliance"]["lack_of_fit_with_it"]["p_value"] == 0.37
