@@ -74,8 +74,9 @@ def test_on_the_third_generator_the_compliances_and_outliers_meet_the_bounds(dat
     assert summary.loc["outliers", "alone"] >= 0.8
     for effect in effects[1:]:
         assert summary.loc[effect, "right"] >= 0.95 and summary.loc[effect, "wrong_single"] <= 0.05
-    # no candidate is named on the arm without a planted effect at these seeds: its misfits are called unexplained
-    assert set(table.loc[table.effect == "none", "first"]) <= {"adequate", "unexplained"}
+    # on the arm without a planted effect its own misfits are named only as its beams and its tool mount's hinge are
+    # (where the repeats show them and such a candidate leaves the repeats fitted) or called unexplained
+    assert set(table.loc[table.effect == "none", "first"]) <= {"adequate", "unexplained", "link_compliance", "tool_compliance"}
 
 
 def test_play_the_model_misses_in_whole_states_is_no_gross_tracker_error(data_dir):
@@ -98,6 +99,19 @@ def test_on_the_independent_generator_lost_motion_is_first_and_alone(data_dir):
                                ("gear_play", "approach_play"), seeds=range(9000, 9020), executor=executor)
     summary = rates(table).set_index("effect")
     assert (summary["alone"] >= 0.75).all() and (summary["right"] == 1.0).all() and (summary["wrong_single"] == 0.0).all()
+
+
+@pytest.mark.slow
+def test_the_repeats_name_the_twins_link_compliance_and_no_cause_for_a_misfit_of_no_candidates_shape(data_dir):
+    # docs/critique.md, Named by the repeats: the twin's link compliance right in 40 of 40 (36 before, 4 unexplained),
+    # the independent generator's random field unexplained alone in 40 of 40 as before (seeds 9000-9009 here).
+    with ThreadPoolExecutor(2) as executor:
+        twin = critique_rates(data_dir / "kr270.toml", data_dir / "table3_plan.csv", "twin", ("link_compliance",),
+                              seeds=range(40), executor=executor)
+        field = critique_rates(data_dir / "kr270.toml", data_dir / "table3_plan.csv", "independent", ("random_field",),
+                               seeds=range(9000, 9010), executor=executor)
+    assert rates(twin)["right"].iloc[0] >= 0.95 and rates(twin)["wrong_single"].iloc[0] <= 0.05
+    assert (field["causes"] == "unexplained").all()
 
 
 @pytest.mark.slow
