@@ -12,7 +12,8 @@ from collections.abc import Sequence
 
 from bayescal.summary import Column, Paragraph, Section, Summary, Table
 
-__all__ = ["critique_document", "geometry_critique_document", "separating_plan", "shared_by_state_sentence", "by_repeats_sentence"]
+__all__ = ["critique_document", "geometry_critique_document", "separating_plan", "shared_by_state_sentence", "explains_sentence",
+           "by_repeats_sentence"]
 
 
 def _evidence_table(evidence: dict) -> Table:
@@ -97,6 +98,13 @@ def shared_by_state_sentence(name: str, delta_elpd: float, se: float) -> str:
             "per state than per reading. The arm is off in those states, not the tracker's readings.")
 
 
+def explains_sentence(cause: str, rival: str, rival_added: tuple[float, float], cause_added: tuple[float, float]) -> str:
+    """Why ``rival`` does not contest ``cause``: the held-out gain (nats, its SE) of the rival added on top of the cause
+    and of the cause added on top of the rival (:func:`~bayescal.critique.rule.explains`)."""
+    return (f"{cause} explains {rival}: {rival} adds {rival_added[0]:.1f} ± {rival_added[1]:.1f} nats on top of it, "
+            f"{cause} {cause_added[0]:.1f} ± {cause_added[1]:.1f} on top of {rival}, so {rival} does not contest it")
+
+
 def by_repeats_sentence(name: str, delta_elpd: float, se: float, p_without: float, p_with: float) -> str:
     """Why ``name`` was named below the rule: it accounts for the misfit the repeats reveal
     (:func:`~bayescal.critique.rule.accounts_for`)."""
@@ -125,10 +133,7 @@ def _importance_lines(results) -> list[str]:
             lines += [f"  to separate them: {separating_plan(cause, other, results.source)}" for other in others if {cause, other} <= set(PLANNABLE)]
     for cause, others in results.explains.items():
         for other, (rival_added, cause_added) in others.items():
-            lines.append(
-                f"{cause} explains {other}: {other} adds {rival_added.delta_elpd:.1f} ± {rival_added.se:.1f} nats on top of it, "
-                f"it {cause_added.delta_elpd:.1f} ± {cause_added.se:.1f} on top of {other}"
-            )
+            lines.append(explains_sentence(cause, other, (rival_added.delta_elpd, rival_added.se), (cause_added.delta_elpd, cause_added.se)))
     lines += [shared_by_state_sentence(name, per_state.delta_elpd, per_state.se) for name, per_state in results.shared_by_state.items()]
     evidence = results.evidence
     lines += [by_repeats_sentence(name, evidence[name].delta_elpd, evidence[name].se, without.p_value, with_it.p_value)

@@ -186,7 +186,7 @@ def _next_step(critique: CritiqueFindings, named: list[str] | None) -> str:
 def _rivals(page: Page, critique: CritiqueFindings, source: str) -> None:
     """The candidates each named cause ties with, is contested by, or explains, in words, with the plan that separates
     a pair of physical candidates (as ``bayescal critique`` prints them)."""
-    from bayescal.critique.document import separating_plan
+    from bayescal.critique.document import explains_sentence, separating_plan
     from bayescal.critique.extensions import PLANNABLE
 
     meaning = {
@@ -214,10 +214,7 @@ def _rivals(page: Page, critique: CritiqueFindings, source: str) -> None:
             for rival, comparisons in (rivals.items() if isinstance(rivals, Mapping) else ()):
                 try:
                     added, back = (comparisons[k] for k in ("rival_added", "cause_added"))
-                    page.paragraph(
-                        f"{cause} explains {rival}: {rival} adds {added['delta_elpd']:.1f} ± {added['se']:.1f} nats on top of it, "
-                        f"{cause} {back['delta_elpd']:.1f} ± {back['se']:.1f} on top of {rival}, so {rival} does not contest it."
-                    )
+                    page.paragraph(explains_sentence(cause, rival, (added["delta_elpd"], added["se"]), (back["delta_elpd"], back["se"])) + ".")
                 except (KeyError, TypeError, ValueError):
                     generic(page, {"explains": {cause: {rival: comparisons}}})
 
