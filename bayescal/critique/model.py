@@ -44,7 +44,7 @@ from bayescal.critique.drift import MAKE_TESTABLE, DriftEvidence, drift_deflecti
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
 from bayescal.critique.repeats import RepeatsCheck
 from bayescal.critique.results import CritiqueResults
-from bayescal.critique.rule import DETECTION_Z, TIE_NOISE, UNEXPLAINED, accounts_for, check_candidates, explains, passes, strongest
+from bayescal.critique.rule import DETECTION_Z, TIE_NOISE, UNEXPLAINED, accounts_for, check_candidates, explains, passes, shows, strongest
 from bayescal.errors import InputError
 from bayescal.inference.equations import check_campaign
 from bayescal.inference.identifiability import independent_columns
@@ -369,12 +369,21 @@ def _by_repeats(search: _Search, candidates: list[Extension], validate: Callable
     Of the physical candidates of the search's last step that account for it, the one of largest held-out gain is
     named (``search`` extended in place, ``search.by_repeats`` recording the lack of fit without it and with it); those
     of the others it does not beat by :data:`~bayescal.critique.rule.DETECTION_Z` SE tie with it or contest it, as at a
-    step of the search.  A robust model's outliers inflate both sides of the repeats' test: it is not asked there.
+    step of the search.  A robust model's outliers inflate both sides of the repeats' test: it is not asked there; nor
+    where a drift is named or its held-out gain clears the same bar (:func:`~bayescal.critique.rule.shows`): on the
+    independent generator's thermal drift, repeats back to back, the repeats' misfit the walk left had been given to
+    ``backlash``, ``nonlinear_stiffness`` or ``tool_compliance`` (docs/critique.md, *Named by the repeats*).
     """
     misfit = misfit_of(search.model)
-    if misfit is None or not misfit.significant() or search.model.robust:
+    # an empty catalogue has no step: nothing to name
+    if misfit is None or not misfit.significant() or search.model.robust or not search.steps:
         return misfit
     model, evidence = search.model, search.steps[-1]
+    # A drift the walk cannot follow (a configuration's first repeat, its repeats back to back) is lack of fit too: where
+    # the repeated readings show one, the repeats cannot speak for a physical candidate.
+    unphysical = [e.name for e in (*model.extensions, *candidates) if not e.physical]
+    if any(name in search.causes or (name in evidence and shows(evidence[name])) for name in unphysical):
+        return misfit
     trials = {e.name: _best_variant(e, model, validate) for e in candidates
               if e.name in evidence and e.name not in search.causes and e.physical and not e.robust}
     misfits = {name: misfit_of(model.plus(variant)) for name, (variant, _) in trials.items()}

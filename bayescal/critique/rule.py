@@ -16,7 +16,7 @@ from bayescal.critique.compare import Comparison
 from bayescal.inference.lack_of_fit import LackOfFit
 
 __all__ = ["DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "DECISIVE_Z", "TIE_NOISE", "UNEXPLAINED", "passes", "strongest", "explains", "accounts_for",
-           "check_candidates"]
+           "shows", "check_candidates"]
 
 DETECTION_Z = 2.0
 """A cause is named only when its held-out gain exceeds this many standard errors of the difference."""
@@ -80,5 +80,11 @@ def accounts_for(comparison: Comparison, misfit_with: LackOfFit | None) -> bool:
     held-out gain says which shape.  Neither alone names a cause at this gain: the held-out comparison alone needs
     :data:`DETECTION_Z` SE; the repeats alone say only ``unexplained``.  No gain within its own SE is named.
     """
-    clear = comparison.delta_elpd > max(DECISIVE_Z * comparison.se, DETECTION_FLOOR)
-    return clear and misfit_with is not None and not misfit_with.significant()
+    return shows(comparison) and misfit_with is not None and not misfit_with.significant()
+
+
+def shows(comparison: Comparison) -> bool:
+    """Whether a held-out gain is clear of :data:`DECISIVE_Z` standard errors and :data:`DETECTION_FLOOR` nats: the bar a
+    candidate must clear to account for the repeats' misfit (:func:`accounts_for`), and which a drift the campaign's
+    repeated readings show must not clear for a physical candidate to be named so."""
+    return comparison.delta_elpd > max(DECISIVE_Z * comparison.se, DETECTION_FLOOR)

@@ -61,7 +61,8 @@ def test_the_lack_of_fit_power_study_tests_the_campaigns_the_critique_sees():
     assert power["effect"].tolist() == ["none", "thermal_drift"] and power["multiple"].tolist() == [0.0, 3.0]
     assert power["p_value"].tolist() == pytest.approx(critique["classical_lof_p"].tolist(), rel=1e-12)
     # the drift is named first from the repeated readings that show it; with repeats back to back the random walk sees no
-    # change over a configuration's first repeat, and its 30 min cycle is left unexplained (docs/critique.md, *Drift*)
+    # change over a configuration's first repeat, and its 30 min cycle is left unexplained (docs/critique.md, *Drift*),
+    # not given to a physical candidate by the repeats: without the drift's guard, tool_compliance took it
     assert critique["causes"].tolist() == ["", "drift,unexplained"]
     summary = lack_of_fit_power(power)
     assert summary["n"].tolist() == [1, 1] and summary.loc[1, "at_5"] == 1.0
