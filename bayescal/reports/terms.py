@@ -41,7 +41,7 @@ TERMS = {
     "ΔELPD": "Gain in expected log predictive density of held-out configurations over the calibrated model, in nats; "
     "positive: the candidate predicts unseen data better.",
     "nats": "Natural-log units of predictive density: 1 nat is a factor e (2.7) in the probability of the held-out data.",
-    "SE": "Standard error of ΔELPD over the held-out configurations; a cause is named when ΔELPD > 2 SE and > 4 nats, or > 25 nats and > 1 SE.",
+    "SE": "Standard error of ΔELPD over the held-out configurations; a cause is named when ΔELPD > 2 SE and > 4 nats, or > 25 nats and > 1 SE, or > 1 SE and > 4 nats where the repeats show a misfit no cause passes for and are fitted with it.",
     "η(q2)": "The compensator's torque factor of eq 9: how the spring's torque on joint 2 varies with its angle.",
     "K_c": "The compensator spring's stiffness (N/mm); it cannot be negative.",
     "s0": "The compensator spring's free length (mm).",
