@@ -13,7 +13,9 @@ A candidate that also passes and that the named one does not beat held out ties 
 unless the named one explains it (:func:`~bayescal.critique.rule.explains`: the rival adds nothing on top of
 it, it still adds on top of the rival).  A heavy tail (``outliers``, gross tracker errors, one reading at a time)
 that predicts the held-out configurations better shared by every marker of a state is the arm's misfit, not the
-tracker's: it is not named (:func:`_shared_by_state`).
+tracker's: it is not named (:func:`_shared_by_state`).  Where the search stops and the repeats' lack of fit
+(:mod:`bayescal.critique.repeats`) says the model still misses them, a physical candidate clear of one standard error
+with which the repeats are fitted is named by them (:func:`_by_repeats`).
 Each named cause is measured by what it changes for the user (:meth:`Critique.run`'s
 ``importance``: the held-out residual rms and the prediction at the test pose), and a
 cause that changes neither by more than the calibration's own uncertainty at the test
