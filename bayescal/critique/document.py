@@ -13,7 +13,7 @@ from collections.abc import Sequence
 from bayescal.summary import Column, Paragraph, Section, Summary, Table
 
 __all__ = ["critique_document", "geometry_critique_document", "separating_plan", "shared_by_state_sentence", "explains_sentence",
-           "by_repeats_sentence"]
+           "by_repeats_clause", "by_repeats_sentence"]
 
 
 def _evidence_table(evidence: dict) -> Table:
@@ -105,6 +105,12 @@ def explains_sentence(cause: str, rival: str, rival_added: tuple[float, float], 
             f"{cause} {cause_added[0]:.1f} ± {cause_added[1]:.1f} on top of {rival}, so {rival} does not contest it")
 
 
+def by_repeats_clause(z: float, floor_nats: float) -> str:
+    """The rule's clause for a cause the repeats name (:func:`~bayescal.critique.rule.accounts_for`), as the rule's
+    sentence ends in the text and the review."""
+    return f"; where the repeats show a misfit no cause passes for, > {z:g} SE and > {floor_nats:g} nats if the repeats are then fitted"
+
+
 def by_repeats_sentence(name: str, delta_elpd: float, se: float, p_without: float, p_with: float) -> str:
     """Why ``name`` was named below the rule: it accounts for the misfit the repeats reveal
     (:func:`~bayescal.critique.rule.accounts_for`)."""
@@ -172,9 +178,8 @@ def critique_document(results, figures: Sequence[str] = ()) -> Summary:
         f"test pose: the classical model's prediction differs from the extended one's by "
         f"{results.test_pose['classical_error_mm'] * 1000:.1f} μm",
         f"rule: a cause is named when ΔELPD > {results.rule['z']:g} SE and > {results.rule['floor_nats']:g} nats, "
-        f"or > {results.rule['decisive_nats']:g} nats and > {results.rule['decisive_z']:g} SE; where the repeats show a "
-        f"misfit no cause passes for, > {results.rule['decisive_z']:g} SE and > {results.rule['floor_nats']:g} nats if "
-        "the repeats are then fitted",
+        f"or > {results.rule['decisive_nats']:g} nats and > {results.rule['decisive_z']:g} SE"
+        + by_repeats_clause(results.rule["decisive_z"], results.rule["floor_nats"]),
         *_importance_lines(results),
         *_drift_lines(results),
         *([f"figures: {', '.join(figures)}"] if figures else []),

@@ -123,6 +123,8 @@ def _plan_widths(page: Page, parameters: Mapping) -> None:
 
 def critique_section(page: Page, critique: CritiqueFindings, source: str) -> None:
     """The critique ``bayescal critique --json`` printed: verdict, next step, evidence, lack of fit, gain."""
+    from bayescal.critique.document import by_repeats_clause
+
     page.heading("critique", "Critique of the model")
     if source:
         page.paragraph(f"From {source}.")
@@ -159,8 +161,7 @@ def critique_section(page: Page, critique: CritiqueFindings, source: str) -> Non
             f"Rule: a cause is named when ΔELPD > {rule['delta_elpd_over_se']:g} SE and > {rule['floor_nats']:g} nats"
             + (f", or > {rule['decisive_nats']:g} nats" if "decisive_nats" in rule else "")
             + (f" and > {rule['decisive_over_se']:g} SE" if "decisive_over_se" in rule else "")
-            + (f"; where the repeats show a misfit no cause passes for, > {rule['by_repeats_over_se']:g} SE and > "
-               f"{rule['floor_nats']:g} nats if the repeats are then fitted" if "by_repeats_over_se" in rule else "") + "."
+            + (by_repeats_clause(rule["by_repeats_over_se"], rule["floor_nats"]) if "by_repeats_over_se" in rule else "") + "."
         )
     rest = {key: value for key, value in critique.to_json().items() if key not in CRITIQUE_SHOWN}
     if rest:

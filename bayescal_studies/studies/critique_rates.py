@@ -195,7 +195,7 @@ SET_ON: dict[str, str] = {
                    "shifts; after gear_play and approach_play; the holds as fractions of the rated torque, chosen on "
                    "the breakaway torques the twin and this generator take), the drift evidence's first-reading "
                    "rule (gear_play, seeds 9000-9002), the encompassing of a contest (no constant; judged on "
-                   "gear_play and approach_play, seeds 9000-9039), and the gross errors' tail per reading against "
+                   "gear_play and approach_play, seeds 9000-9039), the gross errors' tail per reading against "
                    "the arm's per state (no constant; diagnosed on gear_play, seeds 9001-9011, and los_jumps, seeds "
                    "9000-9004; judged on gear_play and approach_play, seeds 9000-9039), and the drift's guard on the repeats' clause "
                    "(no constant of its own; thermal_drift, seeds 9000-9039, and at three times its default 9000-9019)",
