@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["MM", "DEG", "URAD_PER_NM", "UM_PER_N", "N_PER_MM", "UM"]
+__all__ = ["MM", "DEG", "URAD_PER_NM", "UM_PER_N", "N_PER_MM", "UM", "HOUR"]
 
 MM = 1e-3
 """One millimetre in metres."""
@@ -23,3 +23,5 @@ UM_PER_N = 1e-6
 """One μm/N in m/N: the unit of a prismatic joint's compliance (a linear track's)."""
 N_PER_MM = 1e3
 """One N/mm in N/m: the unit of the compensator spring stiffness K_c."""
+HOUR = 3600.0
+"""One hour in seconds: the unit of a drift's rate (mm/h)."""

@@ -156,7 +156,8 @@ def _drift_lines(results) -> list[str]:
         return [removed_drift_sentence(drift)]
     if drift.get("testable"):
         return [
-            f"drift from {drift['evidence']}: {1000 * drift['deflection_rms_mm']:.1f} μm rms in the deflections"
+            f"drift from {drift['evidence']}: {drift['speed_mm_per_h']:.3f} ± {drift['speed_sd_mm_per_h']:.3f} mm/h, "
+            f"{1000 * drift['deflection_rms_mm']:.1f} μm rms in the deflections"
             + (" (removed)" if "drift" in results.causes else "")
         ]
     return [f"drift: not testable on this campaign: {drift['evidence']}"] if drift else []

@@ -4,18 +4,27 @@ A campaign shows a drift of the tracker's frame apart from its deflections only 
 reads the same physical state more than once at different times: its *repeat groups*
 (:mod:`bayescal.registration.repeats`: the loaded readings of one marker in the repeats of
 one configuration, and its unloaded readings after the first, with the reading times
-``t0_s, t1_s``).  The drift is the one model of :mod:`bayescal.registration.nest_drift`: the
-frame's translation and small rotation about the tracker as a random walk in time, each
-group's position a nuisance as a reference nest's is.  Intervals between the unloaded and
-the loaded reading are not evidence, so a drift measured here cannot take up a
-load-correlated misfit of the deflections.
+``t0_s, t1_s``).  The drift is the model of :mod:`bayescal.registration.steady_drift`: the
+frame's translation and small rotation about the tracker at a rate shared by the campaign, and
+a random walk of what the rate leaves, each group's position a nuisance as a reference nest's
+is.  Intervals between the unloaded and the loaded reading are not evidence, so a drift
+measured here cannot take up a load-correlated misfit of the deflections.
 
-:func:`drift_evidence` returns the walk fitted to the groups, or why the campaign cannot
+The walk alone, which measures and removes a drift (:mod:`bayescal.registration.nest_drift`),
+knows the frame's change only over stretches a group spans.  When it gave this column,
+repeats read back to back left a configuration's first repeat without any, and, fitted
+without a repeat, that repeat's; on the independent generator's thermal drift `drift` was
+named first and alone in 35 % of campaigns (``docs/critique.md``).  The rate carries what
+every group shows to every interval; the walk follows a frame that wanders about it where a
+group spans the interval.
+
+:func:`drift_evidence` returns the drift fitted to the groups, or why the campaign cannot
 show a drift and how to make it able to.
 """
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import TYPE_CHECKING
@@ -26,9 +35,9 @@ from bayescal.cell.config import Cell
 from bayescal.critique.covariates import Rows
 
 if TYPE_CHECKING:
-    # The walk (and SciPy's optimiser with it) is imported where a campaign's drift is fitted, not where a critique's
+    # The drift's models (and SciPy with them) are imported where a campaign's drift is fitted, not where a critique's
     # results are read back.
-    from bayescal.registration.nest_drift import NestDrift
+    from bayescal.registration.steady_drift import SteadyDrift
 
 __all__ = ["DriftEvidence", "drift_evidence", "drift_deflection", "MAKE_TESTABLE"]
 
@@ -52,41 +61,70 @@ class DriftEvidence:
         Whether the campaign holds a group of readings of one state at distinct times.
     reason : str
         What the evidence is, or why there is none and how to get it.
-    track : NestDrift or None
-        The frame's random walk fitted to the groups; None when not testable.
+    track : SteadyDrift or None
+        The frame's steady rate and the walk of what it leaves, fitted to the groups; None when not testable.
+    groups, readings : int
+        Repeat groups and their readings.
     span_s : float
         Largest spread of times within a group, s.
     held_out : tuple
-        ``(repeat, walk)`` pairs: the walk fitted without that repeat's readings (None: no group left), from which
-        that repeat's rows take their drift.
+        ``(repeat, drift)`` pairs: the drift fitted without that repeat's readings (None: no group left), from which
+        that repeat's rows take theirs.
     """
 
     testable: bool
     reason: str
-    track: NestDrift | None = None
+    track: SteadyDrift | None = None
+    groups: int = 0
+    readings: int = 0
     span_s: float = 0.0
-    held_out: tuple[tuple[int, NestDrift | None], ...] = ()
+    held_out: tuple[tuple[int, SteadyDrift | None], ...] = ()
 
     def to_json(self) -> dict:
         payload = {"testable": self.testable, "evidence": self.reason}
         if not self.testable:
             return payload
-        return payload | {
-            "groups": self.track.n_groups,
-            "readings": self.track.n_group_readings,
-            "span_s": round(self.span_s, 1),
-            "diffusion_um2_per_s": float(self.track.diffusion * 1e12),
-        }
+        return payload | {"groups": self.groups, "readings": self.readings, "span_s": round(self.span_s, 1)} | self.track.to_json()
+
+
+@dataclass(frozen=True, eq=False)
+class _Timed:
+    """A campaign's rows with reading times, equal to another's of the same content: the rows extended by poses to
+    predict (which have no times) give the campaign's evidence, fitted once."""
+
+    rows: Rows
+
+    @property
+    def _content(self) -> bytes:
+        rows = self.rows
+        arrays = (rows.position, rows.y, rows.times, rows.config, rows.repeat)
+        # names joined, not the array's bytes: joined to rows of longer names, the array is padded wider
+        names = "\0".join(rows.marker.tolist()).encode()
+        return hashlib.sha256(b"".join(np.ascontiguousarray(a).tobytes() for a in arrays) + names).digest()
+
+    def __hash__(self) -> int:
+        return hash(self._content)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, _Timed) and self._content == other._content
+
+
+def drift_evidence(rows: Rows, cell: Cell) -> DriftEvidence:
+    """The frame's steady rate and walk fitted to the campaign's repeat groups (rows without times are ignored).
+
+    Cached per content of the rows with times: the critique asks for it with every model that holds ``drift``, and
+    with the campaign's rows extended by the test pose.
+    """
+    return _evidence(_Timed(rows.take(np.flatnonzero(np.all(np.isfinite(rows.times), axis=1)))), cell)
 
 
 @lru_cache(maxsize=4)
-def drift_evidence(rows: Rows, cell: Cell) -> DriftEvidence:
-    """The frame's random walk fitted to the campaign's repeat groups (rows without times are ignored).
+def _evidence(timed: _Timed, cell: Cell) -> DriftEvidence:
+    """:func:`drift_evidence` of the rows with times."""
+    from bayescal.registration.repeats import repeat_groups
+    from bayescal.registration.steady_drift import fit_steady_drift
 
-    Cached per ``rows``: the critique asks for it with every model that holds ``drift``.
-    """
-    from bayescal.registration.repeats import fit_anchors, repeat_groups
-
+    rows = timed.rows
     if not np.any(np.all(np.isfinite(rows.times), axis=1)):
         return DriftEvidence(False, "the campaign gives no reading times: " + MAKE_TESTABLE)
     groups = repeat_groups(rows.position, rows.position + rows.y, rows.times, rows.config, rows.marker)
@@ -101,29 +139,31 @@ def drift_evidence(rows: Rows, cell: Cell) -> DriftEvidence:
         f"{len(names)} groups of readings of one marker in one state ({len(groups)} readings), "
         f"repeated up to {spread.max() / 60:.0f} min apart"
     )
-    return DriftEvidence(True, reason, fit_anchors(None, groups, cell.tracker), float(spread.max()), _held_out(rows, cell))
+    return DriftEvidence(True, reason, fit_steady_drift(groups, cell.tracker), len(names), len(groups), float(spread.max()),
+                         _held_out(rows, cell))
 
 
-def _held_out(rows: Rows, cell: Cell) -> tuple[tuple[int, NestDrift | None], ...]:
-    """The walk fitted without each repeat's readings in turn.
+def _held_out(rows: Rows, cell: Cell) -> tuple[tuple[int, SteadyDrift | None], ...]:
+    """The drift fitted without each repeat's readings in turn.
 
-    A row's readings are in the groups and in its deflection: a walk fitted to them takes up their noise (over
-    several hundred knots), and a drift column built from it fits the deflections' noise (a campaign without any
-    drift had `drift` named).  Each repeat's rows take their drift from the walk fitted to the other repeats.
+    A row's readings are in the groups and in its deflection.  A walk of several hundred knots fitted to them took up
+    their noise, and a drift column built from it fitted the deflections' noise (a campaign without any drift had
+    `drift` named).  Each repeat's rows take their drift from the one fitted to the other repeats.
     """
-    from bayescal.registration.repeats import fit_anchors, repeat_groups
+    from bayescal.registration.repeats import repeat_groups
+    from bayescal.registration.steady_drift import fit_steady_drift
 
     folds = []
     for repeat in np.unique(rows.repeat):
         other = rows.repeat != repeat
         groups = repeat_groups(rows.position[other], (rows.position + rows.y)[other], rows.times[other],
                                rows.config[other], rows.marker[other])
-        folds.append((int(repeat), None if groups is None else fit_anchors(None, groups, cell.tracker)))
+        folds.append((int(repeat), None if groups is None else fit_steady_drift(groups, cell.tracker)))
     return tuple(folds)
 
 
 def drift_deflection(evidence: DriftEvidence, rows: Rows) -> tuple[np.ndarray, np.ndarray]:
-    """(N, 3) the drift the evidence puts into each row's deflection (m), from the walk fitted without the row's repeat,
+    """(N, 3) the drift the evidence puts into each row's deflection (m), from the drift fitted without the row's repeat,
     and (N, 3) its standard deviation; zero for rows without times (poses to predict) or whose repeat leaves no group."""
     mean, sd = np.zeros((len(rows), 3)), np.zeros((len(rows), 3))
     for repeat, track in evidence.held_out:

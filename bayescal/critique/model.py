@@ -373,7 +373,7 @@ def _by_repeats(search: _Search, candidates: list[Extension], validate: Callable
     of the others it does not beat by :data:`~bayescal.critique.rule.DETECTION_Z` SE tie with it or contest it, as at a
     step of the search.  A robust model's outliers inflate both sides of the repeats' test: it is not asked there; nor
     where a drift is named or its held-out gain clears the same bar (:func:`~bayescal.critique.rule.shows`): on the
-    independent generator's thermal drift, repeats back to back, the repeats' misfit the walk left had been given to
+    independent generator's thermal drift, repeats back to back, the repeats' misfit a random walk's drift left had been given to
     ``backlash``, ``nonlinear_stiffness`` or ``tool_compliance`` (docs/critique.md, *Named by the repeats*).
     """
     misfit = misfit_of(search.model)
@@ -381,8 +381,8 @@ def _by_repeats(search: _Search, candidates: list[Extension], validate: Callable
     if misfit is None or not misfit.significant() or search.model.robust or not search.steps:
         return misfit
     model, evidence = search.model, search.steps[-1]
-    # A drift the walk cannot follow (a configuration's first repeat, its repeats back to back) is lack of fit too: where
-    # the repeated readings show one, the repeats cannot speak for a physical candidate.
+    # What of a drift its column does not follow (a 30 min cycle about a steady rate) is lack of fit too: where the
+    # repeated readings show a drift, the repeats cannot speak for a physical candidate.
     unphysical = [e.name for e in (*model.extensions, *candidates) if not e.physical]
     if any(name in search.causes or (name in evidence and shows(evidence[name])) for name in unphysical):
         return misfit

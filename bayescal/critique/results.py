@@ -127,7 +127,7 @@ class CritiqueResults(Outcome):
         Per named extension, what it changes (:meth:`~bayescal.critique.model.Critique._importance`): residual rms before and after (mm),
         the misfit it explains (mm), the test pose's prediction moved (mm) beside its sd (mm), and whether it matters.
     drift : dict
-        Whether the campaign's readings can show a drift and what the walk fitted to them gives (:mod:`bayescal.critique.drift`),
+        Whether the campaign's readings can show a drift and what the rate and walk fitted to them give (:mod:`bayescal.critique.drift`),
         or the drift measured and removed (:meth:`~bayescal.registration.nest_drift.NestDrift.to_json`).
     """
 

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["TrackerDrift", "TIMELINE", "NESTS", "reading_times", "nest_times"]
+from bayescal.units import HOUR
 
-HOUR = 3600.0
+__all__ = ["TrackerDrift", "TIMELINE", "NESTS", "reading_times", "nest_times"]
 
 TIMELINE = {"marker": 15.0, "hang": 300.0, "unhang": 180.0, "move": 60.0}
 """Seconds from one marker's reading to the next, from a marker's unloaded reading to its loaded one, from the
