@@ -189,8 +189,9 @@ with ``tool_mount``; the twin simulates the cell's own tool."""
 
 SET_ON: dict[str, str] = {
     "twin": "all: the naming rule's constants (DETECTION_Z, DETECTION_FLOOR, DECISIVE_GAIN, TIE_NOISE), the catalogue "
-            "and its settings, the drift evidence, and the repeats' clause (no constant of its own; written after its "
-            "link_compliance, seeds 0-39)",
+            "and its settings, the drift evidence, the repeats' clause (no constant of its own; written after its "
+            "link_compliance, seeds 0-39), and the walk in the drift candidate's column beside the steady rate (its "
+            "drift at twice the default, seeds 0-39)",
     "independent": "the lost-motion family's settings (friction holds, side on arrival, compensated-joint torque "
                    "shifts; after gear_play and approach_play; the holds as fractions of the rated torque, chosen on "
                    "the breakaway torques the twin and this generator take), the drift evidence's first-reading "
@@ -198,7 +199,8 @@ SET_ON: dict[str, str] = {
                    "gear_play and approach_play, seeds 9000-9039), the gross errors' tail per reading against "
                    "the arm's per state (no constant; diagnosed on gear_play, seeds 9001-9011, and los_jumps, seeds "
                    "9000-9004; judged on gear_play and approach_play, seeds 9000-9039), and the drift's guard on the repeats' clause "
-                   "(no constant of its own; thermal_drift, seeds 9000-9039, and at three times its default 9000-9019)",
+                   "(no constant of its own; thermal_drift, seeds 9000-9039, and at three times its default 9000-9019), "
+                   "and the steady rate in the drift candidate's column (thermal_drift, seeds 9000-9005)",
     "beams": "the choice of the held-out density over the naming rule for the unit of a heavy tail (per reading or per "
              "state), made after its lost_motion at twice the default (seeds 0-39)",
     "beams_rigid": "none",
