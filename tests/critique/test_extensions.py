@@ -275,6 +275,9 @@ def test_a_tracker_drifting_in_time_is_named_drift_from_the_reading_times(cell, 
     # no reading of one state spans a configuration's first repeat, but the rate the other repeats show carries over
     # it: drift comes first and alone (with the walk alone it left part of the drift to a second cause)
     assert results.causes == ["drift"] and results.drift["candidate"], results.causes
+    # the rate the repeats show, reported in mm/h with its sd: the planted 0.4 mm/h within 3 sd
+    speed, sd = results.drift["speed_mm_per_h"], results.drift["speed_sd_mm_per_h"]
+    assert abs(speed - 0.4) < 3 * sd and sd < 0.1, (speed, sd)
     # measured from the repeated readings: the planted drift in the deflections within 3 sd of the estimate
     from bayescal.critique.covariates import campaign_rows
     from bayescal.critique.drift import drift_deflection, drift_evidence
