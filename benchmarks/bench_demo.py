@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import filecmp
 import os
-import resource
 import shlex
 import statistics
 import subprocess
@@ -25,6 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from bench_startup import children_cpu
 from previous import NoHistory, previous_tree
 from smoke import SMOKE, sized
 
@@ -59,11 +59,6 @@ def demo_steps(makefile: Path = ROOT / "Makefile") -> list[tuple[list[str], str 
     return steps
 
 
-def _cpu() -> float:
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
-
-
 def run_demo(tree: Path, steps) -> list[tuple[float, float]]:
     """Wall and CPU seconds of each step of the demo run in the folder ``tree`` (into its ``build/``)."""
     (tree / "build").mkdir(exist_ok=True)
@@ -71,13 +66,13 @@ def run_demo(tree: Path, steps) -> list[tuple[float, float]]:
     # this checkout's package where the folder has none of its own (``python -m`` puts the folder first on the path)
     environment = os.environ | {"OPENBLAS_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
     for arguments, output in steps:
-        began, cpu = time.perf_counter(), _cpu()
+        began, cpu = time.perf_counter(), children_cpu()
         with open(tree / output, "w") if output else open(os.devnull, "w") as stdout:
             done = subprocess.run([sys.executable, "-m", "bayescal", *arguments], cwd=tree, stdout=stdout, stderr=subprocess.PIPE,
                                   text=True, env=environment)
         if done.returncode != 0:
             raise SystemExit(f"bayescal {' '.join(arguments)} failed in {tree}: {done.stderr.strip().splitlines()[-1]}")
-        times.append((time.perf_counter() - began, _cpu() - cpu))
+        times.append((time.perf_counter() - began, children_cpu() - cpu))
     return times
 
 

@@ -12,7 +12,6 @@ for the rows extended by the test pose (``docs/critique.md``, *The drift's colum
 from __future__ import annotations
 
 import json
-import resource
 import statistics
 import subprocess
 import sys
@@ -20,6 +19,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from bench_startup import children_cpu
 from previous import NoHistory, previous_tree
 from smoke import sized
 
@@ -35,20 +35,15 @@ REPEATS = sized(3, 1)
 """Runs of the command per tree; the median damps the shared machine's noise."""
 
 
-def _children_cpu() -> float:
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
-
-
 def _critique(campaign: Path, cwd: Path) -> tuple[list[str], float, float]:
     """The causes of ``bayescal critique`` run in ``cwd`` on ``campaign``, and its median wall and CPU seconds."""
     arguments = [sys.executable, "-m", "bayescal", "critique", str(campaign), "--config", "data/kr270.toml", "--json"]
     walls, cpus = [], []
     for _ in range(REPEATS):
-        wall, cpu = time.perf_counter(), _children_cpu()
+        wall, cpu = time.perf_counter(), children_cpu()
         done = subprocess.run(arguments, capture_output=True, text=True, cwd=cwd, check=True)
         walls.append(time.perf_counter() - wall)
-        cpus.append(_children_cpu() - cpu)
+        cpus.append(children_cpu() - cpu)
     return json.loads(done.stdout)["causes"], statistics.median(walls), statistics.median(cpus)
 
 

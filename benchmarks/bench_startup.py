@@ -26,7 +26,8 @@ REPEATS = sized(5, 1)
 """Runs per case; the median damps the shared machine's noise."""
 
 
-def _cpu() -> float:
+def children_cpu() -> float:
+    """CPU seconds (user and system) of this process's finished children so far."""
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
     return usage.ru_utime + usage.ru_stime
 
@@ -35,10 +36,10 @@ def command_times(arguments: list[str], cwd: Path = ROOT) -> tuple[list[float], 
     """Wall seconds of each of ``REPEATS`` fresh runs of ``arguments`` in the folder ``cwd`` and their median CPU seconds."""
     walls, cpus = [], []
     for _ in range(REPEATS):
-        began, cpu = time.perf_counter(), _cpu()
+        began, cpu = time.perf_counter(), children_cpu()
         done = subprocess.run(arguments, capture_output=True, text=True, cwd=cwd)
         walls.append(time.perf_counter() - began)
-        cpus.append(_cpu() - cpu)
+        cpus.append(children_cpu() - cpu)
         if done.returncode != 0:
             raise SystemExit(f"{' '.join(arguments)} failed: {done.stderr.strip().splitlines()[-1]}")
     return walls, statistics.median(cpus)

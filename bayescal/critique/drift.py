@@ -25,7 +25,7 @@ show a drift and how to make it able to.
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import TYPE_CHECKING
 
@@ -87,26 +87,21 @@ class DriftEvidence:
         return payload | {"groups": self.groups, "readings": self.readings, "span_s": round(self.span_s, 1)} | self.track.to_json()
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True)
 class _Timed:
-    """A campaign's rows with reading times, equal to another's of the same content: the rows extended by poses to
-    predict (which have no times) give the campaign's evidence, fitted once."""
+    """A campaign's rows with reading times, compared by ``key``, a digest of their content: the rows extended by poses
+    to predict (which have no times) give the campaign's evidence, fitted once."""
 
-    rows: Rows
+    key: bytes
+    rows: Rows = field(compare=False)
 
-    @property
-    def _content(self) -> bytes:
-        rows = self.rows
-        arrays = (rows.position, rows.y, rows.times, rows.config, rows.repeat)
-        # names joined, not the array's bytes: joined to rows of longer names, the array is padded wider
-        names = "\0".join(rows.marker.tolist()).encode()
-        return hashlib.sha256(b"".join(np.ascontiguousarray(a).tobytes() for a in arrays) + names).digest()
 
-    def __hash__(self) -> int:
-        return hash(self._content)
-
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, _Timed) and self._content == other._content
+def _timed(rows: Rows) -> _Timed:
+    timed = rows.take(np.flatnonzero(np.all(np.isfinite(rows.times), axis=1)))
+    arrays = (timed.position, timed.y, timed.times, timed.config, timed.repeat)
+    # names joined, not the array's bytes: joined to rows of longer names, the array is padded wider
+    names = "\0".join(timed.marker.tolist()).encode()
+    return _Timed(hashlib.sha256(b"".join(np.ascontiguousarray(a).tobytes() for a in arrays) + names).digest(), timed)
 
 
 def drift_evidence(rows: Rows, cell: Cell) -> DriftEvidence:
@@ -115,7 +110,7 @@ def drift_evidence(rows: Rows, cell: Cell) -> DriftEvidence:
     Cached per content of the rows with times: the critique asks for it with every model that holds ``drift``, and
     with the campaign's rows extended by the test pose.
     """
-    return _evidence(_Timed(rows.take(np.flatnonzero(np.all(np.isfinite(rows.times), axis=1)))), cell)
+    return _evidence(_timed(rows), cell)
 
 
 @lru_cache(maxsize=4)
@@ -125,7 +120,7 @@ def _evidence(timed: _Timed, cell: Cell) -> DriftEvidence:
     from bayescal.registration.steady_drift import fit_steady_drift
 
     rows = timed.rows
-    if not np.any(np.all(np.isfinite(rows.times), axis=1)):
+    if len(rows) == 0:
         return DriftEvidence(False, "the campaign gives no reading times: " + MAKE_TESTABLE)
     groups = repeat_groups(rows.position, rows.position + rows.y, rows.times, rows.config, rows.marker)
     if groups is None:

@@ -358,8 +358,8 @@ def _nonlinear_stiffness(rows: Rows, cell: Cell) -> np.ndarray:
 
 def _drift(rows: Rows, cell: Cell) -> np.ndarray:
     """The tracker's frame moving between each row's unloaded and loaded reading, as the campaign's readings of one
-    state repeated in time show it (:func:`~bayescal.critique.drift.drift_evidence`: the frame's steady rate, each
-    repeat's rows from the rate fitted to the other repeats): one column, the drift's amplitude (1 where the evidence
+    state repeated in time show it (:func:`~bayescal.critique.drift.drift_evidence`: the frame's steady rate and the
+    walk of what it leaves, each repeat's rows from the drift fitted to the other repeats): one column, the drift's amplitude (1 where the evidence
     is right).
 
     Its direction comes from readings the deflections do not enter, so that it cannot take up a load-correlated

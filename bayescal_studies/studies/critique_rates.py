@@ -198,7 +198,7 @@ SET_ON: dict[str, str] = {
                    "rule (gear_play, seeds 9000-9002), the encompassing of a contest (no constant; judged on "
                    "gear_play and approach_play, seeds 9000-9039), the gross errors' tail per reading against "
                    "the arm's per state (no constant; diagnosed on gear_play, seeds 9001-9011, and los_jumps, seeds "
-                   "9000-9004; judged on gear_play and approach_play, seeds 9000-9039), and the drift's guard on the repeats' clause "
+                   "9000-9004; judged on gear_play and approach_play, seeds 9000-9039), the drift's guard on the repeats' clause "
                    "(no constant of its own; thermal_drift, seeds 9000-9039, and at three times its default 9000-9019), "
                    "and the steady rate in the drift candidate's column (thermal_drift, seeds 9000-9005)",
     "beams": "the choice of the held-out density over the naming rule for the unit of a heavy tail (per reading or per "

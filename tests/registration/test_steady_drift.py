@@ -5,6 +5,7 @@ from bayescal.cell.nests import Nests
 from bayescal.registration.nest_drift import fit_nest_drift
 from bayescal.registration.steady_drift import fit_steady_drift
 from bayescal.twin.independent.noise import FrameDrift
+from bayescal.units import HOUR
 
 POINTS = np.array([[2.2, 0.3, 1.4], [1.9, -0.6, 0.9], [1.4, 0.8, 1.7], [2.4, -0.2, 0.6]])
 """Four markers' states, m: what a configuration's repeat groups are to the drift."""
@@ -27,8 +28,7 @@ def _groups(drift: FrameDrift, tracker, rng, spans=8, visits=3, scatter=1.0) -> 
 
 
 def _steady(rng) -> FrameDrift:
-    hour = 3600.0
-    return FrameDrift.draw(rng, rate=0.2e-3 / hour, cycle=0.0, period=1800.0, spin_rate=0.02e-3 / hour)
+    return FrameDrift.draw(rng, rate=0.2e-3 / HOUR, cycle=0.0, period=1800.0, spin_rate=0.02e-3 / HOUR)
 
 
 @pytest.mark.parametrize("scatter", [1.0, 2.5])
