@@ -32,7 +32,8 @@ difference ``sqrt(K var(d))`` over the ``K`` configurations' differences ``d``
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import linalg, special
@@ -40,7 +41,7 @@ from scipy import linalg, special
 from bayescal.critique.extensions import OUTLIER_DOF
 from bayescal.inference.identifiability import COLLINEAR_TOLERANCE, independent_columns
 
-__all__ = ["Fit", "CrossValidation", "Comparison", "fit", "cross_validate", "compare", "compare_elpd", "smallest_unexplained_fraction"]
+__all__ = ["Fit", "CrossValidation", "Comparison", "fit", "cross_validate", "chosen", "compare", "compare_elpd", "smallest_unexplained_fraction"]
 
 ROW_EQUATIONS = 3
 """Equations of one campaign row (one marker's deflection in one configuration and repeat), consecutive in
@@ -398,6 +399,42 @@ class Comparison:
 
     def to_json(self) -> dict:
         return {"delta_elpd": round(self.delta_elpd, 3), "se": round(self.se, 3), "n_configs": self.n_configs}
+
+
+def chosen(variants: Sequence[CrossValidation]) -> tuple[int, CrossValidation]:
+    """The variant of a candidate with the largest held-out total, and the candidate's cross-validation with its
+    variant unknown.
+
+    Choosing among variants by the same held-out scores a candidate is then judged by makes its score optimistic:
+    the largest of several noisy totals (the selection bias of cross-validation, Cawley & Talbot 2010; Piironen &
+    Vehtari 2017).  The variant is instead a discrete parameter, uniform a priori, integrated out with each
+    configuration held out of its weights as of the fit: configuration k is predicted by the variants' mixture
+    weighted by ``exp`` of their log predictive densities of the other configurations (the pseudo-marginal
+    likelihood, Geisser & Eddy 1979; the pseudo-BMA weights of Yao et al. 2018).  Where one variant leads by many
+    nats the mixture is that variant; where several predict alike it loses little to the best of them.  The
+    predictions and the fit are those of the variant of largest total.  One variant: its cross-validation,
+    unchanged.
+
+    Parameters
+    ----------
+    variants : sequence of CrossValidation
+        V ≥ 1 cross-validations of the same equations, one per variant.
+
+    Returns
+    -------
+    index : int
+        The variant of largest total.
+    cv : CrossValidation
+        Its cross-validation, with ``elpd`` (K,) the log predictive density of the variants' mixture.
+    """
+    if len(variants) == 1:
+        return 0, variants[0]
+    elpd = np.array([cv.elpd for cv in variants])  # (V, K)
+    total = elpd.sum(axis=1)
+    others = total[:, np.newaxis] - elpd
+    weights = others - special.logsumexp(others, axis=0)
+    best = int(np.argmax(total))
+    return best, replace(variants[best], elpd=special.logsumexp(weights + elpd, axis=0))
 
 
 def compare(a: CrossValidation, b: CrossValidation) -> Comparison:

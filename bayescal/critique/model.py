@@ -40,7 +40,7 @@ from bayescal.cell.campaign import Campaign
 from bayescal.cell.config import Cell
 from bayescal.cell.nests import Nests, require_times
 from bayescal.critique.checks import residual_summary, residual_table
-from bayescal.critique.compare import Comparison, CrossValidation, compare, cross_validate, fit
+from bayescal.critique.compare import Comparison, CrossValidation, chosen, compare, cross_validate, fit
 from bayescal.critique.covariates import Rows, campaign_rows, pose_rows
 from bayescal.critique.drift import MAKE_TESTABLE, DriftEvidence, drift_deflection, drift_evidence
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
@@ -166,7 +166,7 @@ class Critique:
         search = _greedy_search(base, remaining, validate, fitted, noise_of)
         check = RepeatsCheck.of(self.cell, campaign, rows)
         misfit = _by_repeats(search, remaining, validate, lambda model: check(model.design(rows, self.cell)), fitted, noise_of)
-        model, current, causes = search.model, search.current, search.causes
+        model, current, causes, final = search.model, search.current, search.causes, search.judged
         probes = {name: compare(current, validate(model.plus(PROBES[name]))) for name in self.probes}
         covariate = strongest(probes, decisive=False)
         # The repeats' pure error sees a misfit of any shape, also one no candidate matches; a robust
@@ -181,14 +181,14 @@ class Critique:
             steps=search.steps,
             probes=probes,
             base=base,
-            final=current,
-            gain=compare(base, current),
+            final=final,
+            gain=compare(base, final),
             before=residual_summary(y, base, equation_rows),
-            after=residual_summary(y, current, equation_rows),
+            after=residual_summary(y, final, equation_rows),
             test_pose=self._test_pose(model, rows, y, scale, group),
             n_configs=n_configs,
             n_equations=y.size,
-            residuals=residual_table(rows, y, base, current),
+            residuals=residual_table(rows, y, base, final),
             source=campaign.source,
             lack_of_fit=misfit,
             tied_with={cause: others for cause, others in search.tied.items() if others},
@@ -307,6 +307,22 @@ class _Search:
     by_repeats: dict[str, tuple[LackOfFit, LackOfFit]] = field(default_factory=dict)
     """The cause named because it accounts for the misfit the repeats reveal (:func:`_by_repeats`), with the lack of
     fit without it and with it."""
+    optimism: np.ndarray | float = 0.0
+    """(K,) what the named causes' variants of largest held-out total add to ``current``'s log predictive densities
+    over the same causes with their variants integrated out (:func:`~bayescal.critique.compare.chosen`)."""
+
+    def name(self, cause: str, extension: Extension, judged: CrossValidation, validate: Callable[[_Model], CrossValidation]) -> None:
+        """Add ``cause`` at its variant ``extension``, judged by ``judged``; the next step's models keep the variant."""
+        self.model = self.model.plus(extension)
+        self.current = validate(self.model)
+        self.optimism = self.optimism + (self.current.elpd - judged.elpd)
+        self.causes.append(cause)
+        self.history.append((self.model, self.current))
+
+    @property
+    def judged(self) -> CrossValidation:
+        """The final model's cross-validation with its causes' variants integrated out: the gain it reports."""
+        return replace(self.current, elpd=self.current.elpd - self.optimism)
 
 
 def _greedy_search(base: CrossValidation, remaining: list[Extension], validate: Callable[[_Model], CrossValidation],
@@ -331,10 +347,7 @@ def _greedy_search(base: CrossValidation, remaining: list[Extension], validate: 
         )
         search.explained[best] = _explained(best, contested, model, trials, remaining, validate)
         search.contested[best] = [name for name in contested if name not in search.explained[best]]
-        extension, search.current = trials[best]
-        search.model = model.plus(extension)
-        search.causes.append(best)
-        search.history.append((search.model, search.current))
+        search.name(best, *trials[best], validate)
         remaining = [e for e in remaining if e.name != best]
     return search
 
@@ -346,7 +359,7 @@ def _shared_by_state(trials: dict, evidence: dict[str, Comparison], model: _Mode
 
     Gross tracker errors put single readings off, one marker at a time; an arm that is not where the model puts it
     (a joint's play on the side the model did not predict) moves every marker read in that state together.  The unit
-    the tail is shared by is chosen as every variant of a candidate is (:func:`_best_variant`), by the held-out
+    the tail is shared by is chosen as the variant a candidate is fitted at is (:func:`_best_variant`), by the held-out
     density, with no constant of its own: where the tail shared by a state predicts the held-out configurations
     better, the misfit is the arm's, and a tracker-error model is no cause of it.  The candidate is then not named,
     and what it took up is left to the other candidates; where it is still there when the search ends, it is a misfit
@@ -397,19 +410,19 @@ def _by_repeats(search: _Search, candidates: list[Extension], validate: Callable
         best, trials, evidence, lambda name: fitted(model.plus(trials[name][0]), trials[name][1]), noise_of(search.current),
         qualifies=lambda name: name in accounting,
     )
-    extension, search.current = trials[best]
-    search.model = model.plus(extension)
-    search.causes.append(best)
-    search.history.append((search.model, search.current))
+    search.name(best, *trials[best], validate)
     search.by_repeats[best] = (misfit, misfits[best])
     return misfits[best]
 
 
 def _best_variant(extension: Extension, model: _Model, validate: Callable[[_Model], CrossValidation]) -> tuple[Extension, CrossValidation]:
     """The variant of ``extension`` (:meth:`~bayescal.critique.extensions.Extension.variants`) that, added to
-    ``model``, predicts the held-out configurations best, and its cross-validation."""
-    trials = [(variant, validate(model.plus(variant))) for variant in extension.variants()]
-    return max(trials, key=lambda trial: float(np.sum(trial[1].elpd)))
+    ``model``, predicts the held-out configurations best, and the candidate's cross-validation with its variant
+    integrated out (:func:`~bayescal.critique.compare.chosen`): what judges the candidate.  The variant's own cross-validation,
+    ``validate(model.plus(variant))``, is the baseline of what is added on top of it, which keeps the variant."""
+    variants = extension.variants()
+    index, cv = chosen([validate(model.plus(variant)) for variant in variants])
+    return variants[index], cv
 
 
 def fitted_variant(cell: Cell, rows: Rows, extension: Extension) -> tuple[Extension, CrossValidation]:
@@ -465,13 +478,13 @@ def _explained(best: str, contested: list[str], model: _Model, trials: dict, rem
     is the next step's, kept by ``validate``); ``best`` on top of the rival at the variant it was named with.  Either
     choice, where a variant could differ, makes it harder to call a rival explained, never easier.
     """
-    named, named_cv = trials[best]
+    named = trials[best][0]
     extensions = {e.name: e for e in remaining}
     out = {}
     for name in contested:
-        rival, rival_cv = trials[name]
-        rival_added = compare(named_cv, _best_variant(extensions[name], model.plus(named), validate)[1])
-        named_added = compare(rival_cv, validate(model.plus(rival).plus(named)))
+        rival = trials[name][0]
+        rival_added = compare(validate(model.plus(named)), _best_variant(extensions[name], model.plus(named), validate)[1])
+        named_added = compare(validate(model.plus(rival)), validate(model.plus(rival).plus(named)))
         if explains(rival_added, named_added):
             out[name] = (rival_added, named_added)
     return out

@@ -202,7 +202,9 @@ SET_ON: dict[str, str] = {
                    "(no constant of its own; thermal_drift, seeds 9000-9039, and at three times its default 9000-9019), "
                    "and the steady rate in the drift candidate's column (thermal_drift, seeds 9000-9005)",
     "beams": "the choice of the held-out density over the naming rule for the unit of a heavy tail (per reading or per "
-             "state), made after its lost_motion at twice the default (seeds 0-39)",
+             "state), made after its lost_motion at twice the default (seeds 0-39), and a candidate's variants integrated "
+             "out of its held-out score (no constant; diagnosed on its link_compliance, seeds 0-39, and the mixture "
+             "preferred to the variant chosen without each configuration after its lost_motion and link_compliance)",
     "beams_rigid": "none",
 }
 """Which of the critique's rules were set on campaigns of each generator (docs/critique.md); the rates of the others

@@ -122,7 +122,7 @@ def test_geometry_bad_input_is_one_line_and_exit_2(capsys, tmp_path, argv, expec
 
 def test_a_tie_offers_the_plan_that_separates_that_pair_and_drift_says_how_to_become_testable(capsys, cell, plan, tmp_path):
     # the twin's Table III campaign whose nonlinear stiffness ties with backlash (their fitted deflections within the noise)
-    path, status, out = _critique_of_twin(capsys, cell, plan, tmp_path, "nonlinear_stiffness=0.3")
+    path, status, out = _critique_of_twin(capsys, cell, plan, tmp_path, "nonlinear_stiffness=0.2")
     assert status == 0
     assert "nonlinear_stiffness tied with backlash" in out
     assert f"--criterion discriminate --between nonlinear_stiffness,backlash --campaign {path}" in out
