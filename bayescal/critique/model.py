@@ -46,7 +46,7 @@ from bayescal.critique.drift import MAKE_TESTABLE, DriftEvidence, drift_deflecti
 from bayescal.critique.extensions import CATALOGUE, PROBES, Extension, base_columns
 from bayescal.critique.repeats import RepeatsCheck
 from bayescal.critique.results import CritiqueResults
-from bayescal.critique.rule import DETECTION_Z, TIE_NOISE, UNEXPLAINED, accounts_for, check_candidates, explains, passes, shows, strongest
+from bayescal.critique.rule import DETECTION_Z, UNEXPLAINED, accounts_for, check_candidates, explains, passes, separable, shows, strongest
 from bayescal.errors import InputError
 from bayescal.inference.equations import check_campaign
 from bayescal.inference.identifiability import independent_columns
@@ -451,11 +451,10 @@ def _rivals(best: str, trials: dict, evidence: dict[str, Comparison], fitted: Ca
     """Candidates that also pass (or ``qualifies(name)``) and that ``best`` does not beat by :data:`~bayescal.critique.rule.DETECTION_Z` SE on held-out configurations:
     those tied with it, and those that contest it.
 
-    Tied: their fitted deflections (``fitted(name)``, (3N,) m) differ from ``best``'s by less than
-    :data:`~bayescal.critique.rule.TIE_NOISE` times ``noise`` (3N,) m at every equation; they explain this campaign alike, and
-    it cannot tell them apart.  Contested: their predictions differ by more somewhere, so that this plan
-    could separate them, but the held-out scores did not (some configurations favour each, as a misfit
-    that neither candidate explains makes them do).
+    Tied: their fitted deflections (``fitted(name)``, (3N,) m) differ from ``best``'s, in ``noise`` (3N,) m, by too little
+    for any set of this plan's readings to name one over the other (:func:`~bayescal.critique.rule.separable`); they explain
+    this campaign alike.  Contested: this plan could separate them, but the held-out scores did not (some configurations
+    favour each, as a misfit that neither candidate explains makes them do).
     """
     tied, contested = [], []
     for name in trials:
@@ -464,8 +463,7 @@ def _rivals(best: str, trials: dict, evidence: dict[str, Comparison], fitted: Ca
         lead = compare(trials[name][1], trials[best][1])
         if lead.delta_elpd > DETECTION_Z * lead.se:
             continue
-        alike = np.max(np.abs(fitted(name) - fitted(best)) / noise) < TIE_NOISE
-        (tied if alike else contested).append(name)
+        (contested if separable((fitted(name) - fitted(best)) / noise) else tied).append(name)
     return tied, contested
 
 

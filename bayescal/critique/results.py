@@ -17,7 +17,7 @@ import pandas as pd
 
 from bayescal.critique.compare import Comparison, CrossValidation
 from bayescal.critique.covariates import COVARIATES
-from bayescal.critique.rule import DECISIVE_GAIN, DECISIVE_Z, DETECTION_FLOOR, DETECTION_Z, TIE_NOISE
+from bayescal.critique.rule import DECISIVE_GAIN, DECISIVE_Z, DETECTION_FLOOR, DETECTION_Z, SEPARABLE_CHI2
 from bayescal.inference.lack_of_fit import LACK_OF_FIT_LEVEL, LackOfFit
 from bayescal.jsonfiles import JsonFindings, JsonSchema
 from bayescal.summary import Summary
@@ -109,8 +109,8 @@ class CritiqueResults(Outcome):
         One row per equation: covariates, held-out standardised residuals and LOO-PIT of both models.
     tied_with, contested_by : dict
         Per named cause, the candidates it does not beat on held-out configurations by :data:`DETECTION_Z` SE
-        whose fitted deflections differ from its own nowhere by :data:`TIE_NOISE` noise sd (tied), or somewhere
-        by more (contested).
+        whose fitted deflections differ from its own by a χ² in noise sd below :data:`SEPARABLE_CHI2` (tied), or above
+        it (contested).
     explains : dict
         Per named cause, the rivals that would have contested it and that it explains
         (:func:`~bayescal.critique.rule.explains`), each with two comparisons: the rival added on top of the cause,
@@ -184,7 +184,7 @@ class CritiqueResults(Outcome):
             },
             "covariates": {name: c.to_json() | {"meaning": COVARIATES[name]} for name, c in self.probes.items()},
             "rule": {"delta_elpd_over_se": DETECTION_Z, "floor_nats": DETECTION_FLOOR, "decisive_nats": DECISIVE_GAIN,
-                     "decisive_over_se": DECISIVE_Z, "by_repeats_over_se": DECISIVE_Z, "tie_noise_sd": TIE_NOISE},
+                     "decisive_over_se": DECISIVE_Z, "by_repeats_over_se": DECISIVE_Z, "tie_below_chi2": SEPARABLE_CHI2},
             "n_configurations": self.n_configs,
             "n_equations": self.n_equations,
             "campaign": self.source,

@@ -7,16 +7,18 @@ A candidate is named when its held-out ΔELPD clears :data:`DETECTION_Z` standar
 candidates added on top of the other, decides whether the named one explains a rival that contests it
 (:func:`explains`).  Where the repeats reveal a misfit that no candidate passes the rule for, a candidate clear of
 :data:`DECISIVE_Z` standard errors and :data:`DETECTION_FLOOR` nats that leaves the repeats fitted accounts for it
-(:func:`accounts_for`).
+(:func:`accounts_for`).  Two candidates tie where the plan could not tell them apart by the rule (:func:`separable`).
 """
 
 from __future__ import annotations
 
+import numpy as np
+
 from bayescal.critique.compare import Comparison
 from bayescal.inference.lack_of_fit import LackOfFit
 
-__all__ = ["DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "DECISIVE_Z", "TIE_NOISE", "UNEXPLAINED", "passes", "strongest", "explains", "accounts_for",
-           "shows", "check_candidates"]
+__all__ = ["DETECTION_Z", "DETECTION_FLOOR", "DECISIVE_GAIN", "DECISIVE_Z", "SEPARABLE_CHI2", "UNEXPLAINED", "passes", "strongest", "explains",
+           "accounts_for", "shows", "separable", "check_candidates"]
 
 DETECTION_Z = 2.0
 """A cause is named only when its held-out gain exceeds this many standard errors of the difference."""
@@ -32,12 +34,21 @@ DECISIVE_Z = 1.0
 independent-generator campaign with nothing planted.  One SE, not two, because the SE of a gain that
 sits in a few configurations is itself inflated by them (gross tracker errors: 52-384 nats against
 SEs of 47-253 on the twin), and the decisive branch exists for those."""
-TIE_NOISE = 1.0
-"""Two candidates tie only where their fitted predictions of the campaign's deflections differ nowhere by more
-than this many standard deviations of a reading's noise (the final noise level of the equation): beyond it some
-reading of this plan could tell them apart, and a candidate the named one does not beat held out is reported as
-contesting it (``contested_by``), not as tied."""
+SEPARABLE_CHI2 = max((2 * DETECTION_Z) ** 2, 2 * DETECTION_FLOOR)
+"""Two candidates tie only where their fitted predictions of the campaign's deflections differ by a χ² below this
+(16), summed over the equations in each equation's noise sd (:func:`separable`).  Were one of them true, the
+log-likelihood ratio of this plan's readings for it against the other would have mean χ²/2 and sd √χ²: below
+this bound that mean clears neither :data:`DETECTION_Z` sds nor :data:`DETECTION_FLOOR` nats, and no set of this
+plan's readings would name one over the other by the naming rule.  Above it the plan separates them, and a candidate
+the named one does not beat held out is reported as contesting it (``contested_by``), not as tied."""
 UNEXPLAINED = "unexplained"
+
+
+def separable(difference: np.ndarray) -> bool:
+    """Whether this plan's readings could tell two fitted candidates apart by the naming rule: the difference of their
+    predictions (n,), in each equation's noise sd, has a χ² above :data:`SEPARABLE_CHI2`.  Eight equations a noise sd
+    apart do not; one equation five sd apart, or a hundred half an sd apart, do."""
+    return float(np.sum(np.square(difference))) > SEPARABLE_CHI2
 
 
 def check_candidates(names: tuple[str, ...], known) -> None:

@@ -188,10 +188,10 @@ user who weighed the tool would: the third generator's 38 kg in every campaign, 
 with ``tool_mount``; the twin simulates the cell's own tool."""
 
 SET_ON: dict[str, str] = {
-    "twin": "all: the naming rule's constants (DETECTION_Z, DETECTION_FLOOR, DECISIVE_GAIN, TIE_NOISE), the catalogue "
+    "twin": "all: the naming rule's constants (DETECTION_Z, DETECTION_FLOOR, DECISIVE_GAIN; SEPARABLE_CHI2 follows from the first two), the catalogue "
             "and its settings, the drift evidence, the repeats' clause (no constant of its own; written after its "
-            "link_compliance, seeds 0-39), and the walk in the drift candidate's column beside the steady rate (its "
-            "drift at twice the default, seeds 0-39)",
+            "link_compliance, seeds 0-39), the walk in the drift candidate's column beside the steady rate (its "
+            "drift at twice the default, seeds 0-39), and a tie as the whole plan's (its compensator's ties, seeds 0-39)",
     "independent": "the lost-motion family's settings (friction holds, side on arrival, compensated-joint torque "
                    "shifts; after gear_play and approach_play; the holds as fractions of the rated torque, chosen on "
                    "the breakaway torques the twin and this generator take), the drift evidence's first-reading "
@@ -204,7 +204,9 @@ SET_ON: dict[str, str] = {
     "beams": "the choice of the held-out density over the naming rule for the unit of a heavy tail (per reading or per "
              "state), made after its lost_motion at twice the default (seeds 0-39), and a candidate's variants integrated "
              "out of its held-out score (no constant; diagnosed on its link_compliance, seeds 0-39, and the mixture "
-             "preferred to the variant chosen without each configuration after its lost_motion and link_compliance)",
+             "preferred to the variant chosen without each configuration after its lost_motion and link_compliance); a tie as "
+             "the whole plan's (no constant; its hardening's ties at twice the default listed with their chi2 beside the "
+             "twin's compensator)",
     "beams_rigid": "none",
 }
 """Which of the critique's rules were set on campaigns of each generator (docs/critique.md); the rates of the others

@@ -13,7 +13,7 @@ from bayescal.critique.compare import Comparison, compare_elpd
 from bayescal.critique.extensions import Extension
 from bayescal.critique.model import _greedy_search
 from bayescal.critique.results import CritiqueFindings
-from bayescal.critique.rule import DETECTION_Z, TIE_NOISE, explains, passes
+from bayescal.critique.rule import DETECTION_Z, explains, passes
 
 
 def test_a_rival_is_explained_only_when_it_adds_nothing_and_the_named_cause_still_does():
@@ -41,7 +41,7 @@ def _search(rival_adds: bool):
         return SimpleNamespace(elpd=scores[tuple(sorted(e.name for e in model.extensions))])
 
     noise = np.full(60, 1e-5)
-    fitted = {"a": np.zeros(60), "b": np.full(60, 3 * TIE_NOISE * 1e-5)}
+    fitted = {"a": np.zeros(60), "b": np.full(60, 3 * 1e-5)}
     candidates = [Extension(name, name, lambda rows, cell: None) for name in "ab"]
     search = _greedy_search(SimpleNamespace(elpd=base), candidates, validate, lambda model, cv: fitted[model.extensions[-1].name],
                             lambda cv: noise)

@@ -180,7 +180,6 @@ def test_a_tie_needs_predictions_this_plan_cannot_separate():
 
     from bayescal.critique.compare import Comparison, compare_elpd
     from bayescal.critique.model import _rivals
-    from bayescal.critique.rule import TIE_NOISE
 
     rng = np.random.default_rng(0)
     elpd = rng.normal(size=20)
@@ -189,7 +188,8 @@ def test_a_tie_needs_predictions_this_plan_cannot_separate():
     evidence = {name: Comparison(40.0, 5.0, 20) for name in trials}
     noise = np.full(60, 1e-5)
     base = rng.normal(size=60) * 1e-4
-    close, apart = 0.5 * TIE_NOISE * noise, np.where(np.arange(60) == 7, 3 * TIE_NOISE * noise, 0.0)
+    # b: 0.3 noise sd at each of the 60 equations (χ² 5.4); c: 5 sd at one equation (χ² 25), which one reading separates
+    close, apart = 0.3 * noise, np.where(np.arange(60) == 7, 5 * noise, 0.0)
     fitted = {"a": base, "b": base + close, "c": base + apart, "d": base + close}
     # b and c score like a on held-out configurations (within 1 nat per configuration), d clearly worse;
     # only b predicts the plan's deflections like a: c contests a, d is beaten
@@ -259,3 +259,12 @@ def test_a_cause_accounts_for_the_repeats_misfit_only_clear_of_its_se_and_with_t
     assert not passes(short) and accounts_for(short, fitted)
     assert not accounts_for(short, missed) and not accounts_for(short, None)
     assert not accounts_for(Comparison(10.0, 11.2, 15), fitted) and not accounts_for(Comparison(3.9, 1.0, 15), fitted)
+
+
+def test_a_plan_separates_two_candidates_by_all_its_readings_together():
+    from bayescal.critique.rule import SEPARABLE_CHI2, separable
+
+    assert SEPARABLE_CHI2 == 16.0  # (2 DETECTION_Z)², above 2 DETECTION_FLOOR
+    assert not separable(np.ones(8))  # eight equations a noise sd apart
+    # no equation a noise sd apart, but sixty 0.8 sd apart: the plan's readings together tell them apart
+    assert separable(np.full(60, 0.8)) and separable(np.r_[5.0, np.zeros(59)])
