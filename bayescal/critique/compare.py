@@ -408,7 +408,7 @@ def chosen(variants: Sequence[CrossValidation]) -> tuple[int, CrossValidation]:
     Choosing among variants by the same held-out scores a candidate is then judged by makes its score optimistic:
     the largest of several noisy totals (the selection bias of cross-validation, Cawley & Talbot 2010; Piironen &
     Vehtari 2017).  The variant is instead a discrete parameter, uniform a priori, integrated out with each
-    configuration held out of its weights as of the fit: configuration k is predicted by the variants' mixture
+    configuration held out of its weights as it is of the fit: configuration k is predicted by the variants' mixture
     weighted by ``exp`` of their log predictive densities of the other configurations (the pseudo-marginal
     likelihood, Geisser & Eddy 1979; the pseudo-BMA weights of Yao et al. 2018).  Where one variant leads by many
     nats the mixture is that variant; where several predict alike it loses little to the best of them.  The

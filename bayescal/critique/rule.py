@@ -38,8 +38,8 @@ SEPARABLE_CHI2 = max((2 * DETECTION_Z) ** 2, 2 * DETECTION_FLOOR)
 """Two candidates tie only where their fitted predictions of the campaign's deflections differ by a χ² below this
 (16), summed over the equations in each equation's noise sd (:func:`separable`).  Were one of them true, the
 log-likelihood ratio of this plan's readings for it against the other would have mean χ²/2 and sd √χ²: below
-this bound that mean clears neither :data:`DETECTION_Z` sds nor :data:`DETECTION_FLOOR` nats, and no set of this
-plan's readings would name one over the other by the naming rule.  Above it the plan separates them, and a candidate
+this bound that mean does not clear both :data:`DETECTION_Z` sds and :data:`DETECTION_FLOOR` nats, and this plan's
+readings would not, on average, name one over the other by the naming rule.  Above it the plan separates them, and a candidate
 the named one does not beat held out is reported as contesting it (``contested_by``), not as tied."""
 UNEXPLAINED = "unexplained"
 
