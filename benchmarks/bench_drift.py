@@ -13,13 +13,11 @@ from __future__ import annotations
 
 import json
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
-from bench_startup import children_cpu
+from bench_startup import timed_runs
 from previous import NoHistory, previous_tree
 from smoke import sized
 
@@ -38,13 +36,8 @@ REPEATS = sized(3, 1)
 def _critique(campaign: Path, cwd: Path) -> tuple[list[str], float, float]:
     """The causes of ``bayescal critique`` run in ``cwd`` on ``campaign``, and its median wall and CPU seconds."""
     arguments = [sys.executable, "-m", "bayescal", "critique", str(campaign), "--config", "data/kr270.toml", "--json"]
-    walls, cpus = [], []
-    for _ in range(REPEATS):
-        wall, cpu = time.perf_counter(), children_cpu()
-        done = subprocess.run(arguments, capture_output=True, text=True, cwd=cwd, check=True)
-        walls.append(time.perf_counter() - wall)
-        cpus.append(children_cpu() - cpu)
-    return json.loads(done.stdout)["causes"], statistics.median(walls), statistics.median(cpus)
+    walls, cpu, stdout = timed_runs(arguments, cwd, REPEATS)
+    return json.loads(stdout)["causes"], statistics.median(walls), cpu
 
 
 def main() -> None:

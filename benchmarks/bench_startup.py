@@ -32,17 +32,23 @@ def children_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def command_times(arguments: list[str], cwd: Path = ROOT) -> tuple[list[float], float]:
-    """Wall seconds of each of ``REPEATS`` fresh runs of ``arguments`` in the folder ``cwd`` and their median CPU seconds."""
+def timed_runs(arguments: list[str], cwd: Path = ROOT, repeats: int = REPEATS) -> tuple[list[float], float, str]:
+    """Wall seconds of each of ``repeats`` fresh runs of ``arguments`` in ``cwd``, their median CPU seconds and the last stdout."""
     walls, cpus = [], []
-    for _ in range(REPEATS):
+    for _ in range(repeats):
         began, cpu = time.perf_counter(), children_cpu()
         done = subprocess.run(arguments, capture_output=True, text=True, cwd=cwd)
         walls.append(time.perf_counter() - began)
         cpus.append(children_cpu() - cpu)
         if done.returncode != 0:
             raise SystemExit(f"{' '.join(arguments)} failed: {done.stderr.strip().splitlines()[-1]}")
-    return walls, statistics.median(cpus)
+    return walls, statistics.median(cpus), done.stdout
+
+
+def command_times(arguments: list[str], cwd: Path = ROOT) -> tuple[list[float], float]:
+    """Wall seconds of each of ``REPEATS`` fresh runs of ``arguments`` in the folder ``cwd`` and their median CPU seconds."""
+    walls, cpu, _ = timed_runs(arguments, cwd)
+    return walls, cpu
 
 
 def main() -> None:
