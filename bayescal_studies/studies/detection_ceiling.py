@@ -13,13 +13,14 @@ Where it is not named, no candidate is named for the reason the rule demands; th
 critique's first cause on that plan and noise, and what falls short of a target there is the plan's, not the method's.
 
 The non-centrality λ says why: the planted share beyond the classical model's columns, as a χ² in the cell's tracker
-noise.  Were the oracle true, its held-out gain would be about λ/2 nats with a standard error of about √λ, and the rule's
-two standard errors ask λ/2 ≥ 2√λ: λ of about :data:`~bayescal.critique.rule.SEPARABLE_CHI2` (16) is named in half the
-campaigns.
+noise.  Where the share is spread over the configurations, the oracle's held-out gain is about λ/2 nats with a standard
+error of about √λ, and the rule's two standard errors ask λ/2 ≥ 2√λ: λ of about
+:data:`~bayescal.critique.rule.SEPARABLE_CHI2` (16) is named in half the campaigns.  Where it sits in a few
+configurations its standard error is larger, and the rule's decisive branch names it or nothing does.
 
 What the right family's form sees of the share is measured beside it (``captured``): the largest fraction of λ that the
-columns of one of its variants take up on top of the classical model.  A family that captures a fraction f of λ with m
-columns gains about (f λ - m)/2 nats held out, so a ceiling met by the oracle can still be out of a family's reach.  For
+columns of one of its variants take up on top of the classical model.  A family captures less than the oracle with
+more columns than its one, so a ceiling met by the oracle can still be out of a family's reach.  For
 an effect whose shape is drawn at random (the tracker's drift, gross reading errors, where a play starts) the oracle
 knows the draw, which no candidate can: there the ceiling is an upper bound only.
 """
