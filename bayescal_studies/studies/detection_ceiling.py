@@ -9,8 +9,9 @@ the tracker's noise from streams the effect does not touch, so the difference of
 effect's own, free of noise (the test checks it: a static effect differs by nothing between repeats).  Added to the
 classical model as one column with a free amplitude, that *oracle* candidate has exactly the planted shape, which no
 catalogue can beat; it is judged at the first step by the naming rule on held-out configurations, as every candidate is.
-Where it is not named, no candidate is named for the reason the rule demands; the rate at which it is named bounds the
-critique's first cause on that plan and noise, and what falls short of a target there is the plan's, not the method's.
+Where it is not named, no candidate is named for the reason the rule demands; the rate at which it is named bounds, but
+for chance, the critique's first cause on that plan and noise (a candidate that fits noise too can pass where the oracle
+does not), and what falls short of a target there is the plan's, not the method's.
 
 The non-centrality λ says why: the planted share beyond the classical model's columns, as a χ² in the cell's tracker
 noise.  Where the share is spread over the configurations, the oracle's held-out gain is about λ/2 nats with a standard
