@@ -154,6 +154,8 @@ def _drift_lines(results) -> list[str]:
     drift = results.drift
     if "source" in drift:
         return [removed_drift_sentence(drift)]
+    if drift.get("testable") and "speed_mm_per_h" not in drift:
+        return [f"drift: not tried (left out of the catalogue); the campaign could show one: {drift['evidence']}"]
     if drift.get("testable"):
         return [
             f"drift from {drift['evidence']}: {drift['speed_mm_per_h']:.3f} ± {drift['speed_sd_mm_per_h']:.3f} mm/h, "

@@ -160,7 +160,7 @@ class Critique:
         base = validate(_Model(()))
         # measured drift is removed already, not a candidate; without readings that can show a drift, a drift fitted to
         # the deflections would be a catch-all
-        drift = None if measured is not None else drift_evidence(rows, self.cell)
+        drift = None if measured is not None else drift_evidence(rows, self.cell, fitted="drift" in self.catalogue)
         remaining = [CATALOGUE[name] for name in self.catalogue if name != "drift" or (drift is not None and drift.testable)]
         noise_of = lambda cv: cv.full.level[group] * scale  # noqa: E731 - each equation's fitted noise sd
         search = _greedy_search(base, remaining, validate, fitted, noise_of)
@@ -491,7 +491,7 @@ def _explained(best: str, contested: list[str], model: _Model, trials: dict, rem
 def _drift_report(drift: DriftEvidence, rows: Rows, tried: bool) -> dict:
     """Whether the campaign can show a drift, what its repeated readings give, and the drift that puts into the deflections."""
     payload = drift.to_json() | {"candidate": tried and drift.testable}
-    if drift.testable:
+    if drift.track is not None:
         mean, sd = drift_deflection(drift, rows)
         payload["deflection_rms_mm"] = round(float(np.sqrt(np.mean(mean**2)) / MM), 5)
         payload["deflection_sd_rms_mm"] = round(float(np.sqrt(np.mean(sd**2)) / MM), 5)

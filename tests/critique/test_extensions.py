@@ -303,6 +303,22 @@ def test_the_drift_evidence_of_rows_extended_by_a_pose_to_predict_is_the_campaig
     assert drift_evidence(campaign_rows(cell, moved), cell) is not evidence
 
 
+def test_a_critique_that_does_not_try_drift_does_not_fit_it_and_says_so(cell, twin_campaign):
+    from bayescal.critique import Critique
+    from bayescal.critique.document import critique_document
+
+    campaign, _ = _stamped_with_drift(twin_campaign(seed=7), 0.4, np.random.default_rng(7))
+    without = Critique(cell, catalogue=("compensator",)).run(campaign)
+    # the groups are counted, the rate and walk not fitted: what cost 4 of a critique's 4.3 s
+    assert without.drift["testable"] is True and without.drift["candidate"] is False
+    assert without.drift["groups"] > 0 and "speed_mm_per_h" not in without.drift and "deflection_rms_mm" not in without.drift
+    assert "not tried" in critique_document(without).as_text()
+    tried = Critique(cell, catalogue=("compensator", "drift")).run(campaign)
+    assert tried.drift["candidate"] and "speed_mm_per_h" in tried.drift
+    # the candidates it tries are judged alike
+    assert without.steps[0]["compensator"] == tried.steps[0]["compensator"]
+
+
 def test_without_reading_times_drift_is_not_tried_and_the_critique_says_how_to_make_it_testable(cell, twin_campaign):
     from bayescal.critique import Critique
 
