@@ -3,7 +3,7 @@
 The research studies trace the repeats' lack of fit over many campaigns with the critique's catalogue empty
 (``bayescal_studies.studies.independent_detection.independent_lack_of_fit``).  Until :data:`PREVIOUS` such a critique
 still fitted the tracker's drift to the campaign's repeat groups, although ``drift`` was no candidate.  Each tree runs
-the study's task on the same campaigns (``gear_play`` at its default, :data:`SEEDS`) in a fresh process, ``REPEATS``
+the study on the same campaigns (``gear_play`` at its default, :data:`SEEDS`) in a fresh process, ``REPEATS``
 times; printed: the median wall and CPU seconds of each, their ratio, and the statistics, which must be the same.
 """
 
@@ -21,18 +21,20 @@ from smoke import sized
 PREVIOUS = "5018951"
 """The last commit whose critique fitted the drift with ``drift`` out of its catalogue."""
 SEEDS = sized((9001, 9002, 9003), (9001,))
+"""Consecutive: the study seeds its campaigns from the first."""
 ROOT = Path(__file__).resolve().parents[1]
 REPEATS = sized(3, 1)
 """Runs per tree; the median damps the shared machine's noise."""
 
 TASK = f"""
 import json, warnings
-import numpy as np
-from bayescal.cell.config import load_cell
-from bayescal_studies.studies.independent_detection import _lack_of_fit_one
+from concurrent.futures import ThreadPoolExecutor
+from bayescal_studies.studies.independent_detection import independent_lack_of_fit
 warnings.simplefilter("ignore")
-cell = load_cell("data/kr270.toml")
-print(json.dumps([_lack_of_fit_one(("gear_play", 1.0, s), np.random.default_rng(s), cell)["statistic"] for s in {list(SEEDS)}]))
+with ThreadPoolExecutor(1) as executor:
+    table = independent_lack_of_fit("data/kr270.toml", ("gear_play",), (1.0,), n_seeds={len(SEEDS)}, n_null=0,
+                                    first_seed={SEEDS[0]}, executor=executor)
+print(json.dumps(table["statistic"].tolist()))
 """
 
 

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-__all__ = ["RateGenerator", "GENERATORS", "SET_ON", "critique_rates", "rates", "confusion", "markdown_rates", "judged", "weighed_cell"]
+__all__ = ["RateGenerator", "GENERATORS", "SET_ON", "check_case", "critique_rates", "rates", "confusion", "markdown_rates", "judged", "weighed_cell"]
 
 ADEQUATE = "adequate"
 
@@ -271,6 +271,15 @@ def _one(case: tuple, rng: np.random.Generator, cell, plan: str) -> dict:
             "causes": ",".join(causes)} | judged(causes, result.tied_with, result.contested_by, expected)
 
 
+def check_case(generator: str, effects: Sequence[str]) -> None:
+    """Refuse a generator not in :data:`GENERATORS`, or effects it does not plant."""
+    if generator not in GENERATORS:
+        raise ValueError(f"unknown generator {generator!r}; expected one of {', '.join(GENERATORS)}")
+    unknown = [e for e in effects if e not in GENERATORS[generator].expected]
+    if unknown:
+        raise ValueError(f"unknown effect(s) {', '.join(unknown)} of generator {generator!r}")
+
+
 def critique_rates(
     config: str | PathLike[str],
     plan: str | PathLike[str],
@@ -314,11 +323,7 @@ def critique_rates(
     from bayescal.cell.config import load_cell
     from bayescal.design.parallel import seeded_map
 
-    if generator not in GENERATORS:
-        raise ValueError(f"unknown generator {generator!r}; expected one of {', '.join(GENERATORS)}")
-    unknown = [e for e in effects if e not in GENERATORS[generator].expected]
-    if unknown:
-        raise ValueError(f"unknown effect(s) {', '.join(unknown)} of generator {generator!r}")
+    check_case(generator, effects)
     cases = [(e, 0.0 if e == "none" else float(m)) for e in effects for m in ((0.0,) if e == "none" else multiples)]
     tasks = [(generator, e, m, bool(n), int(s)) for n in nests for e, m in cases for s in seeds]
     streams = [np.random.SeedSequence(task[-1]) for task in tasks]

@@ -58,19 +58,19 @@ def planted_share(planted, none) -> np.ndarray:
     return planted.y - none.y + (none.design - planted.design) @ beta
 
 
-def _whitened(share: np.ndarray, rows, cell) -> tuple[np.ndarray, np.ndarray]:
-    """``share`` (3N,) less its least-squares fit by the classical model's columns, and those columns (3N, p), both in
-    the cell's tracker noise of each deflection."""
+def _whitened(share: np.ndarray, rows, cell) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``share`` (3N,) less its least-squares fit by the classical model's columns, those columns (3N, p), both in the
+    cell's tracker noise of each deflection, and that noise (3N,) m."""
     sd = np.repeat(np.sqrt(cell.tracker.deflection_variance(rows.position, rows.position + rows.y)), 3)
     design = rows.design.reshape(3 * len(rows), -1) / sd[:, np.newaxis]
     whitened = share.reshape(-1) / sd
-    return whitened - design @ np.linalg.lstsq(design, whitened, rcond=None)[0], sd
+    return whitened - design @ np.linalg.lstsq(design, whitened, rcond=None)[0], design, sd
 
 
-def _captured(left: np.ndarray, sd: np.ndarray, rows, cell, extension) -> float:
+def _captured(left: np.ndarray, base: np.ndarray, sd: np.ndarray, rows, cell, extension) -> float:
     """The largest fraction, over ``extension``'s variants, of the planted share beyond the classical model (``left``,
-    whitened) that the extension's columns take up on top of that model: what the right family's form can see of it."""
-    base = rows.design.reshape(3 * len(rows), -1) / sd[:, np.newaxis]
+    whitened) that the extension's columns take up on top of that model (``base``, whitened by ``sd``): what the right
+    family's form can see of it."""
     best = 0.0
     for variant in extension.variants():
         added = variant.regressors(rows, cell).reshape(3 * len(rows), -1) / sd[:, np.newaxis]
@@ -105,13 +105,13 @@ def _one(case: tuple, rng: np.random.Generator, cell, plan: str) -> dict:
     scale, group, config = np.repeat(planted.noise, 3), np.tile(np.arange(3), len(planted)), np.repeat(planted.config, 3)
     gain = compare(cross_validate(y, design, scale, group, config),
                    cross_validate(y, np.column_stack([design, share.reshape(-1)]), scale, group, config))
-    left, sd = _whitened(share, planted, weighed)
+    left, base, sd = _whitened(share, planted, weighed)
     family = CATALOGUE.get(generator.expected[effect])
     # a heavy tail has no columns, and the drift's column is fitted to the campaign's readings in time, not to the rows
     formed = family is not None and not family.robust and family.name != "drift"
     return {"generator": name, "effect": effect, "multiple": multiple, "seed": seed,
             "share_rms_um": float(np.sqrt(np.mean(share**2)) * 1e6), "noncentrality": float(left @ left),
-            "captured": _captured(left, sd, planted, weighed, family) if formed else np.nan,
+            "captured": _captured(left, base, sd, planted, weighed, family) if formed else np.nan,
             "delta_elpd": gain.delta_elpd, "se": gain.se, "named": passes(gain)}
 
 
@@ -145,13 +145,11 @@ def detection_ceiling(
     """
     from bayescal.cell.config import load_cell
     from bayescal.design.parallel import seeded_map
-    from bayescal_studies.studies.critique_rates import GENERATORS
+    from bayescal_studies.studies.critique_rates import check_case
 
-    if generator not in GENERATORS:
-        raise ValueError(f"unknown generator {generator!r}; expected one of {', '.join(GENERATORS)}")
-    unknown = [e for e in effects if e == "none" or e not in GENERATORS[generator].expected]
-    if unknown:
-        raise ValueError(f"no planted share for effect(s) {', '.join(unknown)} of generator {generator!r}")
+    check_case(generator, effects)
+    if "none" in effects:
+        raise ValueError(f"no planted share for effect none of generator {generator!r}")
     tasks = [(generator, e, float(m), int(s)) for e in effects for m in multiples for s in seeds]
     streams = [np.random.SeedSequence(task[-1]) for task in tasks]
     return pd.DataFrame.from_records(seeded_map(_one, tasks, streams, executor=executor, cell=load_cell(config), plan=str(plan)))
